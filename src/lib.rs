@@ -1,0 +1,3 @@
+//! sandbox2d: a 2D physics sandbox.
+pub mod defs;
+pub use defs::*;
