@@ -1,3 +1,26 @@
-//! sandbox2d: a 2D physics sandbox.
+//! sandbox2d: a 2D physics sandbox: particles and rigid bodies, SAT contacts, the
+//! contact MLCP solved by warm-started projected Gauss-Seidel with Baumgarte and slop.
+//!
+//! ```
+//! use sandbox2d::{BodyDef, BodyType, ShapeDef, SolverSettings, World};
+//! use glam::Vec2;
+//! let mut world = World::new(Some(Vec2::new(0.0, -10.0)), SolverSettings::pgs());
+//! world.add_body(&BodyDef { name: "ground".into(), body_type: BodyType::Static,
+//!     shape: ShapeDef::Box { width: 20.0, height: 1.0 }, position: Vec2::new(0.0, -0.5), ..Default::default() }).unwrap();
+//! let ball = world.add_body(&BodyDef { name: "ball".into(), shape: ShapeDef::Circle { radius: 0.5 },
+//!     position: Vec2::new(0.0, 3.0), ..Default::default() }).unwrap();
+//! for _ in 0..120 { world.step().unwrap(); }
+//! assert!((world.bodies[ball].position.y - 0.5).abs() < 0.02);
+//! ```
+
+pub mod body;
+pub mod collision;
 pub mod defs;
+pub mod math;
+pub mod shape;
+pub mod solver;
+pub mod world;
+
+pub use body::{Body, BodyId};
 pub use defs::*;
+pub use world::{BuildError, StepError, StepStats, World};

@@ -1,0 +1,80 @@
+//! Bodies: the state the integrator advances, and the mass properties found from the shape.
+
+use crate::defs::{BodyModel, BodyType, Color};
+use crate::math::{Rot, Transform, Vec2};
+use crate::shape::Shape;
+
+/// Index of a body in its world, in creation order.
+pub type BodyId = usize;
+
+/// A body of the world. Its frame's origin is the centre of mass.
+#[derive(Clone, Debug)]
+pub struct Body {
+    /// Unique name.
+    pub name: String,
+    pub body_type: BodyType,
+    pub model: BodyModel,
+    /// The shape, centred on the centre of mass.
+    pub shape: Shape,
+    /// Where the scene's shape origin lies in the body frame (minus the centroid of the
+    /// shape as described); zero for circles, boxes and centred polygons.
+    pub origin_offset: Vec2,
+    /// World position of the centre of mass (m).
+    pub position: Vec2,
+    /// Radians, counter-clockwise; always 0 for a particle.
+    pub angle: f32,
+    /// The rotation of `angle`, kept in step with it.
+    pub rot: Rot,
+    /// m/s.
+    pub velocity: Vec2,
+    /// rad/s; always 0 for a particle.
+    pub angular_velocity: f32,
+    /// kg (0 for static and kinematic bodies).
+    pub mass: f32,
+    pub inv_mass: f32,
+    /// kg m^2 about the centre of mass (0 for particles, static and kinematic bodies).
+    pub inertia: f32,
+    pub inv_inertia: f32,
+    pub friction: f32,
+    pub restitution: f32,
+    pub color: Option<Color>,
+    /// Force (N) accumulated for the next step by [`crate::World::apply_force`]; cleared by the step.
+    pub force: Vec2,
+    /// Torque (N m) accumulated for the next step.
+    pub torque: f32,
+}
+
+impl Body {
+    /// The body's frame: centre of mass and rotation.
+    #[inline]
+    pub fn transform(&self) -> Transform {
+        Transform {
+            p: self.position,
+            q: self.rot,
+        }
+    }
+
+    /// Whether forces and contacts move it.
+    #[inline]
+    pub fn is_dynamic(&self) -> bool {
+        self.body_type == BodyType::Dynamic
+    }
+
+    /// World position of the shape origin the scene gave (equal to the centre of mass
+    /// unless the polygon was not centred).
+    pub fn origin(&self) -> Vec2 {
+        self.position + self.rot.rotate(self.origin_offset)
+    }
+
+    /// Velocity of the material point at world position `p`: v + w x r.
+    #[inline]
+    pub fn velocity_at(&self, p: Vec2) -> Vec2 {
+        self.velocity + crate::math::cross_sv(self.angular_velocity, p - self.position)
+    }
+
+    /// Kinetic energy, 1/2 m v^2 + 1/2 I w^2 (J).
+    pub fn kinetic_energy(&self) -> f32 {
+        0.5 * self.mass * self.velocity.length_squared()
+            + 0.5 * self.inertia * self.angular_velocity * self.angular_velocity
+    }
+}

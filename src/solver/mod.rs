@@ -1,0 +1,5 @@
+//! Constraint solvers: the contact MLCP by projected Gauss-Seidel ([`pgs`]) and the
+//! contact cache that warm-starts it.
+
+pub mod contact_cache;
+pub mod pgs;

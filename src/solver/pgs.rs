@@ -1,0 +1,361 @@
+//! The contact MLCP solved by projected Gauss-Seidel, matrix-free (sequential impulses).
+//!
+//! Each contact point gives two rows of A lambda + w = b: a normal row with
+//! lambda_n in [0, inf) and a Coulomb friction row with lambda_t in [-mu lambda_n, mu lambda_n].
+//! A sweep visits every row once, solves it alone with the others fixed, and projects
+//! lambda onto its bounds. Our lambdas are impulses (N s): the seed's force lambda times dt.
+//!
+//! Position error (Baumgarte, S = min(sigma + slop, 0)) is either part of the velocity
+//! rows' right-hand side, or (split impulse) solved apart as pseudo-velocities that move
+//! positions this step and are then forgotten, so correcting overlap adds no energy.
+
+use super::contact_cache::Contact;
+use crate::body::Body;
+use crate::defs::SolverSettings;
+use crate::math::{Vec2, cross, cross_sv};
+
+/// A body as the solver sees it: velocities and inverse masses, packed.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct SolverBody {
+    pub v: Vec2,
+    pub w: f32,
+    pub inv_m: f32,
+    pub inv_i: f32,
+}
+
+#[derive(Clone, Copy, Debug, Default)]
+struct Point {
+    ra: Vec2,
+    rb: Vec2,
+    /// 1 / (J M^-1 J^T) of the normal row
+    normal_mass: f32,
+    /// 1 / (J M^-1 J^T) of the friction row
+    tangent_mass: f32,
+    normal_impulse: f32,
+    tangent_impulse: f32,
+    /// the normal row's target velocity (speculative gap, or Baumgarte without split impulse)
+    velocity_bias: f32,
+    /// the pseudo-velocity row's target: -beta/dt S
+    position_bias: f32,
+    pseudo_impulse: f32,
+    /// relative normal velocity before the solve, for restitution
+    relative_velocity: f32,
+    max_normal_impulse: f32,
+}
+
+#[derive(Clone, Copy, Debug, Default)]
+struct Constraint {
+    a: u32,
+    b: u32,
+    normal: Vec2,
+    friction: f32,
+    restitution: f32,
+    count: u32,
+    points: [Point; 2],
+}
+
+/// What one solve did.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct SolveStats {
+    /// Velocity sweeps run (at most the iteration cap).
+    pub iterations: u32,
+    /// Largest |delta lambda| of the last velocity sweep (N s).
+    pub residual: f32,
+    /// Pseudo-velocity (split impulse) sweeps run.
+    pub position_iterations: u32,
+}
+
+/// The PGS contact solver and its reusable buffers.
+#[derive(Default, Debug)]
+pub struct PgsSolver {
+    constraints: Vec<Constraint>,
+    /// Solver copies of the bodies' velocities.
+    pub bodies: Vec<SolverBody>,
+    /// Pseudo-velocities (split impulse) of this step: (v, w).
+    pub pseudo: Vec<(Vec2, f32)>,
+}
+
+impl PgsSolver {
+    /// Builds the rows of this step's contacts. Body velocities must already include
+    /// this step's forces. Lambdas from the cache start the solve if warm starting.
+    pub fn prepare(&mut self, bodies: &[Body], contacts: &[Contact], s: &SolverSettings, dt: f32) {
+        let inv_dt = 1.0 / dt;
+        self.bodies.clear();
+        self.bodies.extend(bodies.iter().map(|b| SolverBody {
+            v: b.velocity,
+            w: b.angular_velocity,
+            inv_m: b.inv_mass,
+            inv_i: b.inv_inertia,
+        }));
+        self.pseudo.clear();
+        self.pseudo.resize(bodies.len(), (Vec2::ZERO, 0.0));
+        self.constraints.clear();
+        for c in contacts {
+            let ba = self.bodies[c.a as usize];
+            let bb = self.bodies[c.b as usize];
+            let n = c.manifold.normal;
+            let t = Vec2::new(n.y, -n.x);
+            let mut con = Constraint {
+                a: c.a,
+                b: c.b,
+                normal: n,
+                friction: c.friction,
+                restitution: c.restitution,
+                count: c.manifold.count as u32,
+                points: [Point::default(); 2],
+            };
+            for (i, cp) in c.manifold.points().iter().enumerate() {
+                let (ra, rb) = (cp.anchor_a, cp.anchor_b);
+                let rna = cross(ra, n);
+                let rnb = cross(rb, n);
+                // K = 1/mA + 1/mB + (ra x n)^2/IA + (rb x n)^2/IB
+                let kn = ba.inv_m + bb.inv_m + ba.inv_i * rna * rna + bb.inv_i * rnb * rnb;
+                let rta = cross(ra, t);
+                let rtb = cross(rb, t);
+                let kt = ba.inv_m + bb.inv_m + ba.inv_i * rta * rta + bb.inv_i * rtb * rtb;
+                let dv = bb.v + cross_sv(bb.w, rb) - ba.v - cross_sv(ba.w, ra);
+                let sep = cp.separation;
+                // S = min(sigma + slop, 0): the overlap beyond the slop
+                let s_err = (sep + s.slop).min(0.0);
+                let (velocity_bias, position_bias) = if sep > 0.0 {
+                    // speculative: the bodies may close the gap this step, not more
+                    (-sep * inv_dt, 0.0)
+                } else if s.split_impulse {
+                    (0.0, -s.baumgarte * inv_dt * s_err)
+                } else {
+                    // J v >= -beta/dt S
+                    (-s.baumgarte * inv_dt * s_err, 0.0)
+                };
+                let (ni, ti) = if s.warm_start {
+                    (cp.normal_impulse, cp.tangent_impulse)
+                } else {
+                    (0.0, 0.0)
+                };
+                con.points[i] = Point {
+                    ra,
+                    rb,
+                    normal_mass: if kn > 0.0 { 1.0 / kn } else { 0.0 },
+                    tangent_mass: if kt > 0.0 { 1.0 / kt } else { 0.0 },
+                    normal_impulse: ni,
+                    tangent_impulse: ti,
+                    velocity_bias,
+                    position_bias,
+                    pseudo_impulse: 0.0,
+                    relative_velocity: n.dot(dv),
+                    max_normal_impulse: 0.0,
+                };
+            }
+            self.constraints.push(con);
+        }
+    }
+
+    /// Applies the cached lambdas (warm start).
+    pub fn warm_start(&mut self) {
+        let bodies = &mut self.bodies;
+        for c in &self.constraints {
+            let t = Vec2::new(c.normal.y, -c.normal.x);
+            let (a, b) = (c.a as usize, c.b as usize);
+            let (mut va, mut wa, ima, iia) =
+                (bodies[a].v, bodies[a].w, bodies[a].inv_m, bodies[a].inv_i);
+            let (mut vb, mut wb, imb, iib) =
+                (bodies[b].v, bodies[b].w, bodies[b].inv_m, bodies[b].inv_i);
+            for p in &c.points[..c.count as usize] {
+                let imp = p.normal_impulse * c.normal + p.tangent_impulse * t;
+                va -= ima * imp;
+                wa -= iia * cross(p.ra, imp);
+                vb += imb * imp;
+                wb += iib * cross(p.rb, imp);
+            }
+            bodies[a].v = va;
+            bodies[a].w = wa;
+            bodies[b].v = vb;
+            bodies[b].w = wb;
+        }
+    }
+
+    /// One projected Gauss-Seidel sweep over every velocity row; returns max |delta lambda|.
+    pub fn sweep_velocity(&mut self) -> f32 {
+        let bodies = &mut self.bodies;
+        let mut residual = 0.0f32;
+        for c in &mut self.constraints {
+            let n = c.normal;
+            let t = Vec2::new(n.y, -n.x);
+            let (a, b) = (c.a as usize, c.b as usize);
+            let (mut va, mut wa, ima, iia) =
+                (bodies[a].v, bodies[a].w, bodies[a].inv_m, bodies[a].inv_i);
+            let (mut vb, mut wb, imb, iib) =
+                (bodies[b].v, bodies[b].w, bodies[b].inv_m, bodies[b].inv_i);
+            let count = c.count as usize;
+            // friction rows first: their bounds use the normal lambdas of the last sweep
+            for p in &mut c.points[..count] {
+                let dv = vb + cross_sv(wb, p.rb) - va - cross_sv(wa, p.ra);
+                // lambda = -m_t (J v)
+                let d = -p.tangent_mass * dv.dot(t);
+                let bound = c.friction * p.normal_impulse;
+                let new = (p.tangent_impulse + d).clamp(-bound, bound);
+                let d = new - p.tangent_impulse;
+                p.tangent_impulse = new;
+                residual = residual.max(d.abs());
+                let imp = d * t;
+                va -= ima * imp;
+                wa -= iia * cross(p.ra, imp);
+                vb += imb * imp;
+                wb += iib * cross(p.rb, imp);
+            }
+            for p in &mut c.points[..count] {
+                let dv = vb + cross_sv(wb, p.rb) - va - cross_sv(wa, p.ra);
+                // lambda = -m_n (J v - bias), projected onto [0, inf)
+                let d = -p.normal_mass * (dv.dot(n) - p.velocity_bias);
+                let new = (p.normal_impulse + d).max(0.0);
+                let d = new - p.normal_impulse;
+                p.normal_impulse = new;
+                p.max_normal_impulse = p.max_normal_impulse.max(new);
+                residual = residual.max(d.abs());
+                let imp = d * n;
+                va -= ima * imp;
+                wa -= iia * cross(p.ra, imp);
+                vb += imb * imp;
+                wb += iib * cross(p.rb, imp);
+            }
+            bodies[a].v = va;
+            bodies[a].w = wa;
+            bodies[b].v = vb;
+            bodies[b].w = wb;
+        }
+        residual
+    }
+
+    /// Restitution: a point that was approaching faster than the threshold and is pushed
+    /// leaves with -e times its approach speed.
+    pub fn apply_restitution(&mut self, threshold: f32) {
+        let bodies = &mut self.bodies;
+        for c in &mut self.constraints {
+            if c.restitution == 0.0 {
+                continue;
+            }
+            let n = c.normal;
+            let (a, b) = (c.a as usize, c.b as usize);
+            let (mut va, mut wa, ima, iia) =
+                (bodies[a].v, bodies[a].w, bodies[a].inv_m, bodies[a].inv_i);
+            let (mut vb, mut wb, imb, iib) =
+                (bodies[b].v, bodies[b].w, bodies[b].inv_m, bodies[b].inv_i);
+            for p in &mut c.points[..c.count as usize] {
+                if p.relative_velocity > -threshold || p.max_normal_impulse == 0.0 {
+                    continue;
+                }
+                let dv = vb + cross_sv(wb, p.rb) - va - cross_sv(wa, p.ra);
+                // target J v = -e v_before
+                let d = -p.normal_mass * (dv.dot(n) + c.restitution * p.relative_velocity);
+                let new = (p.normal_impulse + d).max(0.0);
+                let d = new - p.normal_impulse;
+                p.normal_impulse = new;
+                let imp = d * n;
+                va -= ima * imp;
+                wa -= iia * cross(p.ra, imp);
+                vb += imb * imp;
+                wb += iib * cross(p.rb, imp);
+            }
+            bodies[a].v = va;
+            bodies[a].w = wa;
+            bodies[b].v = vb;
+            bodies[b].w = wb;
+        }
+    }
+
+    /// Whether any point has position error beyond the slop to correct apart.
+    pub fn needs_position_solve(&self) -> bool {
+        self.constraints.iter().any(|c| {
+            c.points[..c.count as usize]
+                .iter()
+                .any(|p| p.position_bias > 0.0)
+        })
+    }
+
+    /// One sweep of the split-impulse system J M^-1 J^T lambda_p = -beta/dt S (as
+    /// impulses), lambda_p >= 0, on the pseudo-velocities; returns max |delta lambda|.
+    pub fn sweep_position(&mut self) -> f32 {
+        let bodies = &self.bodies;
+        let pseudo = &mut self.pseudo;
+        let mut residual = 0.0f32;
+        for c in &mut self.constraints {
+            let n = c.normal;
+            let (a, b) = (c.a as usize, c.b as usize);
+            let (ima, iia, imb, iib) = (
+                bodies[a].inv_m,
+                bodies[a].inv_i,
+                bodies[b].inv_m,
+                bodies[b].inv_i,
+            );
+            let (mut va, mut wa) = pseudo[a];
+            let (mut vb, mut wb) = pseudo[b];
+            for p in &mut c.points[..c.count as usize] {
+                let dv = vb + cross_sv(wb, p.rb) - va - cross_sv(wa, p.ra);
+                let d = -p.normal_mass * (dv.dot(n) - p.position_bias);
+                let new = (p.pseudo_impulse + d).max(0.0);
+                let d = new - p.pseudo_impulse;
+                p.pseudo_impulse = new;
+                residual = residual.max(d.abs());
+                let imp = d * n;
+                va -= ima * imp;
+                wa -= iia * cross(p.ra, imp);
+                vb += imb * imp;
+                wb += iib * cross(p.rb, imp);
+            }
+            pseudo[a] = (va, wa);
+            pseudo[b] = (vb, wb);
+        }
+        residual
+    }
+
+    /// The whole solve: warm start, velocity sweeps to the cap or the tolerance,
+    /// restitution, then (split impulse) the position sweeps.
+    pub fn solve(&mut self, s: &SolverSettings) -> SolveStats {
+        let mut stats = SolveStats::default();
+        if s.warm_start {
+            self.warm_start();
+        }
+        for _ in 0..s.iterations {
+            stats.residual = self.sweep_velocity();
+            stats.iterations += 1;
+            if stats.residual < s.tolerance {
+                break;
+            }
+        }
+        self.apply_restitution(s.restitution_threshold);
+        if s.split_impulse && self.needs_position_solve() {
+            for _ in 0..s.iterations {
+                let r = self.sweep_position();
+                stats.position_iterations += 1;
+                if r < s.tolerance {
+                    break;
+                }
+            }
+        }
+        stats
+    }
+
+    /// Writes the lambdas back into the contacts, for next step's warm start.
+    pub fn store_impulses(&self, contacts: &mut [Contact]) {
+        for (c, con) in contacts.iter_mut().zip(&self.constraints) {
+            for (p, q) in c.manifold.points[..c.manifold.count]
+                .iter_mut()
+                .zip(&con.points)
+            {
+                p.normal_impulse = q.normal_impulse;
+                p.tangent_impulse = q.tangent_impulse;
+            }
+        }
+    }
+
+    /// The normal and friction lambdas of every row, contact by contact (for measuring
+    /// the residual against a converged solve).
+    pub fn lambdas(&self, out: &mut Vec<f32>) {
+        out.clear();
+        for c in &self.constraints {
+            for p in &c.points[..c.count as usize] {
+                out.push(p.normal_impulse);
+                out.push(p.tangent_impulse);
+            }
+        }
+    }
+}
