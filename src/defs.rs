@@ -74,7 +74,10 @@ impl Default for BodyDef {
             name: String::new(),
             body_type: BodyType::Dynamic,
             model: BodyModel::Rigid,
-            shape: ShapeDef::Box { width: 1.0, height: 1.0 },
+            shape: ShapeDef::Box {
+                width: 1.0,
+                height: 1.0,
+            },
             position: Vec2::ZERO,
             angle: 0.0,
             velocity: Vec2::ZERO,
@@ -231,7 +234,12 @@ impl SolverSettings {
 
     /// XPBD defaults: the PGS values, but 20 substeps of 1 iteration.
     pub fn xpbd() -> Self {
-        Self { kind: SolverKind::Xpbd, substeps: 20, iterations: 1, ..Self::pgs() }
+        Self {
+            kind: SolverKind::Xpbd,
+            substeps: 20,
+            iterations: 1,
+            ..Self::pgs()
+        }
     }
 
     /// The defaults of the given solver.
@@ -294,7 +302,9 @@ impl SolverOverrides {
             baumgarte: self.baumgarte.unwrap_or(d.baumgarte),
             slop: self.slop.unwrap_or(d.slop),
             split_impulse: self.split_impulse.unwrap_or(d.split_impulse),
-            restitution_threshold: self.restitution_threshold.unwrap_or(d.restitution_threshold),
+            restitution_threshold: self
+                .restitution_threshold
+                .unwrap_or(d.restitution_threshold),
         }
     }
 }
@@ -312,7 +322,11 @@ pub struct CameraDef {
 
 impl Default for CameraDef {
     fn default() -> Self {
-        Self { center: Vec2::new(0.0, 5.0), pixels_per_meter: 40.0, size: [1280, 720] }
+        Self {
+            center: Vec2::new(0.0, 5.0),
+            pixels_per_meter: 40.0,
+            size: [1280, 720],
+        }
     }
 }
 
