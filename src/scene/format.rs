@@ -9,7 +9,22 @@ use toml::Spanned;
 /// A value and where it is in the text.
 pub(crate) type S<T> = Spanned<T>;
 /// `[x, y]`.
-pub(crate) type V2 = [f32; 2];
+pub(crate) type V2 = Pair<f32>;
+
+/// A TOML array of exactly two elements. (serde's `[T; 2]` silently ignores extra
+/// elements with toml, so the length is checked here.)
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(crate) struct Pair<T>(pub [T; 2]);
+
+impl<'de, T: Deserialize<'de>> Deserialize<'de> for Pair<T> {
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        let v: Vec<T> = Vec::deserialize(d)?;
+        let n = v.len();
+        <[T; 2]>::try_from(v)
+            .map(Pair)
+            .map_err(|_| serde::de::Error::invalid_length(n, &"an array of 2 elements"))
+    }
+}
 
 /// The whole file.
 #[derive(Debug, Deserialize)]
@@ -76,7 +91,7 @@ pub(crate) struct FileSolver {
 pub(crate) struct FileCamera {
     pub center: Option<S<V2>>,
     pub pixels_per_meter: Option<S<f32>>,
-    pub size: Option<S<[u32; 2]>>,
+    pub size: Option<S<Pair<u32>>>,
 }
 
 /// `shape = { box = [w, h] }` | `{ circle = r }` | `{ polygon = [[x, y], ...] }`.
@@ -148,9 +163,9 @@ pub(crate) struct FileDamping {
 pub(crate) struct FileJoint {
     #[serde(rename = "type")]
     pub type_: S<String>,
-    pub bodies: S<[S<String>; 2]>,
+    pub bodies: S<Pair<S<String>>>,
     pub anchor: Option<S<V2>>,
-    pub anchors: Option<S<[S<V2>; 2]>>,
+    pub anchors: Option<S<Pair<S<V2>>>>,
     pub length: Option<S<f32>>,
     pub axis: Option<S<V2>>,
     pub limits: Option<S<V2>>,

@@ -21,7 +21,7 @@ pub(crate) struct Ctx<'a> {
 }
 
 /// `[x, y]` as messages write it.
-pub(crate) fn fmt_v2(v: V2) -> String {
+pub(crate) fn fmt_v2(v: [f32; 2]) -> String {
     format!("[{}, {}]", v[0], v[1])
 }
 
@@ -99,7 +99,7 @@ impl Ctx<'_> {
 
     /// A vector with finite components.
     pub fn vec2(&self, who: &str, key: &str, v: &S<V2>) -> R<Vec2> {
-        let a = *v.get_ref();
+        let a = v.get_ref().0;
         if a.iter().all(|x| x.is_finite()) {
             Ok(Vec2::from(a))
         } else {
@@ -128,7 +128,7 @@ impl Ctx<'_> {
                 v.span(),
                 format!(
                     "{who}: {key} size must be > 0, got {}",
-                    fmt_v2(*v.get_ref())
+                    fmt_v2(v.get_ref().0)
                 ),
             ))
         }
@@ -478,7 +478,7 @@ impl Ctx<'_> {
         let size = match &c.size {
             None => d.size,
             Some(s) => {
-                let [w, h] = *s.get_ref();
+                let [w, h] = s.get_ref().0;
                 if w == 0 || h == 0 {
                     return Err(self.err(
                         s.span(),
@@ -616,7 +616,7 @@ pub(crate) fn joint(ctx: &Ctx, bodies: &Bodies, j: &FileJoint) -> R<JointDef> {
         ],
     )?;
     let kind_name = j.type_.get_ref().as_str();
-    let [a, b] = j.bodies.get_ref();
+    let [a, b] = &j.bodies.get_ref().0;
     let who = format!("{kind_name} joint \"{}\"-\"{}\"", a.get_ref(), b.get_ref());
     let who = who.as_str();
     let ia = bodies.find(ctx, who, a)?;
@@ -685,7 +685,7 @@ pub(crate) fn joint(ctx: &Ctx, bodies: &Bodies, j: &FileJoint) -> R<JointDef> {
         .transpose()?;
     let anchors = match &j.anchors {
         Some(v) => {
-            let [p, q] = v.get_ref();
+            let [p, q] = &v.get_ref().0;
             Some([ctx.vec2(who, "anchors", p)?, ctx.vec2(who, "anchors", q)?])
         }
         None => None,
