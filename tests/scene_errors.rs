@@ -722,3 +722,486 @@ fn arbitrary_garbage_never_panics() {
         assert!(load_str(text, "bad.toml").is_err(), "{text:?}");
     }
 }
+
+// ---------------------------------------------------------------------------
+// Scenes that load: built-ins, generators, defaults, `load`.
+
+use glam::Vec2;
+use sandbox2d::scene::{builtin, builtin_description, builtin_names, load, load_file};
+use sandbox2d::{BodyModel, BodyType, JointKind, ShapeDef, SolverKind};
+
+#[test]
+fn every_builtin_parses_and_has_a_description() {
+    let names = builtin_names();
+    assert_eq!(
+        names,
+        [
+            "ball_stack",
+            "bounce",
+            "friction_ramp",
+            "large_pyramid",
+            "particles",
+            "pyramid",
+            "stack",
+            "vacuum_vs_fluid"
+        ]
+    );
+    for name in names {
+        let scene = builtin(name)
+            .expect("listed")
+            .unwrap_or_else(|e| panic!("{e}"));
+        assert_eq!(scene.source, format!("builtin:{name}"));
+        assert!(!scene.world.bodies.is_empty(), "{name}");
+        let d = scene.description.clone().expect("a description");
+        assert!(!d.is_empty());
+        assert_eq!(builtin_description(name), Some(d));
+    }
+    assert!(builtin("no_such_scene").is_none());
+    assert_eq!(builtin_description("no_such_scene"), None);
+}
+
+#[test]
+fn large_pyramid_is_the_benchmark() {
+    let s = builtin("large_pyramid").unwrap().unwrap();
+    let w = &s.world;
+    assert_eq!(w.bodies.len(), 5051);
+    assert_eq!(w.gravity, Some(Vec2::new(0.0, -10.0)));
+    assert!((w.solver.resolve().dt - 1.0 / 60.0).abs() < 1e-7);
+    assert_eq!(w.solver.resolve().kind, SolverKind::Pgs);
+    assert_eq!(w.drag, None);
+    let ground = &w.bodies[0];
+    assert_eq!(ground.body_type, BodyType::Static);
+    assert_eq!(
+        ground.shape,
+        ShapeDef::Box {
+            width: 200.0,
+            height: 2.0
+        }
+    );
+    assert_eq!(ground.position, Vec2::new(0.0, -1.0));
+    let boxes = &w.bodies[1..];
+    for b in boxes {
+        assert_eq!(b.body_type, BodyType::Dynamic);
+        assert_eq!(
+            b.shape,
+            ShapeDef::Box {
+                width: 1.0,
+                height: 1.0
+            }
+        );
+        assert_eq!(
+            (b.density, b.friction, b.restitution, b.mass),
+            (1.0, 0.6, 0.0, None)
+        );
+    }
+    // Bottom row, left to right, then up: the benchmark's formula with h = 0.5.
+    assert_eq!(boxes[0].name, "pyramid0_0");
+    assert_eq!(boxes[0].position, Vec2::new(-49.5, 0.5));
+    assert_eq!(boxes[1].position, Vec2::new(-48.5, 0.5));
+    assert_eq!(boxes[99].position, Vec2::new(49.5, 0.5));
+    assert_eq!(boxes[100].position, Vec2::new(-49.0, 1.5));
+    assert_eq!(boxes[5049].name, "pyramid0_5049");
+    assert_eq!(boxes[5049].position, Vec2::new(0.0, 99.5));
+    // Every box against x = (i + 1) h + 2 h (j - i) - h base, y = (2 i + 1) h.
+    let (h, base) = (0.5f32, 100);
+    let mut k = 0;
+    for i in 0..base {
+        for j in i..base {
+            let x = (i + 1) as f32 * h + 2.0 * h * (j - i) as f32 - h * base as f32;
+            let y = (2 * i + 1) as f32 * h;
+            assert_eq!(boxes[k].position, Vec2::new(x, y), "row {i} box {j}");
+            k += 1;
+        }
+    }
+}
+
+#[test]
+fn pyramid_has_base_20() {
+    let s = builtin("pyramid").unwrap().unwrap();
+    assert_eq!(s.world.bodies.len(), 211);
+    assert_eq!(s.world.bodies[1].position, Vec2::new(-9.5, 0.5));
+    assert_eq!(s.world.bodies[210].position, Vec2::new(0.0, 19.5));
+}
+
+#[test]
+fn demo_scenes_use_rubber_particles_in_air() {
+    for (name, balls) in [("ball_stack", 10), ("particles", 50)] {
+        let s = builtin(name).unwrap().unwrap();
+        let particles: Vec<_> = s
+            .world
+            .bodies
+            .iter()
+            .filter(|b| b.model == BodyModel::Particle)
+            .collect();
+        assert_eq!(particles.len(), balls, "{name}");
+        for p in &particles {
+            assert_eq!(p.density, 1522.0);
+            assert!(
+                matches!(p.shape, ShapeDef::Circle { radius } if (0.05..=0.1).contains(&radius))
+            );
+            // Inside the 2 m x 2 m box.
+            assert!(
+                p.position.x.abs() < 1.0 && p.position.y > 0.0 && p.position.y < 2.0,
+                "{name} {p:?}"
+            );
+        }
+        let drag = s.world.drag.expect("air");
+        assert_eq!((drag.fluid_density, drag.drag_coefficient), (1.225, 0.47));
+        assert_eq!(
+            s.world
+                .bodies
+                .iter()
+                .filter(|b| b.body_type == BodyType::Static)
+                .count(),
+            4
+        );
+    }
+}
+
+#[test]
+fn stack_is_15_boxes_on_the_ground() {
+    let s = builtin("stack").unwrap().unwrap();
+    assert_eq!(s.world.bodies.len(), 16);
+    for (k, b) in s.world.bodies[1..].iter().enumerate() {
+        assert_eq!(b.position, Vec2::new(0.0, k as f32 + 0.5));
+        assert_eq!(b.name, format!("stack0_{k}"));
+    }
+}
+
+#[test]
+fn bodies_are_created_in_file_order_with_generators_in_place() {
+    let text = "name = \"order\"
+[[body]]
+name = \"first\"
+shape = { circle = 1 }
+
+[[stack]]
+count = 2
+origin = [5, 0]
+
+[[body]]
+name = \"middle\"
+shape = { circle = 1 }
+
+[[pyramid]]
+base = 2
+
+[[stack]]
+count = 1
+box = [2, 4]
+offset = 1.0
+
+[[body]]
+shape = { circle = 1 }
+";
+    let s = load_str(text, "order.toml").unwrap();
+    let names: Vec<&str> = s.world.bodies.iter().map(|b| b.name.as_str()).collect();
+    assert_eq!(
+        names,
+        [
+            "first",
+            "stack0_0",
+            "stack0_1",
+            "middle",
+            "pyramid0_0",
+            "pyramid0_1",
+            "pyramid0_2",
+            "stack1_0",
+            "body2"
+        ]
+    );
+    assert_eq!(s.world.bodies[2].position, Vec2::new(5.0, 1.5));
+    assert_eq!(s.world.bodies[6].position, Vec2::new(0.0, 1.5));
+    assert_eq!(s.world.bodies[7].position, Vec2::new(0.0, 2.0));
+}
+
+#[test]
+fn defaults_where_keys_are_absent() {
+    let s = load_str(
+        "name = \"d\"\n[[body]]\nshape = { circle = 0.5 }\n",
+        "d.toml",
+    )
+    .unwrap();
+    let b = &s.world.bodies[0];
+    assert_eq!(b.name, "body0");
+    assert_eq!(
+        (b.body_type, b.model),
+        (BodyType::Dynamic, BodyModel::Rigid)
+    );
+    assert_eq!(
+        (b.density, b.mass, b.friction, b.restitution),
+        (1.0, None, 0.6, 0.0)
+    );
+    assert_eq!(
+        (b.position, b.angle, b.velocity, b.angular_velocity),
+        (Vec2::ZERO, 0.0, Vec2::ZERO, 0.0)
+    );
+    assert_eq!(s.world.gravity, None);
+    assert_eq!(s.world.drag, None);
+    assert_eq!(s.world.solver, Default::default());
+    assert_eq!(s.camera, Default::default());
+    assert_eq!(s.description, None);
+}
+
+#[test]
+fn every_key_reaches_the_defs() {
+    let text = r##"name = "all"
+description = "every key"
+[world]
+gravity = [0, -9.81]
+[world.drag]
+linear = 0.1
+quadratic = 0.2
+fluid_density = 1.225
+drag_coefficient = 0.47
+[solver]
+kind = "xpbd"
+dt = 0.01
+substeps = 8
+iterations = 2
+tolerance = 0.0
+warm_start = false
+baumgarte = 0.3
+slop = 0.01
+split_impulse = false
+restitution_threshold = 0.5
+[camera]
+center = [1, 2]
+pixels_per_meter = 20
+size = [640, 480]
+[[body]]
+name = "ground"
+type = "static"
+shape = { polygon = [[0, 0], [4, 0], [0, 1]] }
+[[body]]
+name = "cart"
+type = "kinematic"
+model = "rigid"
+shape = { box = [2, 1] }
+position = [1, 2]
+angle = 0.5
+velocity = [3, 4]
+angular_velocity = 1.5
+mass = 7
+friction = 0.3
+restitution = 0.4
+color = "#0a0b0c"
+[[force]]
+body = "cart"
+force = [10, 0]
+point = [0, 0.5]
+[[joint]]
+type = "prismatic"
+bodies = ["ground", "cart"]
+anchor = [1, 2]
+axis = [1, 0]
+limits = [-1, 1]
+motor = { speed = 2, max_force = 50 }
+servo = { target = 0.5 }
+compliance = 1e-4
+damping = { linear = 0.1, angular = 0.2 }
+collide_connected = true
+[[joint]]
+type = "distance"
+bodies = ["cart", "ground"]
+anchors = [[1, 2], [0, 0]]
+length = 2.5
+limits = [0, 3]
+"##;
+    let s = load_str(text, "all.toml").unwrap();
+    assert_eq!(s.description.as_deref(), Some("every key"));
+    let w = &s.world;
+    assert_eq!(w.gravity, Some(Vec2::new(0.0, -9.81)));
+    let d = w.drag.unwrap();
+    assert_eq!(
+        (d.linear, d.quadratic, d.fluid_density, d.drag_coefficient),
+        (0.1, 0.2, 1.225, 0.47)
+    );
+    let r = w.solver.resolve();
+    assert_eq!(r.kind, SolverKind::Xpbd);
+    assert_eq!(
+        (r.dt, r.substeps, r.iterations, r.tolerance),
+        (0.01, 8, 2, 0.0)
+    );
+    assert_eq!(
+        (
+            r.warm_start,
+            r.baumgarte,
+            r.slop,
+            r.split_impulse,
+            r.restitution_threshold
+        ),
+        (false, 0.3, 0.01, false, 0.5)
+    );
+    assert_eq!(
+        (s.camera.center, s.camera.pixels_per_meter, s.camera.size),
+        (Vec2::new(1.0, 2.0), 20.0, [640, 480])
+    );
+    let cart = &w.bodies[1];
+    assert_eq!(cart.body_type, BodyType::Kinematic);
+    assert_eq!(
+        cart.shape,
+        ShapeDef::Box {
+            width: 2.0,
+            height: 1.0
+        }
+    );
+    assert_eq!(
+        (
+            cart.position,
+            cart.angle,
+            cart.velocity,
+            cart.angular_velocity
+        ),
+        (Vec2::new(1.0, 2.0), 0.5, Vec2::new(3.0, 4.0), 1.5)
+    );
+    assert_eq!(
+        (cart.mass, cart.friction, cart.restitution, cart.color),
+        (Some(7.0), 0.3, 0.4, Some([10, 11, 12, 255]))
+    );
+    assert_eq!(w.forces.len(), 1);
+    assert_eq!(
+        (w.forces[0].body, w.forces[0].force, w.forces[0].point),
+        (1, Vec2::new(10.0, 0.0), Vec2::new(0.0, 0.5))
+    );
+    let p = &w.joints[0];
+    assert_eq!(
+        (p.kind, p.bodies, p.anchor, p.axis, p.limits),
+        (
+            JointKind::Prismatic,
+            [0, 1],
+            Some(Vec2::new(1.0, 2.0)),
+            Some(Vec2::X),
+            Some([-1.0, 1.0])
+        )
+    );
+    let m = p.motor.unwrap();
+    assert_eq!(
+        (m.speed, m.max_force, p.servo.unwrap().target),
+        (2.0, 50.0, 0.5)
+    );
+    assert_eq!(
+        (
+            p.compliance,
+            p.damping.linear,
+            p.damping.angular,
+            p.collide_connected
+        ),
+        (1e-4, 0.1, 0.2, true)
+    );
+    let q = &w.joints[1];
+    assert_eq!(
+        (q.kind, q.bodies, q.anchors, q.length, q.limits),
+        (
+            JointKind::Distance,
+            [1, 0],
+            Some([Vec2::new(1.0, 2.0), Vec2::ZERO]),
+            Some(2.5),
+            Some([0.0, 3.0])
+        )
+    );
+    assert!(!q.collide_connected);
+}
+
+#[test]
+fn chain_makes_anchor_links_end_and_joints() {
+    let text = "name = \"c\"
+[[chain]]
+links = 4
+link = [0.5, 0.125]
+anchor = [0, 20]
+direction = [1, 0]
+joint = \"hinge\"
+end = { shape = { circle = 1.0 }, density = 2.0 }
+[[force]]
+body = \"chain0_end\"
+force = [0, -1]
+";
+    let s = load_str(text, "c.toml").unwrap();
+    let w = &s.world;
+    let names: Vec<&str> = w.bodies.iter().map(|b| b.name.as_str()).collect();
+    assert_eq!(
+        names,
+        [
+            "chain0_anchor",
+            "chain0_0",
+            "chain0_1",
+            "chain0_2",
+            "chain0_3",
+            "chain0_end"
+        ]
+    );
+    assert_eq!(w.bodies[0].body_type, BodyType::Static);
+    assert_eq!(w.bodies[1].position, Vec2::new(0.25, 20.0));
+    assert_eq!(w.bodies[4].position, Vec2::new(1.75, 20.0));
+    assert_eq!(w.bodies[5].position, Vec2::new(3.0, 20.0));
+    assert_eq!(w.bodies[5].density, 2.0);
+    assert_eq!(w.joints.len(), 5);
+    for (i, j) in w.joints.iter().enumerate() {
+        assert_eq!(j.kind, JointKind::Hinge);
+        assert_eq!(j.bodies, [i, i + 1]);
+        assert_eq!(j.anchor, Some(Vec2::new(0.5 * i as f32, 20.0)));
+    }
+    assert_eq!(w.forces[0].body, 5);
+
+    let s = load_str(&text.replace("\"hinge\"", "\"distance\""), "c.toml").unwrap();
+    let j = &s.world.joints[1];
+    assert_eq!(j.kind, JointKind::Distance);
+    assert_eq!(
+        j.anchors,
+        Some([Vec2::new(0.25, 20.0), Vec2::new(0.75, 20.0)])
+    );
+    assert_eq!(j.length, Some(0.5));
+}
+
+#[test]
+fn grid_places_row_by_row() {
+    let text = "name = \"g\"\n[[grid]]\nrows = 2\ncolumns = 3\nspacing = [0.5, 0.25]\norigin = [1, 2]\nshape = { circle = 0.1 }\nmodel = \"particle\"\ntype = \"kinematic\"\n";
+    let s = load_str(text, "g.toml").unwrap();
+    let b = &s.world.bodies;
+    assert_eq!(b.len(), 6);
+    assert_eq!(
+        (b[1].name.as_str(), b[1].position),
+        ("grid0_1", Vec2::new(1.5, 2.0))
+    );
+    assert_eq!(
+        (b[5].name.as_str(), b[5].position),
+        ("grid0_5", Vec2::new(2.0, 2.25))
+    );
+    assert!(
+        b.iter()
+            .all(|b| b.model == BodyModel::Particle && b.body_type == BodyType::Kinematic)
+    );
+}
+
+#[test]
+fn joints_and_forces_may_name_bodies_declared_later() {
+    let text = "name = \"t\"\n[[joint]]\ntype = \"weld\"\nbodies = [\"a\", \"pyramid0_0\"]\n[[body]]\nname = \"a\"\nshape = { circle = 1 }\n[[pyramid]]\nbase = 1\n";
+    let s = load_str(text, "t.toml").unwrap();
+    assert_eq!(s.world.joints[0].bodies, [0, 1]);
+}
+
+#[test]
+fn load_takes_a_builtin_name_or_a_path() {
+    let s = load("stack").unwrap();
+    assert_eq!(s.source, "builtin:stack");
+    let dir = std::env::temp_dir().join(format!("sandbox2d-scene-test-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let path = dir.join("mine.toml");
+    std::fs::write(&path, "name = \"mine\"\n[[body]]\nshape = { circle = 1 }\n").unwrap();
+    let by_str = load(path.to_str().unwrap()).unwrap();
+    assert_eq!(by_str.name, "mine");
+    assert_eq!(by_str.source, path.display().to_string());
+    assert_eq!(load_file(&path).unwrap(), by_str);
+    std::fs::write(&path, "name = \"mine\"\n[[body]]\nshape = { circle = 0 }\n").unwrap();
+    let e = load(path.to_str().unwrap()).unwrap_err();
+    assert_eq!(e.file(), path.display().to_string());
+    assert_eq!((e.line(), e.column()), (Some(3), Some(20)));
+    std::fs::remove_dir_all(&dir).unwrap();
+    assert!(
+        load("no_such_scene_or_file")
+            .unwrap_err()
+            .to_string()
+            .contains("cannot read")
+    );
+}
