@@ -17,6 +17,7 @@ pub mod body;
 pub mod collision;
 pub mod defs;
 pub mod math;
+pub mod scene;
 pub mod shape;
 pub mod solver;
 pub mod world;

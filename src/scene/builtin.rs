@@ -1,0 +1,81 @@
+//! The built-in scenes: `assets/scenes/NAME.toml`, embedded in the binary.
+
+use super::{Scene, SceneError, load_str};
+
+/// Names and texts, sorted by name.
+const SCENES: &[(&str, &str)] = &[
+    (
+        "ball_stack",
+        include_str!("../../assets/scenes/ball_stack.toml"),
+    ),
+    ("bounce", include_str!("../../assets/scenes/bounce.toml")),
+    (
+        "friction_ramp",
+        include_str!("../../assets/scenes/friction_ramp.toml"),
+    ),
+    (
+        "large_pyramid",
+        include_str!("../../assets/scenes/large_pyramid.toml"),
+    ),
+    (
+        "particles",
+        include_str!("../../assets/scenes/particles.toml"),
+    ),
+    ("pyramid", include_str!("../../assets/scenes/pyramid.toml")),
+    ("stack", include_str!("../../assets/scenes/stack.toml")),
+    (
+        "vacuum_vs_fluid",
+        include_str!("../../assets/scenes/vacuum_vs_fluid.toml"),
+    ),
+];
+
+/// Names of the scenes [`builtin`] knows, sorted.
+const NAMES: &[&str] = &[
+    "ball_stack",
+    "bounce",
+    "friction_ramp",
+    "large_pyramid",
+    "particles",
+    "pyramid",
+    "stack",
+    "vacuum_vs_fluid",
+];
+
+/// The names of the built-in scenes, sorted.
+pub fn builtin_names() -> &'static [&'static str] {
+    NAMES
+}
+
+/// The TOML text of a built-in scene.
+fn text(name: &str) -> Option<&'static str> {
+    SCENES.iter().find(|(n, _)| *n == name).map(|(_, t)| *t)
+}
+
+/// The built-in scene `name`, parsed (its source is `builtin:NAME`); `None` when there
+/// is no such built-in scene.
+pub fn builtin(name: &str) -> Option<Result<Scene, SceneError>> {
+    text(name).map(|t| load_str(t, &format!("builtin:{name}")))
+}
+
+/// The `description` of a built-in scene, read without building the scene (cheap,
+/// for listings); `None` when there is no such scene or it has no description.
+pub fn builtin_description(name: &str) -> Option<String> {
+    let t = text(name)?;
+    toml::from_str::<super::format::FileDescription>(t)
+        .ok()?
+        .description
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn names_match_scenes_and_are_sorted() {
+        let names: Vec<&str> = SCENES.iter().map(|(n, _)| *n).collect();
+        assert_eq!(names, NAMES);
+        let mut sorted = names.clone();
+        sorted.sort_unstable();
+        assert_eq!(sorted, names);
+    }
+}

@@ -1,0 +1,259 @@
+//! The scene file as TOML holds it: serde types, every value wrapped in
+//! [`Spanned`] so that validation can point at it. Unknown keys are refused
+//! everywhere (`deny_unknown_fields`). Nothing here is checked beyond its TOML type;
+//! `validate` and `generators` turn these into [`crate::defs`] types.
+
+use serde::Deserialize;
+use toml::Spanned;
+
+/// A value and where it is in the text.
+pub(crate) type S<T> = Spanned<T>;
+/// `[x, y]`.
+pub(crate) type V2 = Pair<f32>;
+
+/// A TOML array of exactly two elements. (serde's `[T; 2]` silently ignores extra
+/// elements with toml, so the length is checked here.)
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(crate) struct Pair<T>(pub [T; 2]);
+
+impl<'de, T: Deserialize<'de>> Deserialize<'de> for Pair<T> {
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        let v: Vec<T> = Vec::deserialize(d)?;
+        let n = v.len();
+        <[T; 2]>::try_from(v)
+            .map(Pair)
+            .map_err(|_| serde::de::Error::invalid_length(n, &"an array of 2 elements"))
+    }
+}
+
+/// The whole file.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(crate) struct FileScene {
+    pub name: S<String>,
+    pub description: Option<S<String>>,
+    pub world: Option<S<FileWorld>>,
+    pub solver: Option<S<FileSolver>>,
+    pub camera: Option<S<FileCamera>>,
+    #[serde(default)]
+    pub body: Vec<S<FileBody>>,
+    #[serde(default)]
+    pub force: Vec<S<FileForce>>,
+    #[serde(default)]
+    pub joint: Vec<S<FileJoint>>,
+    #[serde(default)]
+    pub pyramid: Vec<S<FilePyramid>>,
+    #[serde(default)]
+    pub stack: Vec<S<FileStack>>,
+    #[serde(default)]
+    pub grid: Vec<S<FileGrid>>,
+    #[serde(default)]
+    pub chain: Vec<S<FileChain>>,
+}
+
+/// `[world]`.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(crate) struct FileWorld {
+    pub gravity: Option<S<V2>>,
+    pub drag: Option<S<FileDrag>>,
+}
+
+/// `[world.drag]`.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(crate) struct FileDrag {
+    pub linear: Option<S<f32>>,
+    pub quadratic: Option<S<f32>>,
+    pub fluid_density: Option<S<f32>>,
+    pub drag_coefficient: Option<S<f32>>,
+}
+
+/// `[solver]`.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(crate) struct FileSolver {
+    pub kind: Option<S<String>>,
+    pub dt: Option<S<f32>>,
+    pub substeps: Option<S<u32>>,
+    pub iterations: Option<S<u32>>,
+    pub tolerance: Option<S<f32>>,
+    pub warm_start: Option<S<bool>>,
+    pub baumgarte: Option<S<f32>>,
+    pub slop: Option<S<f32>>,
+    pub split_impulse: Option<S<bool>>,
+    pub restitution_threshold: Option<S<f32>>,
+}
+
+/// `[camera]`.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(crate) struct FileCamera {
+    pub center: Option<S<V2>>,
+    pub pixels_per_meter: Option<S<f32>>,
+    pub size: Option<S<Pair<u32>>>,
+}
+
+/// `shape = { box = [w, h] }` | `{ circle = r }` | `{ polygon = [[x, y], ...] }`.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(crate) struct FileShape {
+    #[serde(rename = "box")]
+    pub box_: Option<S<V2>>,
+    pub circle: Option<S<f32>>,
+    pub polygon: Option<S<Vec<S<V2>>>>,
+}
+
+/// `[[body]]`.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(crate) struct FileBody {
+    pub name: Option<S<String>>,
+    #[serde(rename = "type")]
+    pub type_: Option<S<String>>,
+    pub model: Option<S<String>>,
+    pub shape: S<FileShape>,
+    pub position: Option<S<V2>>,
+    pub angle: Option<S<f32>>,
+    pub velocity: Option<S<V2>>,
+    pub angular_velocity: Option<S<f32>>,
+    pub density: Option<S<f32>>,
+    pub mass: Option<S<f32>>,
+    pub friction: Option<S<f32>>,
+    pub restitution: Option<S<f32>>,
+    pub color: Option<S<String>>,
+}
+
+/// `[[force]]`.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(crate) struct FileForce {
+    pub body: S<String>,
+    pub force: S<V2>,
+    pub point: Option<S<V2>>,
+}
+
+/// `motor = { speed, max_torque | max_force }`.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(crate) struct FileMotor {
+    pub speed: S<f32>,
+    pub max_torque: Option<S<f32>>,
+    pub max_force: Option<S<f32>>,
+}
+
+/// `servo = { target }`.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(crate) struct FileServo {
+    pub target: S<f32>,
+}
+
+/// `damping = { linear, angular }`.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(crate) struct FileDamping {
+    pub linear: Option<S<f32>>,
+    pub angular: Option<S<f32>>,
+}
+
+/// `[[joint]]`.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(crate) struct FileJoint {
+    #[serde(rename = "type")]
+    pub type_: S<String>,
+    pub bodies: S<Pair<S<String>>>,
+    pub anchor: Option<S<V2>>,
+    pub anchors: Option<S<Pair<S<V2>>>>,
+    pub length: Option<S<f32>>,
+    pub axis: Option<S<V2>>,
+    pub limits: Option<S<V2>>,
+    pub motor: Option<S<FileMotor>>,
+    pub servo: Option<S<FileServo>>,
+    pub compliance: Option<S<f32>>,
+    pub damping: Option<S<FileDamping>>,
+    pub collide_connected: Option<S<bool>>,
+}
+
+/// `[[pyramid]]`.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(crate) struct FilePyramid {
+    pub base: S<u32>,
+    #[serde(rename = "box")]
+    pub box_: Option<S<V2>>,
+    pub origin: Option<S<V2>>,
+    pub density: Option<S<f32>>,
+    pub friction: Option<S<f32>>,
+    pub restitution: Option<S<f32>>,
+    pub color: Option<S<String>>,
+}
+
+/// `[[stack]]`.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(crate) struct FileStack {
+    pub count: S<u32>,
+    #[serde(rename = "box")]
+    pub box_: Option<S<V2>>,
+    pub origin: Option<S<V2>>,
+    pub offset: Option<S<f32>>,
+    pub density: Option<S<f32>>,
+    pub friction: Option<S<f32>>,
+    pub restitution: Option<S<f32>>,
+    pub color: Option<S<String>>,
+}
+
+/// `[[grid]]`.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(crate) struct FileGrid {
+    pub rows: S<u32>,
+    pub columns: S<u32>,
+    pub spacing: S<V2>,
+    pub origin: Option<S<V2>>,
+    pub shape: S<FileShape>,
+    #[serde(rename = "type")]
+    pub type_: Option<S<String>>,
+    pub model: Option<S<String>>,
+    pub density: Option<S<f32>>,
+    pub mass: Option<S<f32>>,
+    pub friction: Option<S<f32>>,
+    pub restitution: Option<S<f32>>,
+    pub color: Option<S<String>>,
+}
+
+/// `end = { shape, density | mass, friction, restitution, color }` of a chain.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(crate) struct FileChainEnd {
+    pub shape: S<FileShape>,
+    pub density: Option<S<f32>>,
+    pub mass: Option<S<f32>>,
+    pub friction: Option<S<f32>>,
+    pub restitution: Option<S<f32>>,
+    pub color: Option<S<String>>,
+}
+
+/// `[[chain]]`.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(crate) struct FileChain {
+    pub links: S<u32>,
+    pub link: S<V2>,
+    pub anchor: S<V2>,
+    pub direction: Option<S<V2>>,
+    pub joint: Option<S<String>>,
+    pub density: Option<S<f32>>,
+    pub friction: Option<S<f32>>,
+    pub restitution: Option<S<f32>>,
+    pub color: Option<S<String>>,
+    pub end: Option<S<FileChainEnd>>,
+}
+
+/// Only the description, for listing built-in scenes without building them.
+#[derive(Debug, Deserialize)]
+pub(crate) struct FileDescription {
+    pub description: Option<String>,
+}

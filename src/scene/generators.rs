@@ -1,0 +1,329 @@
+//! Generators: tables that expand into many bodies (and, for chains, joints).
+//!
+//! Each generated body is named `"{generator}{k}_{i}"`: `k` counts that generator's
+//! tables from 0 in file order, `i` counts the bodies within the table from 0. A
+//! chain's static anchor is `chain{k}_anchor` and its end body `chain{k}_end`.
+//! Generated bodies are dynamic unless said otherwise and take the body defaults.
+
+use glam::Vec2;
+
+use super::format::*;
+use super::validate::{Bodies, Ctx, R};
+use crate::defs::*;
+
+/// The most bodies one generator table may make; more is surely a typo (and would
+/// exhaust memory rather than fail cleanly).
+pub const MAX_GENERATED: u64 = 1_000_000;
+
+/// Refuses a generator table that would make more than [`MAX_GENERATED`] bodies.
+fn check_total(ctx: &Ctx, who: &str, total: u64, span: std::ops::Range<usize>) -> R<()> {
+    if total > MAX_GENERATED {
+        Err(ctx.err(
+            span,
+            format!("{who}: would make {total} bodies; at most {MAX_GENERATED} per generator"),
+        ))
+    } else {
+        Ok(())
+    }
+}
+
+/// A dynamic rigid body with the given material.
+fn dynamic_body(
+    name: String,
+    shape: ShapeDef,
+    position: Vec2,
+    m: &super::validate::Material,
+) -> BodyDef {
+    BodyDef {
+        name,
+        shape,
+        position,
+        density: m.density,
+        mass: m.mass,
+        friction: m.friction,
+        restitution: m.restitution,
+        color: m.color,
+        ..BodyDef::default()
+    }
+}
+
+/// `[[pyramid]]`: row i = 0..base-1 has base-i boxes; box j = i..base-1 of row i is
+/// at x = origin.x + (i+1) w/2 + w (j-i) - w base/2, y = origin.y + (2i+1) h/2,
+/// row by row from the bottom, left to right (the benchmark's large pyramid).
+pub(crate) fn pyramid(ctx: &Ctx, t: &S<FilePyramid>, k: usize, bodies: &mut Bodies) -> R<()> {
+    let who = format!("pyramid{k}");
+    let who = who.as_str();
+    let p = t.get_ref();
+    let base = ctx.count(who, "base", &p.base)?;
+    check_total(ctx, who, base as u64 * (base as u64 + 1) / 2, p.base.span())?;
+    let size = match &p.box_ {
+        Some(b) => ctx.size(who, "box", b)?,
+        None => Vec2::ONE,
+    };
+    let origin = ctx.opt_vec2(who, "origin", p.origin.as_ref(), Vec2::ZERO)?;
+    let m = ctx.material(
+        who,
+        true,
+        p.density.as_ref(),
+        None,
+        p.friction.as_ref(),
+        p.restitution.as_ref(),
+        p.color.as_ref(),
+    )?;
+    let (w, h, n) = (size.x as f64, size.y as f64, base as f64);
+    let (ox, oy) = (origin.x as f64, origin.y as f64);
+    let shape = ShapeDef::Box {
+        width: size.x,
+        height: size.y,
+    };
+    let mut index = 0;
+    for i in 0..base {
+        let fi = i as f64;
+        let y = oy + (2.0 * fi + 1.0) * h / 2.0;
+        for j in i..base {
+            let x = ox + (fi + 1.0) * w / 2.0 + w * (j - i) as f64 - w * n / 2.0;
+            let body = dynamic_body(
+                format!("{who}_{index}"),
+                shape.clone(),
+                Vec2::new(x as f32, y as f32),
+                &m,
+            );
+            bodies.push(ctx, body, t.span())?;
+            index += 1;
+        }
+    }
+    Ok(())
+}
+
+/// `[[stack]]`: box k = 0..count-1 at (origin.x + k offset, origin.y + (k + 1/2) h).
+pub(crate) fn stack(ctx: &Ctx, t: &S<FileStack>, k: usize, bodies: &mut Bodies) -> R<()> {
+    let who = format!("stack{k}");
+    let who = who.as_str();
+    let s = t.get_ref();
+    let count = ctx.count(who, "count", &s.count)?;
+    check_total(ctx, who, count as u64, s.count.span())?;
+    let size = match &s.box_ {
+        Some(b) => ctx.size(who, "box", b)?,
+        None => Vec2::ONE,
+    };
+    let origin = ctx.opt_vec2(who, "origin", s.origin.as_ref(), Vec2::ZERO)?;
+    let offset = ctx.opt(s.offset.as_ref(), 0.0, |v| ctx.finite(who, "offset", v))?;
+    let m = ctx.material(
+        who,
+        true,
+        s.density.as_ref(),
+        None,
+        s.friction.as_ref(),
+        s.restitution.as_ref(),
+        s.color.as_ref(),
+    )?;
+    let shape = ShapeDef::Box {
+        width: size.x,
+        height: size.y,
+    };
+    for i in 0..count {
+        let fi = i as f64;
+        let x = origin.x as f64 + fi * offset as f64;
+        let y = origin.y as f64 + (fi + 0.5) * size.y as f64;
+        let body = dynamic_body(
+            format!("{who}_{i}"),
+            shape.clone(),
+            Vec2::new(x as f32, y as f32),
+            &m,
+        );
+        bodies.push(ctx, body, t.span())?;
+    }
+    Ok(())
+}
+
+/// `[[grid]]`: the body of row r, column c at origin + (c spacing.x, r spacing.y),
+/// row by row (r outer), index i = r columns + c.
+pub(crate) fn grid(ctx: &Ctx, t: &S<FileGrid>, k: usize, bodies: &mut Bodies) -> R<()> {
+    let who = format!("grid{k}");
+    let who = who.as_str();
+    let g = t.get_ref();
+    let rows = ctx.count(who, "rows", &g.rows)?;
+    let columns = ctx.count(who, "columns", &g.columns)?;
+    check_total(ctx, who, rows as u64 * columns as u64, g.rows.span())?;
+    let spacing = ctx.vec2(who, "spacing", &g.spacing)?;
+    let origin = ctx.opt_vec2(who, "origin", g.origin.as_ref(), Vec2::ZERO)?;
+    let body_type = ctx.body_type(who, g.type_.as_ref())?;
+    let model = ctx.body_model(who, g.model.as_ref())?;
+    let shape = ctx.shape(who, &g.shape)?;
+    ctx.particle_shape(who, model, &shape, g.shape.span())?;
+    let m = ctx.material(
+        who,
+        body_type == BodyType::Dynamic,
+        g.density.as_ref(),
+        g.mass.as_ref(),
+        g.friction.as_ref(),
+        g.restitution.as_ref(),
+        g.color.as_ref(),
+    )?;
+    for r in 0..rows {
+        for c in 0..columns {
+            let x = origin.x as f64 + c as f64 * spacing.x as f64;
+            let y = origin.y as f64 + r as f64 * spacing.y as f64;
+            let i = r as u64 * columns as u64 + c as u64;
+            let body = BodyDef {
+                body_type,
+                model,
+                ..dynamic_body(
+                    format!("{who}_{i}"),
+                    shape.clone(),
+                    Vec2::new(x as f32, y as f32),
+                    &m,
+                )
+            };
+            bodies.push(ctx, body, t.span())?;
+        }
+    }
+    Ok(())
+}
+
+/// `[[chain]]`: a static anchor body `chain{k}_anchor` (a circle of radius link
+/// height / 2 at `anchor`), then `links` boxes of size `link` laid end to end from
+/// `anchor` along `direction` (link i centred at anchor + d (i + 1/2) L, turned to
+/// d), then the optional end body `chain{k}_end` just past the last link. Hinge
+/// joints sit at the shared end points anchor + d i L; distance joints join the
+/// centres of consecutive bodies (a zero-length distance joint has no direction), with
+/// the length they have at creation. Joints do not collide their bodies.
+pub(crate) fn chain(
+    ctx: &Ctx,
+    t: &S<FileChain>,
+    k: usize,
+    bodies: &mut Bodies,
+    joints: &mut Vec<JointDef>,
+) -> R<()> {
+    let who = format!("chain{k}");
+    let who = who.as_str();
+    let c = t.get_ref();
+    let links = ctx.count(who, "links", &c.links)?;
+    check_total(ctx, who, links as u64 + 2, c.links.span())?;
+    let size = ctx.size(who, "link", &c.link)?;
+    let anchor = ctx.vec2(who, "anchor", &c.anchor)?;
+    let d = match &c.direction {
+        Some(v) => {
+            let d = ctx.vec2(who, "direction", v)?;
+            if d.length() <= 1e-6 {
+                return Err(ctx.err(
+                    v.span(),
+                    format!(
+                        "{who}: direction must have a non-zero length, got {}",
+                        super::validate::fmt_v2(d.into())
+                    ),
+                ));
+            }
+            d.normalize()
+        }
+        None => Vec2::X,
+    };
+    let kind = match &c.joint {
+        Some(j) => ctx.choice(
+            who,
+            "joint",
+            j,
+            &[
+                ("hinge", JointKind::Hinge),
+                ("distance", JointKind::Distance),
+            ],
+        )?,
+        None => JointKind::Hinge,
+    };
+    let m = ctx.material(
+        who,
+        true,
+        c.density.as_ref(),
+        None,
+        c.friction.as_ref(),
+        c.restitution.as_ref(),
+        c.color.as_ref(),
+    )?;
+    let end = match &c.end {
+        Some(e) => {
+            let ew = format!("{who} end");
+            let ew = ew.as_str();
+            let f = e.get_ref();
+            let shape = ctx.shape(ew, &f.shape)?;
+            let em = ctx.material(
+                ew,
+                true,
+                f.density.as_ref(),
+                f.mass.as_ref(),
+                f.friction.as_ref(),
+                f.restitution.as_ref(),
+                f.color.as_ref(),
+            )?;
+            Some((shape, em))
+        }
+        None => None,
+    };
+
+    let len = size.x;
+    let angle = d.y.atan2(d.x);
+    let at = |s: f32| anchor + d * s;
+    let joint = |a: usize, b: usize, pa: Vec2, pb: Vec2, hinge_at: Vec2| JointDef {
+        kind,
+        bodies: [a, b],
+        anchor: (kind == JointKind::Hinge).then_some(hinge_at),
+        anchors: (kind == JointKind::Distance).then_some([pa, pb]),
+        length: (kind == JointKind::Distance).then_some(pa.distance(pb)),
+        axis: None,
+        limits: None,
+        motor: None,
+        servo: None,
+        compliance: 0.0,
+        damping: DampingDef::default(),
+        collide_connected: false,
+    };
+
+    let anchor_body = BodyDef {
+        name: format!("{who}_anchor"),
+        body_type: BodyType::Static,
+        shape: ShapeDef::Circle {
+            radius: size.y / 2.0,
+        },
+        position: anchor,
+        friction: m.friction,
+        restitution: m.restitution,
+        color: m.color,
+        ..BodyDef::default()
+    };
+    let mut prev = bodies.push(ctx, anchor_body, t.span())?;
+    let mut prev_center = anchor;
+    let shape = ShapeDef::Box {
+        width: size.x,
+        height: size.y,
+    };
+    for i in 0..links {
+        let center = at((i as f32 + 0.5) * len);
+        let body = BodyDef {
+            angle,
+            ..dynamic_body(format!("{who}_{i}"), shape.clone(), center, &m)
+        };
+        let index = bodies.push(ctx, body, t.span())?;
+        joints.push(joint(prev, index, prev_center, center, at(i as f32 * len)));
+        prev = index;
+        prev_center = center;
+    }
+    if let Some((shape, em)) = end {
+        // How far the end shape reaches back along -d from its origin (its local x axis is d).
+        let back = match &shape {
+            ShapeDef::Circle { radius } => *radius,
+            ShapeDef::Box { width, .. } => width / 2.0,
+            ShapeDef::Polygon { points } => points
+                .iter()
+                .map(|p| -p.x)
+                .fold(f32::NEG_INFINITY, f32::max),
+        };
+        let tip = at(links as f32 * len);
+        let center = tip + d * back;
+        let body = BodyDef {
+            angle,
+            ..dynamic_body(format!("{who}_end"), shape, center, &em)
+        };
+        let index = bodies.push(ctx, body, t.span())?;
+        joints.push(joint(prev, index, prev_center, center, tip));
+    }
+    Ok(())
+}

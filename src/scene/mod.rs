@@ -1,0 +1,202 @@
+//! Scene files: parse, validate and expand a TOML scene into a [`WorldDef`] and a
+//! [`CameraDef`].
+//!
+//! The format is documented, key by key, in `docs/scene-format.md`. In short: a
+//! `name`, an optional `description`, `[world]` (gravity, `[world.drag]`),
+//! `[solver]`, `[camera]`, `[[body]]`, `[[force]]`, `[[joint]]`, and the generators
+//! `[[pyramid]]`, `[[stack]]`, `[[grid]]` and `[[chain]]`.
+//!
+//! Bodies are created in the order their tables appear in the file, `[[body]]` and
+//! generator tables mixed, each generator expanded in place. Forces and joints name
+//! bodies; they become indices into that order.
+//!
+//! A scene that breaks the format is refused with one [`SceneError`] that reads
+//! `FILE:LINE:COL: what is wrong`, pointing at the offending value.
+//!
+//! ```
+//! let scene = sandbox2d::scene::load_str(
+//!     "name = \"drop\"\n[[body]]\nshape = { circle = 0.5 }\nposition = [0, 3]\n",
+//!     "drop.toml",
+//! )
+//! .unwrap();
+//! assert_eq!(scene.world.bodies.len(), 1);
+//!
+//! let err = sandbox2d::scene::load_str("name = \"x\"\ngravty = [0, -10]\n", "bad.toml").unwrap_err();
+//! assert_eq!((err.line(), err.column()), (Some(2), Some(1)));
+//! assert!(err.to_string().starts_with("bad.toml:2:1: unknown field `gravty`"));
+//! ```
+
+mod builtin;
+mod error;
+mod format;
+mod generators;
+mod validate;
+
+use std::path::Path;
+
+pub use builtin::{builtin, builtin_description, builtin_names};
+pub use error::SceneError;
+pub use generators::MAX_GENERATED;
+
+use crate::defs::{CameraDef, JointDef, WorldDef};
+use format::FileScene;
+use validate::{Bodies, Ctx, R};
+
+/// A parsed and validated scene: a world to build and the camera to look at it with.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Scene {
+    /// The scene's `name`.
+    pub name: String,
+    /// The scene's `description`, if it has one.
+    pub description: Option<String>,
+    /// Bodies in creation order (file order, generators expanded in place), forces
+    /// and joints with body indices into that order, gravity, drag and solver settings.
+    pub world: WorldDef,
+    /// The `[camera]` table, with [`CameraDef::default`] values where absent.
+    pub camera: CameraDef,
+    /// Where the scene came from: the file path as given, or `builtin:NAME`.
+    pub source: String,
+}
+
+/// Reads, parses and validates the scene file at `path`. Messages name the file as
+/// `path` displays.
+pub fn load_file(path: &Path) -> Result<Scene, SceneError> {
+    let source = path.display().to_string();
+    let text = std::fs::read_to_string(path)
+        .map_err(|e| SceneError::whole_file(&source, format!("cannot read: {e}")))?;
+    load_str(&text, &source)
+}
+
+/// Loads a built-in scene by name (see [`builtin_names`]), else the file at that path.
+/// A built-in name wins over a file of the same name in the working directory; write
+/// `./stack` to mean the file.
+pub fn load(name_or_path: &str) -> Result<Scene, SceneError> {
+    match builtin(name_or_path) {
+        Some(scene) => scene,
+        None => load_file(Path::new(name_or_path)),
+    }
+}
+
+/// Parses and validates a scene from its text. `source` names it in messages and
+/// becomes [`Scene::source`].
+pub fn load_str(text: &str, source: &str) -> Result<Scene, SceneError> {
+    let ctx = Ctx { file: source, text };
+    let file: FileScene = toml::from_str(text).map_err(|e| {
+        let span = e.span().unwrap_or(0..0);
+        ctx.err(span, e.message().trim_end().to_owned())
+    })?;
+    build(&ctx, file)
+}
+
+/// One table that makes bodies, by its position in the file.
+enum Maker {
+    Body(usize),
+    Pyramid(usize),
+    Stack(usize),
+    Grid(usize),
+    Chain(usize),
+}
+
+/// Turns the parsed file into a [`Scene`], checking every value.
+fn build(ctx: &Ctx, f: FileScene) -> R<Scene> {
+    let name = f.name.get_ref().trim().to_owned();
+    if name.is_empty() {
+        return Err(ctx.err(f.name.span(), "name must not be empty"));
+    }
+    let mut world = WorldDef::default();
+    if let Some(w) = &f.world {
+        (world.gravity, world.drag) = ctx.world(w.get_ref())?;
+    }
+    if let Some(s) = &f.solver {
+        world.solver = ctx.solver(s.get_ref())?;
+    }
+    let camera = match &f.camera {
+        Some(c) => ctx.camera(c.get_ref())?,
+        None => CameraDef::default(),
+    };
+
+    // Bodies and generators in file order: an array-of-tables element's span starts
+    // at its `[[...]]` header (or at its inline table).
+    let mut makers: Vec<(usize, Maker)> = Vec::new();
+    makers.extend(
+        f.body
+            .iter()
+            .enumerate()
+            .map(|(k, t)| (t.span().start, Maker::Body(k))),
+    );
+    makers.extend(
+        f.pyramid
+            .iter()
+            .enumerate()
+            .map(|(k, t)| (t.span().start, Maker::Pyramid(k))),
+    );
+    makers.extend(
+        f.stack
+            .iter()
+            .enumerate()
+            .map(|(k, t)| (t.span().start, Maker::Stack(k))),
+    );
+    makers.extend(
+        f.grid
+            .iter()
+            .enumerate()
+            .map(|(k, t)| (t.span().start, Maker::Grid(k))),
+    );
+    makers.extend(
+        f.chain
+            .iter()
+            .enumerate()
+            .map(|(k, t)| (t.span().start, Maker::Chain(k))),
+    );
+    makers.sort_by_key(|(start, _)| *start);
+
+    let mut bodies = Bodies::default();
+    // Joints with the file position of the table that made them, to keep file order.
+    let mut joints: Vec<(usize, JointDef)> = Vec::new();
+    for (start, maker) in &makers {
+        match *maker {
+            Maker::Body(k) => {
+                let t = &f.body[k];
+                let (name, span) = match &t.get_ref().name {
+                    Some(n) => (n.get_ref().clone(), n.span()),
+                    // An unnamed body is named after its table, like generated bodies.
+                    None => (format!("body{k}"), t.span()),
+                };
+                if name.is_empty() {
+                    return Err(ctx.err(span, "body name must not be empty"));
+                }
+                let body = ctx.body(t.get_ref(), name)?;
+                bodies.push(ctx, body, span)?;
+            }
+            Maker::Pyramid(k) => generators::pyramid(ctx, &f.pyramid[k], k, &mut bodies)?,
+            Maker::Stack(k) => generators::stack(ctx, &f.stack[k], k, &mut bodies)?,
+            Maker::Grid(k) => generators::grid(ctx, &f.grid[k], k, &mut bodies)?,
+            Maker::Chain(k) => {
+                let mut made = Vec::new();
+                generators::chain(ctx, &f.chain[k], k, &mut bodies, &mut made)?;
+                joints.extend(made.into_iter().map(|j| (*start, j)));
+            }
+        }
+    }
+
+    for t in &f.force {
+        world
+            .forces
+            .push(validate::force(ctx, &bodies, t.get_ref())?);
+    }
+    for t in &f.joint {
+        joints.push((t.span().start, validate::joint(ctx, &bodies, t.get_ref())?));
+    }
+    // Stable: a chain's joints keep their order.
+    joints.sort_by_key(|(start, _)| *start);
+    world.joints = joints.into_iter().map(|(_, j)| j).collect();
+    world.bodies = bodies.defs;
+
+    Ok(Scene {
+        name,
+        description: f.description.map(|d| d.into_inner()),
+        world,
+        camera,
+        source: ctx.file.to_owned(),
+    })
+}

@@ -1,0 +1,799 @@
+//! Checks on single values and on the tables that hold them, turning the spanned file
+//! types of `format` into [`crate::defs`] types. Every check that fails gives one
+//! [`SceneError`] pointing at the offending value.
+
+use std::collections::HashMap;
+use std::ops::Range;
+
+use glam::Vec2;
+
+use super::error::SceneError;
+use super::format::*;
+use crate::defs::*;
+
+/// Results of this module.
+pub(crate) type R<T> = Result<T, SceneError>;
+
+/// Where messages point: the file's name (as given) and its text.
+pub(crate) struct Ctx<'a> {
+    pub file: &'a str,
+    pub text: &'a str,
+}
+
+/// `[x, y]` as messages write it.
+pub(crate) fn fmt_v2(v: [f32; 2]) -> String {
+    format!("[{}, {}]", v[0], v[1])
+}
+
+impl Ctx<'_> {
+    /// An error at the start of `span`.
+    pub fn err(&self, span: Range<usize>, message: impl Into<String>) -> SceneError {
+        SceneError::at_span(self.file, self.text, span, message)
+    }
+
+    /// A finite number.
+    pub fn finite(&self, who: &str, key: &str, v: &S<f32>) -> R<f32> {
+        let x = *v.get_ref();
+        if x.is_finite() {
+            Ok(x)
+        } else {
+            Err(self.err(
+                v.span(),
+                format!("{who}: {key} must be a finite number, got {x}"),
+            ))
+        }
+    }
+
+    /// A finite number > 0.
+    pub fn positive(&self, who: &str, key: &str, v: &S<f32>) -> R<f32> {
+        let x = self.finite(who, key, v)?;
+        if x > 0.0 {
+            Ok(x)
+        } else {
+            Err(self.err(v.span(), format!("{who}: {key} must be > 0, got {x}")))
+        }
+    }
+
+    /// A finite number >= 0.
+    pub fn non_negative(&self, who: &str, key: &str, v: &S<f32>) -> R<f32> {
+        let x = self.finite(who, key, v)?;
+        if x >= 0.0 {
+            Ok(x)
+        } else {
+            Err(self.err(v.span(), format!("{who}: {key} must be >= 0, got {x}")))
+        }
+    }
+
+    /// A number in [0, 1].
+    pub fn unit(&self, who: &str, key: &str, v: &S<f32>) -> R<f32> {
+        let x = self.finite(who, key, v)?;
+        if (0.0..=1.0).contains(&x) {
+            Ok(x)
+        } else {
+            Err(self.err(v.span(), format!("{who}: {key} must be in [0, 1], got {x}")))
+        }
+    }
+
+    /// An optional value checked by `check`, or `default`.
+    pub fn opt<T: Copy>(
+        &self,
+        v: Option<&S<f32>>,
+        default: T,
+        check: impl FnOnce(&S<f32>) -> R<T>,
+    ) -> R<T> {
+        match v {
+            Some(v) => check(v),
+            None => Ok(default),
+        }
+    }
+
+    /// A count >= 1.
+    pub fn count(&self, who: &str, key: &str, v: &S<u32>) -> R<u32> {
+        let n = *v.get_ref();
+        if n >= 1 {
+            Ok(n)
+        } else {
+            Err(self.err(v.span(), format!("{who}: {key} must be >= 1, got {n}")))
+        }
+    }
+
+    /// A vector with finite components.
+    pub fn vec2(&self, who: &str, key: &str, v: &S<V2>) -> R<Vec2> {
+        let a = v.get_ref().0;
+        if a.iter().all(|x| x.is_finite()) {
+            Ok(Vec2::from(a))
+        } else {
+            Err(self.err(
+                v.span(),
+                format!(
+                    "{who}: {key} must have finite components, got {}",
+                    fmt_v2(a)
+                ),
+            ))
+        }
+    }
+
+    /// An optional vector, or `default`.
+    pub fn opt_vec2(&self, who: &str, key: &str, v: Option<&S<V2>>, default: Vec2) -> R<Vec2> {
+        v.map_or(Ok(default), |v| self.vec2(who, key, v))
+    }
+
+    /// A size: both components finite and > 0.
+    pub fn size(&self, who: &str, key: &str, v: &S<V2>) -> R<Vec2> {
+        let s = self.vec2(who, key, v)?;
+        if s.x > 0.0 && s.y > 0.0 {
+            Ok(s)
+        } else {
+            Err(self.err(
+                v.span(),
+                format!(
+                    "{who}: {key} size must be > 0, got {}",
+                    fmt_v2(v.get_ref().0)
+                ),
+            ))
+        }
+    }
+
+    /// One of a fixed set of strings.
+    pub fn choice<T: Copy>(
+        &self,
+        who: &str,
+        key: &str,
+        v: &S<String>,
+        options: &[(&str, T)],
+    ) -> R<T> {
+        let s = v.get_ref().as_str();
+        match options.iter().find(|(name, _)| *name == s) {
+            Some((_, t)) => Ok(*t),
+            None => {
+                let allowed: Vec<String> =
+                    options.iter().map(|(n, _)| format!("\"{n}\"")).collect();
+                Err(self.err(
+                    v.span(),
+                    format!(
+                        "{who}: unknown {key} \"{s}\"; expected one of {}",
+                        allowed.join(", ")
+                    ),
+                ))
+            }
+        }
+    }
+
+    /// A colour `"#rrggbb"` or `"#rrggbbaa"`.
+    pub fn color(&self, who: &str, v: &S<String>) -> R<Color> {
+        let s = v.get_ref().as_str();
+        let bad = || {
+            self.err(
+                v.span(),
+                format!(
+                    "{who}: color must be \"#rrggbb\" or \"#rrggbbaa\" (hex digits), got \"{s}\""
+                ),
+            )
+        };
+        let hex = s.strip_prefix('#').ok_or_else(bad)?;
+        if !(hex.len() == 6 || hex.len() == 8) || !hex.bytes().all(|b| b.is_ascii_hexdigit()) {
+            return Err(bad());
+        }
+        let mut c = [0, 0, 0, 255];
+        for (i, byte) in c.iter_mut().enumerate().take(hex.len() / 2) {
+            *byte = u8::from_str_radix(&hex[2 * i..2 * i + 2], 16).map_err(|_| bad())?;
+        }
+        Ok(c)
+    }
+
+    /// A shape table with exactly one of `box`, `circle`, `polygon`, checked.
+    /// Sizes must be > 0 whatever the body's type: a shape with no extent cannot collide.
+    pub fn shape(&self, who: &str, s: &S<FileShape>) -> R<ShapeDef> {
+        let f = s.get_ref();
+        let given: Vec<&str> = [
+            f.box_.as_ref().map(|_| "box"),
+            f.circle.as_ref().map(|_| "circle"),
+            f.polygon.as_ref().map(|_| "polygon"),
+        ]
+        .into_iter()
+        .flatten()
+        .collect();
+        if given.len() != 1 {
+            let what = if given.is_empty() {
+                "shape has none of `box`, `circle`, `polygon`; give exactly one".to_owned()
+            } else {
+                format!(
+                    "shape has {}; give exactly one of `box`, `circle`, `polygon`",
+                    given.join(" and ")
+                )
+            };
+            return Err(self.err(s.span(), format!("{who}: {what}")));
+        }
+        if let Some(b) = &f.box_ {
+            let size = self.size(who, "box", b)?;
+            return Ok(ShapeDef::Box {
+                width: size.x,
+                height: size.y,
+            });
+        }
+        if let Some(c) = &f.circle {
+            let r = self.finite(who, "circle radius", c)?;
+            if r <= 0.0 {
+                return Err(self.err(
+                    c.span(),
+                    format!("{who}: circle radius must be > 0, got {r}"),
+                ));
+            }
+            return Ok(ShapeDef::Circle { radius: r });
+        }
+        match &f.polygon {
+            Some(p) => self.polygon(who, p),
+            None => Err(self.err(s.span(), format!("{who}: shape is empty"))),
+        }
+    }
+
+    /// A polygon: finite points, at least 3 distinct, a convex hull with area.
+    fn polygon(&self, who: &str, p: &S<Vec<S<V2>>>) -> R<ShapeDef> {
+        let mut points = Vec::with_capacity(p.get_ref().len());
+        for q in p.get_ref() {
+            points.push(self.vec2(who, "polygon point", q)?);
+        }
+        // Points closer than this (m) count as one.
+        const SAME: f32 = 1e-6;
+        let mut distinct: Vec<Vec2> = Vec::new();
+        for &q in &points {
+            if !distinct.iter().any(|d| d.distance(q) <= SAME) {
+                distinct.push(q);
+            }
+        }
+        if distinct.len() < 3 {
+            return Err(self.err(
+                p.span(),
+                format!(
+                    "{who}: polygon needs at least 3 distinct points, got {}",
+                    distinct.len()
+                ),
+            ));
+        }
+        let (area, extent) = hull_area(&distinct);
+        // No area relative to its size: the points are (nearly) collinear.
+        if area <= 1e-6 * extent * extent {
+            return Err(self.err(
+                p.span(),
+                format!("{who}: polygon has no area (its points are collinear)"),
+            ));
+        }
+        Ok(ShapeDef::Polygon { points })
+    }
+
+    /// The material of a body: density or mass (> 0 on a dynamic body, finite on
+    /// others; not both), friction >= 0, restitution in [0, 1], colour.
+    #[allow(clippy::too_many_arguments)]
+    pub fn material(
+        &self,
+        who: &str,
+        dynamic: bool,
+        density: Option<&S<f32>>,
+        mass: Option<&S<f32>>,
+        friction: Option<&S<f32>>,
+        restitution: Option<&S<f32>>,
+        color: Option<&S<String>>,
+    ) -> R<Material> {
+        let check = |key: &str, v: &S<f32>| {
+            if dynamic {
+                let x = self.finite(who, key, v)?;
+                if x > 0.0 {
+                    Ok(x)
+                } else {
+                    Err(self.err(
+                        v.span(),
+                        format!("{who}: {key} must be > 0 on a dynamic body, got {x}"),
+                    ))
+                }
+            } else {
+                self.finite(who, key, v)
+            }
+        };
+        if let (Some(_), Some(m)) = (density, mass) {
+            return Err(self.err(
+                m.span(),
+                format!("{who}: give `density` or `mass`, not both"),
+            ));
+        }
+        let density = self.opt(density, 1.0, |v| check("density", v))?;
+        let mass = match mass {
+            Some(m) => Some(check("mass", m)?),
+            None => None,
+        };
+        Ok(Material {
+            density,
+            mass,
+            friction: self.opt(friction, 0.6, |v| self.non_negative(who, "friction", v))?,
+            restitution: self.opt(restitution, 0.0, |v| self.unit(who, "restitution", v))?,
+            color: color.map(|c| self.color(who, c)).transpose()?,
+        })
+    }
+
+    /// `type = "static" | "dynamic" | "kinematic"`, default dynamic.
+    pub fn body_type(&self, who: &str, v: Option<&S<String>>) -> R<BodyType> {
+        v.map_or(Ok(BodyType::Dynamic), |v| {
+            self.choice(
+                who,
+                "type",
+                v,
+                &[
+                    ("static", BodyType::Static),
+                    ("dynamic", BodyType::Dynamic),
+                    ("kinematic", BodyType::Kinematic),
+                ],
+            )
+        })
+    }
+
+    /// `model = "rigid" | "particle"`, default rigid.
+    pub fn body_model(&self, who: &str, v: Option<&S<String>>) -> R<BodyModel> {
+        v.map_or(Ok(BodyModel::Rigid), |v| {
+            self.choice(
+                who,
+                "model",
+                v,
+                &[
+                    ("rigid", BodyModel::Rigid),
+                    ("particle", BodyModel::Particle),
+                ],
+            )
+        })
+    }
+
+    /// A particle has translation only: it needs a circle.
+    pub fn particle_shape(
+        &self,
+        who: &str,
+        model: BodyModel,
+        shape: &ShapeDef,
+        span: Range<usize>,
+    ) -> R<()> {
+        let kind = match shape {
+            ShapeDef::Circle { .. } => return Ok(()),
+            ShapeDef::Box { .. } => "a box",
+            ShapeDef::Polygon { .. } => "a polygon",
+        };
+        if model == BodyModel::Particle {
+            Err(self.err(
+                span,
+                format!("{who}: a particle body needs a circle shape, got {kind}"),
+            ))
+        } else {
+            Ok(())
+        }
+    }
+
+    /// A `[[body]]` table, named `name`.
+    pub fn body(&self, b: &FileBody, name: String) -> R<BodyDef> {
+        let who = format!("body \"{name}\"");
+        let who = who.as_str();
+        let body_type = self.body_type(who, b.type_.as_ref())?;
+        let model = self.body_model(who, b.model.as_ref())?;
+        let shape = self.shape(who, &b.shape)?;
+        self.particle_shape(who, model, &shape, b.shape.span())?;
+        let m = self.material(
+            who,
+            body_type == BodyType::Dynamic,
+            b.density.as_ref(),
+            b.mass.as_ref(),
+            b.friction.as_ref(),
+            b.restitution.as_ref(),
+            b.color.as_ref(),
+        )?;
+        Ok(BodyDef {
+            name,
+            body_type,
+            model,
+            shape,
+            position: self.opt_vec2(who, "position", b.position.as_ref(), Vec2::ZERO)?,
+            angle: self.opt(b.angle.as_ref(), 0.0, |v| self.finite(who, "angle", v))?,
+            velocity: self.opt_vec2(who, "velocity", b.velocity.as_ref(), Vec2::ZERO)?,
+            angular_velocity: self.opt(b.angular_velocity.as_ref(), 0.0, |v| {
+                self.finite(who, "angular_velocity", v)
+            })?,
+            density: m.density,
+            mass: m.mass,
+            friction: m.friction,
+            restitution: m.restitution,
+            color: m.color,
+        })
+    }
+
+    /// `[world]`: gravity and drag.
+    pub fn world(&self, w: &FileWorld) -> R<(Option<Vec2>, Option<DragDef>)> {
+        let gravity = w
+            .gravity
+            .as_ref()
+            .map(|g| self.vec2("world", "gravity", g))
+            .transpose()?;
+        let drag = match &w.drag {
+            None => None,
+            Some(d) => {
+                let who = "world.drag";
+                let f = d.get_ref();
+                let nn = |v: Option<&S<f32>>, key: &str| {
+                    self.opt(v, 0.0, |v| self.non_negative(who, key, v))
+                };
+                let drag = DragDef {
+                    linear: nn(f.linear.as_ref(), "linear")?,
+                    quadratic: nn(f.quadratic.as_ref(), "quadratic")?,
+                    fluid_density: nn(f.fluid_density.as_ref(), "fluid_density")?,
+                    drag_coefficient: nn(f.drag_coefficient.as_ref(), "drag_coefficient")?,
+                };
+                // One of the pair alone gives no force: surely a mistake.
+                match (&f.fluid_density, &f.drag_coefficient) {
+                    (Some(v), None) | (None, Some(v)) => {
+                        return Err(self.err(
+                            v.span(),
+                            format!("{who}: fluid drag needs both `fluid_density` and `drag_coefficient`"),
+                        ));
+                    }
+                    _ => {}
+                }
+                Some(drag)
+            }
+        };
+        Ok((gravity, drag))
+    }
+
+    /// `[solver]`.
+    pub fn solver(&self, s: &FileSolver) -> R<SolverOverrides> {
+        let who = "solver";
+        let count =
+            |v: &Option<S<u32>>, key: &str| v.as_ref().map(|v| self.count(who, key, v)).transpose();
+        let f = |v: &Option<S<f32>>, check: &dyn Fn(&S<f32>) -> R<f32>| {
+            v.as_ref().map(check).transpose()
+        };
+        Ok(SolverOverrides {
+            kind: s
+                .kind
+                .as_ref()
+                .map(|k| {
+                    self.choice(
+                        who,
+                        "kind",
+                        k,
+                        &[("pgs", SolverKind::Pgs), ("xpbd", SolverKind::Xpbd)],
+                    )
+                })
+                .transpose()?,
+            dt: f(&s.dt, &|v| self.positive(who, "dt", v))?,
+            substeps: count(&s.substeps, "substeps")?,
+            iterations: count(&s.iterations, "iterations")?,
+            tolerance: f(&s.tolerance, &|v| self.non_negative(who, "tolerance", v))?,
+            warm_start: s.warm_start.as_ref().map(|v| *v.get_ref()),
+            baumgarte: f(&s.baumgarte, &|v| self.unit(who, "baumgarte", v))?,
+            slop: f(&s.slop, &|v| self.non_negative(who, "slop", v))?,
+            split_impulse: s.split_impulse.as_ref().map(|v| *v.get_ref()),
+            restitution_threshold: f(&s.restitution_threshold, &|v| {
+                self.non_negative(who, "restitution_threshold", v)
+            })?,
+        })
+    }
+
+    /// `[camera]`.
+    pub fn camera(&self, c: &FileCamera) -> R<CameraDef> {
+        let who = "camera";
+        let d = CameraDef::default();
+        let size = match &c.size {
+            None => d.size,
+            Some(s) => {
+                let [w, h] = s.get_ref().0;
+                if w == 0 || h == 0 {
+                    return Err(self.err(
+                        s.span(),
+                        format!("{who}: size must be > 0 pixels each way, got [{w}, {h}]"),
+                    ));
+                }
+                [w, h]
+            }
+        };
+        Ok(CameraDef {
+            center: self.opt_vec2(who, "center", c.center.as_ref(), d.center)?,
+            pixels_per_meter: self.opt(c.pixels_per_meter.as_ref(), d.pixels_per_meter, |v| {
+                self.positive(who, "pixels_per_meter", v)
+            })?,
+            size,
+        })
+    }
+}
+
+/// What [`Ctx::material`] gives.
+pub(crate) struct Material {
+    pub density: f32,
+    pub mass: Option<f32>,
+    pub friction: f32,
+    pub restitution: f32,
+    pub color: Option<Color>,
+}
+
+/// The area of the convex hull of `points` (monotone chain, in f64) and the larger
+/// side of their bounding box.
+fn hull_area(points: &[Vec2]) -> (f32, f32) {
+    let mut p: Vec<(f64, f64)> = points.iter().map(|q| (q.x as f64, q.y as f64)).collect();
+    p.sort_by(|a, b| a.partial_cmp(b).unwrap_or(std::cmp::Ordering::Equal));
+    let cross = |o: (f64, f64), a: (f64, f64), b: (f64, f64)| {
+        (a.0 - o.0) * (b.1 - o.1) - (a.1 - o.1) * (b.0 - o.0)
+    };
+    let mut hull: Vec<(f64, f64)> = Vec::with_capacity(2 * p.len());
+    for pass in 0..2 {
+        let start = hull.len();
+        let iter: Box<dyn Iterator<Item = &(f64, f64)>> = if pass == 0 {
+            Box::new(p.iter())
+        } else {
+            Box::new(p.iter().rev())
+        };
+        for &q in iter {
+            while hull.len() >= start + 2
+                && cross(hull[hull.len() - 2], hull[hull.len() - 1], q) <= 0.0
+            {
+                hull.pop();
+            }
+            hull.push(q);
+        }
+        hull.pop();
+    }
+    let n = hull.len();
+    let mut twice = 0.0;
+    for i in 0..n {
+        let (a, b) = (hull[i], hull[(i + 1) % n]);
+        twice += a.0 * b.1 - b.0 * a.1;
+    }
+    let (mut lo, mut hi) = (points[0], points[0]);
+    for q in points {
+        lo = lo.min(*q);
+        hi = hi.max(*q);
+    }
+    let ext = hi - lo;
+    ((twice.abs() / 2.0) as f32, ext.x.max(ext.y))
+}
+
+/// The bodies made so far, in creation order, with where each was declared, and the
+/// names already taken.
+#[derive(Default)]
+pub(crate) struct Bodies {
+    pub defs: Vec<BodyDef>,
+    /// Index by name.
+    pub index: HashMap<String, usize>,
+    /// Where each body was declared (its name, or its generator's table).
+    pub spans: Vec<Range<usize>>,
+}
+
+impl Bodies {
+    /// Add a body; refuses a name already taken.
+    pub fn push(&mut self, ctx: &Ctx, body: BodyDef, span: Range<usize>) -> R<usize> {
+        if let Some(&first) = self.index.get(&body.name) {
+            let (line, _) = super::error::line_col(ctx.text, self.spans[first].start);
+            return Err(ctx.err(
+                span,
+                format!(
+                    "duplicate body name \"{}\" (first used at line {line})",
+                    body.name
+                ),
+            ));
+        }
+        let i = self.defs.len();
+        self.index.insert(body.name.clone(), i);
+        self.defs.push(body);
+        self.spans.push(span);
+        Ok(i)
+    }
+
+    /// The index of the body named by `v`, or an error naming `who`.
+    pub fn find(&self, ctx: &Ctx, who: &str, v: &S<String>) -> R<usize> {
+        self.index.get(v.get_ref()).copied().ok_or_else(|| {
+            ctx.err(
+                v.span(),
+                format!("{who}: no body named \"{}\"", v.get_ref()),
+            )
+        })
+    }
+}
+
+/// A `[[force]]` table.
+pub(crate) fn force(ctx: &Ctx, bodies: &Bodies, f: &FileForce) -> R<ForceDef> {
+    let who = "force";
+    Ok(ForceDef {
+        body: bodies.find(ctx, who, &f.body)?,
+        force: ctx.vec2(who, "force", &f.force)?,
+        point: ctx.opt_vec2(who, "point", f.point.as_ref(), Vec2::ZERO)?,
+    })
+}
+
+/// A `[[joint]]` table. Keys that do not apply to the joint's type are refused
+/// rather than ignored.
+pub(crate) fn joint(ctx: &Ctx, bodies: &Bodies, j: &FileJoint) -> R<JointDef> {
+    use JointKind::*;
+    let kind = ctx.choice(
+        "joint",
+        "type",
+        &j.type_,
+        &[
+            ("distance", Distance),
+            ("hinge", Hinge),
+            ("prismatic", Prismatic),
+            ("weld", Weld),
+        ],
+    )?;
+    let kind_name = j.type_.get_ref().as_str();
+    let [a, b] = &j.bodies.get_ref().0;
+    let who = format!("{kind_name} joint \"{}\"-\"{}\"", a.get_ref(), b.get_ref());
+    let who = who.as_str();
+    let ia = bodies.find(ctx, who, a)?;
+    let ib = bodies.find(ctx, who, b)?;
+    if ia == ib {
+        return Err(ctx.err(
+            j.bodies.span(),
+            format!(
+                "{who}: a joint cannot join body \"{}\" to itself",
+                a.get_ref()
+            ),
+        ));
+    }
+    // Refuse a key that `kind` does not take.
+    let not_for = |span: Option<Range<usize>>, key: &str, takes: &str| -> R<()> {
+        match span {
+            Some(span) => Err(ctx.err(
+                span,
+                format!("{who}: `{key}` does not apply to a {kind_name} joint{takes}"),
+            )),
+            None => Ok(()),
+        }
+    };
+    let span_of = |v: Option<Range<usize>>, applies: bool| if applies { None } else { v };
+    not_for(
+        span_of(j.anchor.as_ref().map(|v| v.span()), kind != Distance),
+        "anchor",
+        " (a distance joint takes `anchors`)",
+    )?;
+    not_for(
+        span_of(j.anchors.as_ref().map(|v| v.span()), kind == Distance),
+        "anchors",
+        " (it takes `anchor`)",
+    )?;
+    not_for(
+        span_of(j.length.as_ref().map(|v| v.span()), kind == Distance),
+        "length",
+        "",
+    )?;
+    not_for(
+        span_of(j.axis.as_ref().map(|v| v.span()), kind == Prismatic),
+        "axis",
+        "",
+    )?;
+    not_for(
+        span_of(j.limits.as_ref().map(|v| v.span()), kind != Weld),
+        "limits",
+        "",
+    )?;
+    let driven = kind == Hinge || kind == Prismatic;
+    not_for(
+        span_of(j.motor.as_ref().map(|v| v.span()), driven),
+        "motor",
+        "",
+    )?;
+    not_for(
+        span_of(j.servo.as_ref().map(|v| v.span()), driven),
+        "servo",
+        "",
+    )?;
+
+    let anchor = j
+        .anchor
+        .as_ref()
+        .map(|v| ctx.vec2(who, "anchor", v))
+        .transpose()?;
+    let anchors = match &j.anchors {
+        Some(v) => {
+            let [p, q] = &v.get_ref().0;
+            Some([ctx.vec2(who, "anchors", p)?, ctx.vec2(who, "anchors", q)?])
+        }
+        None => None,
+    };
+    let length = j
+        .length
+        .as_ref()
+        .map(|v| ctx.positive(who, "length", v))
+        .transpose()?;
+    let axis = match &j.axis {
+        Some(v) => {
+            let axis = ctx.vec2(who, "axis", v)?;
+            if axis.length() <= 1e-6 {
+                return Err(ctx.err(
+                    v.span(),
+                    format!(
+                        "{who}: axis must have a non-zero length, got {}",
+                        fmt_v2(axis.into())
+                    ),
+                ));
+            }
+            Some(axis)
+        }
+        None => None,
+    };
+    let limits = match &j.limits {
+        Some(v) => {
+            let l = ctx.vec2(who, "limits", v)?;
+            if l.x > l.y {
+                return Err(ctx.err(
+                    v.span(),
+                    format!(
+                        "{who}: limits must have min <= max, got {}",
+                        fmt_v2(l.into())
+                    ),
+                ));
+            }
+            if kind == Distance && l.x < 0.0 {
+                return Err(ctx.err(
+                    v.span(),
+                    format!(
+                        "{who}: length limits must be >= 0, got {}",
+                        fmt_v2(l.into())
+                    ),
+                ));
+            }
+            Some([l.x, l.y])
+        }
+        None => None,
+    };
+    let motor = match &j.motor {
+        Some(m) => {
+            let f = m.get_ref();
+            let (key, other, given, wrong) = if kind == Hinge {
+                ("max_torque", "max_force", &f.max_torque, &f.max_force)
+            } else {
+                ("max_force", "max_torque", &f.max_force, &f.max_torque)
+            };
+            if let Some(w) = wrong {
+                return Err(ctx.err(
+                    w.span(),
+                    format!("{who}: a {kind_name} motor takes `{key}`, not `{other}`"),
+                ));
+            }
+            let Some(max) = given else {
+                return Err(ctx.err(m.span(), format!("{who}: motor needs `{key}`")));
+            };
+            Some(MotorDef {
+                speed: ctx.finite(who, "motor speed", &f.speed)?,
+                max_force: ctx.non_negative(who, &format!("motor {key}"), max)?,
+            })
+        }
+        None => None,
+    };
+    let servo = match &j.servo {
+        Some(s) => Some(ServoDef {
+            target: ctx.finite(who, "servo target", &s.get_ref().target)?,
+        }),
+        None => None,
+    };
+    let damping = match &j.damping {
+        Some(d) => {
+            let d = d.get_ref();
+            DampingDef {
+                linear: ctx.opt(d.linear.as_ref(), 0.0, |v| {
+                    ctx.non_negative(who, "damping linear", v)
+                })?,
+                angular: ctx.opt(d.angular.as_ref(), 0.0, |v| {
+                    ctx.non_negative(who, "damping angular", v)
+                })?,
+            }
+        }
+        None => DampingDef::default(),
+    };
+    Ok(JointDef {
+        kind,
+        bodies: [ia, ib],
+        anchor,
+        anchors,
+        length,
+        axis,
+        limits,
+        motor,
+        servo,
+        compliance: ctx.opt(j.compliance.as_ref(), 0.0, |v| {
+            ctx.non_negative(who, "compliance", v)
+        })?,
+        damping,
+        collide_connected: j.collide_connected.as_ref().is_some_and(|v| *v.get_ref()),
+    })
+}

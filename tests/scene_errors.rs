@@ -1,0 +1,1207 @@
+//! Every refusal of the scene format, one by one: the exact line and column, and a
+//! message that names what is wrong.
+
+use sandbox2d::scene::{SceneError, load_str};
+
+/// Loads `text` as "bad.toml", which must be refused.
+fn refuse(text: &str) -> SceneError {
+    match load_str(text, "bad.toml") {
+        Ok(scene) => panic!("accepted a bad scene: {scene:?}"),
+        Err(e) => e,
+    }
+}
+
+/// Refused at `line`:`col`, with a message containing each of `needles`.
+#[track_caller]
+fn check(text: &str, line: usize, col: usize, needles: &[&str]) {
+    let e = refuse(text);
+    let shown = e.to_string();
+    assert_eq!(e.file(), "bad.toml", "{shown}");
+    assert_eq!((e.line(), e.column()), (Some(line), Some(col)), "{shown}");
+    assert!(
+        shown.starts_with(&format!("bad.toml:{line}:{col}: ")),
+        "{shown}"
+    );
+    for n in needles {
+        assert!(
+            e.message().contains(n),
+            "message {:?} should contain {n:?}",
+            e.message()
+        );
+    }
+}
+
+/// A one-body scene with the given lines in its `[[body]]` table (from line 3).
+fn body(lines: &str) -> String {
+    format!("name = \"t\"\n[[body]]\n{lines}\n")
+}
+
+#[test]
+fn unknown_top_level_key() {
+    check(
+        "name = \"t\"\ngravty = [0, -10]\n",
+        2,
+        1,
+        &["unknown field", "gravty"],
+    );
+}
+
+#[test]
+fn unknown_key_in_body() {
+    check(
+        &body("shape = { circle = 1.0 }\nradius = 1.0"),
+        4,
+        1,
+        &["radius"],
+    );
+}
+
+#[test]
+fn unknown_key_in_shape() {
+    check(&body("shape = { circel = 1.0 }"), 3, 11, &["circel"]);
+}
+
+#[test]
+fn unknown_key_in_world_drag() {
+    check(
+        "name = \"t\"\n[world.drag]\nlinaer = 0.1\n",
+        3,
+        1,
+        &["linaer"],
+    );
+}
+
+#[test]
+fn unknown_key_in_solver() {
+    check(
+        "name = \"t\"\n[solver]\nitertions = 5\n",
+        3,
+        1,
+        &["itertions"],
+    );
+}
+
+#[test]
+fn unknown_key_in_joint_motor() {
+    let text = "name = \"t\"\n[[body]]\nname = \"a\"\nshape = { circle = 1 }\n[[body]]\nname = \"b\"\nshape = { circle = 1 }\n[[joint]]\ntype = \"hinge\"\nbodies = [\"a\", \"b\"]\nmotor = { speed = 1, max_torqe = 2 }\n";
+    check(text, 11, 22, &["max_torqe"]);
+}
+
+#[test]
+fn missing_name() {
+    check(
+        "[[body]]\nshape = { circle = 1.0 }\n",
+        1,
+        1,
+        &["missing field", "name"],
+    );
+}
+
+#[test]
+fn empty_name() {
+    check("name = \"  \"\n", 1, 8, &["name must not be empty"]);
+}
+
+#[test]
+fn missing_shape_points_at_the_table() {
+    check(
+        "name = \"t\"\n\n[[body]]\nname = \"ball\"\n",
+        3,
+        1,
+        &["missing field", "shape"],
+    );
+}
+
+#[test]
+fn wrong_type() {
+    check(
+        "name = \"t\"\n[world]\ngravity = \"down\"\n",
+        3,
+        11,
+        &["invalid type", "string"],
+    );
+}
+
+#[test]
+fn wrong_array_length() {
+    check(
+        "name = \"t\"\n[world]\ngravity = [0, -10, 3]\n",
+        3,
+        11,
+        &["invalid length 3", "2 elements"],
+    );
+}
+
+#[test]
+fn negative_count_is_a_type_error() {
+    check("name = \"t\"\n[[stack]]\ncount = -1\n", 3, 9, &["-1"]);
+}
+
+#[test]
+fn syntax_error() {
+    let e = refuse("name = \"t\"\nfoo = \n");
+    assert_eq!(e.line(), Some(2), "{e}");
+}
+
+#[test]
+fn duplicate_toml_key() {
+    check("name = \"t\"\nname = \"u\"\n", 2, 1, &["duplicate key"]);
+}
+
+#[test]
+fn nan_number() {
+    check(
+        &body("shape = { circle = 1.0 }\nfriction = nan"),
+        4,
+        12,
+        &["friction", "finite", "NaN"],
+    );
+}
+
+#[test]
+fn infinite_number() {
+    check(
+        "name = \"t\"\n[world]\ngravity = [0, -inf]\n",
+        3,
+        11,
+        &["gravity", "finite", "-inf"],
+    );
+}
+
+#[test]
+fn overflowing_number_is_infinite() {
+    check(
+        &body("shape = { circle = 1e300 }"),
+        3,
+        20,
+        &["circle radius", "finite", "inf"],
+    );
+}
+
+#[test]
+fn circle_radius_not_positive() {
+    check(
+        &body("name = \"ball\"\nshape = { circle = -0.5 }"),
+        4,
+        20,
+        &["body \"ball\"", "radius", "> 0", "-0.5"],
+    );
+}
+
+#[test]
+fn box_size_zero() {
+    check(
+        &body("shape = { box = [0.0, 1.0] }"),
+        3,
+        17,
+        &["box", "size", "> 0", "[0, 1]"],
+    );
+}
+
+#[test]
+fn box_size_is_refused_on_static_bodies_too() {
+    check(
+        &body("type = \"static\"\nshape = { box = [4.0, -1.0] }"),
+        4,
+        17,
+        &["box", "[4, -1]"],
+    );
+}
+
+#[test]
+fn density_not_positive_on_dynamic() {
+    check(
+        &body("shape = { circle = 1.0 }\ndensity = 0.0"),
+        4,
+        11,
+        &["density", "> 0", "dynamic", "got 0"],
+    );
+}
+
+#[test]
+fn mass_not_positive_on_dynamic() {
+    check(
+        &body("shape = { circle = 1.0 }\nmass = -2.0"),
+        4,
+        8,
+        &["mass", "> 0", "-2"],
+    );
+}
+
+#[test]
+fn static_and_kinematic_bodies_may_have_any_density() {
+    let s = load_str(
+        &body("type = \"static\"\nshape = { circle = 1.0 }\ndensity = 0.0"),
+        "ok.toml",
+    )
+    .unwrap();
+    assert_eq!(s.world.bodies[0].density, 0.0);
+    let s = load_str(
+        &body("type = \"kinematic\"\nshape = { circle = 1.0 }\nmass = -1.0"),
+        "ok.toml",
+    )
+    .unwrap();
+    assert_eq!(s.world.bodies[0].mass, Some(-1.0));
+}
+
+#[test]
+fn density_and_mass_together() {
+    check(
+        &body("shape = { circle = 1.0 }\ndensity = 2.0\nmass = 3.0"),
+        5,
+        8,
+        &["density", "mass", "not both"],
+    );
+}
+
+#[test]
+fn polygon_with_too_few_distinct_points() {
+    check(
+        &body("shape = { polygon = [[0, 0], [1, 0], [1, 0], [0, 0]] }"),
+        3,
+        21,
+        &["polygon", "at least 3 distinct points", "got 2"],
+    );
+}
+
+#[test]
+fn polygon_with_no_area() {
+    check(
+        &body("shape = { polygon = [[0, 0], [1, 1], [2, 2], [3, 3]] }"),
+        3,
+        21,
+        &["polygon", "no area", "collinear"],
+    );
+}
+
+#[test]
+fn polygon_point_not_finite() {
+    check(
+        &body("shape = { polygon = [[0, 0], [1, nan], [0, 1]] }"),
+        3,
+        30,
+        &["polygon point", "finite"],
+    );
+}
+
+#[test]
+fn particle_with_a_box() {
+    check(
+        &body("model = \"particle\"\nshape = { box = [1, 1] }"),
+        4,
+        9,
+        &["particle", "circle", "box"],
+    );
+}
+
+#[test]
+fn particle_in_a_grid_with_a_polygon() {
+    let text = "name = \"t\"\n[[grid]]\nrows = 2\ncolumns = 2\nspacing = [1, 1]\nmodel = \"particle\"\nshape = { polygon = [[0, 0], [1, 0], [0, 1]] }\n";
+    check(text, 7, 9, &["grid0", "particle", "circle", "polygon"]);
+}
+
+#[test]
+fn duplicate_body_names() {
+    let text = "name = \"t\"\n[[body]]\nname = \"ball\"\nshape = { circle = 1 }\n[[body]]\nname = \"ball\"\nshape = { circle = 1 }\n";
+    check(text, 6, 8, &["duplicate body name", "\"ball\"", "line 3"]);
+}
+
+#[test]
+fn duplicate_of_a_generated_name() {
+    // The pyramid's fourth box is named pyramid0_3: the later table is refused.
+    let text = "name = \"t\"\n[[body]]\nname = \"pyramid0_3\"\nshape = { circle = 1 }\n[[pyramid]]\nbase = 3\n";
+    check(text, 5, 1, &["duplicate body name", "pyramid0_3"]);
+}
+
+#[test]
+fn force_naming_a_missing_body() {
+    let text = "name = \"t\"\n[[body]]\nname = \"cart\"\nshape = { box = [1, 1] }\n[[force]]\nbody = \"crat\"\nforce = [1, 0]\n";
+    check(text, 6, 8, &["force", "no body named", "\"crat\""]);
+}
+
+const TWO_BODIES: &str = "name = \"t\"\n[[body]]\nname = \"a\"\nshape = { circle = 1 }\n[[body]]\nname = \"b\"\nshape = { circle = 1 }\n";
+
+/// `TWO_BODIES` and a joint table with these lines, from line 9.
+fn joint(lines: &str) -> String {
+    format!("{TWO_BODIES}[[joint]]\n{lines}\n")
+}
+
+#[test]
+fn joint_naming_a_missing_body() {
+    check(
+        &joint("type = \"hinge\"\nbodies = [\"a\", \"c\"]"),
+        10,
+        16,
+        &["no body named", "\"c\""],
+    );
+}
+
+#[test]
+fn joint_joining_a_body_to_itself() {
+    check(
+        &joint("type = \"weld\"\nbodies = [\"a\", \"a\"]"),
+        10,
+        10,
+        &["itself", "\"a\""],
+    );
+}
+
+#[test]
+fn joint_limits_min_above_max() {
+    check(
+        &joint("type = \"hinge\"\nbodies = [\"a\", \"b\"]\nlimits = [1.5, -1.0]"),
+        11,
+        10,
+        &["limits", "min <= max", "[1.5, -1]"],
+    );
+}
+
+#[test]
+fn prismatic_axis_of_zero_length() {
+    check(
+        &joint("type = \"prismatic\"\nbodies = [\"a\", \"b\"]\naxis = [0, 0]"),
+        11,
+        8,
+        &["axis", "non-zero length"],
+    );
+}
+
+#[test]
+fn negative_compliance() {
+    check(
+        &joint("type = \"distance\"\nbodies = [\"a\", \"b\"]\ncompliance = -1e-3"),
+        11,
+        14,
+        &["compliance", ">= 0", "-0.001"],
+    );
+}
+
+#[test]
+fn unknown_joint_type_lists_the_allowed() {
+    check(
+        &joint("type = \"hindge\"\nbodies = [\"a\", \"b\"]"),
+        9,
+        8,
+        &[
+            "unknown type \"hindge\"",
+            "\"distance\", \"hinge\", \"prismatic\", \"weld\"",
+        ],
+    );
+}
+
+#[test]
+fn key_that_does_not_apply_to_the_joint_type() {
+    check(
+        &joint("type = \"weld\"\nbodies = [\"a\", \"b\"]\nmotor = { speed = 1, max_torque = 2 }"),
+        11,
+        9,
+        &["motor", "weld"],
+    );
+}
+
+#[test]
+fn hinge_motor_takes_max_torque() {
+    check(
+        &joint("type = \"hinge\"\nbodies = [\"a\", \"b\"]\nmotor = { speed = 1, max_force = 2 }"),
+        11,
+        34,
+        &["max_torque", "max_force"],
+    );
+}
+
+#[test]
+fn dt_not_positive() {
+    check(
+        "name = \"t\"\n[solver]\ndt = 0.0\n",
+        3,
+        6,
+        &["solver", "dt", "> 0", "got 0"],
+    );
+}
+
+#[test]
+fn iterations_zero() {
+    check(
+        "name = \"t\"\n[solver]\niterations = 0\n",
+        3,
+        14,
+        &["iterations", ">= 1", "got 0"],
+    );
+}
+
+#[test]
+fn substeps_zero() {
+    check(
+        "name = \"t\"\n[solver]\nkind = \"xpbd\"\nsubsteps = 0\n",
+        4,
+        12,
+        &["substeps", ">= 1"],
+    );
+}
+
+#[test]
+fn negative_slop() {
+    check(
+        "name = \"t\"\n[solver]\nslop = -0.01\n",
+        3,
+        8,
+        &["slop", ">= 0", "-0.01"],
+    );
+}
+
+#[test]
+fn baumgarte_outside_unit_interval() {
+    check(
+        "name = \"t\"\n[solver]\nbaumgarte = 1.5\n",
+        3,
+        13,
+        &["baumgarte", "[0, 1]", "1.5"],
+    );
+}
+
+#[test]
+fn negative_tolerance() {
+    check(
+        "name = \"t\"\n[solver]\ntolerance = -1e-4\n",
+        3,
+        13,
+        &["tolerance", ">= 0"],
+    );
+}
+
+#[test]
+fn unknown_solver_kind_lists_the_allowed() {
+    check(
+        "name = \"t\"\n[solver]\nkind = \"gs\"\n",
+        3,
+        8,
+        &["unknown kind \"gs\"", "\"pgs\", \"xpbd\""],
+    );
+}
+
+#[test]
+fn negative_friction() {
+    check(
+        &body("shape = { circle = 1.0 }\nfriction = -0.1"),
+        4,
+        12,
+        &["friction", ">= 0", "-0.1"],
+    );
+}
+
+#[test]
+fn restitution_above_one() {
+    check(
+        &body("shape = { circle = 1.0 }\nrestitution = 1.2"),
+        4,
+        15,
+        &["restitution", "[0, 1]", "1.2"],
+    );
+}
+
+#[test]
+fn generator_restitution_below_zero() {
+    check(
+        "name = \"t\"\n[[stack]]\ncount = 2\nrestitution = -0.5\n",
+        4,
+        15,
+        &["stack0", "restitution", "-0.5"],
+    );
+}
+
+#[test]
+fn unknown_body_type_lists_the_allowed() {
+    check(
+        &body("type = \"dynamc\"\nshape = { circle = 1.0 }"),
+        3,
+        8,
+        &[
+            "unknown type \"dynamc\"",
+            "\"static\", \"dynamic\", \"kinematic\"",
+        ],
+    );
+}
+
+#[test]
+fn unknown_model_lists_the_allowed() {
+    check(
+        &body("model = \"point\"\nshape = { circle = 1.0 }"),
+        3,
+        9,
+        &["unknown model \"point\"", "\"rigid\", \"particle\""],
+    );
+}
+
+#[test]
+fn shape_with_no_key() {
+    check(
+        &body("shape = {}"),
+        3,
+        9,
+        &["shape", "none of", "exactly one"],
+    );
+}
+
+#[test]
+fn shape_with_two_keys() {
+    check(
+        &body("shape = { box = [1, 1], circle = 1.0 }"),
+        3,
+        9,
+        &["box and circle", "exactly one"],
+    );
+}
+
+#[test]
+fn bad_colour() {
+    check(
+        &body("shape = { circle = 1.0 }\ncolor = \"#12345g\""),
+        4,
+        9,
+        &["color", "#rrggbb", "#12345g"],
+    );
+    check(
+        &body("shape = { circle = 1.0 }\ncolor = \"red\""),
+        4,
+        9,
+        &["color", "\"red\""],
+    );
+}
+
+#[test]
+fn colours_are_parsed() {
+    let s = load_str(
+        &body("shape = { circle = 1.0 }\ncolor = \"#ff8000\""),
+        "ok.toml",
+    )
+    .unwrap();
+    assert_eq!(s.world.bodies[0].color, Some([255, 128, 0, 255]));
+    let s = load_str(
+        &body("shape = { circle = 1.0 }\ncolor = \"#FF800080\""),
+        "ok.toml",
+    )
+    .unwrap();
+    assert_eq!(s.world.bodies[0].color, Some([255, 128, 0, 128]));
+}
+
+#[test]
+fn camera_pixels_per_meter_not_positive() {
+    check(
+        "name = \"t\"\n[camera]\npixels_per_meter = 0\n",
+        3,
+        20,
+        &["pixels_per_meter", "> 0"],
+    );
+}
+
+#[test]
+fn camera_size_with_a_zero() {
+    check(
+        "name = \"t\"\n[camera]\nsize = [1280, 0]\n",
+        3,
+        8,
+        &["size", "[1280, 0]"],
+    );
+}
+
+#[test]
+fn generator_counts_of_zero() {
+    check(
+        "name = \"t\"\n[[pyramid]]\nbase = 0\n",
+        3,
+        8,
+        &["pyramid0", "base", ">= 1"],
+    );
+    check(
+        "name = \"t\"\n[[stack]]\ncount = 0\n",
+        3,
+        9,
+        &["stack0", "count", ">= 1"],
+    );
+    check(
+        "name = \"t\"\n[[grid]]\nrows = 3\ncolumns = 0\nspacing = [1, 1]\nshape = { circle = 0.1 }\n",
+        4,
+        11,
+        &["grid0", "columns", ">= 1"],
+    );
+    check(
+        "name = \"t\"\n[[chain]]\nlinks = 0\nlink = [1, 0.2]\nanchor = [0, 5]\n",
+        3,
+        9,
+        &["chain0", "links", ">= 1"],
+    );
+}
+
+#[test]
+fn generator_too_large() {
+    check(
+        "name = \"t\"\n[[pyramid]]\nbase = 100000\n",
+        3,
+        8,
+        &["pyramid0", "5000050000 bodies"],
+    );
+}
+
+#[test]
+fn chain_direction_of_zero_length() {
+    check(
+        "name = \"t\"\n[[chain]]\nlinks = 3\nlink = [1, 0.2]\nanchor = [0, 5]\ndirection = [0, 0]\n",
+        6,
+        13,
+        &["chain0", "direction", "non-zero"],
+    );
+}
+
+#[test]
+fn chain_unknown_joint_lists_the_allowed() {
+    check(
+        "name = \"t\"\n[[chain]]\nlinks = 3\nlink = [1, 0.2]\nanchor = [0, 5]\njoint = \"rope\"\n",
+        6,
+        9,
+        &["unknown joint \"rope\"", "\"hinge\", \"distance\""],
+    );
+}
+
+#[test]
+fn drag_needs_both_fluid_terms() {
+    check(
+        "name = \"t\"\n[world.drag]\nfluid_density = 1.225\n",
+        3,
+        17,
+        &["fluid_density", "drag_coefficient"],
+    );
+}
+
+#[test]
+fn negative_drag() {
+    check(
+        "name = \"t\"\n[world.drag]\nlinear = -1\n",
+        3,
+        10,
+        &["linear", ">= 0"],
+    );
+}
+
+#[test]
+fn file_that_cannot_be_read() {
+    let path = std::path::Path::new("/nonexistent/dir/scene.toml");
+    let e = sandbox2d::scene::load_file(path).unwrap_err();
+    assert_eq!(e.file(), "/nonexistent/dir/scene.toml");
+    assert_eq!((e.line(), e.column()), (None, None));
+    assert!(
+        e.to_string()
+            .starts_with("/nonexistent/dir/scene.toml: cannot read: "),
+        "{e}"
+    );
+}
+
+#[test]
+fn columns_count_characters_not_bytes() {
+    // "é" is two bytes: the value starts at character 14, byte 15.
+    check(
+        "name = \"t\"\n[[body]]\nname = \"é\"\nshape = { circle = 1 }\nfriction = -1\n",
+        5,
+        12,
+        &["body \"é\"", "friction"],
+    );
+    check("name = \"t\" # é\n[solver]\ndt = -1 # é\n", 3, 6, &["dt"]);
+    check("name = \"té\"\n[solver]\nslop = -1\n", 3, 8, &["slop"]);
+    check("[[body]]\nname = \"é\"\n x = 1", 3, 2, &["x"]);
+}
+
+#[test]
+fn arbitrary_garbage_never_panics() {
+    for text in [
+        "",
+        "\0",
+        "name = 1",
+        "[[body]]\n[[body]]",
+        "name = \"t\"\nbody = 5",
+        "name=\"t\"\n[[joint]]\ntype=\"hinge\"\nbodies=[]",
+    ] {
+        assert!(load_str(text, "bad.toml").is_err(), "{text:?}");
+    }
+}
+
+// ---------------------------------------------------------------------------
+// Scenes that load: built-ins, generators, defaults, `load`.
+
+use glam::Vec2;
+use sandbox2d::scene::{builtin, builtin_description, builtin_names, load, load_file};
+use sandbox2d::{BodyModel, BodyType, JointKind, ShapeDef, SolverKind};
+
+#[test]
+fn every_builtin_parses_and_has_a_description() {
+    let names = builtin_names();
+    assert_eq!(
+        names,
+        [
+            "ball_stack",
+            "bounce",
+            "friction_ramp",
+            "large_pyramid",
+            "particles",
+            "pyramid",
+            "stack",
+            "vacuum_vs_fluid"
+        ]
+    );
+    for name in names {
+        let scene = builtin(name)
+            .expect("listed")
+            .unwrap_or_else(|e| panic!("{e}"));
+        assert_eq!(scene.source, format!("builtin:{name}"));
+        assert!(!scene.world.bodies.is_empty(), "{name}");
+        let d = scene.description.clone().expect("a description");
+        assert!(!d.is_empty());
+        assert_eq!(builtin_description(name), Some(d));
+    }
+    assert!(builtin("no_such_scene").is_none());
+    assert_eq!(builtin_description("no_such_scene"), None);
+}
+
+#[test]
+fn large_pyramid_is_the_benchmark() {
+    let s = builtin("large_pyramid").unwrap().unwrap();
+    let w = &s.world;
+    assert_eq!(w.bodies.len(), 5051);
+    assert_eq!(w.gravity, Some(Vec2::new(0.0, -10.0)));
+    assert!((w.solver.resolve().dt - 1.0 / 60.0).abs() < 1e-7);
+    assert_eq!(w.solver.resolve().kind, SolverKind::Pgs);
+    assert_eq!(w.drag, None);
+    let ground = &w.bodies[0];
+    assert_eq!(ground.body_type, BodyType::Static);
+    assert_eq!(
+        ground.shape,
+        ShapeDef::Box {
+            width: 200.0,
+            height: 2.0
+        }
+    );
+    assert_eq!(ground.position, Vec2::new(0.0, -1.0));
+    let boxes = &w.bodies[1..];
+    for b in boxes {
+        assert_eq!(b.body_type, BodyType::Dynamic);
+        assert_eq!(
+            b.shape,
+            ShapeDef::Box {
+                width: 1.0,
+                height: 1.0
+            }
+        );
+        assert_eq!(
+            (b.density, b.friction, b.restitution, b.mass),
+            (1.0, 0.6, 0.0, None)
+        );
+    }
+    // Bottom row, left to right, then up: the benchmark's formula with h = 0.5.
+    assert_eq!(boxes[0].name, "pyramid0_0");
+    assert_eq!(boxes[0].position, Vec2::new(-49.5, 0.5));
+    assert_eq!(boxes[1].position, Vec2::new(-48.5, 0.5));
+    assert_eq!(boxes[99].position, Vec2::new(49.5, 0.5));
+    assert_eq!(boxes[100].position, Vec2::new(-49.0, 1.5));
+    assert_eq!(boxes[5049].name, "pyramid0_5049");
+    assert_eq!(boxes[5049].position, Vec2::new(0.0, 99.5));
+    // Every box against x = (i + 1) h + 2 h (j - i) - h base, y = (2 i + 1) h.
+    let (h, base) = (0.5f32, 100);
+    let mut k = 0;
+    for i in 0..base {
+        for j in i..base {
+            let x = (i + 1) as f32 * h + 2.0 * h * (j - i) as f32 - h * base as f32;
+            let y = (2 * i + 1) as f32 * h;
+            assert_eq!(boxes[k].position, Vec2::new(x, y), "row {i} box {j}");
+            k += 1;
+        }
+    }
+}
+
+#[test]
+fn pyramid_has_base_20() {
+    let s = builtin("pyramid").unwrap().unwrap();
+    assert_eq!(s.world.bodies.len(), 211);
+    assert_eq!(s.world.bodies[1].position, Vec2::new(-9.5, 0.5));
+    assert_eq!(s.world.bodies[210].position, Vec2::new(0.0, 19.5));
+}
+
+#[test]
+fn demo_scenes_use_rubber_particles_in_air() {
+    for (name, balls) in [("ball_stack", 10), ("particles", 50)] {
+        let s = builtin(name).unwrap().unwrap();
+        let particles: Vec<_> = s
+            .world
+            .bodies
+            .iter()
+            .filter(|b| b.model == BodyModel::Particle)
+            .collect();
+        assert_eq!(particles.len(), balls, "{name}");
+        for p in &particles {
+            assert_eq!(p.density, 1522.0);
+            assert!(
+                matches!(p.shape, ShapeDef::Circle { radius } if (0.05..=0.1).contains(&radius))
+            );
+            // Inside the 2 m x 2 m box.
+            assert!(
+                p.position.x.abs() < 1.0 && p.position.y > 0.0 && p.position.y < 2.0,
+                "{name} {p:?}"
+            );
+        }
+        let drag = s.world.drag.expect("air");
+        assert_eq!((drag.fluid_density, drag.drag_coefficient), (1.225, 0.47));
+        assert_eq!(
+            s.world
+                .bodies
+                .iter()
+                .filter(|b| b.body_type == BodyType::Static)
+                .count(),
+            4
+        );
+    }
+}
+
+#[test]
+fn stack_is_15_boxes_on_the_ground() {
+    let s = builtin("stack").unwrap().unwrap();
+    assert_eq!(s.world.bodies.len(), 16);
+    for (k, b) in s.world.bodies[1..].iter().enumerate() {
+        assert_eq!(b.position, Vec2::new(0.0, k as f32 + 0.5));
+        assert_eq!(b.name, format!("stack0_{k}"));
+    }
+}
+
+#[test]
+fn bodies_are_created_in_file_order_with_generators_in_place() {
+    let text = "name = \"order\"
+[[body]]
+name = \"first\"
+shape = { circle = 1 }
+
+[[stack]]
+count = 2
+origin = [5, 0]
+
+[[body]]
+name = \"middle\"
+shape = { circle = 1 }
+
+[[pyramid]]
+base = 2
+
+[[stack]]
+count = 1
+box = [2, 4]
+offset = 1.0
+
+[[body]]
+shape = { circle = 1 }
+";
+    let s = load_str(text, "order.toml").unwrap();
+    let names: Vec<&str> = s.world.bodies.iter().map(|b| b.name.as_str()).collect();
+    assert_eq!(
+        names,
+        [
+            "first",
+            "stack0_0",
+            "stack0_1",
+            "middle",
+            "pyramid0_0",
+            "pyramid0_1",
+            "pyramid0_2",
+            "stack1_0",
+            "body2"
+        ]
+    );
+    assert_eq!(s.world.bodies[2].position, Vec2::new(5.0, 1.5));
+    assert_eq!(s.world.bodies[6].position, Vec2::new(0.0, 1.5));
+    assert_eq!(s.world.bodies[7].position, Vec2::new(0.0, 2.0));
+}
+
+#[test]
+fn defaults_where_keys_are_absent() {
+    let s = load_str(
+        "name = \"d\"\n[[body]]\nshape = { circle = 0.5 }\n",
+        "d.toml",
+    )
+    .unwrap();
+    let b = &s.world.bodies[0];
+    assert_eq!(b.name, "body0");
+    assert_eq!(
+        (b.body_type, b.model),
+        (BodyType::Dynamic, BodyModel::Rigid)
+    );
+    assert_eq!(
+        (b.density, b.mass, b.friction, b.restitution),
+        (1.0, None, 0.6, 0.0)
+    );
+    assert_eq!(
+        (b.position, b.angle, b.velocity, b.angular_velocity),
+        (Vec2::ZERO, 0.0, Vec2::ZERO, 0.0)
+    );
+    assert_eq!(s.world.gravity, None);
+    assert_eq!(s.world.drag, None);
+    assert_eq!(s.world.solver, Default::default());
+    assert_eq!(s.camera, Default::default());
+    assert_eq!(s.description, None);
+}
+
+#[test]
+fn every_key_reaches_the_defs() {
+    let text = r##"name = "all"
+description = "every key"
+[world]
+gravity = [0, -9.81]
+[world.drag]
+linear = 0.1
+quadratic = 0.2
+fluid_density = 1.225
+drag_coefficient = 0.47
+[solver]
+kind = "xpbd"
+dt = 0.01
+substeps = 8
+iterations = 2
+tolerance = 0.0
+warm_start = false
+baumgarte = 0.3
+slop = 0.01
+split_impulse = false
+restitution_threshold = 0.5
+[camera]
+center = [1, 2]
+pixels_per_meter = 20
+size = [640, 480]
+[[body]]
+name = "ground"
+type = "static"
+shape = { polygon = [[0, 0], [4, 0], [0, 1]] }
+[[body]]
+name = "cart"
+type = "kinematic"
+model = "rigid"
+shape = { box = [2, 1] }
+position = [1, 2]
+angle = 0.5
+velocity = [3, 4]
+angular_velocity = 1.5
+mass = 7
+friction = 0.3
+restitution = 0.4
+color = "#0a0b0c"
+[[force]]
+body = "cart"
+force = [10, 0]
+point = [0, 0.5]
+[[joint]]
+type = "prismatic"
+bodies = ["ground", "cart"]
+anchor = [1, 2]
+axis = [1, 0]
+limits = [-1, 1]
+motor = { speed = 2, max_force = 50 }
+servo = { target = 0.5 }
+compliance = 1e-4
+damping = { linear = 0.1, angular = 0.2 }
+collide_connected = true
+[[joint]]
+type = "distance"
+bodies = ["cart", "ground"]
+anchors = [[1, 2], [0, 0]]
+length = 2.5
+limits = [0, 3]
+"##;
+    let s = load_str(text, "all.toml").unwrap();
+    assert_eq!(s.description.as_deref(), Some("every key"));
+    let w = &s.world;
+    assert_eq!(w.gravity, Some(Vec2::new(0.0, -9.81)));
+    let d = w.drag.unwrap();
+    assert_eq!(
+        (d.linear, d.quadratic, d.fluid_density, d.drag_coefficient),
+        (0.1, 0.2, 1.225, 0.47)
+    );
+    let r = w.solver.resolve();
+    assert_eq!(r.kind, SolverKind::Xpbd);
+    assert_eq!(
+        (r.dt, r.substeps, r.iterations, r.tolerance),
+        (0.01, 8, 2, 0.0)
+    );
+    assert_eq!(
+        (
+            r.warm_start,
+            r.baumgarte,
+            r.slop,
+            r.split_impulse,
+            r.restitution_threshold
+        ),
+        (false, 0.3, 0.01, false, 0.5)
+    );
+    assert_eq!(
+        (s.camera.center, s.camera.pixels_per_meter, s.camera.size),
+        (Vec2::new(1.0, 2.0), 20.0, [640, 480])
+    );
+    let cart = &w.bodies[1];
+    assert_eq!(cart.body_type, BodyType::Kinematic);
+    assert_eq!(
+        cart.shape,
+        ShapeDef::Box {
+            width: 2.0,
+            height: 1.0
+        }
+    );
+    assert_eq!(
+        (
+            cart.position,
+            cart.angle,
+            cart.velocity,
+            cart.angular_velocity
+        ),
+        (Vec2::new(1.0, 2.0), 0.5, Vec2::new(3.0, 4.0), 1.5)
+    );
+    assert_eq!(
+        (cart.mass, cart.friction, cart.restitution, cart.color),
+        (Some(7.0), 0.3, 0.4, Some([10, 11, 12, 255]))
+    );
+    assert_eq!(w.forces.len(), 1);
+    assert_eq!(
+        (w.forces[0].body, w.forces[0].force, w.forces[0].point),
+        (1, Vec2::new(10.0, 0.0), Vec2::new(0.0, 0.5))
+    );
+    let p = &w.joints[0];
+    assert_eq!(
+        (p.kind, p.bodies, p.anchor, p.axis, p.limits),
+        (
+            JointKind::Prismatic,
+            [0, 1],
+            Some(Vec2::new(1.0, 2.0)),
+            Some(Vec2::X),
+            Some([-1.0, 1.0])
+        )
+    );
+    let m = p.motor.unwrap();
+    assert_eq!(
+        (m.speed, m.max_force, p.servo.unwrap().target),
+        (2.0, 50.0, 0.5)
+    );
+    assert_eq!(
+        (
+            p.compliance,
+            p.damping.linear,
+            p.damping.angular,
+            p.collide_connected
+        ),
+        (1e-4, 0.1, 0.2, true)
+    );
+    let q = &w.joints[1];
+    assert_eq!(
+        (q.kind, q.bodies, q.anchors, q.length, q.limits),
+        (
+            JointKind::Distance,
+            [1, 0],
+            Some([Vec2::new(1.0, 2.0), Vec2::ZERO]),
+            Some(2.5),
+            Some([0.0, 3.0])
+        )
+    );
+    assert!(!q.collide_connected);
+}
+
+#[test]
+fn chain_makes_anchor_links_end_and_joints() {
+    let text = "name = \"c\"
+[[chain]]
+links = 4
+link = [0.5, 0.125]
+anchor = [0, 20]
+direction = [1, 0]
+joint = \"hinge\"
+end = { shape = { circle = 1.0 }, density = 2.0 }
+[[force]]
+body = \"chain0_end\"
+force = [0, -1]
+";
+    let s = load_str(text, "c.toml").unwrap();
+    let w = &s.world;
+    let names: Vec<&str> = w.bodies.iter().map(|b| b.name.as_str()).collect();
+    assert_eq!(
+        names,
+        [
+            "chain0_anchor",
+            "chain0_0",
+            "chain0_1",
+            "chain0_2",
+            "chain0_3",
+            "chain0_end"
+        ]
+    );
+    assert_eq!(w.bodies[0].body_type, BodyType::Static);
+    assert_eq!(w.bodies[1].position, Vec2::new(0.25, 20.0));
+    assert_eq!(w.bodies[4].position, Vec2::new(1.75, 20.0));
+    assert_eq!(w.bodies[5].position, Vec2::new(3.0, 20.0));
+    assert_eq!(w.bodies[5].density, 2.0);
+    assert_eq!(w.joints.len(), 5);
+    for (i, j) in w.joints.iter().enumerate() {
+        assert_eq!(j.kind, JointKind::Hinge);
+        assert_eq!(j.bodies, [i, i + 1]);
+        assert_eq!(j.anchor, Some(Vec2::new(0.5 * i as f32, 20.0)));
+    }
+    assert_eq!(w.forces[0].body, 5);
+
+    let s = load_str(&text.replace("\"hinge\"", "\"distance\""), "c.toml").unwrap();
+    let j = &s.world.joints[1];
+    assert_eq!(j.kind, JointKind::Distance);
+    assert_eq!(
+        j.anchors,
+        Some([Vec2::new(0.25, 20.0), Vec2::new(0.75, 20.0)])
+    );
+    assert_eq!(j.length, Some(0.5));
+}
+
+#[test]
+fn grid_places_row_by_row() {
+    let text = "name = \"g\"\n[[grid]]\nrows = 2\ncolumns = 3\nspacing = [0.5, 0.25]\norigin = [1, 2]\nshape = { circle = 0.1 }\nmodel = \"particle\"\ntype = \"kinematic\"\n";
+    let s = load_str(text, "g.toml").unwrap();
+    let b = &s.world.bodies;
+    assert_eq!(b.len(), 6);
+    assert_eq!(
+        (b[1].name.as_str(), b[1].position),
+        ("grid0_1", Vec2::new(1.5, 2.0))
+    );
+    assert_eq!(
+        (b[5].name.as_str(), b[5].position),
+        ("grid0_5", Vec2::new(2.0, 2.25))
+    );
+    assert!(
+        b.iter()
+            .all(|b| b.model == BodyModel::Particle && b.body_type == BodyType::Kinematic)
+    );
+}
+
+#[test]
+fn joints_and_forces_may_name_bodies_declared_later() {
+    let text = "name = \"t\"\n[[joint]]\ntype = \"weld\"\nbodies = [\"a\", \"pyramid0_0\"]\n[[body]]\nname = \"a\"\nshape = { circle = 1 }\n[[pyramid]]\nbase = 1\n";
+    let s = load_str(text, "t.toml").unwrap();
+    assert_eq!(s.world.joints[0].bodies, [0, 1]);
+}
+
+#[test]
+fn load_takes_a_builtin_name_or_a_path() {
+    let s = load("stack").unwrap();
+    assert_eq!(s.source, "builtin:stack");
+    let dir = std::env::temp_dir().join(format!("sandbox2d-scene-test-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let path = dir.join("mine.toml");
+    std::fs::write(&path, "name = \"mine\"\n[[body]]\nshape = { circle = 1 }\n").unwrap();
+    let by_str = load(path.to_str().unwrap()).unwrap();
+    assert_eq!(by_str.name, "mine");
+    assert_eq!(by_str.source, path.display().to_string());
+    assert_eq!(load_file(&path).unwrap(), by_str);
+    std::fs::write(&path, "name = \"mine\"\n[[body]]\nshape = { circle = 0 }\n").unwrap();
+    let e = load(path.to_str().unwrap()).unwrap_err();
+    assert_eq!(e.file(), path.display().to_string());
+    assert_eq!((e.line(), e.column()), (Some(3), Some(20)));
+    std::fs::remove_dir_all(&dir).unwrap();
+    assert!(
+        load("no_such_scene_or_file")
+            .unwrap_err()
+            .to_string()
+            .contains("cannot read")
+    );
+}
