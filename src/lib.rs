@@ -19,6 +19,7 @@ pub mod defs;
 pub mod math;
 pub mod scene;
 pub mod shape;
+pub mod sim;
 pub mod solver;
 pub mod world;
 

@@ -1,0 +1,152 @@
+//! Running a world for a number of steps and summarising what it cost and how right it
+//! was: the figures `simulate --json` prints and the bench records.
+
+use std::io::Write;
+use std::time::Instant;
+
+use crate::world::{StepError, World};
+
+/// Figures of a run.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct RunSummary {
+    pub steps: u64,
+    /// Wall time per step (ms), one entry per step.
+    pub step_ms: Vec<f64>,
+    pub contacts_mean: f64,
+    pub contacts_max: usize,
+    pub iterations_mean: f64,
+    pub residual_mean: f64,
+    pub residual_max: f32,
+    pub penetration_max: f32,
+    pub penetration_mean: f64,
+    pub penetration_final: f32,
+    pub energy_start: f64,
+    pub energy_end: f64,
+    /// Mean time per stage (ms): forces, broad phase, narrow phase, solver, integration.
+    pub stage_ms: [f64; 5],
+}
+
+impl RunSummary {
+    /// The median, mean and 95th percentile of the step times (ms).
+    pub fn ms_per_step(&self) -> (f64, f64, f64) {
+        if self.step_ms.is_empty() {
+            return (0.0, 0.0, 0.0);
+        }
+        let mut v = self.step_ms.clone();
+        v.sort_by(f64::total_cmp);
+        let pick = |q: f64| v[((v.len() - 1) as f64 * q).round() as usize];
+        (
+            pick(0.5),
+            v.iter().sum::<f64>() / v.len() as f64,
+            pick(0.95),
+        )
+    }
+}
+
+/// Where and how often to write the trace CSV.
+pub struct Trace<'a> {
+    pub out: &'a mut dyn Write,
+    /// Write every K-th step (and the initial state, step 0).
+    pub every: u64,
+}
+
+fn csv_field(s: &str) -> String {
+    if s.contains([',', '"', '\n']) {
+        format!("\"{}\"", s.replace('"', "\"\""))
+    } else {
+        s.to_string()
+    }
+}
+
+/// Writes the CSV header `step,t,id,name,x,y,angle,vx,vy,omega`.
+pub fn write_trace_header(out: &mut dyn Write) -> std::io::Result<()> {
+    writeln!(out, "step,t,id,name,x,y,angle,vx,vy,omega")
+}
+
+/// Writes one row per body of the world's current state.
+pub fn write_trace_rows(out: &mut dyn Write, world: &World) -> std::io::Result<()> {
+    let step = world.step_count();
+    let t = world.time();
+    for (i, b) in world.bodies.iter().enumerate() {
+        writeln!(
+            out,
+            "{step},{t},{i},{},{},{},{},{},{},{}",
+            csv_field(&b.name),
+            b.position.x,
+            b.position.y,
+            b.angle,
+            b.velocity.x,
+            b.velocity.y,
+            b.angular_velocity
+        )?;
+    }
+    Ok(())
+}
+
+/// Why a run stopped early.
+#[derive(Debug, thiserror::Error)]
+pub enum RunError {
+    #[error(transparent)]
+    Step(#[from] StepError),
+    #[error("writing the trace: {0}")]
+    Io(#[from] std::io::Error),
+}
+
+/// Steps `world` `steps` times, timing each step, and sums up the figures.
+pub fn run(
+    world: &mut World,
+    steps: u64,
+    mut trace: Option<Trace<'_>>,
+    mut on_step: impl FnMut(u64),
+) -> Result<RunSummary, RunError> {
+    let mut s = RunSummary {
+        energy_start: world.energy(),
+        step_ms: Vec::with_capacity(steps as usize),
+        ..Default::default()
+    };
+    if let Some(tr) = trace.as_mut() {
+        write_trace_header(tr.out)?;
+        write_trace_rows(tr.out, world)?;
+    }
+    let (mut contacts, mut iters, mut res, mut pen) = (0.0f64, 0.0f64, 0.0f64, 0.0f64);
+    for k in 1..=steps {
+        let t = Instant::now();
+        world.step()?;
+        s.step_ms.push(t.elapsed().as_secs_f64() * 1e3);
+        let st = *world.stats();
+        contacts += st.contacts as f64;
+        s.contacts_max = s.contacts_max.max(st.contacts);
+        iters += st.iterations as f64;
+        res += st.residual as f64;
+        s.residual_max = s.residual_max.max(st.residual);
+        pen += st.penetration as f64;
+        s.penetration_max = s.penetration_max.max(st.penetration);
+        s.penetration_final = st.penetration;
+        for (acc, v) in s.stage_ms.iter_mut().zip([
+            st.ms_forces,
+            st.ms_broad,
+            st.ms_narrow,
+            st.ms_solve,
+            st.ms_integrate,
+        ]) {
+            *acc += v as f64;
+        }
+        if let Some(tr) = trace.as_mut() {
+            if k % tr.every.max(1) == 0 {
+                write_trace_rows(tr.out, world)?;
+            }
+        }
+        on_step(k);
+    }
+    let n = steps.max(1) as f64;
+    s.steps = steps;
+    s.contacts_mean = contacts / n;
+    s.iterations_mean = iters / n;
+    s.residual_mean = res / n;
+    s.penetration_mean = pen / n;
+    s.energy_end = world.energy();
+    for v in &mut s.stage_ms {
+        *v /= n;
+    }
+    Ok(s)
+}
