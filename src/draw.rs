@@ -40,7 +40,11 @@ impl Default for Camera {
 
 impl From<crate::defs::CameraDef> for Camera {
     fn from(def: crate::defs::CameraDef) -> Self {
-        Self { center: def.center, pixels_per_meter: def.pixels_per_meter, size: def.size }
+        Self {
+            center: def.center,
+            pixels_per_meter: def.pixels_per_meter,
+            size: def.size,
+        }
     }
 }
 
@@ -52,7 +56,11 @@ impl Camera {
 
     /// A camera centred on `center` at `pixels_per_meter`, for an image of `size` pixels.
     pub fn new(center: Vec2, pixels_per_meter: f32, size: [u32; 2]) -> Self {
-        Self { center, pixels_per_meter, size }
+        Self {
+            center,
+            pixels_per_meter,
+            size,
+        }
     }
 
     /// The image centre in pixels: `(width / 2, height / 2)`.
@@ -80,7 +88,10 @@ impl Camera {
         let s = self.pixels_per_meter;
         let c = self.screen_center();
         // Written relative to the centre (not s x + px) to keep precision far from the origin.
-        Vec2::new(c.x + s * (world.x - self.center.x), c.y - s * (world.y - self.center.y))
+        Vec2::new(
+            c.x + s * (world.x - self.center.x),
+            c.y - s * (world.y - self.center.y),
+        )
     }
 
     /// Screen point (px) to world point (m): `X^-1 * (u, v, 1)`; the inverse of
@@ -88,7 +99,10 @@ impl Camera {
     pub fn screen_to_world(&self, screen: Vec2) -> Vec2 {
         let s = self.pixels_per_meter;
         let c = self.screen_center();
-        Vec2::new(self.center.x + (screen.x - c.x) / s, self.center.y - (screen.y - c.y) / s)
+        Vec2::new(
+            self.center.x + (screen.x - c.x) / s,
+            self.center.y - (screen.y - c.y) / s,
+        )
     }
 
     /// A length in metres, in pixels.
@@ -111,7 +125,10 @@ impl Camera {
         // center = anchor - (screen - c) * (1/s, -1/s)
         let c = self.screen_center();
         let s = self.pixels_per_meter;
-        self.center = Vec2::new(anchor.x - (screen.x - c.x) / s, anchor.y + (screen.y - c.y) / s);
+        self.center = Vec2::new(
+            anchor.x - (screen.x - c.x) / s,
+            anchor.y + (screen.y - c.y) / s,
+        );
     }
 
     /// Moves the view by a drag of `delta` pixels: the world follows the mouse
@@ -134,8 +151,16 @@ impl Camera {
             (self.size[0] as f32 - 2.0 * margin).max(1.0),
             (self.size[1] as f32 - 2.0 * margin).max(1.0),
         );
-        let sx = if extent.x > 0.0 { avail.x / extent.x } else { f32::INFINITY };
-        let sy = if extent.y > 0.0 { avail.y / extent.y } else { f32::INFINITY };
+        let sx = if extent.x > 0.0 {
+            avail.x / extent.x
+        } else {
+            f32::INFINITY
+        };
+        let sy = if extent.y > 0.0 {
+            avail.y / extent.y
+        } else {
+            f32::INFINITY
+        };
         let s = sx.min(sy);
         if s.is_finite() {
             self.pixels_per_meter = s.clamp(Self::MIN_PIXELS_PER_METER, Self::MAX_PIXELS_PER_METER);
@@ -253,12 +278,27 @@ impl DrawList {
         fill: Color,
         outline: Color,
     ) {
-        self.circles.push(Circle { center, radius, angle, fill, outline });
+        self.circles.push(Circle {
+            center,
+            radius,
+            angle,
+            fill,
+            outline,
+        });
     }
 
     /// Adds a convex polygon from world points given counter-clockwise.
-    pub fn push_polygon(&mut self, points: impl IntoIterator<Item = Vec2>, fill: Color, outline: Color) {
-        self.polygons.push(Polygon { points: points.into_iter().collect(), fill, outline });
+    pub fn push_polygon(
+        &mut self,
+        points: impl IntoIterator<Item = Vec2>,
+        fill: Color,
+        outline: Color,
+    ) {
+        self.polygons.push(Polygon {
+            points: points.into_iter().collect(),
+            fill,
+            outline,
+        });
     }
 
     /// Adds a box of full size `width` x `height` (m) centred on `center`, rotated by
@@ -285,7 +325,12 @@ impl DrawList {
 
     /// Adds a segment `width_px` pixels wide.
     pub fn push_line(&mut self, a: Vec2, b: Vec2, width_px: f32, color: Color) {
-        self.lines.push(Line { a, b, width_px, color });
+        self.lines.push(Line {
+            a,
+            b,
+            width_px,
+            color,
+        });
     }
 
     /// The world-space bounding box `(min, max)` of everything in the list (lines'
@@ -342,8 +387,10 @@ mod tests {
         let c = cam();
         let m = c.matrix();
         let w = Vec2::new(-2.25, 7.5);
-        let by_matrix =
-            Vec2::new(m[0][0] * w.x + m[0][1] * w.y + m[0][2], m[1][0] * w.x + m[1][1] * w.y + m[1][2]);
+        let by_matrix = Vec2::new(
+            m[0][0] * w.x + m[0][1] * w.y + m[0][2],
+            m[1][0] * w.x + m[1][1] * w.y + m[1][2],
+        );
         assert!(close(by_matrix, c.world_to_screen(w), 1e-3));
         assert_eq!(m[1][1], -40.0);
         assert_eq!(m[2], [0.0, 0.0, 1.0]);
@@ -354,18 +401,30 @@ mod tests {
         let c = cam();
         let low = c.world_to_screen(Vec2::new(0.0, 0.0));
         let high = c.world_to_screen(Vec2::new(0.0, 1.0));
-        assert!(high.y < low.y, "higher world y must be higher on screen (smaller pixel y)");
+        assert!(
+            high.y < low.y,
+            "higher world y must be higher on screen (smaller pixel y)"
+        );
         assert_eq!(low.x, high.x);
     }
 
     #[test]
     fn round_trip() {
         let c = cam();
-        for w in [Vec2::ZERO, Vec2::new(-13.0, 2.5), Vec2::new(100.0, -50.0), Vec2::new(1.5, 4.0)] {
+        for w in [
+            Vec2::ZERO,
+            Vec2::new(-13.0, 2.5),
+            Vec2::new(100.0, -50.0),
+            Vec2::new(1.5, 4.0),
+        ] {
             let back = c.screen_to_world(c.world_to_screen(w));
             assert!(close(back, w, 1e-4), "{w} -> {back}");
         }
-        for s in [Vec2::ZERO, Vec2::new(1279.0, 719.0), Vec2::new(10.5, 600.25)] {
+        for s in [
+            Vec2::ZERO,
+            Vec2::new(1279.0, 719.0),
+            Vec2::new(10.5, 600.25),
+        ] {
             let back = c.world_to_screen(c.screen_to_world(s));
             assert!(close(back, s, 1e-3), "{s} -> {back}");
         }
@@ -392,7 +451,11 @@ mod tests {
         let w = Vec2::new(2.0, 3.0);
         let before = c.world_to_screen(w);
         c.pan_pixels(Vec2::new(30.0, -12.0));
-        assert!(close(c.world_to_screen(w), before + Vec2::new(30.0, -12.0), 1e-3));
+        assert!(close(
+            c.world_to_screen(w),
+            before + Vec2::new(30.0, -12.0),
+            1e-3
+        ));
     }
 
     #[test]
