@@ -2,6 +2,9 @@
 //!
 //! `cargo bench --bench render`. Honours WGPU_BACKEND (e.g. `gl`, `vulkan`); without an
 //! adapter it prints why and measures nothing.
+//!
+//! Measured once (llvmpipe via GL, 2 shared CPU cores, `--profile dev` with dependencies at
+//! opt-level 3): median 19.7 ms a frame (mean 19.5 ms).
 
 #[path = "../tests/common/scenes.rs"]
 mod scenes;
