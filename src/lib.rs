@@ -16,6 +16,7 @@
 pub mod body;
 pub mod collision;
 pub mod defs;
+pub mod draw;
 pub mod math;
 pub mod scene;
 pub mod shape;
@@ -23,6 +24,10 @@ pub mod sim;
 pub mod solver;
 pub mod world;
 
+#[cfg(feature = "render")]
+pub mod render;
+
 pub use body::{Body, BodyId};
 pub use defs::*;
+pub use draw::{Camera, DrawList};
 pub use world::{BuildError, StepError, StepStats, World};

@@ -1,0 +1,185 @@
+//! Saving frames: PNG stills and animated GIFs.
+
+use super::RenderError;
+use image::codecs::gif::{GifEncoder, Repeat};
+use image::{Delay, Frame, RgbaImage};
+use std::fs::File;
+use std::io::BufWriter;
+use std::path::{Path, PathBuf};
+use std::sync::{Arc, Mutex};
+
+/// Writes `image` to `path` as a PNG (sRGB RGBA, 8 bits a channel).
+pub fn save_png(path: impl AsRef<Path>, image: &RgbaImage) -> Result<(), RenderError> {
+    let path = path.as_ref();
+    let file = File::create(path).map_err(|source| RenderError::Io {
+        path: path.into(),
+        source,
+    })?;
+    let mut out = BufWriter::new(file);
+    image.write_to(&mut out, image::ImageFormat::Png)?;
+    std::io::Write::flush(&mut out).map_err(|source| RenderError::Io {
+        path: path.into(),
+        source,
+    })?;
+    Ok(())
+}
+
+/// Writes an animated, looping GIF frame by frame.
+///
+/// ```no_run
+/// # use sandbox2d::render::{GifWriter, RenderError};
+/// # fn frames() -> Vec<image::RgbaImage> { vec![] }
+/// let mut gif = GifWriter::create("out.gif", 30.0)?;
+/// for frame in frames() {
+///     gif.push(frame)?;
+/// }
+/// gif.finish()?;
+/// # Ok::<(), RenderError>(())
+/// ```
+///
+/// GIF stores delays in hundredths of a second and 256 colours a frame (quantised by
+/// the encoder), so it suits previews rather than measurements.
+pub struct GifWriter {
+    encoder: Option<GifEncoder<TrackedWriter>>,
+    /// The first write error, recorded by the writer (the GIF encoder writes its trailer
+    /// and flushes on drop, where it cannot return errors).
+    error: Arc<Mutex<Option<std::io::Error>>>,
+    path: PathBuf,
+    delay: Delay,
+    size: Option<[u32; 2]>,
+    frames: usize,
+}
+
+impl GifWriter {
+    /// Creates `path` for an animation shown at `fps` frames per second (clamped to
+    /// 0.1..=100, GIF's range), looping forever, with the encoder's default quality.
+    pub fn create(path: impl AsRef<Path>, fps: f32) -> Result<Self, RenderError> {
+        Self::create_with_speed(path, fps, 10)
+    }
+
+    /// As [`GifWriter::create`], with the colour quantiser's `speed` in 1..=30 (1 = best
+    /// colours and slowest, 30 = fastest).
+    pub fn create_with_speed(
+        path: impl AsRef<Path>,
+        fps: f32,
+        speed: i32,
+    ) -> Result<Self, RenderError> {
+        let path = path.as_ref().to_path_buf();
+        let file = File::create(&path).map_err(|source| RenderError::Io {
+            path: path.clone(),
+            source,
+        })?;
+        let error = Arc::new(Mutex::new(None));
+        let writer = TrackedWriter {
+            inner: BufWriter::new(file),
+            error: error.clone(),
+        };
+        let mut encoder = GifEncoder::new_with_speed(writer, speed.clamp(1, 30));
+        encoder.set_repeat(Repeat::Infinite)?;
+        let fps = if fps.is_finite() {
+            fps.clamp(0.1, 100.0)
+        } else {
+            30.0
+        };
+        let delay = Delay::from_numer_denom_ms((1000.0 / fps).round() as u32, 1);
+        Ok(Self {
+            encoder: Some(encoder),
+            error,
+            path,
+            delay,
+            size: None,
+            frames: 0,
+        })
+    }
+
+    /// Appends a frame; every frame must have the first one's size.
+    pub fn push(&mut self, frame: RgbaImage) -> Result<(), RenderError> {
+        let got = [frame.width(), frame.height()];
+        match self.size {
+            Some(expected) if expected != got => {
+                return Err(RenderError::FrameSize { expected, got });
+            }
+            _ => self.size = Some(got),
+        }
+        let encoder = self
+            .encoder
+            .as_mut()
+            .ok_or(RenderError::Gpu("GIF writer already finished".into()))?;
+        encoder.encode_frame(Frame::from_parts(frame, 0, 0, self.delay))?;
+        self.frames += 1;
+        Ok(())
+    }
+
+    /// Frames written so far.
+    pub fn frame_count(&self) -> usize {
+        self.frames
+    }
+
+    /// The file being written.
+    pub fn path(&self) -> &Path {
+        &self.path
+    }
+
+    /// Writes the trailer and closes the file.
+    pub fn finish(mut self) -> Result<(), RenderError> {
+        self.close()
+    }
+
+    fn close(&mut self) -> Result<(), RenderError> {
+        // Dropping the encoder writes the trailer; dropping its writer flushes the file.
+        drop(self.encoder.take());
+        let error = self.error.lock().map(|mut e| e.take()).unwrap_or(None);
+        match error {
+            Some(source) => Err(RenderError::Io {
+                path: self.path.clone(),
+                source,
+            }),
+            None => Ok(()),
+        }
+    }
+}
+
+/// A buffered file that remembers its first error, so one raised while the GIF encoder
+/// is dropped still reaches [`GifWriter::finish`].
+struct TrackedWriter {
+    inner: BufWriter<File>,
+    error: Arc<Mutex<Option<std::io::Error>>>,
+}
+
+impl TrackedWriter {
+    fn record<T>(&self, r: std::io::Result<T>) -> std::io::Result<T> {
+        if let Err(e) = &r
+            && let Ok(mut slot) = self.error.lock()
+            && slot.is_none()
+        {
+            *slot = Some(std::io::Error::new(e.kind(), e.to_string()));
+        }
+        r
+    }
+}
+
+impl std::io::Write for TrackedWriter {
+    fn write(&mut self, buf: &[u8]) -> std::io::Result<usize> {
+        let r = self.inner.write(buf);
+        self.record(r)
+    }
+
+    fn flush(&mut self) -> std::io::Result<()> {
+        let r = self.inner.flush();
+        self.record(r)
+    }
+}
+
+impl Drop for TrackedWriter {
+    fn drop(&mut self) {
+        let r = std::io::Write::flush(&mut self.inner);
+        let _ = self.record(r);
+    }
+}
+
+impl Drop for GifWriter {
+    fn drop(&mut self) {
+        // Best effort for a writer dropped without finish(); errors surface only there.
+        let _ = self.close();
+    }
+}

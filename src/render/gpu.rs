@@ -1,0 +1,686 @@
+//! The wgpu renderer: draws a [`DrawList`] through a [`Camera`] into any colour target,
+//! an off-screen texture (read back into an image) or a window surface.
+
+use super::RenderError;
+use crate::draw::{Camera, DrawList};
+use bytemuck::{Pod, Zeroable};
+use glam::Vec2;
+
+/// The format off-screen frames are rendered into: sRGB, so that the bytes read back are
+/// exactly the sRGB bytes a PNG stores, and blending happens in linear light.
+pub const OFFSCREEN_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba8UnormSrgb;
+
+/// Samples per pixel of the multisampled colour buffer (4x MSAA; WebGPU guarantees 4x
+/// for every renderable colour format).
+pub const SAMPLE_COUNT: u32 = 4;
+
+/// The camera uniform; mirrors `Globals` in `shaders/common.wgsl`.
+#[repr(C)]
+#[derive(Clone, Copy, Pod, Zeroable)]
+struct Globals {
+    center: [f32; 2],
+    screen_center: [f32; 2],
+    viewport: [f32; 2],
+    scale: f32,
+    outline_px: f32,
+    encode_srgb: f32,
+    _pad: [f32; 3],
+}
+
+/// One circle; mirrors `CircleIn` in `shaders/circle.wgsl`.
+#[repr(C)]
+#[derive(Clone, Copy, Pod, Zeroable)]
+struct CircleInstance {
+    center: [f32; 2],
+    radius: f32,
+    angle: f32,
+    has_angle: f32,
+    fill: [u8; 4],
+    outline: [u8; 4],
+}
+
+/// One segment; mirrors `LineIn` in `shaders/line.wgsl`.
+#[repr(C)]
+#[derive(Clone, Copy, Pod, Zeroable)]
+struct LineInstance {
+    a: [f32; 2],
+    b: [f32; 2],
+    width_px: f32,
+    color: [u8; 4],
+}
+
+/// One polygon-fill vertex; mirrors `PolygonIn` in `shaders/polygon.wgsl`.
+#[repr(C)]
+#[derive(Clone, Copy, Pod, Zeroable)]
+struct PolygonVertex {
+    position: [f32; 2],
+    color: [u8; 4],
+}
+
+/// A vertex buffer that grows (doubling) and is otherwise reused frame to frame.
+struct GrowBuffer {
+    label: &'static str,
+    buffer: wgpu::Buffer,
+    capacity: u64,
+}
+
+impl GrowBuffer {
+    fn new(device: &wgpu::Device, label: &'static str, capacity: u64) -> Self {
+        let buffer = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some(label),
+            size: capacity,
+            usage: wgpu::BufferUsages::VERTEX | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        Self {
+            label,
+            buffer,
+            capacity,
+        }
+    }
+
+    /// Uploads `data`, reallocating first when it does not fit.
+    fn upload(&mut self, device: &wgpu::Device, queue: &wgpu::Queue, data: &[u8]) {
+        let needed = data.len() as u64;
+        if needed > self.capacity {
+            *self = Self::new(device, self.label, needed.next_power_of_two());
+        }
+        if !data.is_empty() {
+            queue.write_buffer(&self.buffer, 0, data);
+        }
+    }
+}
+
+/// The multisampled colour buffer, resolved into the caller's target.
+struct MsaaTarget {
+    view: wgpu::TextureView,
+    size: [u32; 2],
+}
+
+/// The off-screen target of [`Renderer::render_to_image`] and its read-back buffer.
+struct Offscreen {
+    texture: wgpu::Texture,
+    view: wgpu::TextureView,
+    readback: wgpu::Buffer,
+    padded_bytes_per_row: u32,
+    size: [u32; 2],
+}
+
+/// Draws [`DrawList`]s with wgpu.
+///
+/// One renderer serves both an off-screen texture ([`Renderer::new_headless`] and
+/// [`Renderer::render_to_image`]) and a window surface ([`Renderer::new`] with the
+/// surface's device, queue and format, then [`Renderer::draw`] each frame).
+///
+/// Everything is drawn with 4x MSAA into an internal multisampled buffer that is
+/// resolved into the target; circles and lines are also antialiased by their distance
+/// fields. Colours are sRGB; the shaders blend in linear light and write sRGB, through
+/// the hardware when the target format is sRGB and by hand when it is not, so a window
+/// and a PNG show the same pixels. Buffers are reused between frames.
+pub struct Renderer {
+    device: wgpu::Device,
+    queue: wgpu::Queue,
+    format: wgpu::TextureFormat,
+    adapter_info: Option<wgpu::AdapterInfo>,
+    globals: wgpu::Buffer,
+    globals_bind_group: wgpu::BindGroup,
+    circle_pipeline: wgpu::RenderPipeline,
+    line_pipeline: wgpu::RenderPipeline,
+    polygon_pipeline: wgpu::RenderPipeline,
+    circle_buffer: GrowBuffer,
+    line_buffer: GrowBuffer,
+    polygon_buffer: GrowBuffer,
+    circle_data: Vec<CircleInstance>,
+    line_data: Vec<LineInstance>,
+    polygon_data: Vec<PolygonVertex>,
+    msaa: Option<MsaaTarget>,
+    offscreen: Option<Offscreen>,
+}
+
+impl Renderer {
+    /// An off-screen renderer on any adapter: the backends named by the `WGPU_BACKEND`
+    /// environment variable (e.g. `gl`, `vulkan`), or all of them. Without a GPU, Mesa's
+    /// llvmpipe (GL/EGL) or lavapipe (Vulkan) serve. `WGPU_ADAPTER_NAME` picks an
+    /// adapter by name and `WGPU_POWER_PREF` (`low`/`high`) by power.
+    ///
+    /// Returns [`RenderError::NoAdapter`] when no adapter exists; never panics for that.
+    pub fn new_headless() -> Result<Self, RenderError> {
+        let backends = wgpu::Backends::from_env().unwrap_or(wgpu::Backends::all());
+        Self::new_headless_with(backends)
+    }
+
+    /// An off-screen renderer on the given backends only, ignoring `WGPU_BACKEND`
+    /// (snapshot tests pin `wgpu::Backends::GL` so that bytes match across machines).
+    pub fn new_headless_with(backends: wgpu::Backends) -> Result<Self, RenderError> {
+        let mut desc = wgpu::InstanceDescriptor::new_without_display_handle_from_env();
+        desc.backends = backends;
+        let instance = wgpu::Instance::new(desc);
+        // WGPU_ADAPTER_NAME, when set, chooses among the instance's adapters.
+        let adapter = if std::env::var_os("WGPU_ADAPTER_NAME").is_some() {
+            pollster::block_on(wgpu::util::initialize_adapter_from_env(&instance, None))
+        } else {
+            pollster::block_on(instance.request_adapter(&wgpu::RequestAdapterOptions {
+                power_preference: wgpu::PowerPreference::from_env().unwrap_or_default(),
+                force_fallback_adapter: false,
+                compatible_surface: None,
+                apply_limit_buckets: false,
+            }))
+        }
+        .map_err(|e| RenderError::NoAdapter {
+            backends: format!("{backends:?}"),
+            reason: e.to_string(),
+        })?;
+        let info = adapter.get_info();
+        log::info!(
+            "render adapter: {} ({:?}, {})",
+            info.name,
+            info.backend,
+            info.driver
+        );
+        let (device, queue) =
+            pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
+                label: Some("sandbox2d device"),
+                required_features: wgpu::Features::empty(),
+                required_limits: adapter.limits(),
+                ..Default::default()
+            }))?;
+        let mut renderer = Self::new(device, queue, OFFSCREEN_FORMAT);
+        renderer.adapter_info = Some(info);
+        Ok(renderer)
+    }
+
+    /// A renderer on an existing device for targets of `format` (a window: the surface's
+    /// device, queue and configured format; prefer an sRGB format or view format such as
+    /// `Bgra8UnormSrgb`, though a non-sRGB one also renders correctly).
+    /// `wgpu::Device` and `wgpu::Queue` are cheap handles: pass clones.
+    pub fn new(device: wgpu::Device, queue: wgpu::Queue, format: wgpu::TextureFormat) -> Self {
+        let globals = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("sandbox2d globals"),
+            size: std::mem::size_of::<Globals>() as u64,
+            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        let bind_group_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("sandbox2d globals layout"),
+            entries: &[wgpu::BindGroupLayoutEntry {
+                binding: 0,
+                visibility: wgpu::ShaderStages::VERTEX_FRAGMENT,
+                ty: wgpu::BindingType::Buffer {
+                    ty: wgpu::BufferBindingType::Uniform,
+                    has_dynamic_offset: false,
+                    min_binding_size: wgpu::BufferSize::new(std::mem::size_of::<Globals>() as u64),
+                },
+                count: None,
+            }],
+        });
+        let globals_bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("sandbox2d globals"),
+            layout: &bind_group_layout,
+            entries: &[wgpu::BindGroupEntry {
+                binding: 0,
+                resource: globals.as_entire_binding(),
+            }],
+        });
+        let layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            label: Some("sandbox2d pipeline layout"),
+            bind_group_layouts: &[Some(&bind_group_layout)],
+            immediate_size: 0,
+        });
+
+        let circle_attributes = wgpu::vertex_attr_array![
+            0 => Float32x2, 1 => Float32, 2 => Float32, 3 => Float32, 4 => Unorm8x4, 5 => Unorm8x4
+        ];
+        let line_attributes =
+            wgpu::vertex_attr_array![0 => Float32x2, 1 => Float32x2, 2 => Float32, 3 => Unorm8x4];
+        let polygon_attributes = wgpu::vertex_attr_array![0 => Float32x2, 1 => Unorm8x4];
+
+        let circle_pipeline = create_pipeline(
+            &device,
+            &layout,
+            format,
+            "circle",
+            include_str!("shaders/circle.wgsl"),
+            wgpu::VertexBufferLayout {
+                array_stride: std::mem::size_of::<CircleInstance>() as u64,
+                step_mode: wgpu::VertexStepMode::Instance,
+                attributes: &circle_attributes,
+            },
+        );
+        let line_pipeline = create_pipeline(
+            &device,
+            &layout,
+            format,
+            "line",
+            include_str!("shaders/line.wgsl"),
+            wgpu::VertexBufferLayout {
+                array_stride: std::mem::size_of::<LineInstance>() as u64,
+                step_mode: wgpu::VertexStepMode::Instance,
+                attributes: &line_attributes,
+            },
+        );
+        let polygon_pipeline = create_pipeline(
+            &device,
+            &layout,
+            format,
+            "polygon",
+            include_str!("shaders/polygon.wgsl"),
+            wgpu::VertexBufferLayout {
+                array_stride: std::mem::size_of::<PolygonVertex>() as u64,
+                step_mode: wgpu::VertexStepMode::Vertex,
+                attributes: &polygon_attributes,
+            },
+        );
+
+        Self {
+            circle_buffer: GrowBuffer::new(&device, "sandbox2d circles", 4096),
+            line_buffer: GrowBuffer::new(&device, "sandbox2d lines", 4096),
+            polygon_buffer: GrowBuffer::new(&device, "sandbox2d polygons", 4096),
+            device,
+            queue,
+            format,
+            adapter_info: None,
+            globals,
+            globals_bind_group,
+            circle_pipeline,
+            line_pipeline,
+            polygon_pipeline,
+            circle_data: Vec::new(),
+            line_data: Vec::new(),
+            polygon_data: Vec::new(),
+            msaa: None,
+            offscreen: None,
+        }
+    }
+
+    /// The adapter a headless renderer runs on (`None` for [`Renderer::new`]).
+    pub fn adapter_info(&self) -> Option<&wgpu::AdapterInfo> {
+        self.adapter_info.as_ref()
+    }
+
+    /// The target format the pipelines were built for.
+    pub fn format(&self) -> wgpu::TextureFormat {
+        self.format
+    }
+
+    /// The device.
+    pub fn device(&self) -> &wgpu::Device {
+        &self.device
+    }
+
+    /// The queue.
+    pub fn queue(&self) -> &wgpu::Queue {
+        &self.queue
+    }
+
+    /// Records one frame into `encoder`: clears `target` to the list's background and
+    /// draws the list through `camera`. `target` must be a single-sampled view of
+    /// [`Renderer::format`] whose size is `camera.size` (a window: resize the camera with
+    /// the surface). Uploads the frame's data with `queue.write_buffer`, so submit the
+    /// encoder before the next call to `draw`.
+    pub fn draw(
+        &mut self,
+        encoder: &mut wgpu::CommandEncoder,
+        target: &wgpu::TextureView,
+        list: &DrawList,
+        camera: &Camera,
+    ) {
+        let size = [camera.size[0].max(1), camera.size[1].max(1)];
+        self.upload(list, camera, size);
+        if self.msaa.as_ref().is_none_or(|m| m.size != size) {
+            self.msaa = Some(self.create_msaa(size));
+        }
+        let Some(msaa) = &self.msaa else { return };
+        let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+            label: Some("sandbox2d frame"),
+            color_attachments: &[Some(wgpu::RenderPassColorAttachment {
+                view: &msaa.view,
+                depth_slice: None,
+                resolve_target: Some(target),
+                ops: wgpu::Operations {
+                    load: wgpu::LoadOp::Clear(clear_color(list.background, self.format)),
+                    store: wgpu::StoreOp::Discard,
+                },
+            })],
+            depth_stencil_attachment: None,
+            timestamp_writes: None,
+            occlusion_query_set: None,
+            multiview_mask: None,
+        });
+        pass.set_bind_group(0, &self.globals_bind_group, &[]);
+        let line_stride = std::mem::size_of::<LineInstance>() as u64;
+        let outline_lines = self.outline_line_count(list) as u32;
+        let user_lines = list.lines.len() as u32;
+        // 1. polygon fills
+        if !self.polygon_data.is_empty() {
+            pass.set_pipeline(&self.polygon_pipeline);
+            pass.set_vertex_buffer(0, self.polygon_buffer.buffer.slice(..));
+            pass.draw(0..self.polygon_data.len() as u32, 0..1);
+        }
+        // 2. polygon outlines (the first lines in the line buffer)
+        if outline_lines > 0 {
+            pass.set_pipeline(&self.line_pipeline);
+            pass.set_vertex_buffer(0, self.line_buffer.buffer.slice(..));
+            pass.draw(0..6, 0..outline_lines);
+        }
+        // 3. circles
+        if !self.circle_data.is_empty() {
+            pass.set_pipeline(&self.circle_pipeline);
+            pass.set_vertex_buffer(0, self.circle_buffer.buffer.slice(..));
+            pass.draw(0..6, 0..self.circle_data.len() as u32);
+        }
+        // 4. the list's lines, over everything. A buffer offset rather than a first
+        // instance, which GLES lacks.
+        if user_lines > 0 {
+            pass.set_pipeline(&self.line_pipeline);
+            pass.set_vertex_buffer(
+                0,
+                self.line_buffer
+                    .buffer
+                    .slice(outline_lines as u64 * line_stride..),
+            );
+            pass.draw(0..6, 0..user_lines);
+        }
+    }
+
+    /// Renders one frame off-screen and reads it back: `camera.size` pixels, sRGB RGBA.
+    /// Any size works (rows are padded to 256 bytes for the copy and unpadded here).
+    /// Needs a renderer made for [`OFFSCREEN_FORMAT`] (as [`Renderer::new_headless`] is).
+    pub fn render_to_image(
+        &mut self,
+        list: &DrawList,
+        camera: &Camera,
+    ) -> Result<image::RgbaImage, RenderError> {
+        let [width, height] = camera.size;
+        let max = self.device.limits().max_texture_dimension_2d;
+        if width == 0 || height == 0 || width > max || height > max {
+            return Err(RenderError::InvalidSize { width, height, max });
+        }
+        if self.format != OFFSCREEN_FORMAT {
+            return Err(RenderError::WrongFormat {
+                format: format!("{:?}", self.format),
+            });
+        }
+        let scope = self.device.push_error_scope(wgpu::ErrorFilter::Validation);
+        if self
+            .offscreen
+            .as_ref()
+            .is_none_or(|o| o.size != camera.size)
+        {
+            self.offscreen = Some(self.create_offscreen(camera.size));
+        }
+        let mut encoder = self
+            .device
+            .create_command_encoder(&wgpu::CommandEncoderDescriptor {
+                label: Some("sandbox2d offscreen"),
+            });
+        let offscreen = self
+            .offscreen
+            .take()
+            .ok_or(RenderError::Gpu("no off-screen target".into()))?;
+        self.draw(&mut encoder, &offscreen.view, list, camera);
+        encoder.copy_texture_to_buffer(
+            offscreen.texture.as_image_copy(),
+            wgpu::TexelCopyBufferInfo {
+                buffer: &offscreen.readback,
+                layout: wgpu::TexelCopyBufferLayout {
+                    offset: 0,
+                    bytes_per_row: Some(offscreen.padded_bytes_per_row),
+                    rows_per_image: Some(height),
+                },
+            },
+            wgpu::Extent3d {
+                width,
+                height,
+                depth_or_array_layers: 1,
+            },
+        );
+        self.queue.submit([encoder.finish()]);
+        let result = self.read_back(&offscreen);
+        self.offscreen = Some(offscreen);
+        if let Some(err) = pollster::block_on(scope.pop()) {
+            return Err(RenderError::Gpu(err.to_string()));
+        }
+        result
+    }
+
+    /// Maps the read-back buffer and copies the rows, unpadded, into an image.
+    fn read_back(&self, offscreen: &Offscreen) -> Result<image::RgbaImage, RenderError> {
+        let [width, height] = offscreen.size;
+        let (tx, rx) = std::sync::mpsc::channel();
+        offscreen
+            .readback
+            .map_async(wgpu::MapMode::Read, .., move |r| {
+                // The receiver outlives the poll below; a failed send cannot happen.
+                let _ = tx.send(r);
+            });
+        self.device
+            .poll(wgpu::PollType::wait_indefinitely())
+            .map_err(|e| RenderError::Gpu(format!("poll: {e}")))?;
+        rx.recv()
+            .map_err(|_| RenderError::Gpu("read-back callback never ran".into()))?
+            .map_err(|e| RenderError::Gpu(format!("map read-back buffer: {e}")))?;
+        let row = width as usize * 4;
+        let mut pixels = Vec::with_capacity(row * height as usize);
+        {
+            let view = offscreen
+                .readback
+                .get_mapped_range(..)
+                .map_err(|e| RenderError::Gpu(format!("read-back view: {e}")))?;
+            for y in 0..height as usize {
+                let start = y * offscreen.padded_bytes_per_row as usize;
+                pixels.extend_from_slice(&view[start..start + row]);
+            }
+        }
+        offscreen.readback.unmap();
+        image::RgbaImage::from_raw(width, height, pixels)
+            .ok_or(RenderError::Gpu("read-back size mismatch".into()))
+    }
+
+    /// Number of outline segments the list's polygons produce (drawn before its lines).
+    fn outline_line_count(&self, list: &DrawList) -> usize {
+        self.line_data.len() - list.lines.len()
+    }
+
+    /// Fills the CPU-side arrays from the list and uploads them and the camera.
+    fn upload(&mut self, list: &DrawList, camera: &Camera, size: [u32; 2]) {
+        let globals = Globals {
+            center: camera.center.to_array(),
+            screen_center: (Vec2::new(size[0] as f32, size[1] as f32) * 0.5).to_array(),
+            viewport: [size[0] as f32, size[1] as f32],
+            scale: camera.pixels_per_meter,
+            outline_px: list.outline_width_px.max(0.0),
+            encode_srgb: if self.format.is_srgb() { 0.0 } else { 1.0 },
+            _pad: [0.0; 3],
+        };
+        self.queue
+            .write_buffer(&self.globals, 0, bytemuck::bytes_of(&globals));
+
+        self.circle_data.clear();
+        self.circle_data
+            .extend(list.circles.iter().map(|c| CircleInstance {
+                center: c.center.to_array(),
+                radius: c.radius,
+                angle: c.angle.unwrap_or(0.0),
+                has_angle: if c.angle.is_some() { 1.0 } else { 0.0 },
+                fill: c.fill,
+                outline: c.outline,
+            }));
+
+        self.polygon_data.clear();
+        self.line_data.clear();
+        let outline_px = list.outline_width_px;
+        for p in &list.polygons {
+            // Fan triangulation of a convex polygon: (p0, p_i, p_i+1).
+            if p.points.len() >= 3 && p.fill[3] > 0 {
+                let v = |q: Vec2| PolygonVertex {
+                    position: q.to_array(),
+                    color: p.fill,
+                };
+                for i in 1..p.points.len() - 1 {
+                    self.polygon_data
+                        .extend([v(p.points[0]), v(p.points[i]), v(p.points[i + 1])]);
+                }
+            }
+            if p.outline[3] > 0 && outline_px > 0.0 && p.points.len() >= 2 {
+                let n = p.points.len();
+                let edges = if n == 2 { 1 } else { n };
+                for i in 0..edges {
+                    self.line_data.push(LineInstance {
+                        a: p.points[i].to_array(),
+                        b: p.points[(i + 1) % n].to_array(),
+                        width_px: outline_px,
+                        color: p.outline,
+                    });
+                }
+            }
+        }
+        self.line_data
+            .extend(list.lines.iter().map(|l| LineInstance {
+                a: l.a.to_array(),
+                b: l.b.to_array(),
+                width_px: l.width_px,
+                color: l.color,
+            }));
+
+        self.circle_buffer.upload(
+            &self.device,
+            &self.queue,
+            bytemuck::cast_slice(&self.circle_data),
+        );
+        self.line_buffer.upload(
+            &self.device,
+            &self.queue,
+            bytemuck::cast_slice(&self.line_data),
+        );
+        self.polygon_buffer.upload(
+            &self.device,
+            &self.queue,
+            bytemuck::cast_slice(&self.polygon_data),
+        );
+    }
+
+    fn create_msaa(&self, size: [u32; 2]) -> MsaaTarget {
+        let texture = self.device.create_texture(&wgpu::TextureDescriptor {
+            label: Some("sandbox2d msaa"),
+            size: wgpu::Extent3d {
+                width: size[0],
+                height: size[1],
+                depth_or_array_layers: 1,
+            },
+            mip_level_count: 1,
+            sample_count: SAMPLE_COUNT,
+            dimension: wgpu::TextureDimension::D2,
+            format: self.format,
+            usage: wgpu::TextureUsages::RENDER_ATTACHMENT,
+            view_formats: &[],
+        });
+        MsaaTarget {
+            view: texture.create_view(&wgpu::TextureViewDescriptor::default()),
+            size,
+        }
+    }
+
+    fn create_offscreen(&self, size: [u32; 2]) -> Offscreen {
+        let texture = self.device.create_texture(&wgpu::TextureDescriptor {
+            label: Some("sandbox2d offscreen"),
+            size: wgpu::Extent3d {
+                width: size[0],
+                height: size[1],
+                depth_or_array_layers: 1,
+            },
+            mip_level_count: 1,
+            sample_count: 1,
+            dimension: wgpu::TextureDimension::D2,
+            format: OFFSCREEN_FORMAT,
+            usage: wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::COPY_SRC,
+            view_formats: &[],
+        });
+        let view = texture.create_view(&wgpu::TextureViewDescriptor::default());
+        // Copies need rows aligned to 256 bytes.
+        let align = wgpu::COPY_BYTES_PER_ROW_ALIGNMENT;
+        let padded_bytes_per_row = (size[0] * 4).div_ceil(align) * align;
+        let readback = self.device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("sandbox2d read-back"),
+            size: padded_bytes_per_row as u64 * size[1] as u64,
+            usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        Offscreen {
+            texture,
+            view,
+            readback,
+            padded_bytes_per_row,
+            size,
+        }
+    }
+}
+
+/// A pipeline drawing triangle lists from one vertex buffer, premultiplied-alpha
+/// blending, 4x MSAA; `source` is prepended with `shaders/common.wgsl`.
+fn create_pipeline(
+    device: &wgpu::Device,
+    layout: &wgpu::PipelineLayout,
+    format: wgpu::TextureFormat,
+    name: &str,
+    source: &str,
+    buffer: wgpu::VertexBufferLayout<'_>,
+) -> wgpu::RenderPipeline {
+    let code = format!("{}\n{}", include_str!("shaders/common.wgsl"), source);
+    let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
+        label: Some(name),
+        source: wgpu::ShaderSource::Wgsl(code.into()),
+    });
+    device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+        label: Some(name),
+        layout: Some(layout),
+        vertex: wgpu::VertexState {
+            module: &module,
+            entry_point: Some("vs_main"),
+            compilation_options: Default::default(),
+            buffers: &[Some(buffer)],
+        },
+        primitive: wgpu::PrimitiveState {
+            topology: wgpu::PrimitiveTopology::TriangleList,
+            cull_mode: None,
+            ..Default::default()
+        },
+        depth_stencil: None,
+        multisample: wgpu::MultisampleState {
+            count: SAMPLE_COUNT,
+            ..Default::default()
+        },
+        fragment: Some(wgpu::FragmentState {
+            module: &module,
+            entry_point: Some("fs_main"),
+            compilation_options: Default::default(),
+            targets: &[Some(wgpu::ColorTargetState {
+                format,
+                blend: Some(wgpu::BlendState::PREMULTIPLIED_ALPHA_BLENDING),
+                write_mask: wgpu::ColorWrites::ALL,
+            })],
+        }),
+        multiview_mask: None,
+        cache: None,
+    })
+}
+
+/// The clear colour for an sRGB background: linear for an sRGB target (the hardware
+/// encodes it), the sRGB values themselves for a non-sRGB one.
+fn clear_color(c: crate::Color, format: wgpu::TextureFormat) -> wgpu::Color {
+    let f = |v: u8| {
+        let x = v as f64 / 255.0;
+        if !format.is_srgb() {
+            x
+        } else if x <= 0.04045 {
+            x / 12.92
+        } else {
+            ((x + 0.055) / 1.055).powf(2.4)
+        }
+    };
+    wgpu::Color {
+        r: f(c[0]),
+        g: f(c[1]),
+        b: f(c[2]),
+        a: c[3] as f64 / 255.0,
+    }
+}

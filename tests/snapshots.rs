@@ -1,0 +1,333 @@
+//! Snapshot tests of the renderer: draw lists rendered off-screen on the GL backend
+//! (Mesa llvmpipe without a GPU) and compared with golden PNGs in tests/snapshots/.
+//!
+//! - `UPDATE_SNAPSHOTS=1 cargo test --test snapshots` rewrites the golden images.
+//! - A mismatch writes `<name>.actual.png` and `<name>.diff.png` under
+//!   `<target dir>/snapshot-failures/` and the panic names both.
+//! - Without any GL adapter the tests print why and pass, unless
+//!   `SANDBOX2D_REQUIRE_ADAPTER=1` is set (then they fail).
+#![cfg(feature = "render")]
+
+mod common;
+
+use glam::Vec2;
+use image::{Rgba, RgbaImage};
+use sandbox2d::draw::{Camera, DrawList};
+use sandbox2d::render::{RenderError, Renderer, save_png};
+use std::path::{Path, PathBuf};
+use std::sync::{Mutex, OnceLock};
+
+/// A pixel differs when one of its channels differs by more than this.
+const CHANNEL_TOLERANCE: u8 = 2;
+/// A snapshot fails when more than this fraction of its pixels differ.
+const MAX_DIFFERING_FRACTION: f64 = 0.001;
+
+/// One renderer for the whole test binary, pinned to GL so bytes match across machines
+/// (a machine with Vulkan's lavapipe would otherwise pick it and rasterise differently).
+fn renderer() -> Option<std::sync::MutexGuard<'static, Renderer>> {
+    static RENDERER: OnceLock<Result<Mutex<Renderer>, String>> = OnceLock::new();
+    let r = RENDERER.get_or_init(|| {
+        Renderer::new_headless_with(wgpu::Backends::GL)
+            .map(Mutex::new)
+            .map_err(|e| e.to_string())
+    });
+    match r {
+        Ok(m) => Some(m.lock().unwrap_or_else(|p| p.into_inner())),
+        Err(e) => {
+            if std::env::var_os("SANDBOX2D_REQUIRE_ADAPTER").is_some() {
+                panic!("no renderer and SANDBOX2D_REQUIRE_ADAPTER is set: {e}");
+            }
+            eprintln!("SKIPPED: no GL adapter for the snapshot tests: {e}");
+            None
+        }
+    }
+}
+
+fn render(list: &DrawList, camera: &Camera) -> Option<RgbaImage> {
+    let mut r = renderer()?;
+    Some(r.render_to_image(list, camera).expect("render_to_image"))
+}
+
+fn snapshot_dir() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("tests")
+        .join("snapshots")
+}
+
+fn failure_dir() -> PathBuf {
+    // CARGO_TARGET_TMPDIR is <target dir>/tmp.
+    let tmp = Path::new(env!("CARGO_TARGET_TMPDIR"));
+    tmp.parent().unwrap_or(tmp).join("snapshot-failures")
+}
+
+/// Compares `actual` with tests/snapshots/`name`.png (or rewrites it with UPDATE_SNAPSHOTS=1).
+fn assert_snapshot(name: &str, actual: &RgbaImage) {
+    let golden_path = snapshot_dir().join(format!("{name}.png"));
+    if std::env::var_os("UPDATE_SNAPSHOTS").is_some_and(|v| v != "0") {
+        std::fs::create_dir_all(snapshot_dir()).unwrap();
+        save_png(&golden_path, actual).unwrap();
+        eprintln!("updated {}", golden_path.display());
+        return;
+    }
+    let fail = |why: String, diff: Option<RgbaImage>| -> ! {
+        let dir = failure_dir();
+        std::fs::create_dir_all(&dir).unwrap();
+        let actual_path = dir.join(format!("{name}.actual.png"));
+        save_png(&actual_path, actual).unwrap();
+        let diff_path = dir.join(format!("{name}.diff.png"));
+        if let Some(diff) = diff {
+            save_png(&diff_path, &diff).unwrap();
+        }
+        panic!(
+            "snapshot {name}: {why}\n  golden: {}\n  actual: {}\n  diff:   {}\n  \
+             (UPDATE_SNAPSHOTS=1 rewrites the golden image)",
+            golden_path.display(),
+            actual_path.display(),
+            diff_path.display()
+        );
+    };
+    let golden = match image::open(&golden_path) {
+        Ok(img) => img.to_rgba8(),
+        Err(e) => fail(format!("cannot read the golden image ({e})"), None),
+    };
+    if golden.dimensions() != actual.dimensions() {
+        fail(
+            format!(
+                "size {:?} != golden {:?}",
+                actual.dimensions(),
+                golden.dimensions()
+            ),
+            None,
+        );
+    }
+    // The diff: differing pixels in red over a dimmed copy of the golden image.
+    let mut diff = RgbaImage::new(actual.width(), actual.height());
+    let mut differing = 0usize;
+    let mut worst = 0u8;
+    for ((g, a), d) in golden.pixels().zip(actual.pixels()).zip(diff.pixels_mut()) {
+        let delta = (0..4).map(|c| g[c].abs_diff(a[c])).max().unwrap_or(0);
+        worst = worst.max(delta);
+        *d = if delta > CHANNEL_TOLERANCE {
+            differing += 1;
+            Rgba([255, 0, 0, 255])
+        } else {
+            Rgba([g[0] / 4, g[1] / 4, g[2] / 4, 255])
+        };
+    }
+    let total = (actual.width() * actual.height()) as f64;
+    if differing as f64 > MAX_DIFFERING_FRACTION * total {
+        fail(
+            format!(
+                "{differing} of {total} pixels differ by more than {CHANNEL_TOLERANCE} (worst {worst})"
+            ),
+            Some(diff),
+        );
+    }
+}
+
+#[test]
+fn pyramid_scene() {
+    let list = common::scenes::small_scene();
+    let camera = Camera::new(Vec2::new(0.0, 3.0), 48.0, [640, 400]);
+    let Some(img) = render(&list, &camera) else {
+        return;
+    };
+    assert_eq!(img.dimensions(), (640, 400));
+    assert_snapshot("pyramid", &img);
+}
+
+#[test]
+fn odd_size_padded_rows() {
+    // 1001 * 4 = 4004 bytes a row, padded to 4096 for the copy: rows must not shear.
+    let list = common::scenes::small_scene();
+    let mut camera = Camera::new(Vec2::ZERO, 1.0, [1001, 701]);
+    let (lo, hi) = list.bounds().unwrap();
+    camera.fit(lo, hi, 20.0);
+    let Some(img) = render(&list, &camera) else {
+        return;
+    };
+    assert_eq!(img.dimensions(), (1001, 701));
+    // The ground's top edge is a horizontal line: the same row in every column it spans.
+    let ground_top = camera.world_to_screen(Vec2::new(0.0, 0.0)).y;
+    let bg = list.background;
+    for wx in [-4.5f32, 0.0, 4.5] {
+        let x = camera.world_to_screen(Vec2::new(wx, 0.0)).x as u32;
+        let p = *img.get_pixel(x, (ground_top + 4.0) as u32);
+        assert_ne!(
+            p.0, bg,
+            "column {x} below the ground's top should be ground"
+        );
+    }
+    assert_snapshot("pyramid_1001x701", &img);
+}
+
+#[test]
+fn background_bytes_survive_the_srgb_round_trip() {
+    let mut list = DrawList::new();
+    list.background = [24, 26, 33, 255];
+    let Some(img) = render(&list, &Camera::new(Vec2::ZERO, 10.0, [67, 33])) else {
+        return;
+    };
+    assert!(
+        img.pixels().all(|p| p.0 == [24, 26, 33, 255]),
+        "got {:?}",
+        img.get_pixel(0, 0)
+    );
+    // An opaque fill comes out as the same sRGB bytes too.
+    list.push_box(Vec2::ZERO, 100.0, 100.0, 0.0, [200, 100, 50, 255], [0; 4]);
+    let img = render(&list, &Camera::new(Vec2::ZERO, 10.0, [67, 33])).unwrap();
+    let p = img.get_pixel(30, 15).0;
+    assert!(
+        p.iter()
+            .zip([200, 100, 50, 255])
+            .all(|(a, b)| a.abs_diff(b) <= 1),
+        "got {p:?}"
+    );
+}
+
+/// Intensity-weighted centroid of the image, in pixel coordinates (pixel centres at +0.5).
+fn centroid(img: &RgbaImage) -> Vec2 {
+    let mut sum = Vec2::ZERO;
+    let mut weight = 0.0;
+    for (x, y, p) in img.enumerate_pixels() {
+        let w = p[0] as f32 + p[1] as f32 + p[2] as f32;
+        sum += Vec2::new(x as f32 + 0.5, y as f32 + 0.5) * w;
+        weight += w;
+    }
+    sum / weight
+}
+
+#[test]
+fn camera_puts_a_point_where_world_to_screen_says() {
+    let camera = Camera::new(Vec2::new(0.3, 1.9), 40.0, [320, 240]);
+    for world in [
+        Vec2::new(1.237, 2.613),
+        Vec2::new(-2.71, -0.4),
+        Vec2::new(0.3, 1.9),
+    ] {
+        let mut list = DrawList::new();
+        list.background = [0, 0, 0, 255];
+        // 0.8 px radius: only the pixel nearest the centre is fully bright.
+        list.push_circle(world, 0.02, None, [255, 255, 255, 255], [0, 0, 0, 0]);
+        let Some(img) = render(&list, &camera) else {
+            return;
+        };
+        let expected = camera.world_to_screen(world);
+        let (bx, by, _) = img
+            .enumerate_pixels()
+            .max_by_key(|(x, y, p)| (p[0] as u32 + p[1] as u32 + p[2] as u32, u32::MAX - (x + y)))
+            .unwrap();
+        let brightest = Vec2::new(bx as f32 + 0.5, by as f32 + 0.5);
+        assert!(
+            (brightest - expected).abs().max_element() <= 1.0,
+            "{world}: brightest pixel centre {brightest}, world_to_screen {expected}"
+        );
+        let c = centroid(&img);
+        assert!(
+            (c - expected).abs().max_element() <= 0.25,
+            "{world}: centroid {c}, expected {expected}"
+        );
+    }
+}
+
+#[test]
+fn y_is_up_and_circles_are_round() {
+    let camera = Camera::new(Vec2::ZERO, 20.0, [200, 200]);
+    let mut list = DrawList::new();
+    list.background = [0, 0, 0, 255];
+    list.push_circle(Vec2::new(0.0, 2.0), 1.0, None, [255, 0, 0, 255], [0; 4]);
+    list.push_circle(Vec2::new(0.0, -2.0), 1.0, None, [0, 255, 0, 255], [0; 4]);
+    let Some(img) = render(&list, &camera) else {
+        return;
+    };
+    // Red (world y = +2) is in the top half of the image, green in the bottom half.
+    assert!(
+        img.get_pixel(100, 60)[0] > 250,
+        "red circle should be above the centre"
+    );
+    assert!(
+        img.get_pixel(100, 140)[1] > 250,
+        "green circle should be below the centre"
+    );
+    // Round: as wide as tall (20 px radius), within antialiasing.
+    let count = |f: &dyn Fn(&Rgba<u8>) -> bool| img.pixels().filter(|p| f(p)).count() as f32;
+    // Half coverage in linear light is 188 in sRGB.
+    let red_area = count(&|p| p[0] >= 188);
+    let expected = std::f32::consts::PI * 20.0 * 20.0;
+    assert!(
+        (red_area - expected).abs() / expected < 0.02,
+        "area {red_area} vs {expected}"
+    );
+    let row: Vec<u32> = (0..200)
+        .filter(|&x| img.get_pixel(x, 60)[0] >= 188)
+        .collect();
+    let col: Vec<u32> = (0..200)
+        .filter(|&y| img.get_pixel(100, y)[0] >= 188)
+        .collect();
+    assert!(
+        row.len().abs_diff(col.len()) <= 1,
+        "width {} height {}",
+        row.len(),
+        col.len()
+    );
+    // Antialiased rim: some pixels are strictly between background and fill.
+    assert!(img.pixels().any(|p| p[0] > 20 && p[0] < 235 && p[1] == 0));
+}
+
+#[test]
+fn invalid_size_is_an_error_not_a_panic() {
+    let Some(mut r) = renderer() else { return };
+    let err = r.render_to_image(&DrawList::new(), &Camera::new(Vec2::ZERO, 1.0, [0, 10]));
+    assert!(
+        matches!(err, Err(RenderError::InvalidSize { .. })),
+        "{err:?}"
+    );
+}
+
+#[test]
+fn png_and_gif_files_round_trip() {
+    use image::AnimationDecoder;
+    use sandbox2d::render::GifWriter;
+    let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join("capture-test");
+    std::fs::create_dir_all(&dir).unwrap();
+    let camera = Camera::new(Vec2::new(0.0, 3.0), 30.0, [160, 100]);
+    let mut gif = GifWriter::create_with_speed(dir.join("anim.gif"), 20.0, 30).unwrap();
+    let mut first = None;
+    for i in 0..3 {
+        let mut list = common::scenes::small_scene();
+        list.push_circle(
+            Vec2::new(i as f32, 5.0),
+            0.5,
+            Some(i as f32),
+            [255, 255, 255, 255],
+            [0, 0, 0, 255],
+        );
+        let Some(img) = render(&list, &camera) else {
+            return;
+        };
+        first.get_or_insert_with(|| img.clone());
+        gif.push(img).unwrap();
+    }
+    let wrong = gif.push(RgbaImage::new(10, 10));
+    assert!(
+        matches!(wrong, Err(RenderError::FrameSize { .. })),
+        "{wrong:?}"
+    );
+    assert_eq!(gif.frame_count(), 3);
+    gif.finish().unwrap();
+    let file = std::io::BufReader::new(std::fs::File::open(dir.join("anim.gif")).unwrap());
+    let frames = image::codecs::gif::GifDecoder::new(file)
+        .unwrap()
+        .into_frames()
+        .collect_frames()
+        .unwrap();
+    assert_eq!(frames.len(), 3);
+    assert_eq!(frames[0].buffer().dimensions(), (160, 100));
+
+    let first = first.unwrap();
+    save_png(dir.join("frame.png"), &first).unwrap();
+    assert_eq!(
+        image::open(dir.join("frame.png")).unwrap().to_rgba8(),
+        first
+    );
+}
