@@ -1,0 +1,473 @@
+//! Physics checked against closed forms, conservation and error bounds.
+
+use glam::Vec2;
+use sandbox2d::collision::sat;
+use sandbox2d::math::{Rot, Transform};
+use sandbox2d::shape::Shape;
+use sandbox2d::{
+    BodyDef, BodyModel, BodyType, ForceDef, ShapeDef, SolverSettings, StepError, World, WorldDef,
+    scene,
+};
+
+fn ground(width: f32) -> BodyDef {
+    BodyDef {
+        name: "ground".into(),
+        body_type: BodyType::Static,
+        shape: ShapeDef::Box { width, height: 1.0 },
+        position: Vec2::new(0.0, -0.5),
+        ..Default::default()
+    }
+}
+
+fn world_of(name: &str, settings: SolverSettings) -> World {
+    let sc = scene::load(name).expect("built-in scene");
+    World::from_def(&sc.world, settings).expect("builds")
+}
+
+#[test]
+fn free_fall_matches_semi_implicit_euler() {
+    // v_n = v0 + n h g;  y_n = y0 + n h v0 + h^2 g n (n + 1) / 2
+    let g = -9.81f64;
+    let h = 1.0 / 120.0;
+    let mut s = SolverSettings::pgs();
+    s.dt = h as f32;
+    let mut w = World::new(Some(Vec2::new(0.0, g as f32)), s);
+    let (v0, y0) = (3.0f64, 0.0f64);
+    let b = w
+        .add_body(&BodyDef {
+            name: "ball".into(),
+            shape: ShapeDef::Circle { radius: 0.1 },
+            velocity: Vec2::new(0.0, v0 as f32),
+            position: Vec2::new(0.0, y0 as f32),
+            ..Default::default()
+        })
+        .unwrap();
+    for n in 1..=120u32 {
+        w.step().unwrap();
+        let n = n as f64;
+        let v = v0 + n * h * g;
+        let y = y0 + n * h * v0 + h * h * g * n * (n + 1.0) / 2.0;
+        let body = &w.bodies[b];
+        assert!(
+            (body.velocity.y as f64 - v).abs() <= 1e-6 * v.abs().max(1.0),
+            "step {n}: v {} vs {v}",
+            body.velocity.y
+        );
+        assert!(
+            (body.position.y as f64 - y).abs() <= 1e-6 * y.abs().max(1.0),
+            "step {n}: y {} vs {y}",
+            body.position.y
+        );
+        assert_eq!(body.position.x, 0.0);
+    }
+}
+
+#[test]
+fn world_mass_properties_follow_the_formulas() {
+    let mut w = World::new(None, SolverSettings::pgs());
+    let c = w
+        .add_body(&BodyDef {
+            name: "c".into(),
+            shape: ShapeDef::Circle { radius: 0.3 },
+            density: 2.0,
+            ..Default::default()
+        })
+        .unwrap();
+    let b = w
+        .add_body(&BodyDef {
+            name: "b".into(),
+            shape: ShapeDef::Box {
+                width: 2.0,
+                height: 1.0,
+            },
+            mass: Some(5.0),
+            ..Default::default()
+        })
+        .unwrap();
+    let p = w
+        .add_body(&BodyDef {
+            name: "p".into(),
+            model: BodyModel::Particle,
+            shape: ShapeDef::Circle { radius: 0.3 },
+            ..Default::default()
+        })
+        .unwrap();
+    let m = 2.0 * std::f32::consts::PI * 0.09;
+    assert!((w.bodies[c].mass - m).abs() < 1e-5);
+    assert!((w.bodies[c].inertia - 0.5 * m * 0.09).abs() < 1e-6);
+    assert!((w.bodies[b].mass - 5.0).abs() < 1e-6);
+    assert!((w.bodies[b].inertia - 5.0 * (4.0 + 1.0) / 12.0).abs() < 1e-5);
+    assert_eq!(w.bodies[p].inv_inertia, 0.0, "a particle does not rotate");
+    // a polygon given off-centre: the body sits at its centroid
+    let t = w
+        .add_body(&BodyDef {
+            name: "t".into(),
+            shape: ShapeDef::Polygon {
+                points: vec![Vec2::ZERO, Vec2::new(3.0, 0.0), Vec2::new(0.0, 3.0)],
+            },
+            position: Vec2::new(10.0, 0.0),
+            ..Default::default()
+        })
+        .unwrap();
+    assert!((w.bodies[t].position - Vec2::new(11.0, 1.0)).length() < 1e-5);
+    assert!((w.bodies[t].origin() - Vec2::new(10.0, 0.0)).length() < 1e-5);
+}
+
+fn poly(w: f32, h: f32) -> Shape {
+    Shape::from_def(&ShapeDef::Box {
+        width: w,
+        height: h,
+    })
+    .unwrap()
+    .0
+}
+
+fn xf(x: f32, y: f32, a: f32) -> Transform {
+    Transform {
+        p: Vec2::new(x, y),
+        q: Rot::from_angle(a),
+    }
+}
+
+#[test]
+fn sat_separated_touching_overlapping() {
+    let a = poly(1.0, 1.0);
+    let b = poly(1.0, 1.0);
+    // separated by 0.5 m: nothing within a 0.02 m margin
+    assert_eq!(
+        sat::collide(&a, &xf(0.0, 0.0, 0.0), &b, &xf(0.0, 1.5, 0.0), 0.02).count,
+        0
+    );
+    // touching: two points of zero separation, normal up
+    let m = sat::collide(&a, &xf(0.0, 0.0, 0.0), &b, &xf(0.25, 1.0, 0.0), 0.02);
+    assert_eq!(m.count, 2);
+    assert!((m.normal - Vec2::Y).length() < 1e-6);
+    for p in m.points() {
+        assert!(p.separation.abs() < 1e-6);
+    }
+    // overlapping by 0.1 m
+    let m = sat::collide(&a, &xf(0.0, 0.0, 0.0), &b, &xf(0.25, 0.9, 0.0), 0.02);
+    assert_eq!(m.count, 2);
+    for p in m.points() {
+        assert!((p.separation + 0.1).abs() < 1e-5, "{}", p.separation);
+    }
+    // the clipped points lie on the overlap of the two faces, x in [-0.25, 0.5]
+    let mut xs: Vec<f32> = m.points().iter().map(|p| p.point.x).collect();
+    xs.sort_by(f32::total_cmp);
+    assert!(
+        (xs[0] + 0.25).abs() < 1e-5 && (xs[1] - 0.5).abs() < 1e-5,
+        "{xs:?}"
+    );
+    // circle against box and circle against circle
+    let c = Shape::Circle { radius: 0.5 };
+    let m = sat::collide(&a, &xf(0.0, 0.0, 0.0), &c, &xf(0.0, 0.95, 0.0), 0.02);
+    assert_eq!(m.count, 1);
+    assert!((m.points[0].separation + 0.05).abs() < 1e-5);
+    let m = sat::collide(&c, &xf(0.0, 0.0, 0.0), &c, &xf(0.6, 0.8, 0.0), 0.02);
+    assert_eq!(m.count, 1);
+    assert!(m.points[0].separation.abs() < 1e-5);
+    assert!((m.normal - Vec2::new(0.6, 0.8)).length() < 1e-5);
+    // a circle near a box corner is pushed along the corner direction
+    let m = sat::collide(&a, &xf(0.0, 0.0, 0.0), &c, &xf(0.8, 0.8, 0.0), 0.1);
+    assert_eq!(m.count, 1);
+    let d = Vec2::new(0.3, 0.3);
+    assert!((m.normal - d.normalize()).length() < 1e-5);
+    assert!((m.points[0].separation - (d.length() - 0.5)).abs() < 1e-5);
+}
+
+#[test]
+fn sat_is_symmetric() {
+    let shapes = [
+        poly(1.0, 0.5),
+        poly(2.0, 0.3),
+        Shape::Circle { radius: 0.4 },
+    ];
+    let placements = [
+        (0.1, 0.6, 0.3),
+        (0.5, 0.2, -0.7),
+        (-0.4, 0.45, 1.2),
+        (0.0, 0.7, 0.0),
+    ];
+    for sa in &shapes {
+        for sb in &shapes {
+            for &(x, y, ang) in &placements {
+                let xa = xf(0.0, 0.0, 0.1);
+                let xb = xf(x, y, ang);
+                let ab = sat::collide(sa, &xa, sb, &xb, 0.01);
+                let ba = sat::collide(sb, &xb, sa, &xa, 0.01);
+                assert_eq!(ab.count, ba.count, "{sa:?} {sb:?} at {x},{y},{ang}");
+                if ab.count == 0 {
+                    continue;
+                }
+                assert!((ab.normal + ba.normal).length() < 1e-4, "normals opposite");
+                let deepest = |m: &sandbox2d::collision::Manifold| {
+                    m.points()
+                        .iter()
+                        .map(|p| p.separation)
+                        .fold(f32::MAX, f32::min)
+                };
+                assert!((deepest(&ab) - deepest(&ba)).abs() < 1e-4, "same depth");
+            }
+        }
+    }
+}
+
+#[test]
+fn feature_ids_survive_small_motion() {
+    let a = poly(4.0, 1.0);
+    let b = poly(1.0, 1.0);
+    let base = sat::collide(&a, &xf(0.0, 0.0, 0.0), &b, &xf(0.3, 0.99, 0.0), 0.02);
+    assert_eq!(base.count, 2);
+    for k in 1..20 {
+        let d = k as f32 * 1e-3;
+        let m = sat::collide(
+            &a,
+            &xf(0.0, 0.0, 0.0),
+            &b,
+            &xf(0.3 + d, 0.99 - 0.2 * d, 0.01 * d),
+            0.02,
+        );
+        assert_eq!(m.count, 2);
+        let mut ids: Vec<u32> = m.points().iter().map(|p| p.id).collect();
+        let mut base_ids: Vec<u32> = base.points().iter().map(|p| p.id).collect();
+        ids.sort();
+        base_ids.sort();
+        assert_eq!(ids, base_ids, "ids changed after moving {d} m");
+    }
+}
+
+#[test]
+fn resting_box_stays_within_slop_and_does_not_creep() {
+    let s = SolverSettings::pgs();
+    let mut w = World::new(Some(Vec2::new(0.0, -10.0)), s);
+    w.add_body(&ground(20.0)).unwrap();
+    let b = w
+        .add_body(&BodyDef {
+            name: "box".into(),
+            position: Vec2::new(0.0, 0.5),
+            ..Default::default()
+        })
+        .unwrap();
+    for _ in 0..600 {
+        w.step().unwrap();
+        let body = &w.bodies[b];
+        // overlap of the box with the ground: 0.5 - y
+        let pen = 0.5 - body.position.y;
+        assert!(pen <= s.slop + 1e-3, "penetration {pen}");
+        assert!(body.position.y < 0.5 + 1e-3, "the box does not hover");
+        assert!(
+            body.position.x.abs() < 1e-4 && body.angle.abs() < 1e-4,
+            "creep: x {} angle {}",
+            body.position.x,
+            body.angle
+        );
+    }
+}
+
+#[test]
+fn pyramid_of_20_stands_for_10_seconds() {
+    let mut w = world_of("pyramid", SolverSettings::pgs());
+    let start: Vec<Vec2> = w.bodies.iter().map(|b| b.position).collect();
+    let top = w.bodies.len() - 1;
+    for _ in 0..600 {
+        w.step().unwrap();
+    }
+    let worst = w
+        .bodies
+        .iter()
+        .zip(&start)
+        .map(|(b, s)| (b.position - *s).length())
+        .fold(0.0f32, f32::max);
+    assert!(worst < 0.15, "a box moved {worst} m");
+    let drift = (w.bodies[top].position.x - start[top].x).abs();
+    assert!(drift < 0.01, "top box drifted {drift} m sideways");
+}
+
+#[test]
+fn warm_starting_needs_fewer_iterations_on_the_stack() {
+    let run = |warm: bool| {
+        let mut s = SolverSettings::pgs();
+        s.warm_start = warm;
+        s.iterations = 50;
+        let mut w = world_of("stack", s);
+        let summary = sandbox2d::sim::run(&mut w, 300, None, |_| {}).unwrap();
+        (summary.iterations_mean, summary.residual_mean)
+    };
+    let (it_on, res_on) = run(true);
+    let (it_off, res_off) = run(false);
+    assert!(
+        res_on < 0.5 * res_off,
+        "mean residual: warm {res_on}, cold {res_off}"
+    );
+    assert!(
+        it_on <= it_off,
+        "iterations to tolerance: warm {it_on}, cold {it_off}"
+    );
+}
+
+/// The first step at which the body touches the ground (y <= radius + 1 mm).
+fn landing_step(w: &mut World, body: usize, radius: f32) -> u32 {
+    for k in 1..2000 {
+        w.step().unwrap();
+        if w.bodies[body].position.y <= radius + 1e-3 {
+            return k;
+        }
+    }
+    panic!("never landed");
+}
+
+#[test]
+fn vacuum_vs_fluid() {
+    let sc = scene::load("vacuum_vs_fluid").unwrap();
+    let heavy = sc
+        .world
+        .bodies
+        .iter()
+        .position(|b| b.name == "heavy")
+        .unwrap();
+    let light = sc
+        .world
+        .bodies
+        .iter()
+        .position(|b| b.name == "light")
+        .unwrap();
+    let settings = sc.world.solver.resolve();
+    // with the drag table: the heavier ball lands first
+    let w = World::from_def(&sc.world, settings).unwrap();
+    let (th, tl) = (
+        landing_step(
+            &mut World::from_def(&sc.world, settings).unwrap(),
+            heavy,
+            0.1,
+        ),
+        landing_step(&mut { w }, light, 0.1),
+    );
+    assert!(
+        th < tl,
+        "in fluid the heavy ball lands at step {th}, the light one at {tl}"
+    );
+    // in vacuum: together, at the closed-form time sqrt(2 h / g) to within a step
+    let mut vac: WorldDef = sc.world.clone();
+    vac.drag = None;
+    let th = landing_step(&mut World::from_def(&vac, settings).unwrap(), heavy, 0.1);
+    let tl = landing_step(&mut World::from_def(&vac, settings).unwrap(), light, 0.1);
+    assert_eq!(th, tl, "in vacuum both land together");
+    let t = th as f32 * settings.dt;
+    let expected = (2.0 * 9.9f32 / 9.81).sqrt();
+    assert!(
+        (t - expected).abs() <= 2.0 * settings.dt,
+        "landed at {t} s, free fall gives {expected} s"
+    );
+}
+
+#[test]
+fn same_scene_twice_gives_the_same_hash() {
+    let run = || {
+        let mut w = world_of(
+            "particles",
+            sandbox2d::scene::load("particles")
+                .unwrap()
+                .world
+                .solver
+                .resolve(),
+        );
+        for _ in 0..300 {
+            w.step().unwrap();
+        }
+        w.state_hash()
+    };
+    assert_eq!(run(), run());
+}
+
+#[test]
+fn a_point_force_gives_torque_r_cross_f() {
+    // In vacuum with no gravity, F at a point offset r gives dv = h F / m, dw = h (r x F) / I.
+    let mut def = WorldDef::default();
+    def.bodies.push(BodyDef {
+        name: "b".into(),
+        shape: ShapeDef::Box {
+            width: 2.0,
+            height: 1.0,
+        },
+        ..Default::default()
+    });
+    def.forces.push(ForceDef {
+        body: 0,
+        force: Vec2::new(0.0, 4.0),
+        point: Vec2::new(1.0, 0.0),
+    });
+    let s = SolverSettings::pgs();
+    let mut w = World::from_def(&def, s).unwrap();
+    w.step().unwrap();
+    let b = &w.bodies[0];
+    let m = 2.0;
+    let i = m * (4.0 + 1.0) / 12.0;
+    assert!((b.velocity.y - s.dt * 4.0 / m).abs() < 1e-6);
+    assert!((b.angular_velocity - s.dt * 4.0 / i).abs() < 1e-6);
+}
+
+#[test]
+fn a_runaway_world_names_the_body() {
+    let mut def = WorldDef::default();
+    def.bodies.push(BodyDef {
+        name: "rocket".into(),
+        ..Default::default()
+    });
+    def.forces.push(ForceDef {
+        body: 0,
+        force: Vec2::new(3e38, 0.0),
+        point: Vec2::ZERO,
+    });
+    let mut w = World::from_def(&def, SolverSettings::pgs()).unwrap();
+    let err = (0..100)
+        .find_map(|_| w.step().err())
+        .expect("the state overflows");
+    match &err {
+        StepError::NonFinite { name, .. } => assert_eq!(name, "rocket"),
+        other => panic!("unexpected {other:?}"),
+    }
+    assert!(err.to_string().contains("rocket"));
+}
+
+#[test]
+fn restitution_bounces_to_e_squared_height() {
+    // A ball dropped from height H on a pad of restitution e rises to about e^2 H.
+    for e in [0.5f32, 0.8] {
+        let mut w = World::new(Some(Vec2::new(0.0, -10.0)), SolverSettings::pgs());
+        w.add_body(&BodyDef {
+            restitution: e,
+            ..ground(10.0)
+        })
+        .unwrap();
+        let b = w
+            .add_body(&BodyDef {
+                name: "ball".into(),
+                shape: ShapeDef::Circle { radius: 0.1 },
+                position: Vec2::new(0.0, 5.1),
+                restitution: e,
+                ..Default::default()
+            })
+            .unwrap();
+        let mut bounced = false;
+        let mut apex = 0.0f32;
+        for _ in 0..400 {
+            let vy_before = w.bodies[b].velocity.y;
+            w.step().unwrap();
+            let vy = w.bodies[b].velocity.y;
+            if vy_before < 0.0 && vy > 0.0 {
+                bounced = true;
+            }
+            if bounced {
+                apex = apex.max(w.bodies[b].position.y - 0.1);
+                if vy < 0.0 {
+                    break;
+                }
+            }
+        }
+        let expected = e * e * 5.0;
+        assert!(
+            (apex - expected).abs() < 0.05 * 5.0,
+            "e = {e}: apex {apex}, expected {expected}"
+        );
+    }
+}
