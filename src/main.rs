@@ -254,7 +254,7 @@ fn simulate(a: &SimulateArgs) -> Result<(), Failure> {
             "bodies": world.bodies.len(),
             "ms_per_step": { "median": median, "mean": mean, "p95": p95 },
             "contacts": { "mean": summary.contacts_mean, "max": summary.contacts_max },
-            "iterations": { "mean": summary.iterations_mean },
+            "iterations": { "mean": summary.iterations_mean, "position_mean": summary.position_iterations_mean },
             "residual": { "mean": summary.residual_mean, "max": summary.residual_max },
             "penetration": { "max": summary.penetration_max, "final": summary.penetration_final },
             "energy": { "start": summary.energy_start, "end": summary.energy_end },
@@ -289,7 +289,10 @@ fn simulate(a: &SimulateArgs) -> Result<(), Failure> {
             "contacts     mean {:.1}  max {}",
             summary.contacts_mean, summary.contacts_max
         );
-        println!("iterations   mean {:.2}", summary.iterations_mean);
+        println!(
+            "iterations   mean {:.2}  (position sweeps {:.2})",
+            summary.iterations_mean, summary.position_iterations_mean
+        );
         println!(
             "residual     mean {:.3e}  max {:.3e}",
             summary.residual_mean, summary.residual_max

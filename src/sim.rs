@@ -15,6 +15,8 @@ pub struct RunSummary {
     pub contacts_mean: f64,
     pub contacts_max: usize,
     pub iterations_mean: f64,
+    /// Split-impulse (position) sweeps per step, mean.
+    pub position_iterations_mean: f64,
     pub residual_mean: f64,
     pub residual_max: f32,
     pub penetration_max: f32,
@@ -108,7 +110,8 @@ pub fn run(
         write_trace_header(tr.out)?;
         write_trace_rows(tr.out, world)?;
     }
-    let (mut contacts, mut iters, mut res, mut pen) = (0.0f64, 0.0f64, 0.0f64, 0.0f64);
+    let (mut contacts, mut iters, mut res, mut pen, mut pos_iters) =
+        (0.0f64, 0.0f64, 0.0f64, 0.0f64, 0.0f64);
     for k in 1..=steps {
         let t = Instant::now();
         world.step()?;
@@ -117,6 +120,7 @@ pub fn run(
         contacts += st.contacts as f64;
         s.contacts_max = s.contacts_max.max(st.contacts);
         iters += st.iterations as f64;
+        pos_iters += st.position_iterations as f64;
         res += st.residual as f64;
         s.residual_max = s.residual_max.max(st.residual);
         pen += st.penetration as f64;
@@ -142,6 +146,7 @@ pub fn run(
     s.steps = steps;
     s.contacts_mean = contacts / n;
     s.iterations_mean = iters / n;
+    s.position_iterations_mean = pos_iters / n;
     s.residual_mean = res / n;
     s.penetration_mean = pen / n;
     s.energy_end = world.energy();
