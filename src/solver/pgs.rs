@@ -23,6 +23,66 @@ pub struct SolverBody {
     pub inv_i: f32,
 }
 
+/// The velocities of a constraint's two bodies, loaded once, updated by each row, stored back.
+struct PairVel {
+    va: Vec2,
+    wa: f32,
+    vb: Vec2,
+    wb: f32,
+    ima: f32,
+    iia: f32,
+    imb: f32,
+    iib: f32,
+}
+
+impl PairVel {
+    #[inline]
+    fn load(bodies: &[SolverBody], a: u32, b: u32) -> PairVel {
+        let (ba, bb) = (bodies[a as usize], bodies[b as usize]);
+        PairVel {
+            va: ba.v,
+            wa: ba.w,
+            vb: bb.v,
+            wb: bb.w,
+            ima: ba.inv_m,
+            iia: ba.inv_i,
+            imb: bb.inv_m,
+            iib: bb.inv_i,
+        }
+    }
+
+    #[inline]
+    fn load_pseudo(bodies: &[SolverBody], pseudo: &[(Vec2, f32)], a: u32, b: u32) -> PairVel {
+        let mut pv = PairVel::load(bodies, a, b);
+        (pv.va, pv.wa) = pseudo[a as usize];
+        (pv.vb, pv.wb) = pseudo[b as usize];
+        pv
+    }
+
+    #[inline]
+    fn store(&self, bodies: &mut [SolverBody], a: u32, b: u32) {
+        bodies[a as usize].v = self.va;
+        bodies[a as usize].w = self.wa;
+        bodies[b as usize].v = self.vb;
+        bodies[b as usize].w = self.wb;
+    }
+
+    /// Relative velocity of the contact point: vb + wb x rb - va - wa x ra.
+    #[inline]
+    fn relative(&self, ra: Vec2, rb: Vec2) -> Vec2 {
+        self.vb + cross_sv(self.wb, rb) - self.va - cross_sv(self.wa, ra)
+    }
+
+    /// Applies the impulse P (on b, -P on a): v += P/m, w += (r x P)/I.
+    #[inline]
+    fn apply(&mut self, imp: Vec2, ra: Vec2, rb: Vec2) {
+        self.va -= self.ima * imp;
+        self.wa -= self.iia * cross(ra, imp);
+        self.vb += self.imb * imp;
+        self.wb += self.iib * cross(rb, imp);
+    }
+}
+
 #[derive(Clone, Copy, Debug, Default)]
 struct Point {
     ra: Vec2,
@@ -151,25 +211,17 @@ impl PgsSolver {
 
     /// Applies the cached lambdas (warm start).
     pub fn warm_start(&mut self) {
-        let bodies = &mut self.bodies;
         for c in &self.constraints {
             let t = Vec2::new(c.normal.y, -c.normal.x);
-            let (a, b) = (c.a as usize, c.b as usize);
-            let (mut va, mut wa, ima, iia) =
-                (bodies[a].v, bodies[a].w, bodies[a].inv_m, bodies[a].inv_i);
-            let (mut vb, mut wb, imb, iib) =
-                (bodies[b].v, bodies[b].w, bodies[b].inv_m, bodies[b].inv_i);
+            let mut pv = PairVel::load(&self.bodies, c.a, c.b);
             for p in &c.points[..c.count as usize] {
-                let imp = p.normal_impulse * c.normal + p.tangent_impulse * t;
-                va -= ima * imp;
-                wa -= iia * cross(p.ra, imp);
-                vb += imb * imp;
-                wb += iib * cross(p.rb, imp);
+                pv.apply(
+                    p.normal_impulse * c.normal + p.tangent_impulse * t,
+                    p.ra,
+                    p.rb,
+                );
             }
-            bodies[a].v = va;
-            bodies[a].w = wa;
-            bodies[b].v = vb;
-            bodies[b].w = wb;
+            pv.store(&mut self.bodies, c.a, c.b);
         }
     }
 
@@ -180,47 +232,30 @@ impl PgsSolver {
         for c in &mut self.constraints {
             let n = c.normal;
             let t = Vec2::new(n.y, -n.x);
-            let (a, b) = (c.a as usize, c.b as usize);
-            let (mut va, mut wa, ima, iia) =
-                (bodies[a].v, bodies[a].w, bodies[a].inv_m, bodies[a].inv_i);
-            let (mut vb, mut wb, imb, iib) =
-                (bodies[b].v, bodies[b].w, bodies[b].inv_m, bodies[b].inv_i);
+            let mut pv = PairVel::load(bodies, c.a, c.b);
             let count = c.count as usize;
             // friction rows first: their bounds use the normal lambdas of the last sweep
             for p in &mut c.points[..count] {
-                let dv = vb + cross_sv(wb, p.rb) - va - cross_sv(wa, p.ra);
-                // lambda = -m_t (J v)
-                let d = -p.tangent_mass * dv.dot(t);
+                // lambda = -m_t (J v), projected onto [-mu lambda_n, mu lambda_n]
+                let d = -p.tangent_mass * pv.relative(p.ra, p.rb).dot(t);
                 let bound = c.friction * p.normal_impulse;
                 let new = (p.tangent_impulse + d).clamp(-bound, bound);
                 let d = new - p.tangent_impulse;
                 p.tangent_impulse = new;
                 residual = residual.max(d.abs());
-                let imp = d * t;
-                va -= ima * imp;
-                wa -= iia * cross(p.ra, imp);
-                vb += imb * imp;
-                wb += iib * cross(p.rb, imp);
+                pv.apply(d * t, p.ra, p.rb);
             }
             for p in &mut c.points[..count] {
-                let dv = vb + cross_sv(wb, p.rb) - va - cross_sv(wa, p.ra);
                 // lambda = -m_n (J v - bias), projected onto [0, inf)
-                let d = -p.normal_mass * (dv.dot(n) - p.velocity_bias);
+                let d = -p.normal_mass * (pv.relative(p.ra, p.rb).dot(n) - p.velocity_bias);
                 let new = (p.normal_impulse + d).max(0.0);
                 let d = new - p.normal_impulse;
                 p.normal_impulse = new;
                 p.max_normal_impulse = p.max_normal_impulse.max(new);
                 residual = residual.max(d.abs());
-                let imp = d * n;
-                va -= ima * imp;
-                wa -= iia * cross(p.ra, imp);
-                vb += imb * imp;
-                wb += iib * cross(p.rb, imp);
+                pv.apply(d * n, p.ra, p.rb);
             }
-            bodies[a].v = va;
-            bodies[a].w = wa;
-            bodies[b].v = vb;
-            bodies[b].w = wb;
+            pv.store(bodies, c.a, c.b);
         }
         residual
     }
@@ -228,37 +263,25 @@ impl PgsSolver {
     /// Restitution: a point that was approaching faster than the threshold and is pushed
     /// leaves with -e times its approach speed.
     pub fn apply_restitution(&mut self, threshold: f32) {
-        let bodies = &mut self.bodies;
         for c in &mut self.constraints {
             if c.restitution == 0.0 {
                 continue;
             }
             let n = c.normal;
-            let (a, b) = (c.a as usize, c.b as usize);
-            let (mut va, mut wa, ima, iia) =
-                (bodies[a].v, bodies[a].w, bodies[a].inv_m, bodies[a].inv_i);
-            let (mut vb, mut wb, imb, iib) =
-                (bodies[b].v, bodies[b].w, bodies[b].inv_m, bodies[b].inv_i);
+            let mut pv = PairVel::load(&self.bodies, c.a, c.b);
             for p in &mut c.points[..c.count as usize] {
                 if p.relative_velocity > -threshold || p.max_normal_impulse == 0.0 {
                     continue;
                 }
-                let dv = vb + cross_sv(wb, p.rb) - va - cross_sv(wa, p.ra);
                 // target J v = -e v_before
-                let d = -p.normal_mass * (dv.dot(n) + c.restitution * p.relative_velocity);
+                let d = -p.normal_mass
+                    * (pv.relative(p.ra, p.rb).dot(n) + c.restitution * p.relative_velocity);
                 let new = (p.normal_impulse + d).max(0.0);
                 let d = new - p.normal_impulse;
                 p.normal_impulse = new;
-                let imp = d * n;
-                va -= ima * imp;
-                wa -= iia * cross(p.ra, imp);
-                vb += imb * imp;
-                wb += iib * cross(p.rb, imp);
+                pv.apply(d * n, p.ra, p.rb);
             }
-            bodies[a].v = va;
-            bodies[a].w = wa;
-            bodies[b].v = vb;
-            bodies[b].w = wb;
+            pv.store(&mut self.bodies, c.a, c.b);
         }
     }
 
@@ -274,35 +297,20 @@ impl PgsSolver {
     /// One sweep of the split-impulse system J M^-1 J^T lambda_p = -beta/dt S (as
     /// impulses), lambda_p >= 0, on the pseudo-velocities; returns max |delta lambda|.
     pub fn sweep_position(&mut self) -> f32 {
-        let bodies = &self.bodies;
-        let pseudo = &mut self.pseudo;
         let mut residual = 0.0f32;
         for c in &mut self.constraints {
             let n = c.normal;
-            let (a, b) = (c.a as usize, c.b as usize);
-            let (ima, iia, imb, iib) = (
-                bodies[a].inv_m,
-                bodies[a].inv_i,
-                bodies[b].inv_m,
-                bodies[b].inv_i,
-            );
-            let (mut va, mut wa) = pseudo[a];
-            let (mut vb, mut wb) = pseudo[b];
+            let mut pv = PairVel::load_pseudo(&self.bodies, &self.pseudo, c.a, c.b);
             for p in &mut c.points[..c.count as usize] {
-                let dv = vb + cross_sv(wb, p.rb) - va - cross_sv(wa, p.ra);
-                let d = -p.normal_mass * (dv.dot(n) - p.position_bias);
+                let d = -p.normal_mass * (pv.relative(p.ra, p.rb).dot(n) - p.position_bias);
                 let new = (p.pseudo_impulse + d).max(0.0);
                 let d = new - p.pseudo_impulse;
                 p.pseudo_impulse = new;
                 residual = residual.max(d.abs());
-                let imp = d * n;
-                va -= ima * imp;
-                wa -= iia * cross(p.ra, imp);
-                vb += imb * imp;
-                wb += iib * cross(p.rb, imp);
+                pv.apply(d * n, p.ra, p.rb);
             }
-            pseudo[a] = (va, wa);
-            pseudo[b] = (vb, wb);
+            self.pseudo[c.a as usize] = (pv.va, pv.wa);
+            self.pseudo[c.b as usize] = (pv.vb, pv.wb);
         }
         residual
     }
