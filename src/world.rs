@@ -468,7 +468,6 @@ impl World {
     }
 
     fn substep_pgs(&mut self, h: f32) {
-        let t0 = Instant::now();
         let (ms_broad, ms_narrow) = self.collide(h);
         let t1 = Instant::now();
         self.integrate_velocities(h);
@@ -510,7 +509,6 @@ impl World {
         self.stats.ms_forces = (t2 - t1).as_secs_f32() * 1e3;
         self.stats.ms_solve = (t3 - t2).as_secs_f32() * 1e3;
         self.stats.ms_integrate = (t4 - t3).as_secs_f32() * 1e3;
-        let _ = t0;
     }
 
     /// Kinetic plus gravitational potential energy of the dynamic bodies (J), with the
