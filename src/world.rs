@@ -366,12 +366,13 @@ impl World {
     /// Semi-implicit Euler, velocity half: v += h (g + F/m), w += h tau / I; drag taken
     /// implicitly so it can only slow a body down, whatever the step.
     fn integrate_velocities(&mut self, h: f32) {
+        // constant point forces: dv = h F / m, dw = h (r x F) / I
         for f in &self.forces {
             let b = &mut self.bodies[f.body];
             if b.is_dynamic() {
                 let r = b.rot.rotate(f.local);
-                b.force += f.force;
-                b.torque += cross(r, f.force); // tau = r x F
+                b.velocity += h * b.inv_mass * f.force;
+                b.angular_velocity += h * b.inv_inertia * cross(r, f.force);
             }
         }
         let g = self.gravity;
@@ -396,16 +397,6 @@ impl World {
             }
             b.velocity = v;
             b.angular_velocity += h * b.inv_inertia * b.torque;
-        }
-        // forces from `forces` were added to the accumulators above: take them back out so
-        // the accumulators hold only what the user applied
-        for f in &self.forces {
-            let b = &mut self.bodies[f.body];
-            if b.is_dynamic() {
-                let r = b.rot.rotate(f.local);
-                b.force -= f.force;
-                b.torque -= cross(r, f.force);
-            }
         }
     }
 
