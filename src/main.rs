@@ -233,6 +233,7 @@ fn simulate(a: &SimulateArgs) -> Result<(), Failure> {
         f.flush().map_err(Failure::run)?;
     }
     let (median, mean, p95) = summary.ms_per_step();
+    let world_has_no_joints = world.joints().is_empty();
     let hash = format!("{:016x}", world.state_hash());
     if a.json {
         let v = serde_json::json!({
@@ -258,6 +259,7 @@ fn simulate(a: &SimulateArgs) -> Result<(), Failure> {
             "residual": { "mean": summary.residual_mean, "max": summary.residual_max },
             "penetration": { "max": summary.penetration_max, "final": summary.penetration_final },
             "energy": { "start": summary.energy_start, "end": summary.energy_end },
+            "joint_error": { "max": summary.joint_error_max, "final": summary.joint_error_final },
             "stage_ms": {
                 "forces": summary.stage_ms[0], "broad_phase": summary.stage_ms[1], "narrow_phase": summary.stage_ms[2],
                 "solver": summary.stage_ms[3], "integrate": summary.stage_ms[4],
@@ -305,6 +307,12 @@ fn simulate(a: &SimulateArgs) -> Result<(), Failure> {
             "energy       start {:.4} J  end {:.4} J",
             summary.energy_start, summary.energy_end
         );
+        if !world_has_no_joints {
+            println!(
+                "joint error  max {:.6} m  final {:.6} m",
+                summary.joint_error_max, summary.joint_error_final
+            );
+        }
         println!("state hash   {hash}");
     }
     Ok(())
