@@ -96,7 +96,8 @@ pub(crate) struct JointFrame {
     pub rb: Vec2,
     pub d: Vec2,
     pub axis: Vec2,
-    /// theta_b - theta_a - ref, wrapped into (-pi, pi].
+    /// theta_b - theta_a - ref (not wrapped: the body angles are continuous, and a
+    /// wrapped angle would jump from pi to -pi and flip which limit looks violated).
     pub angle: f32,
 }
 
@@ -146,7 +147,7 @@ impl Joint {
             rb,
             d: (bb.position + rb) - (ba.position + ra),
             axis: ba.rot.rotate(self.local_axis),
-            angle: wrap_angle(bb.angle - ba.angle - self.ref_angle),
+            angle: bb.angle - ba.angle - self.ref_angle,
         }
     }
 
@@ -184,9 +185,9 @@ impl Joint {
     pub fn angle_error(&self, bodies: &[Body]) -> f32 {
         let f = self.frame(bodies);
         match self.kind {
-            JointKind::Hinge => self.limits.map_or(0.0, |[lo, hi]| {
-                (lo - f.angle).max(f.angle - hi).max(0.0)
-            }),
+            JointKind::Hinge => self
+                .limits
+                .map_or(0.0, |[lo, hi]| (lo - f.angle).max(f.angle - hi).max(0.0)),
             JointKind::Weld | JointKind::Prismatic => f.angle.abs(),
             JointKind::Distance => 0.0,
         }
@@ -434,6 +435,8 @@ pub(crate) fn angular_correction(
 #[inline]
 pub(crate) fn move_body(b: &mut Body, dx: Vec2, dtheta: f32) {
     b.position += dx;
+    b.correction += dx;
+    b.correction_angle += dtheta;
     if dtheta != 0.0 {
         b.angle += dtheta;
         b.rot = crate::math::Rot::from_angle(b.angle);

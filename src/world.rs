@@ -8,17 +8,16 @@ use crate::body::{Body, BodyId};
 use crate::collision::broad_phase::BroadPhase;
 use crate::collision::sat;
 use crate::defs::{
-    BodyDef, BodyModel, BodyType, DragDef, ForceDef, JointDef, SolverKind,
-    SolverSettings, WorldDef,
+    BodyDef, BodyModel, BodyType, DragDef, ForceDef, JointDef, SolverKind, SolverSettings, WorldDef,
 };
 use crate::joint::{Joint, JointId, MouseJoint, SLOTS};
-use crate::solver::joint_rows::{JointRows, apply_drives, xpbd_velocity_pass};
-use crate::solver::pgs::SolverBody;
-use crate::solver::xpbd::XpbdContacts;
 use crate::math::{Aabb, Rot, Vec2, cross};
 use crate::shape::{Shape, ShapeError};
 use crate::solver::contact_cache::{CacheCursor, Contact, match_points};
+use crate::solver::joint_rows::{JointRows, apply_drives, xpbd_velocity_pass};
 use crate::solver::pgs::PgsSolver;
+use crate::solver::pgs::SolverBody;
+use crate::solver::xpbd::XpbdContacts;
 
 /// Contact points are kept while the gap is below this many slops (speculative contacts).
 const SPECULATIVE_SLOPS: f32 = 4.0;
@@ -370,6 +369,8 @@ impl World {
             color: def.color,
             force: Vec2::ZERO,
             torque: 0.0,
+            correction: Vec2::ZERO,
+            correction_angle: 0.0,
         };
         self.bodies.push(body);
         Ok(self.bodies.len() - 1)
@@ -514,21 +515,24 @@ impl World {
                 let d = self.xpbd.project(&mut self.bodies);
                 deepest = deepest.max(d);
             }
-            // v = (x - x_prev) / h, w = (theta - theta_prev) / h
-            for (b, &(x0, a0)) in self.bodies.iter_mut().zip(&self.xpbd.prev) {
+            // v = (x - x_prev) / h, w = (theta - theta_prev) / h, as v += dx / h
+            for b in &mut self.bodies {
                 if b.is_dynamic() {
-                    b.velocity = (b.position - x0) / h;
-                    b.angular_velocity = (b.angle - a0) / h;
+                    b.velocity += b.correction / h;
+                    b.angular_velocity += b.correction_angle / h;
                 }
+                b.correction = Vec2::ZERO;
+                b.correction_angle = 0.0;
             }
             // velocity pass
             self.xpbd_bodies.clear();
-            self.xpbd_bodies.extend(self.bodies.iter().map(|b| SolverBody {
-                v: b.velocity,
-                w: b.angular_velocity,
-                inv_m: b.inv_mass,
-                inv_i: b.inv_inertia,
-            }));
+            self.xpbd_bodies
+                .extend(self.bodies.iter().map(|b| SolverBody {
+                    v: b.velocity,
+                    w: b.angular_velocity,
+                    inv_m: b.inv_mass,
+                    inv_i: b.inv_inertia,
+                }));
             self.xpbd.velocity_pass(
                 &self.bodies,
                 &mut self.xpbd_bodies,

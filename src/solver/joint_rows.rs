@@ -263,10 +263,24 @@ impl JointRows {
                 JointKind::Hinge | JointKind::Weld => {
                     let ang = angle_row(a, b);
                     if let Some(m) = j.motor {
-                        push(&mut self.items, motor(ang, bodies, m.speed, m.max_force, h), slot::MOTOR);
+                        push(
+                            &mut self.items,
+                            motor(ang, bodies, m.speed, m.max_force, h),
+                            slot::MOTOR,
+                        );
                     }
                     if j.kind == JointKind::Hinge {
-                        range_rows(&mut self.items, j, ang, f.angle, bodies, beta, h, true, &push);
+                        range_rows(
+                            &mut self.items,
+                            j,
+                            ang,
+                            f.angle,
+                            bodies,
+                            beta,
+                            h,
+                            true,
+                            &push,
+                        );
                     } else {
                         push(
                             &mut self.items,
@@ -303,7 +317,11 @@ impl JointRows {
                 JointKind::Prismatic => {
                     let ax = linear_row(a, b, f.ra + f.d, f.rb, f.axis);
                     if let Some(m) = j.motor {
-                        push(&mut self.items, motor(ax, bodies, m.speed, m.max_force, h), slot::MOTOR);
+                        push(
+                            &mut self.items,
+                            motor(ax, bodies, m.speed, m.max_force, h),
+                            slot::MOTOR,
+                        );
                     }
                     let t = f.axis.dot(f.d);
                     range_rows(&mut self.items, j, ax, t, bodies, beta, h, false, &push);
@@ -335,8 +353,16 @@ impl JointRows {
                     let r = linear_row(a, b, f.ra, f.rb, u);
                     match j.limits {
                         Some([lo, hi]) => {
-                            push(&mut self.items, inequality(r, bodies, len - lo, beta, h), slot::LOWER);
-                            push(&mut self.items, inequality(r.negated(), bodies, hi - len, beta, h), slot::UPPER);
+                            push(
+                                &mut self.items,
+                                inequality(r, bodies, len - lo, beta, h),
+                                slot::LOWER,
+                            );
+                            push(
+                                &mut self.items,
+                                inequality(r.negated(), bodies, hi - len, beta, h),
+                                slot::UPPER,
+                            );
                         }
                         None => push(
                             &mut self.items,
@@ -464,7 +490,11 @@ fn range_rows(
 ) {
     if let Some([lo, hi]) = j.limits {
         push(items, inequality(r, bodies, x - lo, beta, h), slot::LOWER);
-        push(items, inequality(r.negated(), bodies, hi - x, beta, h), slot::UPPER);
+        push(
+            items,
+            inequality(r.negated(), bodies, hi - x, beta, h),
+            slot::UPPER,
+        );
     }
     if let Some(s) = j.servo {
         let c = if angular {
@@ -555,13 +585,7 @@ pub fn xpbd_velocity_pass(
         let (a, b) = (j.a as u32, j.b as u32);
         let axis_row = match j.kind {
             JointKind::Prismatic => Some(linear_row(a, b, f.ra + f.d, f.rb, f.axis)),
-            JointKind::Distance => Some(linear_row(
-                a,
-                b,
-                f.ra,
-                f.rb,
-                f.d.normalize_or(Vec2::Y),
-            )),
+            JointKind::Distance => Some(linear_row(a, b, f.ra, f.rb, f.d.normalize_or(Vec2::Y))),
             _ => None,
         };
         if let Some(m) = j.motor {

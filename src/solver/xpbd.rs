@@ -99,8 +99,8 @@ impl XpbdContacts {
         for p in &mut self.points {
             let g = geometry(p, bodies);
             let (ba, bb) = (&bodies[p.a as usize], &bodies[p.b as usize]);
-            p.vn_before = (bb.velocity_at(bb.position + g.rb) - ba.velocity_at(ba.position + g.ra))
-                .dot(g.n);
+            p.vn_before =
+                (bb.velocity_at(bb.position + g.rb) - ba.velocity_at(ba.position + g.ra)).dot(g.n);
             p.lambda_n = 0.0;
             p.lambda_t = 0.0;
         }
@@ -157,16 +157,11 @@ impl XpbdContacts {
         deepest
     }
 
-    /// The velocity pass of the touching points: dynamic friction
-    /// dv = -v_t/|v_t| min(h mu |f_n|, |v_t|) with f_n = lambda_n / h^2, and restitution
+    /// The velocity pass of the touching points: dynamic friction, an impulse against
+    /// the sliding velocity v_t of at most mu |f_n| h = mu lambda_n / h (and no more than
+    /// stops the sliding), and restitution
     /// v_n' = max(-e v_n_before, 0) (e = 0 below the threshold speed).
-    pub fn velocity_pass(
-        &self,
-        world: &[Body],
-        bodies: &mut [SolverBody],
-        h: f32,
-        threshold: f32,
-    ) {
+    pub fn velocity_pass(&self, world: &[Body], bodies: &mut [SolverBody], h: f32, threshold: f32) {
         for p in &self.points {
             if p.lambda_n <= 0.0 {
                 continue;
@@ -178,13 +173,13 @@ impl XpbdContacts {
             let vn = rel.dot(g.n);
             let vt = rel - vn * g.n;
             let speed_t = vt.length();
-            let apply = |dir: Vec2, dv: f32, bodies: &mut [SolverBody]| {
+            // the generalized inverse mass along dir at the two points
+            let w_along = |dir: Vec2| {
                 let (ra_n, rb_n) = (cross(g.ra, dir), cross(g.rb, dir));
-                let w = sa.inv_m + sa.inv_i * ra_n * ra_n + sb.inv_m + sb.inv_i * rb_n * rb_n;
-                if w <= 0.0 {
-                    return;
-                }
-                let imp = (dv / w) * dir;
+                sa.inv_m + sa.inv_i * ra_n * ra_n + sb.inv_m + sb.inv_i * rb_n * rb_n
+            };
+            let apply = |dir: Vec2, impulse: f32, bodies: &mut [SolverBody]| {
+                let imp = impulse * dir;
                 let ba = &mut bodies[a];
                 ba.v -= ba.inv_m * imp;
                 ba.w -= ba.inv_i * cross(g.ra, imp);
@@ -193,8 +188,13 @@ impl XpbdContacts {
                 bb.w += bb.inv_i * cross(g.rb, imp);
             };
             if speed_t > 1e-9 {
-                let dv = (p.friction * p.lambda_n / h).min(speed_t);
-                apply(-vt / speed_t, dv, bodies);
+                // the friction impulse is at most mu times the normal impulse lambda_n / h
+                let t = -vt / speed_t;
+                let w = w_along(t);
+                if w > 0.0 {
+                    let j = (p.friction * p.lambda_n / h).min(speed_t / w);
+                    apply(t, j, bodies);
+                }
             }
             let e = if p.vn_before.abs() <= threshold {
                 0.0
@@ -202,7 +202,10 @@ impl XpbdContacts {
                 p.restitution
             };
             let target = (-e * p.vn_before).max(0.0);
-            apply(g.n, target - vn, bodies);
+            let w = w_along(g.n);
+            if w > 0.0 {
+                apply(g.n, (target - vn) / w, bodies);
+            }
         }
     }
 }
