@@ -28,6 +28,9 @@ pub mod world;
 #[cfg(feature = "render")]
 pub mod render;
 
+#[cfg(feature = "app")]
+pub mod app;
+
 pub use body::{Body, BodyId};
 pub use defs::*;
 pub use draw::{Camera, DrawList};

@@ -292,9 +292,15 @@ impl Renderer {
         }
     }
 
-    /// The adapter a headless renderer runs on (`None` for [`Renderer::new`]).
+    /// The adapter a headless renderer runs on (`None` for [`Renderer::new`] until
+    /// [`Renderer::set_adapter_info`]).
     pub fn adapter_info(&self) -> Option<&wgpu::AdapterInfo> {
         self.adapter_info.as_ref()
+    }
+
+    /// Records the adapter a renderer made with [`Renderer::new`] runs on (for reports).
+    pub fn set_adapter_info(&mut self, info: wgpu::AdapterInfo) {
+        self.adapter_info = Some(info);
     }
 
     /// The target format the pipelines were built for.

@@ -3,9 +3,11 @@
 //! [`Renderer::draw`], into any texture view such as a window's surface.
 
 pub mod capture;
+pub mod frames;
 mod gpu;
 
 pub use capture::{GifWriter, save_png};
+pub use frames::{FrameJob, FramesError, FramesWritten, render_frames};
 pub use gpu::{OFFSCREEN_FORMAT, Renderer, SAMPLE_COUNT};
 
 /// The wgpu this renderer is built on, for callers that make devices, surfaces and encoders.
