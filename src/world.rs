@@ -15,6 +15,8 @@ use crate::shape::{Shape, ShapeError};
 use crate::solver::contact_cache::{CacheCursor, Contact, match_points};
 use crate::solver::pgs::PgsSolver;
 
+mod measure;
+
 /// Contact points are kept while the gap is below this many slops (speculative contacts).
 const SPECULATIVE_SLOPS: f32 = 4.0;
 
@@ -96,7 +98,7 @@ struct PointForce {
 }
 
 /// A physics world.
-#[derive(Debug)]
+#[derive(Clone, Debug)]
 pub struct World {
     /// The bodies, in creation order.
     pub bodies: Vec<Body>,
