@@ -13,6 +13,7 @@
 //! assert!((world.bodies[ball].position.y - 0.5).abs() < 0.02);
 //! ```
 
+pub mod bench;
 pub mod body;
 pub mod collision;
 pub mod defs;

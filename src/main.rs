@@ -36,6 +36,9 @@ enum Command {
     /// Open the sandbox window on a scene (without a display: render frames to ./out).
     #[cfg(feature = "render")]
     Run(RunArgs),
+    /// Measure what each solver setting costs and how right it is: results.csv,
+    /// results.md and one plot per scene (or stability.md for --suite extremes) in --out.
+    Bench(BenchArgs),
 }
 
 /// Debug overlays for `render`.
@@ -111,6 +114,33 @@ fn parse_size(s: &str) -> Result<[u32; 2], String> {
         }
     };
     Ok([side(w)?, side(h)?])
+}
+
+#[derive(Clone, Copy, ValueEnum)]
+enum SuiteArg {
+    Quick,
+    Standard,
+    Extremes,
+}
+
+#[derive(Args)]
+struct BenchArgs {
+    /// Which scenes: quick (a couple of minutes), standard (under 15), extremes (the
+    /// stability sweeps).
+    #[arg(long, value_enum, default_value = "quick")]
+    suite: SuiteArg,
+    /// Directory for the results (created if missing).
+    #[arg(long)]
+    out: PathBuf,
+    /// Only the scenes (or sweeps) whose name contains this.
+    #[arg(long)]
+    filter: Option<String>,
+    /// Steps per run instead of each scene's own count (for quick checks).
+    #[arg(long, hide = true)]
+    steps: Option<u64>,
+    /// Timed repeats instead of each scene's own count.
+    #[arg(long, hide = true)]
+    repeats: Option<u32>,
 }
 
 #[derive(Clone, Copy, ValueEnum)]
@@ -238,6 +268,7 @@ fn main() -> ExitCode {
         Some(Command::Render(a)) => render(&a),
         #[cfg(feature = "render")]
         Some(Command::Run(a)) => run(&a),
+        Some(Command::Bench(a)) => bench(&a),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
@@ -598,5 +629,113 @@ fn run_headless(a: &RunArgs, sc: &Scene) -> Result<(), Failure> {
             .map_err(|e| Failure::input(format!("{}: cannot write: {e}", shot.display())))?;
         println!("screenshot: {}", shot.display());
     }
+    Ok(())
+}
+
+/// A progress bar on a terminal; hidden when stdout is not one.
+fn bench_progress(total: usize) -> indicatif::ProgressBar {
+    if !std::io::stdout().is_terminal() {
+        return indicatif::ProgressBar::hidden();
+    }
+    let b = indicatif::ProgressBar::new(total as u64);
+    b.set_style(
+        indicatif::ProgressStyle::with_template("{bar:40} {pos}/{len} {elapsed} {msg}")
+            .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
+    );
+    b
+}
+
+fn write_file(path: &std::path::Path, text: &str) -> Result<(), Failure> {
+    std::fs::write(path, text)
+        .map_err(|e| Failure::run(format!("{}: cannot write: {e}", path.display())))
+}
+
+fn bench(a: &BenchArgs) -> Result<(), Failure> {
+    use sandbox2d::bench::{self, Suite, extremes};
+    if a.steps == Some(0) {
+        return Err(Failure::input("--steps must be at least 1"));
+    }
+    if a.repeats == Some(0) {
+        return Err(Failure::input("--repeats must be at least 1"));
+    }
+    let suite = match a.suite {
+        SuiteArg::Quick => Suite::Quick,
+        SuiteArg::Standard => Suite::Standard,
+        SuiteArg::Extremes => Suite::Extremes,
+    };
+    let filter = a.filter.clone();
+    if suite == Suite::Extremes {
+        let sweeps: Vec<extremes::Sweep> = extremes::Sweep::ALL
+            .into_iter()
+            .filter(|s| {
+                filter
+                    .as_ref()
+                    .is_none_or(|f| s.name().contains(f.as_str()))
+            })
+            .collect();
+        if sweeps.is_empty() {
+            return Err(Failure::input(format!(
+                "--filter {:?} matches no sweep",
+                filter.unwrap_or_default()
+            )));
+        }
+        std::fs::create_dir_all(&a.out)
+            .map_err(|e| Failure::input(format!("{}: cannot create: {e}", a.out.display())))?;
+        let total: usize = sweeps
+            .iter()
+            .map(|s| s.values().len() * extremes::settings(*s).len())
+            .sum();
+        let bar = bench_progress(total);
+        let results = extremes::run_all(&sweeps, |done, _, what| {
+            bar.set_position(done as u64);
+            bar.set_message(what.to_string());
+        });
+        bar.finish_and_clear();
+        let path = a.out.join("stability.md");
+        write_file(&path, &extremes::markdown(&results))?;
+        println!("wrote {}", path.display());
+        return Ok(());
+    }
+    let opts = bench::Options {
+        filter,
+        steps: a.steps,
+        repeats: a.repeats,
+    };
+    let scenes = opts.scenes(suite);
+    if scenes.is_empty() {
+        return Err(Failure::input(format!(
+            "--filter {:?} matches no scene of the {} suite",
+            opts.filter.clone().unwrap_or_default(),
+            suite.name()
+        )));
+    }
+    std::fs::create_dir_all(&a.out)
+        .map_err(|e| Failure::input(format!("{}: cannot create: {e}", a.out.display())))?;
+    let total: usize = scenes.iter().map(|s| bench::scene_settings(s).len()).sum();
+    let bar = bench_progress(total);
+    let rows = bench::run_scenes(&scenes, &opts, |done, _, what| {
+        bar.set_position(done as u64);
+        bar.set_message(what.to_string());
+    });
+    bar.finish_and_clear();
+    let mut plots = Vec::new();
+    for sc in &scenes {
+        if let Some(svg) = bench::plot::svg(sc, &rows).map_err(Failure::run)? {
+            let name = format!("{}.svg", sc.name);
+            write_file(&a.out.join(&name), &svg)?;
+            plots.push(name);
+        }
+    }
+    write_file(&a.out.join("results.csv"), &bench::report::csv(&rows))?;
+    write_file(
+        &a.out.join("results.md"),
+        &bench::report::markdown(suite, &scenes, &rows, &plots),
+    )?;
+    println!(
+        "wrote {}: results.csv, results.md and {} plot(s) ({} rows)",
+        a.out.display(),
+        plots.len(),
+        rows.len()
+    );
     Ok(())
 }

@@ -19,6 +19,8 @@ use crate::solver::pgs::PgsSolver;
 use crate::solver::pgs::SolverBody;
 use crate::solver::xpbd::XpbdContacts;
 
+mod measure;
+
 /// Contact points are kept while the gap is below this many slops (speculative contacts).
 const SPECULATIVE_SLOPS: f32 = 4.0;
 
@@ -102,7 +104,7 @@ struct PointForce {
 }
 
 /// A physics world.
-#[derive(Debug)]
+#[derive(Clone, Debug)]
 pub struct World {
     /// The bodies, in creation order.
     pub bodies: Vec<Body>,

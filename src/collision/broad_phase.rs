@@ -11,7 +11,7 @@ use crate::math::{Aabb, Vec2};
 pub type Pair = (u32, u32);
 
 /// Reusable buffers of the grid broad phase.
-#[derive(Default, Debug)]
+#[derive(Clone, Default, Debug)]
 pub struct BroadPhase {
     entries: Vec<(u64, u32)>,
     large: Vec<u32>,

@@ -126,7 +126,7 @@ pub struct SolveStats {
 }
 
 /// The PGS contact solver and its reusable buffers.
-#[derive(Default, Debug)]
+#[derive(Clone, Default, Debug)]
 pub struct PgsSolver {
     constraints: Vec<Constraint>,
     /// Solver copies of the bodies' velocities.

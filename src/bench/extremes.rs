@@ -1,0 +1,761 @@
+//! Numerical stability at the extremes: sweep one thing at a time and find where each
+//! setting stops being stable or accurate.
+//!
+//! Each [`Sweep`] has values ordered from easy to hard, a scene built for each value,
+//! and a check against a closed form or a bound ([`check`]). `stability.md` lists, per
+//! sweep and setting, the last value of the leading run that held and how the next
+//! one failed; `tests/extremes.rs` re-checks those claims from `docs/stability.md`.
+
+use std::fmt::Write as _;
+
+use super::{Setting, joint_error};
+use crate::defs::{SolverKind, WorldDef};
+use crate::math::Vec2;
+use crate::scene;
+use crate::world::{BuildError, StepError, World};
+
+/// Allowed overlap before a run counts as inaccurate (m): ten slops.
+pub const MAX_PENETRATION: f32 = 0.05;
+/// The PGS slop (m): a resting contact may sit this deep.
+const SLOP: f32 = 0.005;
+
+/// One thing swept.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Sweep {
+    MassRatio,
+    MassRatioChain,
+    TimeStep,
+    Tunneling,
+    StackHeight,
+    Distance,
+    Iterations,
+    Friction,
+    Restitution,
+}
+
+impl Sweep {
+    pub const ALL: [Sweep; 9] = [
+        Sweep::MassRatio,
+        Sweep::MassRatioChain,
+        Sweep::TimeStep,
+        Sweep::Tunneling,
+        Sweep::StackHeight,
+        Sweep::Distance,
+        Sweep::Iterations,
+        Sweep::Friction,
+        Sweep::Restitution,
+    ];
+
+    /// The name in stability.md's first column.
+    pub fn name(self) -> &'static str {
+        match self {
+            Sweep::MassRatio => "mass_ratio",
+            Sweep::MassRatioChain => "mass_ratio_chain",
+            Sweep::TimeStep => "time_step",
+            Sweep::Tunneling => "tunneling",
+            Sweep::StackHeight => "stack_height",
+            Sweep::Distance => "distance",
+            Sweep::Iterations => "iterations",
+            Sweep::Friction => "friction",
+            Sweep::Restitution => "restitution",
+        }
+    }
+
+    pub fn from_name(s: &str) -> Option<Sweep> {
+        Sweep::ALL.into_iter().find(|w| w.name() == s)
+    }
+
+    /// What is swept, on what scene, and what counts as holding.
+    pub fn about(self) -> &'static str {
+        match self {
+            Sweep::MassRatio => {
+                "a box of density r on two 1 m boxes of density 1, 3 s: holds while the heavy box moves < 0.1 m and overlap < 0.05 m"
+            }
+            Sweep::MassRatioChain => {
+                "a ball of r times a link's mass at the end of 5 hinged links, released horizontal, 3 s: holds while finite and joint separation < 0.05 m"
+            }
+            Sweep::TimeStep => {
+                "a stack of 10 boxes for 3 s at time step dt: holds while the top box moves < 0.15 m and overlap < 0.05 m"
+            }
+            Sweep::Tunneling => {
+                "a ball of radius 0.05 m at speed v against a static wall 0.02 m thick, no gravity, dt 1/60: holds while the ball stays on its side"
+            }
+            Sweep::StackHeight => {
+                "a stack of n boxes of 1 m for 4 s: holds while the top box moves < 0.1 m + n slops and overlap < 0.05 m"
+            }
+            Sweep::Distance => {
+                "a stack of 5 boxes moved by (d, d) from the origin, 3 s: holds while the top moves < 0.125 m, overlap < 0.05 m and every box ends slower than 0.05 m/s"
+            }
+            Sweep::Iterations => {
+                "the pyramid of base 20 for 5 s at n iterations (PGS: sweeps per step, tolerance 1e-4; XPBD: iterations per substep, 20 substeps): holds while the top box moves < 0.2 m and overlap < 0.05 m"
+            }
+            Sweep::Friction => {
+                "a 0.5 m box on a 25-degree ramp of friction mu, 1 s: holds while its slide is within 0.02 m + 5% of the closed form (g (sin 25 - mu cos 25) for mu < tan 25, else 0)"
+            }
+            Sweep::Restitution => {
+                "a ball dropped 2 m onto a pad, both of restitution e: holds while the first bounce peaks within 0.1 m of e^2 x 2 m"
+            }
+        }
+    }
+
+    /// The values, from easy to hard (the order "holds through" counts in).
+    pub fn values(self) -> Vec<f64> {
+        match self {
+            Sweep::MassRatio | Sweep::MassRatioChain => vec![1.0, 10.0, 100.0, 1e3, 1e4],
+            // steps per second: dt = 1/value
+            Sweep::TimeStep => vec![1000.0, 480.0, 240.0, 120.0, 60.0, 30.0, 15.0],
+            Sweep::Tunneling => vec![1.0, 3.0, 10.0, 30.0, 100.0, 300.0],
+            Sweep::StackHeight => vec![5.0, 10.0, 20.0, 30.0, 40.0, 50.0],
+            Sweep::Distance => vec![0.0, 1e2, 1e3, 1e4, 3e4, 1e5],
+            Sweep::Iterations => vec![1000.0, 300.0, 100.0, 30.0, 10.0, 5.0, 3.0, 2.0, 1.0],
+            Sweep::Friction => vec![0.0, 0.2, 0.4, 0.45, 0.5, 0.6, 1.0, 2.0],
+            Sweep::Restitution => vec![0.0, 0.25, 0.5, 0.75, 0.9, 1.0],
+        }
+    }
+
+    /// A value as the tables write it.
+    pub fn format_value(self, v: f64) -> String {
+        match self {
+            Sweep::TimeStep => format!("1/{v} s"),
+            Sweep::Tunneling => format!("{v} m/s"),
+            Sweep::Distance => format!("{v:e} m"),
+            Sweep::MassRatio | Sweep::MassRatioChain => format!("{v:e}"),
+            _ => format!("{v}"),
+        }
+    }
+
+    /// The value a table cell names.
+    pub fn parse_value(self, s: &str) -> Option<f64> {
+        self.values()
+            .into_iter()
+            .find(|&v| self.format_value(v) == s.trim())
+    }
+}
+
+/// A setting of the extremes sweeps, with its short name.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ExSetting {
+    pub label: &'static str,
+    pub setting: Setting,
+}
+
+fn pgs(iterations: u32, split_impulse: bool) -> Setting {
+    Setting {
+        iterations,
+        split_impulse,
+        ..Setting::defaults(SolverKind::Pgs)
+    }
+}
+
+fn xpbd(substeps: u32) -> Setting {
+    Setting {
+        substeps,
+        ..Setting::defaults(SolverKind::Xpbd)
+    }
+}
+
+/// The settings a sweep runs. PGS rows use the defaults (tolerance 1e-4, warm start,
+/// split impulse) but for what the label says; for the iterations sweep the value sets
+/// the iterations.
+pub fn settings(sweep: Sweep) -> Vec<ExSetting> {
+    if sweep == Sweep::Iterations {
+        return vec![
+            ExSetting {
+                label: "PGS",
+                setting: pgs(10, true),
+            },
+            ExSetting {
+                label: "PGS no warm start",
+                setting: Setting {
+                    warm_start: false,
+                    ..pgs(10, true)
+                },
+            },
+            ExSetting {
+                label: "XPBD 20 substeps",
+                setting: xpbd(20),
+            },
+        ];
+    }
+    vec![
+        ExSetting {
+            label: "PGS 4",
+            setting: pgs(4, true),
+        },
+        ExSetting {
+            label: "PGS 10",
+            setting: pgs(10, true),
+        },
+        ExSetting {
+            label: "PGS 32",
+            setting: pgs(32, true),
+        },
+        ExSetting {
+            label: "PGS 10 no split",
+            setting: pgs(10, false),
+        },
+        ExSetting {
+            label: "XPBD 4",
+            setting: xpbd(4),
+        },
+        ExSetting {
+            label: "XPBD 20",
+            setting: xpbd(20),
+        },
+    ]
+}
+
+/// How one case came out.
+#[derive(Clone, Debug, PartialEq)]
+pub enum CaseResult {
+    /// Stable and accurate; what was measured.
+    Held(String),
+    /// Why not.
+    Failed(String),
+    /// The build cannot run it yet (XPBD, joints).
+    Unsupported(String),
+}
+
+impl CaseResult {
+    pub fn held(&self) -> bool {
+        matches!(self, CaseResult::Held(_))
+    }
+}
+
+fn load(text: &str, what: &str) -> WorldDef {
+    match scene::load_str(text, what) {
+        Ok(s) => s.world,
+        Err(e) => panic!("extremes scene {what}: {e}"),
+    }
+}
+
+fn stack_text(count: u32, offset: f64) -> String {
+    format!(
+        r#"name = "stack"
+[world]
+gravity = [0.0, -10.0]
+[[body]]
+name = "ground"
+type = "static"
+shape = {{ box = [40.0, 1.0] }}
+position = [{o}, {g}]
+[[stack]]
+count = {count}
+origin = [{o}, {o}]
+"#,
+        o = offset,
+        g = offset - 0.5
+    )
+}
+
+/// The scene of one case.
+pub fn world_def(sweep: Sweep, value: f64) -> WorldDef {
+    match sweep {
+        Sweep::MassRatio => load(
+            &format!(
+                r#"name = "heavy on light"
+[world]
+gravity = [0.0, -10.0]
+[[body]]
+name = "ground"
+type = "static"
+shape = {{ box = [40.0, 1.0] }}
+position = [0.0, -0.5]
+[[stack]]
+count = 2
+[[body]]
+name = "heavy"
+shape = {{ box = [1.0, 1.0] }}
+position = [0.0, 2.5]
+density = {value}
+"#
+            ),
+            "extremes:mass_ratio",
+        ),
+        Sweep::MassRatioChain => {
+            // a link of 0.5 x 0.1 at density 1 weighs 0.05 kg; the ball (r 0.25) weighs value x that
+            let density = value * 0.05 / (std::f64::consts::PI * 0.25 * 0.25);
+            load(
+                &format!(
+                    r#"name = "heavy ball on a chain"
+[world]
+gravity = [0.0, -10.0]
+[[chain]]
+links = 5
+link = [0.5, 0.1]
+anchor = [0.0, 5.0]
+end = {{ shape = {{ circle = 0.25 }}, density = {density} }}
+"#
+                ),
+                "extremes:mass_ratio_chain",
+            )
+        }
+        Sweep::TimeStep => {
+            let mut d = load(&stack_text(10, 0.0), "extremes:time_step");
+            d.solver.dt = Some((1.0 / value) as f32);
+            d
+        }
+        Sweep::Tunneling => load(
+            &format!(
+                r#"name = "tunneling"
+[[body]]
+name = "wall"
+type = "static"
+shape = {{ box = [0.02, 1.0] }}
+position = [0.0, 0.0]
+[[body]]
+name = "ball"
+shape = {{ circle = 0.05 }}
+position = [-1.0, 0.0]
+velocity = [{value}, 0.0]
+"#
+            ),
+            "extremes:tunneling",
+        ),
+        Sweep::StackHeight => load(&stack_text(value as u32, 0.0), "extremes:stack_height"),
+        Sweep::Distance => load(&stack_text(5, value), "extremes:distance"),
+        Sweep::Iterations => match scene::load("pyramid") {
+            Ok(s) => s.world,
+            Err(e) => panic!("built-in pyramid: {e}"),
+        },
+        Sweep::Friction => {
+            let (c, s) = (RAMP_ANGLE.cos(), RAMP_ANGLE.sin());
+            // the box sits on the ramp's top face, 2.5 m up-slope of its centre
+            let (bx, by) = (2.5 * c - 0.5 * s, 2.0 + 2.5 * s + 0.5 * c);
+            load(
+                &format!(
+                    r#"name = "ramp"
+[world]
+gravity = [0.0, -10.0]
+[[body]]
+name = "ramp"
+type = "static"
+shape = {{ box = [8.0, 0.5] }}
+position = [0.0, 2.0]
+angle = {RAMP_ANGLE}
+friction = {value}
+[[body]]
+name = "box"
+shape = {{ box = [0.5, 0.5] }}
+position = [{bx}, {by}]
+angle = {RAMP_ANGLE}
+friction = {value}
+"#
+                ),
+                "extremes:friction",
+            )
+        }
+        Sweep::Restitution => load(
+            &format!(
+                r#"name = "bounce"
+[world]
+gravity = [0.0, -10.0]
+[[body]]
+name = "pad"
+type = "static"
+shape = {{ box = [2.0, 0.5] }}
+position = [0.0, -0.25]
+restitution = {value}
+[[body]]
+name = "ball"
+shape = {{ circle = 0.25 }}
+position = [0.0, {y}]
+restitution = {value}
+"#,
+                y = 0.25 + DROP
+            ),
+            "extremes:restitution",
+        ),
+    }
+}
+
+/// The ramp's tilt (rad): 25 degrees.
+const RAMP_ANGLE: f64 = 0.436_332_312_998_582_4;
+/// The restitution drop height (m).
+const DROP: f64 = 2.0;
+
+/// Steps a world, calling `each(world, k)` after step k (from 1); stops at the first
+/// `Err` it returns. Unsupported solvers and non-finite states become results.
+fn drive(
+    world: &mut World,
+    steps: u64,
+    mut each: impl FnMut(&World, u64) -> Result<(), String>,
+) -> Result<(), CaseResult> {
+    for k in 1..=steps {
+        match world.step() {
+            Ok(()) => {}
+            Err(StepError::Unsupported(what)) => {
+                return Err(CaseResult::Unsupported(format!(
+                    "the {what} solver is not available in this build"
+                )));
+            }
+            Err(e) => return Err(CaseResult::Failed(format!("non-finite at step {k}: {e}"))),
+        }
+        each(world, k).map_err(CaseResult::Failed)?;
+    }
+    Ok(())
+}
+
+fn top_index(world: &World) -> usize {
+    super::tracked_body(world, &super::Track::Top).unwrap_or(0)
+}
+
+/// Runs one case: the sweep's scene at `value` with `setting`, checked against its bound.
+pub fn check(sweep: Sweep, value: f64, setting: &Setting) -> CaseResult {
+    let mut setting = *setting;
+    if sweep == Sweep::Iterations {
+        setting.iterations = value as u32;
+    }
+    let def = world_def(sweep, value);
+    let mut world = match World::from_def(&def, setting.resolve(&def.solver)) {
+        Ok(w) => w,
+        Err(e @ BuildError::JointsUnsupported(_)) => return CaseResult::Unsupported(e.to_string()),
+        Err(e) => return CaseResult::Failed(format!("build: {e}")),
+    };
+    match run_case(sweep, value, &mut world) {
+        Ok(detail) => CaseResult::Held(detail),
+        Err(r) => r,
+    }
+}
+
+/// Steps for `seconds` of simulated time.
+fn steps_for(world: &World, seconds: f64) -> u64 {
+    (seconds / world.settings.dt as f64).round() as u64
+}
+
+/// A stack-like run: the top body may move at most `tol` (m), overlap stays below
+/// [`MAX_PENETRATION`]; returns (top movement, deepest overlap).
+fn standing(world: &mut World, seconds: f64, tol: f32) -> Result<(f32, f32), CaseResult> {
+    let top = top_index(world);
+    let p0 = world.bodies[top].position;
+    let mut deepest = 0.0f32;
+    let steps = steps_for(world, seconds);
+    drive(world, steps, |w, k| {
+        let pen = w.stats().penetration;
+        deepest = deepest.max(pen);
+        if pen > MAX_PENETRATION {
+            return Err(format!(
+                "overlap {pen:.3} m > {MAX_PENETRATION} m at step {k}"
+            ));
+        }
+        Ok(())
+    })?;
+    let moved = (world.bodies[top].position - p0).length();
+    if !(moved <= tol) {
+        return Err(CaseResult::Failed(format!(
+            "top body moved {moved:.3} m (> {tol:.3} m)"
+        )));
+    }
+    Ok((moved, deepest))
+}
+
+fn run_case(sweep: Sweep, value: f64, world: &mut World) -> Result<String, CaseResult> {
+    match sweep {
+        Sweep::MassRatio => {
+            let (moved, pen) = standing(world, 3.0, 0.1)?;
+            Ok(format!("heavy box moved {moved:.4} m, overlap {pen:.4} m"))
+        }
+        Sweep::MassRatioChain => {
+            let steps = steps_for(world, 3.0);
+            let mut worst: Option<f32> = None;
+            drive(world, steps, |w, k| {
+                if let Some(e) = joint_error(w) {
+                    worst = Some(worst.unwrap_or(0.0).max(e));
+                    if e > 0.05 {
+                        return Err(format!("joint separation {e:.3} m > 0.05 m at step {k}"));
+                    }
+                }
+                Ok(())
+            })?;
+            Ok(match worst {
+                Some(e) => format!("joint separation {e:.4} m"),
+                None => "finite (joint error not measured in this build)".into(),
+            })
+        }
+        Sweep::TimeStep => {
+            let (moved, pen) = standing(world, 3.0, 0.15)?;
+            Ok(format!("top moved {moved:.4} m, overlap {pen:.4} m"))
+        }
+        Sweep::StackHeight => {
+            let (moved, pen) = standing(world, 4.0, 0.1 + value as f32 * SLOP)?;
+            Ok(format!("top moved {moved:.4} m, overlap {pen:.4} m"))
+        }
+        Sweep::Iterations => {
+            let (moved, pen) = standing(world, 5.0, 0.2)?;
+            Ok(format!("top moved {moved:.4} m, overlap {pen:.4} m"))
+        }
+        Sweep::Distance => {
+            let (moved, pen) = standing(world, 3.0, 0.1 + 5.0 * SLOP)?;
+            let fastest = world
+                .bodies
+                .iter()
+                .map(|b| b.velocity.length())
+                .fold(0.0f32, f32::max);
+            if !(fastest <= 0.05) {
+                return Err(CaseResult::Failed(format!(
+                    "not at rest: a box ends at {fastest:.3} m/s"
+                )));
+            }
+            Ok(format!(
+                "top moved {moved:.4} m, overlap {pen:.4} m, fastest {fastest:.4} m/s"
+            ))
+        }
+        Sweep::Tunneling => {
+            let ball = world.body_index("ball").unwrap_or(1);
+            let steps = steps_for(world, 1.0 / value + 0.5);
+            let face = -0.01f32;
+            drive(world, steps, |w, k| {
+                let x = w.bodies[ball].position.x;
+                if x > face {
+                    return Err(format!("passed the wall's face at step {k} (x = {x:.3} m)"));
+                }
+                Ok(())
+            })?;
+            Ok(format!(
+                "stopped at x = {:.4} m (face at -0.01)",
+                world.bodies[ball].position.x
+            ))
+        }
+        Sweep::Friction => {
+            let bx = world.body_index("box").unwrap_or(1);
+            let p0 = world.bodies[bx].position;
+            let steps = steps_for(world, 1.0);
+            drive(world, steps, |_, _| Ok(()))?;
+            let down = Vec2::new(-(RAMP_ANGLE.cos() as f32), -(RAMP_ANGLE.sin() as f32));
+            let slid = (world.bodies[bx].position - p0).dot(down) as f64;
+            // semi-implicit Euler from rest: s_n = a h^2 n (n + 1) / 2,
+            // a = g (sin theta - mu cos theta) when mu < tan theta, else 0
+            let g = 10.0f64;
+            let a = (g * (RAMP_ANGLE.sin() - value * RAMP_ANGLE.cos())).max(0.0);
+            let h = world.settings.dt as f64;
+            let n = steps as f64;
+            let exact = a * h * h * n * (n + 1.0) / 2.0;
+            let tol = 0.02 + 0.05 * exact;
+            if !((slid - exact).abs() <= tol) {
+                return Err(CaseResult::Failed(format!(
+                    "slid {slid:.3} m, closed form {exact:.3} m (tolerance {tol:.3} m)"
+                )));
+            }
+            Ok(format!("slid {slid:.4} m, closed form {exact:.4} m"))
+        }
+        Sweep::Restitution => {
+            let ball = world.body_index("ball").unwrap_or(1);
+            let steps = steps_for(world, 2.5);
+            // phase 0: falling, 1: rising after the first bounce, 2: past its apex
+            let (mut phase, mut peak) = (0u8, 0.0f64);
+            drive(world, steps, |w, _| {
+                let b = &w.bodies[ball];
+                let y = b.position.y as f64 - 0.25;
+                match phase {
+                    0 if b.velocity.y > 0.0 => (phase, peak) = (1, y),
+                    1 if b.velocity.y > 0.0 => peak = peak.max(y),
+                    1 => phase = 2,
+                    _ => {}
+                }
+                Ok(())
+            })?;
+            let expect = value * value * DROP;
+            if !((peak - expect).abs() <= 0.1) {
+                return Err(CaseResult::Failed(format!(
+                    "bounced to {peak:.3} m, e^2 h = {expect:.3} m"
+                )));
+            }
+            Ok(format!("bounced to {peak:.4} m, e^2 h = {expect:.4} m"))
+        }
+    }
+}
+
+/// The results of one sweep and setting, in value order.
+#[derive(Clone, Debug)]
+pub struct SweepResult {
+    pub sweep: Sweep,
+    pub setting: ExSetting,
+    pub cases: Vec<(f64, CaseResult)>,
+}
+
+impl SweepResult {
+    /// (holds through, first failure with its reason) along the values, easy to hard.
+    /// `None` for holds-through when the first value fails; `None` for the failure when
+    /// every value held. Unsupported when the first case is unsupported.
+    pub fn headline(&self) -> (Option<f64>, Option<(f64, String)>) {
+        let mut last = None;
+        for (v, r) in &self.cases {
+            match r {
+                CaseResult::Held(_) => last = Some(*v),
+                CaseResult::Failed(why) => return (last, Some((*v, why.clone()))),
+                CaseResult::Unsupported(why) => return (last, Some((*v, why.clone()))),
+            }
+        }
+        (last, None)
+    }
+
+    pub fn unsupported(&self) -> bool {
+        self.cases
+            .iter()
+            .all(|(_, r)| matches!(r, CaseResult::Unsupported(_)))
+    }
+}
+
+/// Runs every sweep at every setting; `progress(done, total, what)` after each case.
+pub fn run_all(sweeps: &[Sweep], mut progress: impl FnMut(usize, usize, &str)) -> Vec<SweepResult> {
+    let total: usize = sweeps
+        .iter()
+        .map(|s| s.values().len() * settings(*s).len())
+        .sum();
+    let mut done = 0;
+    let mut out = Vec::new();
+    for &sweep in sweeps {
+        for ex in settings(sweep) {
+            let mut cases = Vec::new();
+            for v in sweep.values() {
+                let r = check(sweep, v, &ex.setting);
+                log::debug!("extremes: {} {} {v}: {r:?}", sweep.name(), ex.label);
+                cases.push((v, r));
+                done += 1;
+                progress(
+                    done,
+                    total,
+                    &format!(
+                        "{} / {} / {}",
+                        sweep.name(),
+                        ex.label,
+                        sweep.format_value(v)
+                    ),
+                );
+            }
+            out.push(SweepResult {
+                sweep,
+                setting: ex,
+                cases,
+            });
+        }
+    }
+    out
+}
+
+/// The header of the summary table (tests/extremes.rs reads the rows under it).
+pub const TABLE_HEADER: &str = "| sweep | setting | holds through | fails at | how it failed |";
+
+/// stability.md: the summary table, then every case per sweep.
+pub fn markdown(results: &[SweepResult]) -> String {
+    let mut s = String::new();
+    let _ = writeln!(
+        s,
+        "# Stability at the extremes\n\nWritten by `sandbox2d bench --suite extremes`. Each sweep changes one thing, \
+         from easy to hard; \"holds through\" is the last value of the leading run that held \
+         (stable and within the bound), \"fails at\" the next value and how it failed. \
+         PGS settings are the defaults (tolerance 1e-4, warm start, split impulse, dt 1/60, slop \
+         0.005 m, beta 0.2) but for the sweeps they name; \"no split\" is Baumgarte in the \
+         velocity rows. n/a: this build cannot run it yet (XPBD, joints). `tests/extremes.rs` \
+         re-checks every claim of the table below.\n"
+    );
+    let _ = writeln!(s, "{TABLE_HEADER}\n|---|---|---|---|---|");
+    for r in results {
+        let sw = r.sweep;
+        if r.unsupported() {
+            let _ = writeln!(
+                s,
+                "| {} | {} | n/a | n/a | unsupported |",
+                sw.name(),
+                r.setting.label
+            );
+            continue;
+        }
+        let (held, fail) = r.headline();
+        let held = held.map_or("none".to_string(), |v| sw.format_value(v));
+        let (at, how) = match fail {
+            Some((v, why)) => (sw.format_value(v), why),
+            None => ("-".to_string(), "held at every value".to_string()),
+        };
+        let _ = writeln!(
+            s,
+            "| {} | {} | {} | {} | {} |",
+            sw.name(),
+            r.setting.label,
+            held,
+            at,
+            how.replace('|', "/")
+        );
+    }
+    let _ = writeln!(s);
+    for sw in Sweep::ALL {
+        let rs: Vec<&SweepResult> = results.iter().filter(|r| r.sweep == sw).collect();
+        if rs.is_empty() {
+            continue;
+        }
+        let _ = writeln!(s, "## {}\n\n{}.\n", sw.name(), sw.about());
+        let _ = write!(s, "| value |");
+        for r in &rs {
+            let _ = write!(s, " {} |", r.setting.label);
+        }
+        let _ = writeln!(s);
+        let _ = writeln!(s, "|---|{}", "---|".repeat(rs.len()));
+        for (i, v) in sw.values().into_iter().enumerate() {
+            let _ = write!(s, "| {} |", sw.format_value(v));
+            for r in &rs {
+                let cell = match r.cases.get(i).map(|c| &c.1) {
+                    Some(CaseResult::Held(d)) => format!("held: {d}"),
+                    Some(CaseResult::Failed(d)) => format!("**failed**: {d}"),
+                    Some(CaseResult::Unsupported(_)) => "n/a".into(),
+                    None => String::new(),
+                };
+                let _ = write!(s, " {} |", cell.replace('|', "/"));
+            }
+            let _ = writeln!(s);
+        }
+        let _ = writeln!(s);
+    }
+    s
+}
+
+/// One claim of the summary table: (sweep, setting label, holds through, fails at).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Claim {
+    pub sweep: Sweep,
+    pub setting: ExSetting,
+    pub holds_through: Option<f64>,
+    pub fails_at: Option<f64>,
+}
+
+/// Reads the claims of a stability.md summary table (rows marked n/a are skipped).
+pub fn parse_claims(text: &str) -> Result<Vec<Claim>, String> {
+    let mut lines = text.lines().skip_while(|l| l.trim() != TABLE_HEADER);
+    if lines.next().is_none() {
+        return Err("no summary table".into());
+    }
+    let mut out = Vec::new();
+    for line in lines.skip(1) {
+        let line = line.trim();
+        if !line.starts_with('|') {
+            break;
+        }
+        let cells: Vec<&str> = line.trim_matches('|').split('|').map(str::trim).collect();
+        if cells.len() < 4 {
+            return Err(format!("short row: {line}"));
+        }
+        let sweep = Sweep::from_name(cells[0]).ok_or_else(|| format!("unknown sweep: {line}"))?;
+        let setting = settings(sweep)
+            .into_iter()
+            .find(|s| s.label == cells[1])
+            .ok_or_else(|| format!("unknown setting: {line}"))?;
+        if cells[2] == "n/a" {
+            continue;
+        }
+        let value = |c: &str| -> Result<Option<f64>, String> {
+            match c {
+                "none" | "-" => Ok(None),
+                _ => sweep
+                    .parse_value(c)
+                    .map(Some)
+                    .ok_or_else(|| format!("bad value {c:?}: {line}")),
+            }
+        };
+        out.push(Claim {
+            sweep,
+            setting,
+            holds_through: value(cells[2])?,
+            fails_at: value(cells[3])?,
+        });
+    }
+    Ok(out)
+}

@@ -1,0 +1,602 @@
+//! The bench: what each solver setting costs and how right it is, scene by scene.
+//!
+//! For every scene of a suite and every setting of the grid (PGS at 1..32 sweeps with
+//! warm start and split impulse on and off, XPBD at 1..32 substeps), [`run_case`] builds
+//! the world, steps it and records the median wall time per step over repeats, the time
+//! per pipeline stage, and the accuracy measures of `shared/benchmarks.md`: penetration
+//! (max, mean), drift of the tracked body (the top of a stack), joint error, energy
+//! drift, the residual against the same step's MLCP solved to convergence, and a
+//! stable verdict. A setting the build does not support (XPBD, joints) gives a row
+//! marked "n/a (unsupported)", not a failure.
+//!
+//! [`report`] writes `results.csv` and `results.md`, [`plot`] one SVG per scene, and
+//! [`extremes`] the one-thing-at-a-time stability sweeps behind `stability.md`.
+
+pub mod extremes;
+pub mod plot;
+pub mod report;
+pub mod scenes;
+
+use std::time::Instant;
+
+use crate::defs::{SolverKind, SolverOverrides, SolverSettings, WorldDef};
+use crate::math::Vec2;
+use crate::world::{BuildError, StepError, World};
+
+pub use scenes::{BenchScene, Metric, Track};
+
+/// Which scenes to run.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Suite {
+    /// A couple of minutes: pyramid (base 20), stack, particles, pendulum, chain, and
+    /// the model comparisons.
+    Quick,
+    /// Under 15 minutes: quick plus the large pyramid, mass ratios, friction ramp,
+    /// overlap recovery, ball and chain, double pendulum.
+    Standard,
+    /// The stability sweeps (see [`extremes`]).
+    Extremes,
+}
+
+impl Suite {
+    /// The name used on the command line.
+    pub fn name(self) -> &'static str {
+        match self {
+            Suite::Quick => "quick",
+            Suite::Standard => "standard",
+            Suite::Extremes => "extremes",
+        }
+    }
+}
+
+/// A solver family: one curve on a plot.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
+pub enum Family {
+    PgsWarmSplit,
+    PgsWarm,
+    PgsSplit,
+    PgsCold,
+    Xpbd,
+}
+
+impl Family {
+    /// Every family, in plotting order.
+    pub const ALL: [Family; 5] = [
+        Family::PgsWarmSplit,
+        Family::PgsWarm,
+        Family::PgsSplit,
+        Family::PgsCold,
+        Family::Xpbd,
+    ];
+
+    /// A short name for legends and tables.
+    pub fn name(self) -> &'static str {
+        match self {
+            Family::PgsWarmSplit => "PGS warm+split",
+            Family::PgsWarm => "PGS warm",
+            Family::PgsSplit => "PGS split",
+            Family::PgsCold => "PGS cold",
+            Family::Xpbd => "XPBD",
+        }
+    }
+
+    fn of(s: &SolverSettings) -> Family {
+        match (s.kind, s.warm_start, s.split_impulse) {
+            (SolverKind::Xpbd, _, _) => Family::Xpbd,
+            (SolverKind::Pgs, true, true) => Family::PgsWarmSplit,
+            (SolverKind::Pgs, true, false) => Family::PgsWarm,
+            (SolverKind::Pgs, false, true) => Family::PgsSplit,
+            (SolverKind::Pgs, false, false) => Family::PgsCold,
+        }
+    }
+}
+
+/// One solver setting of the grid: what the bench overrides of a scene's `[solver]`
+/// (the scene keeps its dt, slop and Baumgarte factor).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Setting {
+    pub kind: SolverKind,
+    /// PGS sweeps per (sub)step, or XPBD iterations per substep.
+    pub iterations: u32,
+    pub substeps: u32,
+    pub warm_start: bool,
+    pub split_impulse: bool,
+    /// PGS early exit; the grid uses 0 so a row runs exactly `iterations` sweeps.
+    pub tolerance: f32,
+}
+
+impl Setting {
+    /// PGS with a fixed number of sweeps (tolerance 0: no early exit).
+    pub fn pgs(iterations: u32, warm_start: bool, split_impulse: bool) -> Setting {
+        Setting {
+            kind: SolverKind::Pgs,
+            iterations,
+            substeps: 1,
+            warm_start,
+            split_impulse,
+            tolerance: 0.0,
+        }
+    }
+
+    /// XPBD with one iteration per substep.
+    pub fn xpbd(substeps: u32) -> Setting {
+        Setting {
+            kind: SolverKind::Xpbd,
+            iterations: 1,
+            substeps,
+            warm_start: true,
+            split_impulse: true,
+            tolerance: 0.0,
+        }
+    }
+
+    /// The solver's own defaults (PGS: 10 sweeps, tolerance 1e-4, warm start, split
+    /// impulse; XPBD: 20 substeps of 1 iteration), as a user gets them.
+    pub fn defaults(kind: SolverKind) -> Setting {
+        let d = SolverSettings::defaults(kind);
+        Setting {
+            kind,
+            iterations: d.iterations,
+            substeps: d.substeps,
+            warm_start: d.warm_start,
+            split_impulse: d.split_impulse,
+            tolerance: d.tolerance,
+        }
+    }
+
+    pub fn family(&self) -> Family {
+        Family::of(&self.resolve(&SolverOverrides::default()))
+    }
+
+    /// A short label: `pgs 8 warm+split`, `pgs 8 cold`, `xpbd 16 substeps`.
+    pub fn label(&self) -> String {
+        match self.kind {
+            SolverKind::Pgs => {
+                let mode = match (self.warm_start, self.split_impulse) {
+                    (true, true) => "warm+split",
+                    (true, false) => "warm",
+                    (false, true) => "split",
+                    (false, false) => "cold",
+                };
+                let tol = if self.tolerance > 0.0 {
+                    format!(" tol {:e}", self.tolerance)
+                } else {
+                    String::new()
+                };
+                format!("pgs {} {mode}{tol}", self.iterations)
+            }
+            SolverKind::Xpbd if self.iterations == 1 => format!("xpbd {} substeps", self.substeps)
+                .replace("xpbd 1 substeps", "xpbd 1 substep"),
+            SolverKind::Xpbd => format!(
+                "xpbd {} substeps x {} iterations",
+                self.substeps, self.iterations
+            ),
+        }
+    }
+
+    /// The complete settings: the scene's `[solver]` table with this setting on top.
+    pub fn resolve(&self, scene: &SolverOverrides) -> SolverSettings {
+        scene
+            .merged(SolverOverrides {
+                kind: Some(self.kind),
+                iterations: Some(self.iterations),
+                substeps: Some(self.substeps),
+                warm_start: Some(self.warm_start),
+                split_impulse: Some(self.split_impulse),
+                tolerance: Some(self.tolerance),
+                ..Default::default()
+            })
+            .resolve()
+    }
+}
+
+/// PGS sweep counts and XPBD substep counts of the grid.
+pub const GRID_COUNTS: [u32; 6] = [1, 2, 4, 8, 16, 32];
+
+/// The settings grid: PGS at 1..32 sweeps x warm start on/off x split impulse on/off,
+/// then XPBD at 1..32 substeps.
+pub fn settings_grid() -> Vec<Setting> {
+    let mut v = Vec::new();
+    for (warm, split) in [(true, true), (true, false), (false, true), (false, false)] {
+        for n in GRID_COUNTS {
+            v.push(Setting::pgs(n, warm, split));
+        }
+    }
+    for n in GRID_COUNTS {
+        v.push(Setting::xpbd(n));
+    }
+    v
+}
+
+/// The largest anchor separation of the world's joints (m), or `None` for a world
+/// without joints.
+pub fn joint_error(world: &World) -> Option<f32> {
+    (!world.joints().is_empty()).then(|| world.joint_error())
+}
+
+/// How long and how often to run a scene.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Budget {
+    pub steps: u64,
+    pub repeats: u32,
+    /// Steps at which the residual is measured (evenly spread; 0 = none).
+    pub residual_samples: u32,
+    /// Sweep cap of the converged reference solve.
+    pub reference_iterations: u32,
+}
+
+/// Whether a run held up, and if not, why.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Verdict {
+    Stable,
+    Unstable(String),
+}
+
+impl Verdict {
+    pub fn is_stable(&self) -> bool {
+        matches!(self, Verdict::Stable)
+    }
+}
+
+/// The figures of one scene run at one setting.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Measured {
+    /// Median over repeats of each repeat's median wall time per step (ms); the first
+    /// step (which builds the contact cache) and residual-sampled steps are not timed.
+    pub ms_per_step: f64,
+    /// Median time per stage over the timed steps of every repeat (ms): forces, broad
+    /// phase, narrow phase, solve, integrate.
+    pub stage_ms: [f64; 5],
+    pub steps: u64,
+    /// Deepest overlap seen by the narrow phase, max and mean over the steps (m).
+    pub penetration_max: f64,
+    pub penetration_mean: f64,
+    /// How far the tracked body moved from its start (m); NaN when the scene tracks none.
+    pub drift: f64,
+    /// Largest joint anchor separation over the run (m); NaN without joints.
+    pub joint_error: f64,
+    /// (E_end - E_start) / |E_start| for a scene that conserves energy, else NaN.
+    pub energy_drift: f64,
+    /// ||lambda - lambda*|| / ||lambda*|| over the sampled steps, lambda* being the same
+    /// step solved by PGS to convergence from the same state; NaN when not measured
+    /// (no contacts, XPBD, substeps).
+    pub residual: f64,
+    pub verdict: Verdict,
+}
+
+impl Measured {
+    /// The value of one accuracy measure (NaN where it does not apply).
+    pub fn metric(&self, m: Metric) -> f64 {
+        match m {
+            Metric::PenetrationMax => self.penetration_max,
+            Metric::PenetrationMean => self.penetration_mean,
+            Metric::Drift => self.drift,
+            Metric::JointError => self.joint_error,
+            Metric::EnergyDrift => self.energy_drift.abs(),
+            Metric::Residual => self.residual,
+        }
+    }
+}
+
+/// What came of running a scene at a setting.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Outcome {
+    Ran(Measured),
+    /// The build cannot run this (XPBD or joints not there yet): reported as n/a.
+    Unsupported(String),
+    /// The scene could not be built for another reason.
+    Failed(String),
+}
+
+/// One row of the results.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Row {
+    pub scene: String,
+    pub setting: Setting,
+    pub outcome: Outcome,
+}
+
+/// Kinetic plus potential energy (J), the potential measured from height `floor_y`:
+/// E = sum 1/2 m v^2 + 1/2 I w^2 - m g . (x - (0, floor_y)).
+pub fn energy_about(world: &World, floor_y: f32) -> f64 {
+    let g = world.gravity.unwrap_or(Vec2::ZERO);
+    world
+        .bodies
+        .iter()
+        .filter(|b| b.is_dynamic())
+        .map(|b| {
+            let v = b.velocity.as_dvec2();
+            let ke = 0.5 * b.mass as f64 * v.length_squared()
+                + 0.5 * b.inertia as f64 * (b.angular_velocity as f64).powi(2);
+            let rel = b.position.as_dvec2() - glam::DVec2::new(0.0, floor_y as f64);
+            ke - b.mass as f64 * g.as_dvec2().dot(rel)
+        })
+        .sum()
+}
+
+/// An energy scale for the "bounded energy" check: |E_start|, or the work of gravity
+/// over 1 m on every dynamic body, or 1 J, whichever is largest.
+fn energy_scale(world: &World, e_start: f64) -> f64 {
+    let g = world.gravity.map_or(0.0, |g| g.length() as f64);
+    let weight: f64 = world
+        .bodies
+        .iter()
+        .filter(|b| b.is_dynamic())
+        .map(|b| b.mass as f64 * g)
+        .sum();
+    e_start.abs().max(weight).max(1.0)
+}
+
+/// The index of the body a scene tracks, if any.
+pub fn tracked_body(world: &World, track: &Track) -> Option<usize> {
+    match track {
+        Track::None => None,
+        Track::Top => world
+            .bodies
+            .iter()
+            .enumerate()
+            .filter(|(_, b)| b.is_dynamic())
+            .max_by(|(i, a), (j, b)| a.position.y.total_cmp(&b.position.y).then(j.cmp(i)))
+            .map(|(i, _)| i),
+        Track::Named(name) => world.body_index(name),
+    }
+}
+
+fn is_unsupported_build(e: &BuildError) -> bool {
+    matches!(e, BuildError::JointsUnsupported(_))
+}
+
+fn median(v: &mut [f64]) -> f64 {
+    if v.is_empty() {
+        return f64::NAN;
+    }
+    v.sort_by(f64::total_cmp);
+    let n = v.len();
+    if n % 2 == 1 {
+        v[n / 2]
+    } else {
+        0.5 * (v[n / 2 - 1] + v[n / 2])
+    }
+}
+
+/// Builds a world for a scene description at a setting.
+pub fn build(def: &WorldDef, setting: &Setting) -> Result<World, Outcome> {
+    let settings = setting.resolve(&def.solver);
+    World::from_def(def, settings).map_err(|e| {
+        if is_unsupported_build(&e) {
+            Outcome::Unsupported(e.to_string())
+        } else {
+            Outcome::Failed(e.to_string())
+        }
+    })
+}
+
+/// Runs one scene at one setting: `budget.repeats` timed runs of `budget.steps` steps;
+/// the accuracy figures come from the first (the runs are deterministic).
+pub fn run_case(scene: &BenchScene, setting: &Setting, budget: &Budget) -> Outcome {
+    let def = &scene.def;
+    let mut timings = Vec::with_capacity(budget.repeats as usize);
+    let mut stages: [Vec<f64>; 5] = Default::default();
+    let mut first: Option<Measured> = None;
+    for repeat in 0..budget.repeats.max(1) {
+        let mut world = match build(def, setting) {
+            Ok(w) => w,
+            Err(o) => return o,
+        };
+        let accuracy = repeat == 0;
+        let residual_on = accuracy
+            && budget.residual_samples > 0
+            && world.settings.kind == SolverKind::Pgs
+            && world.settings.substeps == 1;
+        let sample_every = (budget.steps / (budget.residual_samples as u64 + 1)).max(1);
+        let tracked = tracked_body(&world, &scene.track);
+        let start_pos = tracked.map(|i| world.bodies[i].position);
+        let e_start = energy_about(&world, scene.floor_y);
+        let e_scale = energy_scale(&world, e_start);
+        let mut e_max = e_start;
+        let (mut pen_max, mut pen_sum) = (0.0f64, 0.0f64);
+        let mut joint_max: Option<f64> = None;
+        let (mut res_num, mut res_den) = (0.0f64, 0.0f64);
+        let (mut lam, mut lam_ref) = (Vec::new(), Vec::new());
+        let mut step_ms = Vec::with_capacity(budget.steps as usize);
+        let mut failure: Option<String> = None;
+        let mut steps_done = 0u64;
+        for k in 0..budget.steps {
+            let sample = residual_on && k > 0 && k % sample_every == 0;
+            if sample {
+                // the same step's MLCP from the same state, solved to convergence
+                let mut reference = world.clone();
+                reference.settings.iterations = budget.reference_iterations;
+                reference.settings.tolerance = 1e-8;
+                if reference.step().is_ok() {
+                    reference.contact_lambdas(&mut lam_ref);
+                }
+            }
+            let t = Instant::now();
+            let r = world.step();
+            let ms = t.elapsed().as_secs_f64() * 1e3;
+            match r {
+                Ok(()) => {}
+                Err(StepError::Unsupported(what)) => {
+                    return Outcome::Unsupported(format!(
+                        "the {what} solver is not available in this build"
+                    ));
+                }
+                Err(e) => {
+                    failure = Some(format!("non-finite state at step {k}: {e}"));
+                    break;
+                }
+            }
+            steps_done += 1;
+            let st = *world.stats();
+            if k > 0 && !sample {
+                step_ms.push(ms);
+                for (acc, v) in stages.iter_mut().zip([
+                    st.ms_forces,
+                    st.ms_broad,
+                    st.ms_narrow,
+                    st.ms_solve,
+                    st.ms_integrate,
+                ]) {
+                    acc.push(v as f64);
+                }
+            }
+            if !accuracy {
+                continue;
+            }
+            if sample {
+                world.contact_lambdas(&mut lam);
+                if lam.len() == lam_ref.len() && !lam.is_empty() {
+                    for (a, b) in lam.iter().zip(&lam_ref) {
+                        res_num += ((a - b) as f64).powi(2);
+                        res_den += (*b as f64).powi(2);
+                    }
+                }
+            }
+            pen_max = pen_max.max(st.penetration as f64);
+            pen_sum += st.penetration as f64;
+            e_max = e_max.max(energy_about(&world, scene.floor_y));
+            if let Some(j) = joint_error(&world) {
+                joint_max = Some(joint_max.unwrap_or(0.0).max(j as f64));
+            }
+        }
+        timings.push(median(&mut step_ms));
+        if !accuracy {
+            continue;
+        }
+        let e_end = energy_about(&world, scene.floor_y);
+        let drift = match (tracked, start_pos) {
+            (Some(i), Some(p0)) => (world.bodies[i].position - p0).length() as f64,
+            _ => f64::NAN,
+        };
+        let mut reasons = Vec::new();
+        if let Some(f) = failure {
+            reasons.push(f);
+        } else {
+            if !(e_max - e_start <= scene.energy_gain * e_scale) {
+                reasons.push(format!(
+                    "energy grew by {:.3} J (bound {:.3} J)",
+                    e_max - e_start,
+                    scene.energy_gain * e_scale
+                ));
+            }
+            if let Some(tol) = scene.standing
+                && !(drift <= tol as f64)
+            {
+                reasons.push(format!(
+                    "stack fell: tracked body moved {drift:.3} m (> {tol} m)"
+                ));
+            }
+        }
+        let verdict = if reasons.is_empty() {
+            Verdict::Stable
+        } else {
+            Verdict::Unstable(reasons.join("; "))
+        };
+        first = Some(Measured {
+            ms_per_step: 0.0,
+            stage_ms: [0.0; 5],
+            steps: steps_done,
+            penetration_max: pen_max,
+            penetration_mean: pen_sum / steps_done.max(1) as f64,
+            drift,
+            joint_error: joint_max.unwrap_or(f64::NAN),
+            energy_drift: if scene.conservative && e_start.abs() > 0.0 {
+                (e_end - e_start) / e_start.abs()
+            } else {
+                f64::NAN
+            },
+            residual: if res_den > 0.0 {
+                (res_num / res_den).sqrt()
+            } else {
+                f64::NAN
+            },
+            verdict,
+        });
+        if !first.as_ref().is_some_and(|m| m.verdict.is_stable()) {
+            // an unstable run is not timed again: its cost means little
+            break;
+        }
+    }
+    let mut m = first.expect("the first repeat measures");
+    m.ms_per_step = median(&mut timings);
+    for (s, v) in m.stage_ms.iter_mut().zip(stages.iter_mut()) {
+        *s = median(v);
+    }
+    Outcome::Ran(m)
+}
+
+/// What to run and how long.
+#[derive(Clone, Debug, Default)]
+pub struct Options {
+    /// Only scenes whose name contains this.
+    pub filter: Option<String>,
+    /// Override every scene's step count.
+    pub steps: Option<u64>,
+    /// Override every scene's repeat count.
+    pub repeats: Option<u32>,
+}
+
+impl Options {
+    /// A scene's budget with the overrides applied.
+    pub fn budget(&self, scene: &BenchScene) -> Budget {
+        let mut b = scene.budget;
+        if let Some(s) = self.steps {
+            b.steps = s;
+            b.residual_samples = b.residual_samples.min((s / 2) as u32);
+        }
+        if let Some(r) = self.repeats {
+            b.repeats = r;
+        }
+        b
+    }
+
+    /// The scenes of a suite that pass the filter.
+    pub fn scenes(&self, suite: Suite) -> Vec<BenchScene> {
+        scenes::suite(suite)
+            .into_iter()
+            .filter(|s| {
+                self.filter
+                    .as_ref()
+                    .is_none_or(|f| s.name.contains(f.as_str()))
+            })
+            .collect()
+    }
+}
+
+/// The (scene, setting) pairs a scene runs.
+pub fn scene_settings(scene: &BenchScene) -> Vec<Setting> {
+    if scene.full_grid {
+        settings_grid()
+    } else {
+        vec![
+            Setting::defaults(SolverKind::Pgs),
+            Setting::defaults(SolverKind::Xpbd),
+        ]
+    }
+}
+
+/// Runs every scene at every setting; `progress(done, total, what)` after each case.
+pub fn run_scenes(
+    scenes: &[BenchScene],
+    opts: &Options,
+    mut progress: impl FnMut(usize, usize, &str),
+) -> Vec<Row> {
+    let total: usize = scenes.iter().map(|s| scene_settings(s).len()).sum();
+    let mut rows = Vec::with_capacity(total);
+    for sc in scenes {
+        let budget = opts.budget(sc);
+        for setting in scene_settings(sc) {
+            let what = format!("{} / {}", sc.name, setting.label());
+            log::debug!("bench: {what}");
+            let outcome = run_case(sc, &setting, &budget);
+            rows.push(Row {
+                scene: sc.name.clone(),
+                setting,
+                outcome,
+            });
+            progress(rows.len(), total, &what);
+        }
+    }
+    rows
+}
