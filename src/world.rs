@@ -132,6 +132,7 @@ pub struct World {
     xpbd_lambdas: Vec<[f32; SLOTS]>,
     xpbd_bodies: Vec<SolverBody>,
     xpbd_normal_sum: Vec<f32>,
+    pseudo_bodies: Vec<SolverBody>,
     stats: StepStats,
     step_count: u64,
     time: f64,
@@ -161,6 +162,7 @@ impl World {
             xpbd_lambdas: Vec::new(),
             xpbd_bodies: Vec::new(),
             xpbd_normal_sum: Vec::new(),
+            pseudo_bodies: Vec::new(),
             stats: StepStats::default(),
             step_count: 0,
             time: 0.0,
@@ -756,9 +758,28 @@ impl World {
             self.joint_rows.store(&mut self.joints);
         }
         self.pgs.apply_restitution(s.restitution_threshold);
-        if s.split_impulse && self.pgs.needs_position_solve() {
+        let joint_positions = joints && self.joint_rows.has_position_rows();
+        if s.split_impulse && (joint_positions || self.pgs.needs_position_solve()) {
             for _ in 0..s.iterations {
-                let r = self.pgs.sweep_position();
+                let mut r = 0.0f32;
+                if joint_positions {
+                    // the joints' rows on the same pseudo-velocities
+                    self.pseudo_bodies.clear();
+                    self.pseudo_bodies
+                        .extend(self.pgs.pseudo.iter().zip(&self.pgs.bodies).map(
+                            |(&(v, w), b)| SolverBody {
+                                v,
+                                w,
+                                inv_m: b.inv_m,
+                                inv_i: b.inv_i,
+                            },
+                        ));
+                    r = self.joint_rows.sweep_position(&mut self.pseudo_bodies);
+                    for (p, b) in self.pgs.pseudo.iter_mut().zip(&self.pseudo_bodies) {
+                        *p = (b.v, b.w);
+                    }
+                }
+                r = r.max(self.pgs.sweep_position());
                 st.position_iterations += 1;
                 if r < s.tolerance {
                     break;

@@ -32,6 +32,9 @@ struct Row {
     impulse: f32,
     joint: u32,
     slot: u8,
+    /// A rigid row that also holds in the position (pseudo-velocity) solve (split impulse).
+    positional: bool,
+    pos_impulse: f32,
 }
 
 /// A 2x2 point block: v_b + w_b x r_b - v_a - w_a x r_a + bias + gamma lambda = 0.
@@ -50,6 +53,9 @@ struct Point {
     max_impulse: f32,
     /// u32::MAX for the mouse joint.
     joint: u32,
+    /// Rigid (not the mouse, not compliant): it also holds in the position solve.
+    positional: bool,
+    pos_impulse: Vec2,
 }
 
 #[derive(Clone, Copy, Debug)]
@@ -62,6 +68,8 @@ enum Item {
 #[derive(Clone, Debug, Default)]
 pub struct JointRows {
     items: Vec<Item>,
+    /// Whether the position errors go to the position solve (split impulse).
+    split: bool,
     /// Damping rows, applied once after the sweeps.
     damping: Vec<(Row, f32)>,
 }
@@ -197,6 +205,7 @@ fn equality(mut r: Row, bodies: &[SolverBody], c: f32, compliance: f32, beta: f3
     } else {
         // Baumgarte: J v = -beta C / h
         r.bias = beta * c / h;
+        r.positional = true;
     }
     r.mass = if k + r.gamma > 0.0 {
         1.0 / (k + r.gamma)
@@ -213,6 +222,7 @@ fn equality(mut r: Row, bodies: &[SolverBody], c: f32, compliance: f32, beta: f3
 fn inequality(mut r: Row, bodies: &[SolverBody], c: f32, beta: f32, h: f32) -> Row {
     let k = r.k(bodies);
     r.bias = if c > 0.0 { c / h } else { beta * c / h };
+    r.positional = c <= 0.0;
     r.mass = if k > 0.0 { 1.0 / k } else { 0.0 };
     r.lo = 0.0;
     r.hi = f32::INFINITY;
@@ -308,6 +318,8 @@ impl JointRows {
                         impulse: if s.warm_start { imp } else { Vec2::ZERO },
                         max_impulse: f32::INFINITY,
                         joint: ji as u32,
+                        positional: gamma == 0.0,
+                        pos_impulse: Vec2::ZERO,
                     }));
                     if j.damping.angular > 0.0 {
                         self.damping
@@ -380,6 +392,50 @@ impl JointRows {
         if let Some(m) = mouse {
             self.push_mouse(m, world_bodies, bodies, h);
         }
+        // With split impulse the joints also hold in the position solve (J v_p = 0), so
+        // the pseudo-velocities that push overlapping bodies apart do not pull joints
+        // apart; their own drift stays with the warm-started velocity rows (Baumgarte),
+        // which converge on long chains where a cold position solve does not.
+        self.split = s.split_impulse;
+    }
+
+    /// Whether the position solve has joint rows (split impulse and any rigid row).
+    pub fn has_position_rows(&self) -> bool {
+        self.split
+            && self.items.iter().any(|it| match it {
+                Item::Row(r) => r.positional,
+                Item::Point(p) => p.positional,
+            })
+    }
+
+    /// One sweep of the joints' rigid rows on the pseudo-velocities `bodies`: J v_p = 0
+    /// (equalities), J v_p >= 0 (reached limits).
+    pub fn sweep_position(&mut self, bodies: &mut [SolverBody]) -> f32 {
+        let mut residual = 0.0f32;
+        for it in &mut self.items {
+            match it {
+                Item::Row(r) if r.positional => {
+                    let d = -r.mass * r.jv(bodies);
+                    let new = (r.pos_impulse + d).clamp(r.lo, r.hi);
+                    let d = new - r.pos_impulse;
+                    r.pos_impulse = new;
+                    r.apply(bodies, d);
+                    residual = residual.max(d.abs());
+                }
+                Item::Point(p) if p.positional => {
+                    let (a, b) = (load(bodies, p.a), load(bodies, p.b));
+                    let cdot = b.v + cross_sv(b.w, p.rb) - a.v - cross_sv(a.w, p.ra);
+                    let rhs = -cdot;
+                    let k = p.inv_k;
+                    let d = Vec2::new(k[0] * rhs.x + k[2] * rhs.y, k[1] * rhs.x + k[3] * rhs.y);
+                    p.pos_impulse += d;
+                    p.apply(bodies, d);
+                    residual = residual.max(d.abs().max_element());
+                }
+                _ => {}
+            }
+        }
+        residual
     }
 
     /// The mouse joint: a soft point constraint (spring hertz, damping ratio) between the
@@ -413,6 +469,8 @@ impl JointRows {
             impulse: Vec2::ZERO,
             max_impulse: m.max_force.max(0.0) * h,
             joint: u32::MAX,
+            positional: false,
+            pos_impulse: Vec2::ZERO,
         }));
     }
 
