@@ -300,3 +300,25 @@ fn every_builtin_scene_runs_ten_seconds_under_both_solvers() {
         }
     }
 }
+
+#[test]
+fn friction_ramp_follows_coulomb_under_both_solvers() {
+    // 25 degree ramps; a box slides with a = g (sin - mu cos) when mu < tan 25 = 0.466
+    let (theta, g) = (0.436332f32, 9.81f32);
+    for kind in [SolverKind::Pgs, SolverKind::Xpbd] {
+        let mut w = builtin("friction_ramp", kind);
+        let t = 20.0 * w.settings.dt;
+        for _ in 0..20 {
+            w.step().unwrap();
+        }
+        for (i, mu) in [0.0f32, 0.2, 0.4, 0.6, 1.0].into_iter().enumerate() {
+            let v = w.bodies[id(&w, &format!("box{i}"))].velocity.length();
+            let expected = (g * (theta.sin() - mu * theta.cos())).max(0.0) * t;
+            eprintln!("{kind:?}: mu {mu}: speed {v:.4} m/s, Coulomb {expected:.4}");
+            assert!(
+                (v - expected).abs() <= 0.03 * expected.max(0.2),
+                "{kind:?} mu {mu}: {v} vs {expected}"
+            );
+        }
+    }
+}

@@ -157,9 +157,9 @@ impl XpbdContacts {
         deepest
     }
 
-    /// The velocity pass of the touching points: dynamic friction, an impulse against
-    /// the sliding velocity v_t of at most mu |f_n| h = mu lambda_n / h (and no more than
-    /// stops the sliding), and restitution
+    /// The velocity pass of the touching points: restitution, then dynamic friction, an
+    /// impulse against the sliding velocity v_t of at most mu times the net normal impulse
+    /// (and no more than stops the sliding); restitution
     /// v_n' = max(-e v_n_before, 0) (e = 0 below the threshold speed).
     pub fn velocity_pass(&self, world: &[Body], bodies: &mut [SolverBody], h: f32, threshold: f32) {
         for p in &self.points {
@@ -168,43 +168,55 @@ impl XpbdContacts {
             }
             let g = geometry(p, world);
             let (a, b) = (p.a as usize, p.b as usize);
-            let (sa, sb) = (bodies[a], bodies[b]);
-            let rel = sb.v + cross_sv(sb.w, g.rb) - sa.v - cross_sv(sa.w, g.ra);
-            let vn = rel.dot(g.n);
-            let vt = rel - vn * g.n;
-            let speed_t = vt.length();
+            let (ima, iia) = (bodies[a].inv_m, bodies[a].inv_i);
+            let (imb, iib) = (bodies[b].inv_m, bodies[b].inv_i);
+            let relative = |bodies: &[SolverBody]| {
+                let (sa, sb) = (bodies[a], bodies[b]);
+                sb.v + cross_sv(sb.w, g.rb) - sa.v - cross_sv(sa.w, g.ra)
+            };
             // the generalized inverse mass along dir at the two points
             let w_along = |dir: Vec2| {
                 let (ra_n, rb_n) = (cross(g.ra, dir), cross(g.rb, dir));
-                sa.inv_m + sa.inv_i * ra_n * ra_n + sb.inv_m + sb.inv_i * rb_n * rb_n
+                ima + iia * ra_n * ra_n + imb + iib * rb_n * rb_n
             };
             let apply = |dir: Vec2, impulse: f32, bodies: &mut [SolverBody]| {
                 let imp = impulse * dir;
                 let ba = &mut bodies[a];
-                ba.v -= ba.inv_m * imp;
-                ba.w -= ba.inv_i * cross(g.ra, imp);
+                ba.v -= ima * imp;
+                ba.w -= iia * cross(g.ra, imp);
                 let bb = &mut bodies[b];
-                bb.v += bb.inv_m * imp;
-                bb.w += bb.inv_i * cross(g.rb, imp);
+                bb.v += imb * imp;
+                bb.w += iib * cross(g.rb, imp);
             };
-            if speed_t > 1e-9 {
-                // the friction impulse is at most mu times the normal impulse lambda_n / h
-                let t = -vt / speed_t;
-                let w = w_along(t);
-                if w > 0.0 {
-                    let j = (p.friction * p.lambda_n / h).min(speed_t / w);
-                    apply(t, j, bodies);
-                }
-            }
+            // restitution first: v_n' = max(-e v_n_before, 0)
+            let vn = relative(bodies).dot(g.n);
             let e = if p.vn_before.abs() <= threshold {
                 0.0
             } else {
                 p.restitution
             };
             let target = (-e * p.vn_before).max(0.0);
-            let w = w_along(g.n);
-            if w > 0.0 {
-                apply(g.n, (target - vn) / w, bodies);
+            let wn = w_along(g.n);
+            let mut jn = 0.0;
+            if wn > 0.0 {
+                jn = (target - vn) / wn;
+                apply(g.n, jn, bodies);
+            }
+            // dynamic friction, bounded by mu times the substep's net normal impulse:
+            // the push-out lambda_n / h less what the pass above took back (the push-out
+            // leaves a separating velocity that the pass removes; counting only the
+            // push-out would double the friction of a resting contact)
+            let rel = relative(bodies);
+            let vt = rel - rel.dot(g.n) * g.n;
+            let speed_t = vt.length();
+            let normal = (p.lambda_n / h + jn).max(0.0);
+            if speed_t > 1e-9 {
+                let t = -vt / speed_t;
+                let w = w_along(t);
+                if w > 0.0 {
+                    let j = (p.friction * normal).min(speed_t / w);
+                    apply(t, j, bodies);
+                }
             }
         }
     }
