@@ -144,3 +144,25 @@ fn bad_flags_are_refused_with_exit_2() {
         assert!(!out.stderr.is_empty());
     }
 }
+
+#[test]
+fn simulate_json_reports_the_joint_error_under_xpbd() {
+    let out = sandbox2d()
+        .args([
+            "simulate", "chain", "--steps", "60", "--json", "--solver", "xpbd",
+        ])
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(v["solver"]["kind"], "xpbd");
+    assert_eq!(v["solver"]["substeps"], 20);
+    let max = v["joint_error"]["max"].as_f64().unwrap();
+    let last = v["joint_error"]["final"].as_f64().unwrap();
+    // a 40-link chain falling from horizontal under 20 substeps: within a few cm
+    assert!(max >= last && max > 0.0 && max < 0.05, "{max} {last}");
+}

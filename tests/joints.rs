@@ -322,3 +322,81 @@ fn friction_ramp_follows_coulomb_under_both_solvers() {
         }
     }
 }
+
+/// A disc on a hinge at its centre (no gravity), for drives and damping.
+fn wheel(kind: SolverKind, extra: &str) -> World {
+    let toml = format!(
+        r#"name = "wheel"
+[[body]]
+name = "axle"
+type = "static"
+shape = {{ circle = 0.05 }}
+position = [0.0, 0.0]
+[[body]]
+name = "wheel"
+shape = {{ circle = 0.5 }}
+position = [0.0, 0.0]
+density = 2.0
+angular_velocity = {w0}
+[[joint]]
+type = "hinge"
+bodies = ["axle", "wheel"]
+anchor = [0.0, 0.0]
+{extra}
+"#,
+        w0 = if extra.is_empty() { 0.0 } else { 3.0 }
+    );
+    world(&toml, kind)
+}
+
+#[test]
+fn a_joint_drive_turns_a_wheel_at_tau_over_i() {
+    for kind in [SolverKind::Pgs, SolverKind::Xpbd] {
+        let mut w = wheel(kind, "");
+        w.set_joint_drive(0, 2.0);
+        run(&mut w, 1.0);
+        // I = m r^2 / 2 with m = 2 pi 0.25; omega = tau t / I
+        let m = 2.0 * std::f32::consts::PI * 0.25;
+        let expected = 2.0 * 1.0 / (0.5 * m * 0.25);
+        let omega = w.bodies[1].angular_velocity;
+        eprintln!("{kind:?}: drive 2 N m for 1 s: omega {omega:.4} vs {expected:.4}");
+        assert!(
+            (omega - expected).abs() <= 0.01 * expected,
+            "{kind:?}: {omega}"
+        );
+    }
+}
+
+#[test]
+fn angular_damping_slows_the_relative_spin() {
+    for kind in [SolverKind::Pgs, SolverKind::Xpbd] {
+        let mut w = wheel(kind, "damping = { angular = 2.0 }");
+        run(&mut w, 1.0);
+        let omega = w.bodies[1].angular_velocity;
+        // removing min(h c, 1) of it per (sub)step: omega ~ 3 exp(-c t), 3 e^-2 = 0.406
+        eprintln!("{kind:?}: damped spin after 1 s {omega:.4} (3 e^-2 = 0.406)");
+        assert!(omega > 0.35 && omega < 0.45, "{kind:?}: {omega}");
+    }
+}
+
+#[test]
+fn the_mouse_joint_pulls_a_body_to_the_target() {
+    for kind in [SolverKind::Pgs, SolverKind::Xpbd] {
+        let settings = wheel(kind, "").settings;
+        // a free box, grabbed at its centre, no gravity
+        let sc = load_str(
+            "name = \"m\"\n[[body]]\nname = \"box\"\nshape = { box = [1.0, 1.0] }\nposition = [0.0, 0.0]\n",
+            "m.toml",
+        )
+        .unwrap();
+        let mut w = World::from_def(&sc.world, settings).unwrap();
+        let mut m = w.grab(0, Vec2::ZERO).expect("dynamic body");
+        m.target = Vec2::new(3.0, 1.0);
+        w.set_mouse(Some(m));
+        run(&mut w, 3.0);
+        let b = &w.bodies[0];
+        let p = b.position + b.rot.rotate(m.local);
+        eprintln!("{kind:?}: grabbed point at {p:?}, target (3, 1)");
+        assert!(p.distance(m.target) < 0.01, "{kind:?}: {p:?}");
+    }
+}
