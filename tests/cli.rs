@@ -146,6 +146,120 @@ fn bad_flags_are_refused_with_exit_2() {
 }
 
 #[test]
+fn bench_writes_csv_markdown_and_plots_quietly() {
+    let dir = tmp("bench-out");
+    let _ = std::fs::remove_dir_all(&dir);
+    let out = sandbox2d()
+        .args(["bench", "--suite", "quick", "--filter", "stack"])
+        .args(["--steps", "6", "--repeats", "1", "--out"])
+        .arg(&dir)
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    // not a terminal: no progress bar, one line of output
+    assert!(
+        out.stderr.is_empty(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert_eq!(String::from_utf8(out.stdout).unwrap().lines().count(), 1);
+    let csv = std::fs::read_to_string(dir.join("results.csv")).unwrap();
+    let mut lines = csv.lines();
+    let header: Vec<&str> = lines.next().unwrap().split(',').collect();
+    for col in [
+        "scene",
+        "solver",
+        "iterations",
+        "substeps",
+        "warm_start",
+        "split_impulse",
+        "ms_per_step",
+        "penetration_max",
+        "penetration_mean",
+        "drift",
+        "joint_error",
+        "energy_drift",
+        "residual",
+        "stable",
+    ] {
+        assert!(header.contains(&col), "{col} missing from {header:?}");
+    }
+    let rows: Vec<Vec<&str>> = lines.map(|l| l.split(',').collect()).collect();
+    // 24 PGS settings and 6 XPBD settings of the one scene "stack"
+    assert_eq!(rows.len(), 30);
+    let stable = header.iter().position(|c| *c == "stable").unwrap();
+    let ms = header.iter().position(|c| *c == "ms_per_step").unwrap();
+    for r in &rows {
+        assert_eq!(r[0], "stack");
+        assert!(
+            ["yes", "no", "n/a (unsupported)"].contains(&r[stable]),
+            "{r:?}"
+        );
+        if r[1] == "pgs" {
+            assert!(r[ms].parse::<f64>().unwrap() > 0.0, "{r:?}");
+        }
+    }
+    let md = std::fs::read_to_string(dir.join("results.md")).unwrap();
+    assert!(md.contains("## stack") && md.contains("Not dominated"));
+    let svg = std::fs::read_to_string(dir.join("stack.svg")).unwrap();
+    assert!(svg.starts_with("<svg") && svg.contains("PGS warm+split"));
+}
+
+#[test]
+fn bench_refuses_bad_input_with_one_line_and_exit_2() {
+    let dir = tmp("bench-bad");
+    for args in [
+        vec!["bench", "--suite", "quick", "--steps", "0"],
+        vec!["bench", "--suite", "quick", "--repeats", "0"],
+        vec!["bench", "--suite", "quick", "--filter", "no_such_scene"],
+        vec!["bench", "--suite", "extremes", "--filter", "no_such_sweep"],
+    ] {
+        let out = sandbox2d()
+            .args(&args)
+            .arg("--out")
+            .arg(&dir)
+            .output()
+            .unwrap();
+        assert_eq!(out.status.code(), Some(2), "{args:?}");
+        let err = String::from_utf8(out.stderr).unwrap();
+        assert_eq!(err.lines().count(), 1, "{args:?}: {err}");
+        assert!(err.starts_with("error: "), "{err}");
+    }
+    let out = sandbox2d()
+        .args(["bench", "--suite", "fast", "--out"])
+        .arg(&dir)
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(2));
+}
+
+#[test]
+fn bench_extremes_writes_the_stability_table() {
+    let dir = tmp("bench-ext");
+    let out = sandbox2d()
+        .args([
+            "bench",
+            "--suite",
+            "extremes",
+            "--filter",
+            "tunneling",
+            "--out",
+        ])
+        .arg(&dir)
+        .output()
+        .unwrap();
+    assert!(out.status.success());
+    let md = std::fs::read_to_string(dir.join("stability.md")).unwrap();
+    let claims = sandbox2d::bench::extremes::parse_claims(&md).unwrap();
+    assert!(claims.iter().all(|c| c.sweep.name() == "tunneling"));
+    assert!(!claims.is_empty());
+}
+
+#[test]
 fn simulate_json_reports_the_joint_error_under_xpbd() {
     let out = sandbox2d()
         .args([

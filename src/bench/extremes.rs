@@ -389,7 +389,11 @@ fn drive(
                     "the {what} solver is not available in this build"
                 )));
             }
-            Err(e) => return Err(CaseResult::Failed(format!("non-finite at step {k}: {e}"))),
+            Err(e) => {
+                return Err(CaseResult::Failed(format!(
+                    "unstable: non-finite at step {k}: {e}"
+                )));
+            }
         }
         each(world, k).map_err(CaseResult::Failed)?;
     }
@@ -423,27 +427,32 @@ fn steps_for(world: &World, seconds: f64) -> u64 {
     (seconds / world.settings.dt as f64).round() as u64
 }
 
-/// A stack-like run: the top body may move at most `tol` (m), overlap stays below
-/// [`MAX_PENETRATION`]; returns (top movement, deepest overlap).
+/// A stack-like run: the top body may move at most `tol` (m) (else it fell: unstable),
+/// and overlap stays below [`MAX_PENETRATION`] (else inaccurate); returns (top
+/// movement, deepest overlap).
 fn standing(world: &mut World, seconds: f64, tol: f32) -> Result<(f32, f32), CaseResult> {
     let top = top_index(world);
     let p0 = world.bodies[top].position;
     let mut deepest = 0.0f32;
+    let mut first_deep: Option<u64> = None;
     let steps = steps_for(world, seconds);
     drive(world, steps, |w, k| {
         let pen = w.stats().penetration;
         deepest = deepest.max(pen);
-        if pen > MAX_PENETRATION {
-            return Err(format!(
-                "overlap {pen:.3} m > {MAX_PENETRATION} m at step {k}"
-            ));
+        if pen > MAX_PENETRATION && first_deep.is_none() {
+            first_deep = Some(k);
         }
         Ok(())
     })?;
     let moved = (world.bodies[top].position - p0).length();
     if !(moved <= tol) {
         return Err(CaseResult::Failed(format!(
-            "top body moved {moved:.3} m (> {tol:.3} m)"
+            "unstable: top body moved {moved:.3} m (> {tol:.3} m)"
+        )));
+    }
+    if let Some(k) = first_deep {
+        return Err(CaseResult::Failed(format!(
+            "inaccurate: overlap {deepest:.3} m > {MAX_PENETRATION} m (from step {k}), top moved {moved:.3} m"
         )));
     }
     Ok((moved, deepest))
@@ -462,7 +471,9 @@ fn run_case(sweep: Sweep, value: f64, world: &mut World) -> Result<String, CaseR
                 if let Some(e) = joint_error(w) {
                     worst = Some(worst.unwrap_or(0.0).max(e));
                     if e > 0.05 {
-                        return Err(format!("joint separation {e:.3} m > 0.05 m at step {k}"));
+                        return Err(format!(
+                            "inaccurate: joint separation {e:.3} m > 0.05 m at step {k}"
+                        ));
                     }
                 }
                 Ok(())
@@ -493,7 +504,7 @@ fn run_case(sweep: Sweep, value: f64, world: &mut World) -> Result<String, CaseR
                 .fold(0.0f32, f32::max);
             if !(fastest <= 0.05) {
                 return Err(CaseResult::Failed(format!(
-                    "not at rest: a box ends at {fastest:.3} m/s"
+                    "unstable: not at rest, a box ends at {fastest:.3} m/s"
                 )));
             }
             Ok(format!(
@@ -507,7 +518,9 @@ fn run_case(sweep: Sweep, value: f64, world: &mut World) -> Result<String, CaseR
             drive(world, steps, |w, k| {
                 let x = w.bodies[ball].position.x;
                 if x > face {
-                    return Err(format!("passed the wall's face at step {k} (x = {x:.3} m)"));
+                    return Err(format!(
+                        "tunnelled: its centre passed the wall's face at step {k} (x = {x:.3} m)"
+                    ));
                 }
                 Ok(())
             })?;
@@ -533,7 +546,7 @@ fn run_case(sweep: Sweep, value: f64, world: &mut World) -> Result<String, CaseR
             let tol = 0.02 + 0.05 * exact;
             if !((slid - exact).abs() <= tol) {
                 return Err(CaseResult::Failed(format!(
-                    "slid {slid:.3} m, closed form {exact:.3} m (tolerance {tol:.3} m)"
+                    "inaccurate: slid {slid:.3} m, closed form {exact:.3} m (tolerance {tol:.3} m)"
                 )));
             }
             Ok(format!("slid {slid:.4} m, closed form {exact:.4} m"))
@@ -557,7 +570,7 @@ fn run_case(sweep: Sweep, value: f64, world: &mut World) -> Result<String, CaseR
             let expect = value * value * DROP;
             if !((peak - expect).abs() <= 0.1) {
                 return Err(CaseResult::Failed(format!(
-                    "bounced to {peak:.3} m, e^2 h = {expect:.3} m"
+                    "inaccurate: bounced to {peak:.3} m, e^2 h = {expect:.3} m"
                 )));
             }
             Ok(format!("bounced to {peak:.4} m, e^2 h = {expect:.4} m"))

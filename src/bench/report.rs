@@ -322,3 +322,78 @@ fn pgs_ms(rows: &[Row], scene: &str) -> Option<f64> {
             _ => None,
         })
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::bench::{Setting, Verdict, scenes};
+
+    fn m(ms: f64, pen: f64, stable: bool) -> Measured {
+        Measured {
+            ms_per_step: ms,
+            stage_ms: [0.0; 5],
+            steps: 10,
+            penetration_max: pen,
+            penetration_mean: pen / 2.0,
+            drift: f64::NAN,
+            joint_error: f64::NAN,
+            energy_drift: f64::NAN,
+            residual: 0.5,
+            verdict: if stable {
+                Verdict::Stable
+            } else {
+                Verdict::Unstable("fell".into())
+            },
+        }
+    }
+
+    fn sc() -> BenchScene {
+        let mut s = scenes::suite(Suite::Quick).remove(0);
+        s.metrics = vec![
+            crate::bench::Metric::PenetrationMax,
+            crate::bench::Metric::PenetrationMean,
+        ];
+        s
+    }
+
+    #[test]
+    fn cheaper_and_as_accurate_dominates_and_nothing_else_does() {
+        let s = sc();
+        assert!(dominates(&s, &m(1.0, 0.01, true), &m(2.0, 0.01, true)));
+        assert!(dominates(&s, &m(1.0, 0.005, true), &m(2.0, 0.01, true)));
+        // cheaper but less accurate, or as accurate but not cheaper
+        assert!(!dominates(&s, &m(1.0, 0.02, true), &m(2.0, 0.01, true)));
+        assert!(!dominates(&s, &m(2.0, 0.01, true), &m(2.0, 0.01, true)));
+        // an unstable run never dominates a stable one
+        assert!(!dominates(&s, &m(1.0, 0.001, false), &m(2.0, 0.01, true)));
+        // a measure only the other has counts against
+        let mut a = m(1.0, 0.01, true);
+        a.penetration_mean = f64::NAN;
+        assert!(!dominates(&s, &a, &m(2.0, 0.01, true)));
+    }
+
+    #[test]
+    fn the_front_keeps_the_stable_non_dominated_rows_cheapest_first() {
+        let s = sc();
+        let row = |n: u32, meas: Measured| Row {
+            scene: s.name.clone(),
+            setting: Setting::pgs(n, true, true),
+            outcome: Outcome::Ran(meas),
+        };
+        let rows = vec![
+            row(1, m(0.5, 0.3, false)),
+            row(2, m(1.0, 0.02, true)),
+            row(4, m(2.0, 0.03, true)),
+            row(8, m(3.0, 0.01, true)),
+        ];
+        let front: Vec<u32> = non_dominated(&s, &rows)
+            .iter()
+            .map(|r| r.setting.iterations)
+            .collect();
+        assert_eq!(front, vec![2, 8]);
+        let text = csv(&rows);
+        assert_eq!(text.lines().count(), 5);
+        assert_eq!(text.lines().next().unwrap(), CSV_COLUMNS.join(","));
+        assert!(text.lines().nth(1).unwrap().contains(",no,fell"));
+    }
+}
