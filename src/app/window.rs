@@ -217,7 +217,9 @@ impl App {
             view_formats: vec![],
         };
         surface.configure(&device, &config);
-        let mut renderer = Renderer::new(device.clone(), queue.clone(), format);
+        let samples = crate::render::default_samples(&info);
+        let mut renderer = Renderer::with_samples(device.clone(), queue.clone(), format, samples);
+        log::info!("window: {format:?}, {samples} sample(s) per pixel");
         renderer.set_adapter_info(info);
         let egui_renderer =
             egui_wgpu::Renderer::new(&device, format, egui_wgpu::RendererOptions::default());
@@ -406,7 +408,12 @@ impl App {
         let (Some(path), Some(g)) = (self.opts.screenshot.clone(), self.gpu.as_ref()) else {
             return Ok(());
         };
-        let mut offscreen = Renderer::new(g.device.clone(), g.queue.clone(), OFFSCREEN_FORMAT);
+        let mut offscreen = Renderer::with_samples(
+            g.device.clone(),
+            g.queue.clone(),
+            OFFSCREEN_FORMAT,
+            g.renderer.sample_count(),
+        );
         let image = offscreen.render_to_image(&self.list, &self.camera)?;
         save_png(&path, &image)?;
         self.screenshot_done = true;
