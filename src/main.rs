@@ -10,6 +10,11 @@ use sandbox2d::scene::{self, Scene};
 use sandbox2d::sim::{self, Trace};
 use sandbox2d::{SolverKind, SolverOverrides, SolverSettings, World};
 
+/// Log levels unless RUST_LOG says otherwise: warnings, minus two harmless ones that
+/// would clutter every run (egui's note that it prefers a non-sRGB surface, which we
+/// choose on purpose; EGL's report of a DRI2 driver it probes and then does without).
+const DEFAULT_LOG_FILTER: &str = "warn,egui_wgpu=error,wgpu_hal::gles::egl=off";
+
 /// The scene the plain `sandbox2d` command shows.
 const DEFAULT_SCENE: &str = "pyramid";
 
@@ -255,10 +260,8 @@ impl Failure {
 }
 
 fn main() -> ExitCode {
-    env_logger::Builder::from_env(
-        env_logger::Env::default().default_filter_or("warn,egui_wgpu=error"),
-    )
-    .init();
+    env_logger::Builder::from_env(env_logger::Env::default().default_filter_or(DEFAULT_LOG_FILTER))
+        .init();
     let cli = Cli::parse();
     let result = match cli.command {
         None => default_command(),
@@ -534,6 +537,12 @@ fn render(a: &RenderArgs) -> Result<(), Failure> {
         return Err(Failure::input("--every must be at least 1"));
     }
     let (sc, mut world, _) = build(&a.scene, &a.solver)?;
+    std::fs::create_dir_all(&a.out).map_err(|e| {
+        Failure::input(format!(
+            "{}: cannot create the folder: {e}",
+            a.out.display()
+        ))
+    })?;
     let overlays = sandbox2d::draw::Overlays {
         contacts: a.overlays.contains(&OverlayArg::Contacts),
         aabbs: a.overlays.contains(&OverlayArg::Aabbs),
@@ -589,7 +598,7 @@ fn run(a: &RunArgs) -> Result<(), Failure> {
             }
             Err(AppError::NoDisplay(why)) => {
                 println!(
-                    "sandbox2d: {why}; rendering \"{}\" headless into ./out instead",
+                    "sandbox2d: no display ({why}); rendering \"{}\" headless into ./out instead",
                     sc.name
                 );
             }

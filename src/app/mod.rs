@@ -89,7 +89,30 @@ pub fn run(
     opts: AppOptions,
 ) -> Result<RunReport, AppError> {
     let session = Session::new(scene, overrides).map_err(AppError::Build)?;
-    let event_loop = winit::event_loop::EventLoop::new()
-        .map_err(|e| AppError::NoDisplay(format!("cannot open a window: {e}")))?;
+    let event_loop = winit::event_loop::EventLoop::new().map_err(|e| {
+        AppError::NoDisplay(format!("cannot open a window: {}", tidy(&e.to_string())))
+    })?;
     window::App::new(opts, session).run(event_loop)
+}
+
+/// winit's message without the source location it prefixes ("os error at FILE:LINE: ").
+fn tidy(message: &str) -> String {
+    message
+        .strip_prefix("os error at ")
+        .and_then(|rest| rest.split_once(": ").map(|(_, why)| why))
+        .unwrap_or(message)
+        .trim_end_matches('.')
+        .to_string()
+}
+
+#[cfg(test)]
+mod tests {
+    #[test]
+    fn tidy_drops_the_source_location() {
+        assert_eq!(
+            super::tidy("os error at /x/winit/src/linux/mod.rs:765: neither DISPLAY nor X is set."),
+            "neither DISPLAY nor X is set"
+        );
+        assert_eq!(super::tidy("plain"), "plain");
+    }
 }

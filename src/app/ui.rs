@@ -133,7 +133,7 @@ fn contents(ui: &mut Ui, s: &mut Session, frame: FrameStats, actions: &mut Panel
 fn stats(ui: &mut Ui, s: &Session, frame: FrameStats) {
     let last = s.last().copied().unwrap_or_default();
     let n = s.history.len().max(1) as f32;
-    let mean_ms = s.history.iter().map(|x| x.ms).sum::<f32>() / n;
+    let mean_ms = s.history.iter().map(|x| x.ms).fold(0.0f32, |a, b| a + b) / n;
     egui::Grid::new("sandbox2d_stats")
         .num_columns(2)
         .show(ui, |ui| {

@@ -17,7 +17,7 @@ use super::ui::{self, FrameStats, PANEL_WIDTH};
 use super::{AppError, AppOptions, RunReport};
 use crate::draw::world::{fill_world_draw_list, scene_camera};
 use crate::draw::{Camera, DrawList};
-use crate::render::{OFFSCREEN_FORMAT, Renderer, save_png};
+use crate::render::{Renderer, save_png};
 
 /// Radius of the force emitter in pixels (converted to metres at the current zoom).
 const EMITTER_RADIUS_PX: f32 = 110.0;
@@ -59,10 +59,14 @@ pub(super) struct App {
     frames: u64,
     first_frame: Option<Instant>,
     last_frame: Option<Instant>,
+    /// When the last frame started (the simulation's clock).
+    last_advance: Option<Instant>,
     /// Presentation times of the frames of the last second, for the panel's fps.
     recent: std::collections::VecDeque<Instant>,
     /// Time between consecutive frames (ms).
     frame_ms: Vec<f32>,
+    /// The last frame, read back for `--screenshot`.
+    screenshot: Option<image::RgbaImage>,
     /// The screenshot was written.
     screenshot_done: bool,
 }
@@ -80,8 +84,10 @@ impl App {
             frames: 0,
             first_frame: None,
             last_frame: None,
+            last_advance: None,
             recent: Default::default(),
             frame_ms: Vec::new(),
+            screenshot: None,
             screenshot_done: false,
         }
     }
@@ -217,7 +223,9 @@ impl App {
             view_formats: vec![],
         };
         surface.configure(&device, &config);
-        let mut renderer = Renderer::new(device.clone(), queue.clone(), format);
+        let samples = crate::render::default_samples(&info);
+        let mut renderer = Renderer::with_samples(device.clone(), queue.clone(), format, samples);
+        log::info!("window: {format:?}, {samples} sample(s) per pixel");
         renderer.set_adapter_info(info);
         let egui_renderer =
             egui_wgpu::Renderer::new(&device, format, egui_wgpu::RendererOptions::default());
@@ -260,11 +268,18 @@ impl App {
     /// stops after `--frames`.
     fn frame(&mut self, event_loop: &ActiveEventLoop) {
         let now = Instant::now();
+        // Wall time from the start of the last frame to the start of this one.
         let real_dt = self
-            .last_frame
+            .last_advance
+            .replace(now)
             .map(|t| (now - t).as_secs_f64())
             .unwrap_or(0.0);
-        self.session.advance(real_dt);
+        let steps = self.session.advance(real_dt);
+        log::debug!(
+            "frame {}: real dt {real_dt:.4} s, {steps} step(s), paused {}",
+            self.frames,
+            self.session.paused
+        );
 
         fill_world_draw_list(&mut self.list, &self.session.world, &self.session.overlays);
         self.push_tools();
@@ -323,9 +338,6 @@ impl App {
             .create_command_encoder(&wgpu::CommandEncoderDescriptor {
                 label: Some("sandbox2d window frame"),
             });
-        g.renderer
-            .draw(&mut encoder, &view, &self.list, &self.camera);
-
         let screen = egui_wgpu::ScreenDescriptor {
             size_in_pixels: [g.config.width, g.config.height],
             pixels_per_point: out.pixels_per_point,
@@ -333,29 +345,53 @@ impl App {
         let extra =
             g.egui_renderer
                 .update_buffers(&g.device, &g.queue, &mut encoder, &jobs, &screen);
-        {
-            let mut pass = encoder
-                .begin_render_pass(&wgpu::RenderPassDescriptor {
-                    label: Some("sandbox2d egui"),
-                    color_attachments: &[Some(wgpu::RenderPassColorAttachment {
-                        view: &view,
-                        depth_slice: None,
-                        resolve_target: None,
-                        ops: wgpu::Operations {
-                            load: wgpu::LoadOp::Load,
-                            store: wgpu::StoreOp::Store,
-                        },
-                    })],
-                    depth_stencil_attachment: None,
-                    timestamp_writes: None,
-                    occlusion_query_set: None,
-                    multiview_mask: None,
-                })
-                .forget_lifetime();
-            g.egui_renderer.render(&mut pass, &jobs, &screen);
-        }
+        encode_frame(
+            g,
+            &mut encoder,
+            &view,
+            &self.list,
+            &self.camera,
+            &jobs,
+            &screen,
+        );
+        // The last frame of a --frames run with --screenshot: the same passes again into
+        // a texture that can be read back (a surface texture cannot, on every backend).
+        let last = self.opts.frames.is_some_and(|n| self.frames + 1 >= n);
+        let capture = match (&self.opts.screenshot, last) {
+            (Some(_), true) if Capture::supports(g.config.format) => {
+                let c = Capture::new(
+                    &g.device,
+                    g.config.format,
+                    [g.config.width, g.config.height],
+                );
+                let capture_view = c
+                    .texture
+                    .create_view(&wgpu::TextureViewDescriptor::default());
+                encode_frame(
+                    g,
+                    &mut encoder,
+                    &capture_view,
+                    &self.list,
+                    &self.camera,
+                    &jobs,
+                    &screen,
+                );
+                c.copy(&mut encoder);
+                Some(c)
+            }
+            _ => None,
+        };
         g.queue
             .submit(extra.into_iter().chain(std::iter::once(encoder.finish())));
+        if let Some(c) = capture {
+            match c.read(&g.device) {
+                Ok(img) => self.screenshot = Some(img),
+                Err(e) => {
+                    self.fail(event_loop, e);
+                    return;
+                }
+            }
+        }
         g.window.pre_present_notify();
         g.queue.present(texture);
         for id in &free {
@@ -400,14 +436,23 @@ impl App {
         }
     }
 
-    /// Writes the last frame's world (the same DrawList and camera, rendered off-screen
-    /// on the window's device) to `--screenshot`, if given.
+    /// Writes the last frame (world and panel, as the window showed it) to
+    /// `--screenshot`, if given. On a surface format that cannot be read back as RGBA,
+    /// the world alone (the same DrawList and camera, rendered off-screen).
     fn save_screenshot(&mut self) -> Result<(), AppError> {
         let (Some(path), Some(g)) = (self.opts.screenshot.clone(), self.gpu.as_ref()) else {
             return Ok(());
         };
-        let mut offscreen = Renderer::new(g.device.clone(), g.queue.clone(), OFFSCREEN_FORMAT);
-        let image = offscreen.render_to_image(&self.list, &self.camera)?;
+        let image = match self.screenshot.take() {
+            Some(image) => image,
+            None => Renderer::with_samples(
+                g.device.clone(),
+                g.queue.clone(),
+                crate::render::OFFSCREEN_FORMAT,
+                g.renderer.sample_count(),
+            )
+            .render_to_image(&self.list, &self.camera)?,
+        };
         save_png(&path, &image)?;
         self.screenshot_done = true;
         Ok(())
@@ -544,5 +589,153 @@ impl ApplicationHandler for App {
             }
             _ => {}
         }
+    }
+}
+
+/// Records one window frame into `target`: the world (cleared to the background), then
+/// the panel over it.
+fn encode_frame(
+    g: &mut Gpu,
+    encoder: &mut wgpu::CommandEncoder,
+    target: &wgpu::TextureView,
+    list: &DrawList,
+    camera: &Camera,
+    jobs: &[egui::ClippedPrimitive],
+    screen: &egui_wgpu::ScreenDescriptor,
+) {
+    g.renderer.draw(encoder, target, list, camera);
+    let mut pass = encoder
+        .begin_render_pass(&wgpu::RenderPassDescriptor {
+            label: Some("sandbox2d egui"),
+            color_attachments: &[Some(wgpu::RenderPassColorAttachment {
+                view: target,
+                depth_slice: None,
+                resolve_target: None,
+                ops: wgpu::Operations {
+                    load: wgpu::LoadOp::Load,
+                    store: wgpu::StoreOp::Store,
+                },
+            })],
+            depth_stencil_attachment: None,
+            timestamp_writes: None,
+            occlusion_query_set: None,
+            multiview_mask: None,
+        })
+        .forget_lifetime();
+    g.egui_renderer.render(&mut pass, jobs, screen);
+}
+
+/// A texture of the surface's format and size that a frame is also drawn into, and the
+/// buffer it is copied to, for `--screenshot`.
+struct Capture {
+    texture: wgpu::Texture,
+    buffer: wgpu::Buffer,
+    format: wgpu::TextureFormat,
+    size: [u32; 2],
+    padded_row: u32,
+}
+
+impl Capture {
+    /// Formats read back as 4 bytes a pixel, RGBA or BGRA.
+    fn supports(format: wgpu::TextureFormat) -> bool {
+        use wgpu::TextureFormat as F;
+        matches!(
+            format,
+            F::Rgba8Unorm | F::Rgba8UnormSrgb | F::Bgra8Unorm | F::Bgra8UnormSrgb
+        )
+    }
+
+    fn new(device: &wgpu::Device, format: wgpu::TextureFormat, size: [u32; 2]) -> Capture {
+        let texture = device.create_texture(&wgpu::TextureDescriptor {
+            label: Some("sandbox2d screenshot"),
+            size: wgpu::Extent3d {
+                width: size[0],
+                height: size[1],
+                depth_or_array_layers: 1,
+            },
+            mip_level_count: 1,
+            sample_count: 1,
+            dimension: wgpu::TextureDimension::D2,
+            format,
+            usage: wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::COPY_SRC,
+            view_formats: &[],
+        });
+        // Copies need rows aligned to 256 bytes.
+        let align = wgpu::COPY_BYTES_PER_ROW_ALIGNMENT;
+        let padded_row = (size[0] * 4).div_ceil(align) * align;
+        let buffer = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("sandbox2d screenshot read-back"),
+            size: padded_row as u64 * size[1] as u64,
+            usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        Capture {
+            texture,
+            buffer,
+            format,
+            size,
+            padded_row,
+        }
+    }
+
+    fn copy(&self, encoder: &mut wgpu::CommandEncoder) {
+        encoder.copy_texture_to_buffer(
+            self.texture.as_image_copy(),
+            wgpu::TexelCopyBufferInfo {
+                buffer: &self.buffer,
+                layout: wgpu::TexelCopyBufferLayout {
+                    offset: 0,
+                    bytes_per_row: Some(self.padded_row),
+                    rows_per_image: Some(self.size[1]),
+                },
+            },
+            wgpu::Extent3d {
+                width: self.size[0],
+                height: self.size[1],
+                depth_or_array_layers: 1,
+            },
+        );
+    }
+
+    /// Waits for the copy and returns the pixels as RGBA (BGRA surfaces are swizzled).
+    fn read(self, device: &wgpu::Device) -> Result<image::RgbaImage, AppError> {
+        let (tx, rx) = std::sync::mpsc::channel();
+        self.buffer.map_async(wgpu::MapMode::Read, .., move |r| {
+            let _ = tx.send(r);
+        });
+        device
+            .poll(wgpu::PollType::wait_indefinitely())
+            .map_err(|e| AppError::Gpu(format!("screenshot: poll: {e}")))?;
+        rx.recv()
+            .map_err(|_| AppError::Gpu("screenshot: read-back never ran".into()))?
+            .map_err(|e| AppError::Gpu(format!("screenshot: map: {e}")))?;
+        let [w, h] = self.size;
+        let row = w as usize * 4;
+        let mut pixels = Vec::with_capacity(row * h as usize);
+        {
+            let view = self
+                .buffer
+                .get_mapped_range(..)
+                .map_err(|e| AppError::Gpu(format!("screenshot: view: {e}")))?;
+            for y in 0..h as usize {
+                let start = y * self.padded_row as usize;
+                pixels.extend_from_slice(&view[start..start + row]);
+            }
+        }
+        self.buffer.unmap();
+        if matches!(
+            self.format,
+            wgpu::TextureFormat::Bgra8Unorm | wgpu::TextureFormat::Bgra8UnormSrgb
+        ) {
+            for px in pixels.chunks_exact_mut(4) {
+                px.swap(0, 2);
+            }
+        }
+        // The surface may be opaque-ignoring; a PNG of the window is opaque.
+        for px in pixels.chunks_exact_mut(4) {
+            px[3] = 255;
+        }
+        image::RgbaImage::from_raw(w, h, pixels)
+            .ok_or_else(|| AppError::Gpu("screenshot: size mismatch".into()))
     }
 }

@@ -8,7 +8,7 @@ mod gpu;
 
 pub use capture::{GifWriter, save_png};
 pub use frames::{FrameJob, FramesError, FramesWritten, render_frames};
-pub use gpu::{OFFSCREEN_FORMAT, Renderer, SAMPLE_COUNT};
+pub use gpu::{OFFSCREEN_FORMAT, Renderer, SAMPLE_COUNT, default_samples};
 
 /// The wgpu this renderer is built on, for callers that make devices, surfaces and encoders.
 pub use wgpu;
