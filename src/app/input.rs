@@ -6,11 +6,11 @@ use glam::Vec2;
 
 use crate::body::BodyId;
 use crate::defs::{BodyDef, BodyType, ShapeDef};
+use crate::joint::MouseJoint;
 use crate::shape::Shape;
 use crate::world::{BuildError, World};
 
-/// The drag spring's natural frequency (Hz), lowered for large time steps so the explicit
-/// spring stays stable (omega dt <= 0.5).
+/// The drag spring's natural frequency (Hz).
 pub const DRAG_FREQUENCY_HZ: f32 = 4.0;
 /// The drag spring's damping ratio: 1 is critically damped (no overshoot).
 pub const DRAG_DAMPING_RATIO: f32 = 1.0;
@@ -20,53 +20,32 @@ pub const DRAG_ANGULAR_DAMPING: f32 = 0.25;
 pub const DRAG_MAX_ACCELERATION: f32 = 400.0;
 
 /// Pulls the material point `local_point` (body frame, relative to the centre of mass)
-/// of `body` towards the world point `target` with a critically damped spring, for the
-/// next step (call it before every step while dragging).
-///
-/// The spring acts on the point as if it were a particle: the force is the point's
-/// effective mass matrix M = K^-1, K = I/m + (r_perp r_perp^T)/I, times the wanted
-/// acceleration a = omega^2 (target - p) - 2 zeta omega v_p, so bodies of any mass and
-/// shape follow alike. The body's spin is damped a little, so a held body comes to
-/// rest. Static and kinematic bodies, and unknown ids, are left alone.
-///
-/// This is the one place the mouse drags through; a mouse joint can replace it.
+/// of `body` towards the world point `target` with the world's mouse joint (a soft point
+/// constraint: DRAG_FREQUENCY_HZ, damping ratio DRAG_DAMPING_RATIO, force capped at
+/// DRAG_MAX_ACCELERATION times the body's mass), solved by whichever solver the world
+/// runs, for the next step (call it before every step while dragging; [`release`] lets
+/// go). The body's spin is damped a little, so a held body comes to rest. Static and
+/// kinematic bodies, and unknown ids, are left alone.
 pub fn drag_body(world: &mut World, body: BodyId, local_point: Vec2, target: Vec2) {
-    let dt = world.settings.dt;
     let Some(b) = world.bodies.get(body) else {
         return;
     };
-    if b.body_type != BodyType::Dynamic || !target.is_finite() {
+    if b.body_type != BodyType::Dynamic || !target.is_finite() || !local_point.is_finite() {
         return;
     }
-    // omega = 2 pi f, capped so that omega dt <= 0.5 (explicit integration stays stable)
-    let omega = (std::f32::consts::TAU * DRAG_FREQUENCY_HZ).min(0.5 / dt.max(1e-6));
-    let p = b.position + b.rot.rotate(local_point);
-    let r = p - b.position;
-    let v = b.velocity_at(p);
-    // a = omega^2 (target - p) - 2 zeta omega v_p
-    let accel = omega * omega * (target - p) - 2.0 * DRAG_DAMPING_RATIO * omega * v;
-    // K = [[1/m + r.y^2/I, -r.x r.y/I], [-r.x r.y/I, 1/m + r.x^2/I]]
-    let (im, ii) = (b.inv_mass, b.inv_inertia);
-    let k11 = im + r.y * r.y * ii;
-    let k12 = -r.x * r.y * ii;
-    let k22 = im + r.x * r.x * ii;
-    let det = k11 * k22 - k12 * k12;
-    if !(det > 0.0) {
-        return;
-    }
-    // F = K^-1 a
-    let mut force = Vec2::new(k22 * accel.x - k12 * accel.y, k11 * accel.y - k12 * accel.x) / det;
-    let max = DRAG_MAX_ACCELERATION * b.mass;
-    if force.length() > max {
-        force = force.normalize_or_zero() * max;
-    }
-    let (inertia, w, com) = (b.inertia, b.angular_velocity, b.position);
-    if force.is_finite() {
-        world.apply_force(body, force, p);
-    }
+    let (mass, inertia, w, com) = (b.mass, b.inertia, b.angular_velocity, b.position);
+    world.set_mouse(Some(MouseJoint {
+        body,
+        local: local_point,
+        target,
+        hertz: DRAG_FREQUENCY_HZ,
+        damping_ratio: DRAG_DAMPING_RATIO,
+        max_force: DRAG_MAX_ACCELERATION * mass,
+    }));
     // The point is held but the body may still spin about it: damp the spin with a pure
     // torque tau = -c I w (c = DRAG_ANGULAR_DAMPING omega), applied as a couple of
     // forces +-tau/2 one metre either side of the centre of mass.
+    let omega = std::f32::consts::TAU * DRAG_FREQUENCY_HZ;
     if inertia > 0.0 {
         let tau = -DRAG_ANGULAR_DAMPING * omega * inertia * w;
         let f = Vec2::new(0.0, 0.5 * tau);
@@ -75,6 +54,11 @@ pub fn drag_body(world: &mut World, body: BodyId, local_point: Vec2, target: Vec
             world.apply_force(body, -f, com - Vec2::X);
         }
     }
+}
+
+/// Lets go of whatever the mouse joint holds.
+pub fn release(world: &mut World) {
+    world.set_mouse(None);
 }
 
 /// The seed demo's force emitter: pushes every dynamic body whose centre lies within

@@ -2,7 +2,7 @@
 //! world drawn by [`crate::render::Renderer`], and an egui side panel to pick scenes,
 //! tune the solver, toggle overlays and watch the figures.
 //!
-//! Controls: left drag on a body pulls it with a spring ([`input::drag_body`]); left
+//! Controls: left drag on a body pulls it with the mouse joint ([`input::drag_body`]); left
 //! drag on empty space pans; the wheel zooms about the cursor; the right button held
 //! pushes bodies away from the cursor; middle click or ctrl+click spawns a box,
 //! shift+click a circle; space pauses, S steps, R resets.
