@@ -125,6 +125,23 @@ pub fn fill_world_draw_list(list: &mut DrawList, world: &World, overlays: &Overl
     for (i, b) in world.bodies.iter().enumerate() {
         push_body(list, i, b);
     }
+    // joints: a line between the two anchors (a thread, a rope link) and a dot at each
+    // (where a hinge or weld holds); the mouse joint from the grabbed point to its target
+    push_joint_lines(
+        list,
+        world
+            .joints()
+            .iter()
+            .map(|j| j.world_anchors(&world.bodies)),
+    );
+    if let Some(m) = world.mouse() {
+        if let Some(b) = world.bodies.get(m.body) {
+            push_joint_lines(
+                list,
+                std::iter::once((b.position + b.rot.rotate(m.local), m.target)),
+            );
+        }
+    }
     if overlays.aabbs {
         push_aabbs(list, world);
     }
@@ -233,7 +250,7 @@ pub fn push_contacts(list: &mut DrawList, world: &World, scale: Option<f32>) {
 }
 
 /// Adds a joint line per pair of world anchors `(on body A, on body B)`, with a dot at
-/// each anchor. (The joint API is not in the world yet: the caller supplies the pairs.)
+/// each anchor.
 pub fn push_joint_lines(list: &mut DrawList, anchors: impl Iterator<Item = (Vec2, Vec2)>) {
     for (a, b) in anchors {
         list.push_line(a, b, JOINT_WIDTH_PX, colors::JOINT);
