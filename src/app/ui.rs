@@ -172,7 +172,9 @@ fn plot(ui: &mut Ui, label: &str, values: impl ExactSizeIterator<Item = f32>, co
     let n = values.len();
     let values: Vec<f32> = values.collect();
     let max = values.iter().copied().fold(0.0f32, f32::max);
-    ui.small(format!("{label}, last {HISTORY_SECONDS:.0} s (max {max:.3})"));
+    ui.small(format!(
+        "{label}, last {HISTORY_SECONDS:.0} s (max {max:.3})"
+    ));
     let (response, painter) = ui.allocate_painter(EVec2::new(width, 48.0), Sense::hover());
     let rect: Rect = response.rect;
     painter.rect_filled(rect, 2.0, Color32::from_gray(28));
