@@ -126,7 +126,7 @@ fn contents(ui: &mut Ui, s: &mut Session, frame: FrameStats, actions: &mut Panel
         ui.small("right button held: push bodies away");
         ui.small("middle click / ctrl+click: spawn a box");
         ui.small("shift+click: spawn a circle");
-        ui.small("space: pause, S: step, R: reset");
+        ui.small("space: pause, S: step, R: reset, H: hide this panel");
     });
 }
 

@@ -62,6 +62,8 @@ pub(super) struct App {
     /// Summed wall time (ms) of each part of a frame: simulation and draw list, egui,
     /// acquiring the surface texture, encoding and submitting, presenting.
     phase_ms: [f64; 5],
+    /// The side panel is shown (H toggles it).
+    panel_visible: bool,
     /// When the last frame started (the simulation's clock).
     last_advance: Option<Instant>,
     /// Presentation times of the frames of the last second, for the panel's fps.
@@ -76,6 +78,7 @@ pub(super) struct App {
 
 impl App {
     pub(super) fn new(opts: AppOptions, session: Session) -> App {
+        let panel_visible = opts.show_panel;
         App {
             opts,
             session,
@@ -88,6 +91,7 @@ impl App {
             first_frame: None,
             last_frame: None,
             last_advance: None,
+            panel_visible,
             phase_ms: [0.0; 5],
             recent: Default::default(),
             frame_ms: Vec::new(),
@@ -150,6 +154,9 @@ impl App {
 
     /// The window's pixels per point (for the panel's width in pixels).
     fn panel_px(&self) -> f32 {
+        if !self.panel_visible {
+            return 0.0;
+        }
         let scale = self
             .gpu
             .as_ref()
@@ -306,8 +313,11 @@ impl App {
         let ctx = g.egui_state.egui_ctx().clone();
         let session = &mut self.session;
         let mut actions = ui::PanelActions::default();
+        let visible = self.panel_visible;
         let mut out = ctx.run_ui(raw, |ui| {
-            actions = ui::panel(ui, session, frame_stats);
+            if visible {
+                actions = ui::panel(ui, session, frame_stats);
+            }
         });
         g.egui_state
             .handle_platform_output(&g.window, std::mem::take(&mut out.platform_output));
@@ -558,6 +568,9 @@ impl App {
             Key::Character(c) if c.eq_ignore_ascii_case("r") => {
                 self.session.reset();
                 self.reset_camera();
+            }
+            Key::Character(c) if c.eq_ignore_ascii_case("h") => {
+                self.panel_visible = !self.panel_visible;
             }
             _ => {}
         }
