@@ -4,8 +4,8 @@
 //! adapter it prints why and measures nothing.
 //!
 //! Measured (llvmpipe via GL, 2 CPU cores shared with other builds, load average about
-//! 4.5, release): single-sampled (the default on a CPU rasteriser) median 8.4 ms a frame;
-//! 4x MSAA median 34.2 ms. Earlier, 4x MSAA on a quiet machine in `--profile dev`: median
+//! 2, release): single-sampled (the default on a CPU rasteriser) median 7.9 ms a frame;
+//! 4x MSAA median 32.0 ms (8.4 ms and 34.2 ms at load average 4.5). Earlier, 4x MSAA on a quiet machine in `--profile dev`: median
 //! 19.7 ms. On llvmpipe most of a 4x frame is clearing and resolving the samples; the
 //! single-sampled frame matches it within 1/255 a channel, since every shape's edge is
 //! antialiased by its distance field (polygons by their outlines).
