@@ -94,9 +94,12 @@ struct RunArgs {
     /// Stop after this many frames and print the measured frame rate.
     #[arg(long)]
     frames: Option<u64>,
-    /// With --frames: save the last frame's world as a PNG.
+    /// With --frames: save the last frame as a PNG.
     #[arg(long, value_name = "FILE", requires = "frames")]
     screenshot: Option<PathBuf>,
+    /// Start with the side panel hidden (H shows it).
+    #[arg(long)]
+    no_panel: bool,
     #[command(flatten)]
     solver: SolverFlags,
 }
@@ -298,6 +301,7 @@ fn default_command() -> Result<(), Failure> {
         scene: DEFAULT_SCENE.into(),
         frames: None,
         screenshot: None,
+        no_panel: false,
         solver: SolverFlags::default(),
     })
 }
@@ -575,6 +579,7 @@ fn run(a: &RunArgs) -> Result<(), Failure> {
         let opts = AppOptions {
             frames: a.frames,
             screenshot: a.screenshot.clone(),
+            show_panel: !a.no_panel,
         };
         match sandbox2d::app::run(sc.clone(), a.solver.overrides(), opts) {
             Ok(report) => {

@@ -5,7 +5,7 @@
 //! Controls: left drag on a body pulls it with the mouse joint ([`input::drag_body`]); left
 //! drag on empty space pans; the wheel zooms about the cursor; the right button held
 //! pushes bodies away from the cursor; middle click or ctrl+click spawns a box,
-//! shift+click a circle; space pauses, S steps, R resets.
+//! shift+click a circle; space pauses, S steps, R resets, H hides or shows the panel.
 //!
 //! [`run`] returns [`AppError::NoDisplay`] when there is no display to open a window
 //! on; the command line then renders frames headless instead.
@@ -29,8 +29,10 @@ pub struct AppOptions {
     /// Stop after this many presented frames (and write `screenshot`); run until the
     /// window closes when `None`.
     pub frames: Option<u64>,
-    /// Save the last frame's world as a PNG here (with `frames`).
+    /// Save the last frame as a PNG here (with `frames`).
     pub screenshot: Option<PathBuf>,
+    /// Show the side panel at start (H toggles it).
+    pub show_panel: bool,
 }
 
 /// What a run measured.

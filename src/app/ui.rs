@@ -3,7 +3,7 @@
 
 use egui::{Color32, Pos2, Rect, Sense, Stroke, Ui, Vec2 as EVec2};
 
-use super::session::Session;
+use super::session::{HISTORY_SECONDS, Session};
 use crate::defs::SolverKind;
 use crate::scene;
 
@@ -126,7 +126,7 @@ fn contents(ui: &mut Ui, s: &mut Session, frame: FrameStats, actions: &mut Panel
         ui.small("right button held: push bodies away");
         ui.small("middle click / ctrl+click: spawn a box");
         ui.small("shift+click: spawn a circle");
-        ui.small("space: pause, S: step, R: reset");
+        ui.small("space: pause, S: step, R: reset, H: hide this panel");
     });
 }
 
@@ -165,16 +165,19 @@ fn stats(ui: &mut Ui, s: &Session, frame: FrameStats) {
     );
 }
 
-/// A small line plot of `values` (oldest first) scaled from 0 to their maximum, with
-/// the label and the maximum written in the corner.
+/// A small line plot of `values` (oldest first) scaled from 0 to their maximum, under a
+/// label with the maximum.
 fn plot(ui: &mut Ui, label: &str, values: impl ExactSizeIterator<Item = f32>, color: Color32) {
     let width = ui.available_width().max(120.0);
-    let (response, painter) = ui.allocate_painter(EVec2::new(width, 60.0), Sense::hover());
-    let rect: Rect = response.rect;
-    painter.rect_filled(rect, 2.0, Color32::from_gray(28));
     let n = values.len();
     let values: Vec<f32> = values.collect();
     let max = values.iter().copied().fold(0.0f32, f32::max);
+    ui.small(format!(
+        "{label}, last {HISTORY_SECONDS:.0} s (max {max:.3})"
+    ));
+    let (response, painter) = ui.allocate_painter(EVec2::new(width, 48.0), Sense::hover());
+    let rect: Rect = response.rect;
+    painter.rect_filled(rect, 2.0, Color32::from_gray(28));
     if n >= 2 && max > 0.0 {
         let points: Vec<Pos2> = values
             .iter()
@@ -187,11 +190,4 @@ fn plot(ui: &mut Ui, label: &str, values: impl ExactSizeIterator<Item = f32>, co
             .collect();
         painter.line(points, Stroke::new(1.5, color));
     }
-    painter.text(
-        rect.left_top() + EVec2::new(4.0, 2.0),
-        egui::Align2::LEFT_TOP,
-        format!("{label}  max {max:.3}"),
-        egui::FontId::proportional(11.0),
-        Color32::from_gray(200),
-    );
 }

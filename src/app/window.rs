@@ -59,6 +59,11 @@ pub(super) struct App {
     frames: u64,
     first_frame: Option<Instant>,
     last_frame: Option<Instant>,
+    /// Summed wall time (ms) of each part of a frame: simulation and draw list, egui,
+    /// acquiring the surface texture, encoding and submitting, presenting.
+    phase_ms: [f64; 5],
+    /// The side panel is shown (H toggles it).
+    panel_visible: bool,
     /// When the last frame started (the simulation's clock).
     last_advance: Option<Instant>,
     /// Presentation times of the frames of the last second, for the panel's fps.
@@ -73,6 +78,7 @@ pub(super) struct App {
 
 impl App {
     pub(super) fn new(opts: AppOptions, session: Session) -> App {
+        let panel_visible = opts.show_panel;
         App {
             opts,
             session,
@@ -85,6 +91,8 @@ impl App {
             first_frame: None,
             last_frame: None,
             last_advance: None,
+            panel_visible,
+            phase_ms: [0.0; 5],
             recent: Default::default(),
             frame_ms: Vec::new(),
             screenshot: None,
@@ -104,6 +112,12 @@ impl App {
             (Some(a), Some(b)) => (b - a).as_secs_f64(),
             _ => 0.0,
         };
+        let n = self.frames.max(1) as f64;
+        let [sim, ui, acquire, submit, present] = self.phase_ms.map(|v| v / n);
+        log::info!(
+            "mean ms a frame: simulation and draw list {sim:.2}, panel {ui:.2}, acquire \
+             {acquire:.2}, encode and submit {submit:.2}, present {present:.2}"
+        );
         let mut sorted = self.frame_ms.clone();
         sorted.sort_by(f32::total_cmp);
         let pick = |q: f64| {
@@ -140,6 +154,9 @@ impl App {
 
     /// The window's pixels per point (for the panel's width in pixels).
     fn panel_px(&self) -> f32 {
+        if !self.panel_visible {
+            return 0.0;
+        }
         let scale = self
             .gpu
             .as_ref()
@@ -291,12 +308,16 @@ impl App {
             fps,
             bodies: self.session.world.bodies.len(),
         };
+        let t_sim = Instant::now();
         let raw = g.egui_state.take_egui_input(&g.window);
         let ctx = g.egui_state.egui_ctx().clone();
         let session = &mut self.session;
         let mut actions = ui::PanelActions::default();
+        let visible = self.panel_visible;
         let mut out = ctx.run_ui(raw, |ui| {
-            actions = ui::panel(ui, session, frame_stats);
+            if visible {
+                actions = ui::panel(ui, session, frame_stats);
+            }
         });
         g.egui_state
             .handle_platform_output(&g.window, std::mem::take(&mut out.platform_output));
@@ -312,6 +333,7 @@ impl App {
         }
         let free: Vec<egui::TextureId> = textures.free.drain().collect();
 
+        let t_ui = Instant::now();
         let texture = match g.surface.get_current_texture() {
             wgpu::CurrentSurfaceTexture::Success(t)
             | wgpu::CurrentSurfaceTexture::Suboptimal(t) => t,
@@ -330,6 +352,7 @@ impl App {
                 return;
             }
         };
+        let t_acquire = Instant::now();
         let view = texture
             .texture
             .create_view(&wgpu::TextureViewDescriptor::default());
@@ -383,6 +406,7 @@ impl App {
         };
         g.queue
             .submit(extra.into_iter().chain(std::iter::once(encoder.finish())));
+        let t_submit = Instant::now();
         if let Some(c) = capture {
             match c.read(&g.device) {
                 Ok(img) => self.screenshot = Some(img),
@@ -394,6 +418,16 @@ impl App {
         }
         g.window.pre_present_notify();
         g.queue.present(texture);
+        let t_present = Instant::now();
+        for (acc, d) in self.phase_ms.iter_mut().zip([
+            t_sim - now,
+            t_ui - t_sim,
+            t_acquire - t_ui,
+            t_submit - t_acquire,
+            t_present - t_submit,
+        ]) {
+            *acc += d.as_secs_f64() * 1e3;
+        }
         for id in &free {
             g.egui_renderer.free_texture(id);
         }
@@ -534,6 +568,9 @@ impl App {
             Key::Character(c) if c.eq_ignore_ascii_case("r") => {
                 self.session.reset();
                 self.reset_camera();
+            }
+            Key::Character(c) if c.eq_ignore_ascii_case("h") => {
+                self.panel_visible = !self.panel_visible;
             }
             _ => {}
         }
