@@ -12,7 +12,7 @@ mod scenes;
 use criterion::{Criterion, criterion_group, criterion_main};
 use glam::Vec2;
 use sandbox2d::draw::Camera;
-use sandbox2d::render::Renderer;
+use sandbox2d::render::{Renderer, wgpu};
 use std::hint::black_box;
 
 fn render_frame(c: &mut Criterion) {
@@ -28,13 +28,33 @@ fn render_frame(c: &mut Criterion) {
     }
     let list = scenes::bench_scene();
     let camera = Camera::new(Vec2::new(0.0, 12.0), 26.0, [1280, 720]);
-    c.bench_function("render_readback_1280x720_210_boxes", |b| {
-        b.iter(|| {
-            renderer
-                .render_to_image(black_box(&list), black_box(&camera))
-                .expect("render")
-        })
-    });
+    let samples = renderer.sample_count();
+    c.bench_function(
+        &format!("render_readback_1280x720_210_boxes_default_{samples}x"),
+        |b| {
+            b.iter(|| {
+                renderer
+                    .render_to_image(black_box(&list), black_box(&camera))
+                    .expect("render")
+            })
+        },
+    );
+    // The same frame with the other sample count (4x MSAA against single-sampled).
+    let other = if samples == 1 { 4 } else { 1 };
+    let backends = wgpu::Backends::from_env().unwrap_or(wgpu::Backends::all());
+    let Ok(mut renderer) = Renderer::new_headless_with_samples(backends, other) else {
+        return;
+    };
+    c.bench_function(
+        &format!("render_readback_1280x720_210_boxes_{other}x"),
+        |b| {
+            b.iter(|| {
+                renderer
+                    .render_to_image(black_box(&list), black_box(&camera))
+                    .expect("render")
+            })
+        },
+    );
 }
 
 criterion_group! {

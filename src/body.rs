@@ -42,6 +42,11 @@ pub struct Body {
     pub force: Vec2,
     /// Torque (N m) accumulated for the next step.
     pub torque: f32,
+    /// XPBD: the position and angle corrections of the current substep. Velocities are
+    /// derived from them, v = v_predicted + dx / h, which is (x - x_prev) / h without the
+    /// f32 cancellation of subtracting two nearby positions far from the origin.
+    pub(crate) correction: Vec2,
+    pub(crate) correction_angle: f32,
 }
 
 impl Body {

@@ -11,6 +11,10 @@
 use crate::defs::Color;
 use glam::Vec2;
 
+pub mod world;
+
+pub use world::{Overlays, fill_world_draw_list, push_joint_lines, world_draw_list};
+
 /// Maps y-up world metres to y-down pixels.
 ///
 /// The screen transform is `X = [[s, 0, px], [0, -s, py], [0, 0, 1]]` with

@@ -18,6 +18,7 @@ pub mod body;
 pub mod collision;
 pub mod defs;
 pub mod draw;
+pub mod joint;
 pub mod math;
 pub mod scene;
 pub mod shape;
@@ -28,7 +29,11 @@ pub mod world;
 #[cfg(feature = "render")]
 pub mod render;
 
+#[cfg(feature = "app")]
+pub mod app;
+
 pub use body::{Body, BodyId};
 pub use defs::*;
 pub use draw::{Camera, DrawList};
+pub use joint::{Joint, JointId, MouseJoint};
 pub use world::{BuildError, StepError, StepStats, World};

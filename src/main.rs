@@ -1,5 +1,5 @@
-//! The sandbox2d command line: `scenes`, `simulate`, and (with no command) the default
-//! scene.
+//! The sandbox2d command line: `scenes`, `simulate`, `render`, `run`, and (with no
+//! command) the window on the default scene.
 
 use std::io::{BufWriter, IsTerminal, Write};
 use std::path::PathBuf;
@@ -9,6 +9,11 @@ use clap::{Args, Parser, Subcommand, ValueEnum};
 use sandbox2d::scene::{self, Scene};
 use sandbox2d::sim::{self, Trace};
 use sandbox2d::{SolverKind, SolverOverrides, SolverSettings, World};
+
+/// Log levels unless RUST_LOG says otherwise: warnings, minus two harmless ones that
+/// would clutter every run (egui's note that it prefers a non-sRGB surface, which we
+/// choose on purpose; EGL's report of a DRI2 driver it probes and then does without).
+const DEFAULT_LOG_FILTER: &str = "warn,egui_wgpu=error,wgpu_hal::gles::egl=off";
 
 /// The scene the plain `sandbox2d` command shows.
 const DEFAULT_SCENE: &str = "pyramid";
@@ -30,9 +35,90 @@ enum Command {
     Scenes,
     /// Run a scene headless and print its figures.
     Simulate(SimulateArgs),
+    /// Render a scene headless to numbered PNG frames (and an animated GIF).
+    #[cfg(feature = "render")]
+    Render(RenderArgs),
+    /// Open the sandbox window on a scene (without a display: render frames to ./out).
+    #[cfg(feature = "render")]
+    Run(RunArgs),
     /// Measure what each solver setting costs and how right it is: results.csv,
     /// results.md and one plot per scene (or stability.md for --suite extremes) in --out.
     Bench(BenchArgs),
+}
+
+/// Debug overlays for `render`.
+#[cfg(feature = "render")]
+#[derive(Clone, Copy, PartialEq, Eq, ValueEnum)]
+enum OverlayArg {
+    /// Contact points and normals (length by normal impulse).
+    Contacts,
+    /// Bounding boxes.
+    Aabbs,
+    /// Velocities.
+    Velocities,
+}
+
+#[cfg(feature = "render")]
+#[derive(Args)]
+struct RenderArgs {
+    /// A scene file, or the name of a built-in scene (see `sandbox2d scenes`).
+    scene: String,
+    /// Frames to write; frame 0 is the initial state.
+    #[arg(long)]
+    frames: u32,
+    /// Steps between frames.
+    #[arg(long, default_value_t = 1)]
+    every: u32,
+    /// Folder for frame_0000.png, frame_0001.png, ... (created if missing).
+    #[arg(long)]
+    out: PathBuf,
+    /// Frame size in pixels (default: the scene's camera size).
+    #[arg(long, value_name = "WxH", value_parser = parse_size)]
+    size: Option<[u32; 2]>,
+    /// Also write an animated GIF, played at simulated speed.
+    #[arg(long, value_name = "FILE")]
+    gif: Option<PathBuf>,
+    /// Debug overlays, comma-separated.
+    #[arg(long, value_enum, value_delimiter = ',')]
+    overlays: Vec<OverlayArg>,
+    #[command(flatten)]
+    solver: SolverFlags,
+}
+
+#[cfg(feature = "render")]
+#[derive(Args)]
+struct RunArgs {
+    /// A scene file, or the name of a built-in scene (see `sandbox2d scenes`).
+    #[arg(default_value = DEFAULT_SCENE)]
+    scene: String,
+    /// Stop after this many frames and print the measured frame rate.
+    #[arg(long)]
+    frames: Option<u64>,
+    /// With --frames: save the last frame's world as a PNG.
+    #[arg(long, value_name = "FILE", requires = "frames")]
+    screenshot: Option<PathBuf>,
+    #[command(flatten)]
+    solver: SolverFlags,
+}
+
+/// Parses `WxH` (e.g. `1280x720`), each side 1..=16384.
+#[cfg(feature = "render")]
+fn parse_size(s: &str) -> Result<[u32; 2], String> {
+    let (w, h) = s
+        .split_once(['x', 'X'])
+        .ok_or_else(|| format!("expected WIDTHxHEIGHT such as 1280x720, got \"{s}\""))?;
+    let side = |v: &str| -> Result<u32, String> {
+        let n: u32 = v
+            .trim()
+            .parse()
+            .map_err(|_| format!("\"{v}\" is not a whole number of pixels"))?;
+        if (1..=16384).contains(&n) {
+            Ok(n)
+        } else {
+            Err(format!("each side must be 1..=16384 pixels, got {n}"))
+        }
+    };
+    Ok([side(w)?, side(h)?])
 }
 
 #[derive(Clone, Copy, ValueEnum)]
@@ -174,12 +260,17 @@ impl Failure {
 }
 
 fn main() -> ExitCode {
-    env_logger::Builder::from_env(env_logger::Env::default().default_filter_or("warn")).init();
+    env_logger::Builder::from_env(env_logger::Env::default().default_filter_or(DEFAULT_LOG_FILTER))
+        .init();
     let cli = Cli::parse();
     let result = match cli.command {
         None => default_command(),
         Some(Command::Scenes) => list_scenes(),
         Some(Command::Simulate(a)) => simulate(&a),
+        #[cfg(feature = "render")]
+        Some(Command::Render(a)) => render(&a),
+        #[cfg(feature = "render")]
+        Some(Command::Run(a)) => run(&a),
         Some(Command::Bench(a)) => bench(&a),
     };
     match result {
@@ -199,8 +290,21 @@ fn list_scenes() -> Result<(), Failure> {
     Ok(())
 }
 
-/// Without a window yet, the plain command runs the default scene headless for 10 s
+/// The plain command opens the window on the default scene (or, without a display,
+/// renders it headless into ./out).
+#[cfg(feature = "render")]
+fn default_command() -> Result<(), Failure> {
+    run(&RunArgs {
+        scene: DEFAULT_SCENE.into(),
+        frames: None,
+        screenshot: None,
+        solver: SolverFlags::default(),
+    })
+}
+
+/// Built without rendering, the plain command runs the default scene headless for 10 s
 /// and prints its figures.
+#[cfg(not(feature = "render"))]
 fn default_command() -> Result<(), Failure> {
     println!(
         "sandbox2d: running the built-in scene \"{DEFAULT_SCENE}\" headless for 600 steps (see `sandbox2d --help`)"
@@ -264,6 +368,7 @@ fn simulate(a: &SimulateArgs) -> Result<(), Failure> {
         f.flush().map_err(Failure::run)?;
     }
     let (median, mean, p95) = summary.ms_per_step();
+    let world_has_no_joints = world.joints().is_empty();
     let hash = format!("{:016x}", world.state_hash());
     if a.json {
         let v = serde_json::json!({
@@ -289,6 +394,7 @@ fn simulate(a: &SimulateArgs) -> Result<(), Failure> {
             "residual": { "mean": summary.residual_mean, "max": summary.residual_max },
             "penetration": { "max": summary.penetration_max, "final": summary.penetration_final },
             "energy": { "start": summary.energy_start, "end": summary.energy_end },
+            "joint_error": { "max": summary.joint_error_max, "final": summary.joint_error_final },
             "stage_ms": {
                 "forces": summary.stage_ms[0], "broad_phase": summary.stage_ms[1], "narrow_phase": summary.stage_ms[2],
                 "solver": summary.stage_ms[3], "integrate": summary.stage_ms[4],
@@ -336,13 +442,207 @@ fn simulate(a: &SimulateArgs) -> Result<(), Failure> {
             "energy       start {:.4} J  end {:.4} J",
             summary.energy_start, summary.energy_end
         );
+        if !world_has_no_joints {
+            println!(
+                "joint error  max {:.6} m  final {:.6} m",
+                summary.joint_error_max, summary.joint_error_final
+            );
+        }
         println!("state hash   {hash}");
     }
     Ok(())
 }
 
+/// A progress bar on stderr when stdout is a terminal; none otherwise.
+#[cfg(feature = "render")]
+fn progress_bar(len: u64, what: &str) -> Option<indicatif::ProgressBar> {
+    if !std::io::stdout().is_terminal() {
+        return None;
+    }
+    let b = indicatif::ProgressBar::new(len);
+    b.set_style(
+        indicatif::ProgressStyle::with_template(&format!(
+            "{{bar:40}} {{pos}}/{{len}} {what} {{elapsed}}"
+        ))
+        .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
+    );
+    Some(b)
+}
+
+/// The exit code a frame-rendering failure gets: 2 when the input (a size, a path) is
+/// at fault, 1 when the run failed.
+#[cfg(feature = "render")]
+fn frames_failure(e: sandbox2d::render::FramesError) -> Failure {
+    use sandbox2d::render::{FramesError, RenderError};
+    match &e {
+        FramesError::Zero(_)
+        | FramesError::OutDir { .. }
+        | FramesError::Render(RenderError::Io { .. })
+        | FramesError::Render(RenderError::InvalidSize { .. }) => Failure::input(e),
+        _ => Failure::run(e),
+    }
+}
+
+/// Renders `job` of a built world through the scene's camera at `size`.
+#[cfg(feature = "render")]
+fn render_job(
+    sc: &Scene,
+    world: &mut World,
+    size: [u32; 2],
+    job: &sandbox2d::render::FrameJob,
+) -> Result<sandbox2d::render::FramesWritten, Failure> {
+    let camera = sandbox2d::draw::world::scene_camera(&sc.camera, size, world);
+    let mut renderer = sandbox2d::render::Renderer::new_headless().map_err(Failure::run)?;
+    let bar = progress_bar(job.frames as u64, "frames");
+    let written = sandbox2d::render::render_frames(world, &camera, &mut renderer, job, |k| {
+        if let Some(b) = &bar {
+            b.set_position(k as u64 + 1);
+        }
+    })
+    .map_err(frames_failure)?;
+    if let Some(b) = bar {
+        b.finish_and_clear();
+    }
+    Ok(written)
+}
+
+/// Tells where the frames went: one line.
+#[cfg(feature = "render")]
+fn print_written(w: &sandbox2d::render::FramesWritten, out: &std::path::Path) {
+    let name = |p: Option<&PathBuf>| {
+        p.and_then(|p| p.file_name())
+            .map(|n| n.to_string_lossy().into_owned())
+            .unwrap_or_default()
+    };
+    let gif = w
+        .gif
+        .as_ref()
+        .map(|g| format!(" and {}", g.display()))
+        .unwrap_or_default();
+    println!(
+        "wrote {} frames ({} .. {}) to {}{gif}",
+        w.pngs.len(),
+        name(w.pngs.first()),
+        name(w.pngs.last()),
+        out.display()
+    );
+}
+
+#[cfg(feature = "render")]
+fn render(a: &RenderArgs) -> Result<(), Failure> {
+    if a.frames == 0 {
+        return Err(Failure::input("--frames must be at least 1"));
+    }
+    if a.every == 0 {
+        return Err(Failure::input("--every must be at least 1"));
+    }
+    let (sc, mut world, _) = build(&a.scene, &a.solver)?;
+    std::fs::create_dir_all(&a.out).map_err(|e| {
+        Failure::input(format!(
+            "{}: cannot create the folder: {e}",
+            a.out.display()
+        ))
+    })?;
+    let overlays = sandbox2d::draw::Overlays {
+        contacts: a.overlays.contains(&OverlayArg::Contacts),
+        aabbs: a.overlays.contains(&OverlayArg::Aabbs),
+        velocities: a.overlays.contains(&OverlayArg::Velocities),
+        ..sandbox2d::draw::Overlays::NONE
+    };
+    let job = sandbox2d::render::FrameJob {
+        frames: a.frames,
+        every: a.every,
+        out_dir: a.out.clone(),
+        gif: a.gif.clone(),
+        overlays,
+    };
+    let written = render_job(&sc, &mut world, a.size.unwrap_or(sc.camera.size), &job)?;
+    print_written(&written, &a.out);
+    Ok(())
+}
+
+/// Frames the headless fallback of `run` writes when `--frames` is not given.
+#[cfg(feature = "render")]
+const FALLBACK_FRAMES: u32 = 120;
+
+#[cfg(feature = "render")]
+fn run(a: &RunArgs) -> Result<(), Failure> {
+    // Refuse a bad scene or flag before any window opens.
+    let (sc, _, _) = build(&a.scene, &a.solver)?;
+    #[cfg(feature = "app")]
+    {
+        use sandbox2d::app::{AppError, AppOptions};
+        let opts = AppOptions {
+            frames: a.frames,
+            screenshot: a.screenshot.clone(),
+        };
+        match sandbox2d::app::run(sc.clone(), a.solver.overrides(), opts) {
+            Ok(report) => {
+                println!(
+                    "sandbox2d: {} frames in {:.2} s: {:.1} fps (frame time median {:.1} ms, p95 {:.1} ms) on {}",
+                    report.frames,
+                    report.seconds,
+                    report.fps(),
+                    report.frame_ms_median,
+                    report.frame_ms_p95,
+                    if report.adapter.is_empty() {
+                        "?"
+                    } else {
+                        &report.adapter
+                    }
+                );
+                if let Some(p) = &report.screenshot {
+                    println!("screenshot: {}", p.display());
+                }
+                return Ok(());
+            }
+            Err(AppError::NoDisplay(why)) => {
+                println!(
+                    "sandbox2d: no display ({why}); rendering \"{}\" headless into ./out instead",
+                    sc.name
+                );
+            }
+            Err(AppError::Build(e)) => return Err(Failure::input(e)),
+            Err(e) => return Err(Failure::run(e)),
+        }
+    }
+    #[cfg(not(feature = "app"))]
+    println!(
+        "sandbox2d: built without the window (feature \"app\"); rendering \"{}\" headless into ./out instead",
+        sc.name
+    );
+    run_headless(a, &sc)
+}
+
+/// `run` without a display: frames of the scene into ./out (and the last one to
+/// `--screenshot`).
+#[cfg(feature = "render")]
+fn run_headless(a: &RunArgs, sc: &Scene) -> Result<(), Failure> {
+    let (_, mut world, _) = build(&a.scene, &a.solver)?;
+    let out = PathBuf::from("out");
+    let frames = match a.frames {
+        Some(n) => u32::try_from(n.max(1)).unwrap_or(u32::MAX),
+        None => FALLBACK_FRAMES,
+    };
+    let job = sandbox2d::render::FrameJob {
+        frames,
+        every: 1,
+        out_dir: out.clone(),
+        gif: None,
+        overlays: sandbox2d::draw::Overlays::NONE,
+    };
+    let written = render_job(sc, &mut world, sc.camera.size, &job)?;
+    print_written(&written, &out);
+    if let (Some(shot), Some(last)) = (&a.screenshot, written.pngs.last()) {
+        std::fs::copy(last, shot)
+            .map_err(|e| Failure::input(format!("{}: cannot write: {e}", shot.display())))?;
+        println!("screenshot: {}", shot.display());
+    }
+    Ok(())
+}
+
 /// A progress bar on a terminal; hidden when stdout is not one.
-fn progress_bar(total: usize) -> indicatif::ProgressBar {
+fn bench_progress(total: usize) -> indicatif::ProgressBar {
     if !std::io::stdout().is_terminal() {
         return indicatif::ProgressBar::hidden();
     }
@@ -394,7 +694,7 @@ fn bench(a: &BenchArgs) -> Result<(), Failure> {
             .iter()
             .map(|s| s.values().len() * extremes::settings(*s).len())
             .sum();
-        let bar = progress_bar(total);
+        let bar = bench_progress(total);
         let results = extremes::run_all(&sweeps, |done, _, what| {
             bar.set_position(done as u64);
             bar.set_message(what.to_string());
@@ -421,7 +721,7 @@ fn bench(a: &BenchArgs) -> Result<(), Failure> {
     std::fs::create_dir_all(&a.out)
         .map_err(|e| Failure::input(format!("{}: cannot create: {e}", a.out.display())))?;
     let total: usize = scenes.iter().map(|s| bench::scene_settings(s).len()).sum();
-    let bar = progress_bar(total);
+    let bar = bench_progress(total);
     let rows = bench::run_scenes(&scenes, &opts, |done, _, what| {
         bar.set_position(done as u64);
         bar.set_message(what.to_string());

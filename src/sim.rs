@@ -24,6 +24,9 @@ pub struct RunSummary {
     pub penetration_final: f32,
     pub energy_start: f64,
     pub energy_end: f64,
+    /// Largest joint anchor separation over the run, and at the end (m).
+    pub joint_error_max: f32,
+    pub joint_error_final: f32,
     /// Mean time per stage (ms): forces, broad phase, narrow phase, solver, integration.
     pub stage_ms: [f64; 5],
 }
@@ -126,6 +129,8 @@ pub fn run(
         pen += st.penetration as f64;
         s.penetration_max = s.penetration_max.max(st.penetration);
         s.penetration_final = st.penetration;
+        s.joint_error_final = world.joint_error();
+        s.joint_error_max = s.joint_error_max.max(s.joint_error_final);
         for (acc, v) in s.stage_ms.iter_mut().zip([
             st.ms_forces,
             st.ms_broad,

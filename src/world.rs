@@ -10,10 +10,14 @@ use crate::collision::sat;
 use crate::defs::{
     BodyDef, BodyModel, BodyType, DragDef, ForceDef, JointDef, SolverKind, SolverSettings, WorldDef,
 };
+use crate::joint::{Joint, JointId, MouseJoint, SLOTS};
 use crate::math::{Aabb, Rot, Vec2, cross};
 use crate::shape::{Shape, ShapeError};
 use crate::solver::contact_cache::{CacheCursor, Contact, match_points};
+use crate::solver::joint_rows::{JointRows, apply_drives, xpbd_velocity_pass};
 use crate::solver::pgs::PgsSolver;
+use crate::solver::pgs::SolverBody;
+use crate::solver::xpbd::XpbdContacts;
 
 mod measure;
 
@@ -45,6 +49,8 @@ pub enum BuildError {
     },
     #[error("joints are not supported by this build yet ({0} joint(s) in the scene)")]
     JointsUnsupported(usize),
+    #[error("joint #{0}: {1}")]
+    Joint(usize, String),
     #[error("solver: {0}")]
     Settings(String),
 }
@@ -112,9 +118,21 @@ pub struct World {
     broad: BroadPhase,
     aabbs: Vec<Aabb>,
     dynamic: Vec<bool>,
+    /// How far each body can move this step (XPBD's contact margin).
+    reach: Vec<f32>,
     contacts: Vec<Contact>,
     old_contacts: Vec<Contact>,
     pgs: PgsSolver,
+    joints: Vec<Joint>,
+    mouse: Option<MouseJoint>,
+    joint_rows: JointRows,
+    /// Body pairs joined by a joint that must not collide, sorted.
+    no_collide: Vec<(u32, u32)>,
+    xpbd: XpbdContacts,
+    xpbd_lambdas: Vec<[f32; SLOTS]>,
+    xpbd_bodies: Vec<SolverBody>,
+    xpbd_normal_sum: Vec<f32>,
+    pseudo_bodies: Vec<SolverBody>,
     stats: StepStats,
     step_count: u64,
     time: f64,
@@ -132,9 +150,19 @@ impl World {
             broad: BroadPhase::default(),
             aabbs: Vec::new(),
             dynamic: Vec::new(),
+            reach: Vec::new(),
             contacts: Vec::new(),
             old_contacts: Vec::new(),
             pgs: PgsSolver::default(),
+            joints: Vec::new(),
+            mouse: None,
+            joint_rows: JointRows::default(),
+            no_collide: Vec::new(),
+            xpbd: XpbdContacts::default(),
+            xpbd_lambdas: Vec::new(),
+            xpbd_bodies: Vec::new(),
+            xpbd_normal_sum: Vec::new(),
+            pseudo_bodies: Vec::new(),
             stats: StepStats::default(),
             step_count: 0,
             time: 0.0,
@@ -152,14 +180,110 @@ impl World {
         for f in &def.forces {
             w.add_force(f)?;
         }
-        if !def.joints.is_empty() {
-            w.add_joints(&def.joints)?;
+        for j in &def.joints {
+            w.add_joint(j)?;
         }
         Ok(w)
     }
 
-    fn add_joints(&mut self, joints: &[JointDef]) -> Result<(), BuildError> {
-        Err(BuildError::JointsUnsupported(joints.len()))
+    /// Adds a joint between two existing, distinct bodies, anchored where the bodies are now.
+    pub fn add_joint(&mut self, def: &JointDef) -> Result<JointId, BuildError> {
+        let id = self.joints.len();
+        let count = self.bodies.len();
+        for &i in &def.bodies {
+            if i >= count {
+                return Err(BuildError::NoSuchBody {
+                    what: "joint",
+                    index: i,
+                    count,
+                });
+            }
+        }
+        let bad = |m: String| Err(BuildError::Joint(id, m));
+        let [a, b] = def.bodies;
+        if a == b {
+            return bad(format!("joins body \"{}\" to itself", self.bodies[a].name));
+        }
+        if let Some([lo, hi]) = def.limits {
+            if !(lo <= hi) {
+                return bad(format!("limits min {lo} > max {hi}"));
+            }
+        }
+        if let Some(ax) = def.axis {
+            if !ax.is_finite() || ax.length() <= 1e-6 {
+                return bad("prismatic axis must have a non-zero length".into());
+            }
+        }
+        if !(def.compliance >= 0.0) || !def.compliance.is_finite() {
+            return bad(format!("compliance must be >= 0, got {}", def.compliance));
+        }
+        if let Some(l) = def.length {
+            if !(l >= 0.0) || !l.is_finite() {
+                return bad(format!("length must be >= 0, got {l}"));
+            }
+        }
+        let finite = [def.anchor, def.axis]
+            .iter()
+            .flatten()
+            .chain(def.anchors.iter().flatten())
+            .all(|v| v.is_finite());
+        if !finite {
+            return bad("anchors and axis must be finite".into());
+        }
+        self.joints.push(Joint::from_def(def, &self.bodies));
+        if !def.collide_connected {
+            let pair = (a.min(b) as u32, a.max(b) as u32);
+            if let Err(at) = self.no_collide.binary_search(&pair) {
+                self.no_collide.insert(at, pair);
+            }
+        }
+        Ok(id)
+    }
+
+    /// The joints, in creation order.
+    pub fn joints(&self) -> &[Joint] {
+        &self.joints
+    }
+
+    /// Sets a joint's drive: a constant force (N, prismatic and distance joints, along
+    /// the axis) or torque (N m, hinge and weld) on its second body, with the reaction on
+    /// the first, every step until changed (the seed's ApplyForce / ApplyTorque).
+    pub fn set_joint_drive(&mut self, joint: JointId, value: f32) {
+        if let Some(j) = self.joints.get_mut(joint) {
+            j.drive = if value.is_finite() { value } else { 0.0 };
+        }
+    }
+
+    /// Grabs a body with the mouse joint (or lets go with `None`).
+    pub fn set_mouse(&mut self, mouse: Option<MouseJoint>) {
+        self.mouse = mouse.filter(|m| m.body < self.bodies.len() && m.target.is_finite());
+    }
+
+    /// The mouse joint, if a body is held.
+    pub fn mouse(&self) -> Option<&MouseJoint> {
+        self.mouse.as_ref()
+    }
+
+    /// A mouse joint holding the dynamic body under `world_point`, with the usual
+    /// feel (5 Hz, damping ratio 0.7, up to 1000 times the body's weight at 10 m/s^2).
+    pub fn grab(&self, body: BodyId, world_point: Vec2) -> Option<MouseJoint> {
+        let b = self.bodies.get(body).filter(|b| b.is_dynamic())?;
+        Some(MouseJoint {
+            body,
+            local: b.rot.inv_rotate(world_point - b.position),
+            target: world_point,
+            hertz: 5.0,
+            damping_ratio: 0.7,
+            max_force: 1000.0 * 10.0 * b.mass,
+        })
+    }
+
+    /// The largest anchor separation (m) of any joint now (0 without joints).
+    pub fn joint_error(&self) -> f32 {
+        self.joints
+            .iter()
+            .map(|j| j.position_error(&self.bodies))
+            .fold(0.0, f32::max)
     }
 
     /// Adds a body; its mass and inertia come from the shape and density (or the given mass).
@@ -249,6 +373,8 @@ impl World {
             color: def.color,
             force: Vec2::ZERO,
             torque: 0.0,
+            correction: Vec2::ZERO,
+            correction_angle: 0.0,
         };
         self.bodies.push(body);
         Ok(self.bodies.len() - 1)
@@ -316,9 +442,19 @@ impl World {
     /// Advances the world by one step of `settings.dt` (in `settings.substeps` substeps).
     pub fn step(&mut self) -> Result<(), StepError> {
         match self.settings.kind {
-            SolverKind::Pgs => {}
-            SolverKind::Xpbd => return Err(StepError::Unsupported("xpbd")),
+            SolverKind::Pgs => self.step_pgs(),
+            SolverKind::Xpbd => self.step_xpbd(),
         }
+        for b in &mut self.bodies {
+            b.force = Vec2::ZERO;
+            b.torque = 0.0;
+        }
+        self.step_count += 1;
+        self.time += self.settings.dt as f64;
+        self.check_finite()
+    }
+
+    fn step_pgs(&mut self) {
         let n = self.settings.substeps.max(1);
         let h = self.settings.dt / n as f32;
         let mut total = StepStats::default();
@@ -337,13 +473,117 @@ impl World {
             total.ms_integrate += s.ms_integrate;
         }
         self.stats = total;
-        for b in &mut self.bodies {
-            b.force = Vec2::ZERO;
-            b.torque = 0.0;
+    }
+
+    /// One XPBD step: contacts found once, then per substep h = dt / n: predict
+    /// (v += h a, x += h v), project the joints and contacts `iterations` times, derive
+    /// v = (x - x_prev) / h, and a velocity pass (friction, restitution, motors, damping).
+    fn step_xpbd(&mut self) {
+        let s = self.settings;
+        let n = s.substeps.max(1);
+        let h = s.dt / n as f32;
+        let (ms_broad, ms_narrow) = self.collide(s.dt, true);
+        let t0 = Instant::now();
+        self.xpbd.prepare(&self.bodies, &self.contacts);
+        self.xpbd_lambdas.clear();
+        self.xpbd_lambdas.resize(self.joints.len(), [0.0; SLOTS]);
+        let mut normal_sum = std::mem::take(&mut self.xpbd_normal_sum);
+        normal_sum.clear();
+        normal_sum.resize(self.xpbd.points.len(), 0.0);
+        let (mut ms_forces, mut ms_integrate) = (0.0f32, 0.0f32);
+        let mut deepest = self.stats.penetration;
+        for _ in 0..n {
+            let ta = Instant::now();
+            self.integrate_velocities(h);
+            let tb = Instant::now();
+            self.xpbd.begin_substep(&self.bodies);
+            // predict: x += h v, theta += h w
+            for b in &mut self.bodies {
+                if b.body_type == BodyType::Static {
+                    continue;
+                }
+                b.position += h * b.velocity;
+                if b.model == BodyModel::Rigid && b.angular_velocity != 0.0 {
+                    b.angle += h * b.angular_velocity;
+                    b.rot = Rot::from_angle(b.angle);
+                }
+            }
+            let tc = Instant::now();
+            for _ in 0..s.iterations.max(1) {
+                for (j, lam) in self.joints.iter().zip(self.xpbd_lambdas.iter_mut()) {
+                    j.project(&mut self.bodies, &self.xpbd.prev_rot, h, lam);
+                }
+                if let Some(m) = self.mouse {
+                    project_mouse(&m, &mut self.bodies, h);
+                }
+                let d = self.xpbd.project(&mut self.bodies);
+                deepest = deepest.max(d);
+            }
+            // v = (x - x_prev) / h, w = (theta - theta_prev) / h, as v += dx / h
+            for b in &mut self.bodies {
+                if b.is_dynamic() {
+                    b.velocity += b.correction / h;
+                    b.angular_velocity += b.correction_angle / h;
+                }
+                b.correction = Vec2::ZERO;
+                b.correction_angle = 0.0;
+            }
+            // velocity pass
+            self.xpbd_bodies.clear();
+            self.xpbd_bodies
+                .extend(self.bodies.iter().map(|b| SolverBody {
+                    v: b.velocity,
+                    w: b.angular_velocity,
+                    inv_m: b.inv_mass,
+                    inv_i: b.inv_inertia,
+                }));
+            self.xpbd.velocity_pass(
+                &self.bodies,
+                &mut self.xpbd_bodies,
+                h,
+                s.restitution_threshold,
+            );
+            xpbd_velocity_pass(
+                &self.joints,
+                &self.bodies,
+                &mut self.xpbd_bodies,
+                h,
+                &mut self.joint_rows,
+            );
+            if let Some(m) = self.mouse {
+                damp_mouse(&m, &self.bodies, &mut self.xpbd_bodies, h);
+            }
+            for (b, sb) in self.bodies.iter_mut().zip(&self.xpbd_bodies) {
+                if b.is_dynamic() {
+                    b.velocity = sb.v;
+                    b.angular_velocity = sb.w;
+                }
+            }
+            for (acc, p) in normal_sum.iter_mut().zip(&self.xpbd.points) {
+                // impulse of the substep: lambda / h
+                *acc += p.lambda_n / h;
+            }
+            ms_forces += (tb - ta).as_secs_f32() * 1e3;
+            ms_integrate += (tc - tb).as_secs_f32() * 1e3;
         }
-        self.step_count += 1;
-        self.time += self.settings.dt as f64;
-        self.check_finite()
+        for (p, &sum) in self.xpbd.points.iter().zip(&normal_sum) {
+            let m = &mut self.contacts[p.contact as usize].manifold;
+            m.points[p.index as usize].normal_impulse = sum;
+        }
+        self.xpbd_normal_sum = normal_sum;
+        let total = t0.elapsed().as_secs_f32() * 1e3;
+        self.stats = StepStats {
+            iterations: n * s.iterations.max(1),
+            residual: 0.0,
+            position_iterations: 0,
+            contacts: self.xpbd.points.len(),
+            penetration: deepest,
+            ms_forces,
+            ms_broad,
+            ms_narrow,
+            ms_solve: (total - ms_forces - ms_integrate).max(0.0),
+            ms_integrate,
+        };
     }
 
     fn check_finite(&self) -> Result<(), StepError> {
@@ -368,6 +608,9 @@ impl World {
     /// Semi-implicit Euler, velocity half: v += h (g + F/m), w += h tau / I; drag taken
     /// implicitly so it can only slow a body down, whatever the step.
     fn integrate_velocities(&mut self, h: f32) {
+        if !self.joints.is_empty() {
+            apply_drives(&self.joints, &mut self.bodies, h);
+        }
         // constant point forces: dv = h F / m, dw = h (r x F) / I
         for f in &self.forces {
             let b = &mut self.bodies[f.body];
@@ -402,13 +645,23 @@ impl World {
         }
     }
 
-    fn collide(&mut self, h: f32) -> (f32, f32) {
+    /// Broad and narrow phase. With `sweep`, each pair keeps points up to the distance
+    /// its bodies can close in `h` (XPBD finds contacts once per step); otherwise up to
+    /// the speculative margin.
+    fn collide(&mut self, h: f32, sweep: bool) -> (f32, f32) {
         let t0 = Instant::now();
         let margin = SPECULATIVE_SLOPS * self.settings.slop.max(0.001);
         self.aabbs.clear();
         self.dynamic.clear();
+        self.reach.clear();
         for b in &self.bodies {
             let mut bb = b.shape.aabb(&b.transform());
+            if sweep {
+                // the most any point of the body moves in h: h (|v| + |w| r)
+                let r = 0.5 * (bb.max - bb.min).length();
+                self.reach
+                    .push(h * (b.velocity.length() + b.angular_velocity.abs() * r));
+            }
             // grow moving boxes by their motion this step so fast bodies find their pairs
             if b.body_type != BodyType::Static {
                 let d = b.velocity * h;
@@ -420,8 +673,10 @@ impl World {
             self.aabbs.push(bb.fattened(0.5 * margin));
             self.dynamic.push(b.is_dynamic());
         }
-        self.broad
-            .find_pairs(&self.aabbs, &self.dynamic, |_, _| true);
+        let no_collide = &self.no_collide;
+        self.broad.find_pairs(&self.aabbs, &self.dynamic, |a, b| {
+            no_collide.is_empty() || no_collide.binary_search(&(a.min(b), a.max(b))).is_err()
+        });
         let t1 = Instant::now();
 
         std::mem::swap(&mut self.contacts, &mut self.old_contacts);
@@ -430,12 +685,17 @@ impl World {
         let mut deepest = 0.0f32;
         for &(a, b) in &self.broad.pairs {
             let (ba, bb) = (&self.bodies[a as usize], &self.bodies[b as usize]);
+            let pair_margin = if sweep {
+                margin + self.reach[a as usize] + self.reach[b as usize]
+            } else {
+                margin
+            };
             let mut m = sat::collide(
                 &ba.shape,
                 &ba.transform(),
                 &bb.shape,
                 &bb.transform(),
-                margin,
+                pair_margin,
             );
             if m.count == 0 {
                 continue;
@@ -461,13 +721,71 @@ impl World {
     }
 
     fn substep_pgs(&mut self, h: f32) {
-        let (ms_broad, ms_narrow) = self.collide(h);
+        let (ms_broad, ms_narrow) = self.collide(h, false);
         let t1 = Instant::now();
         self.integrate_velocities(h);
         let t2 = Instant::now();
-        let settings = self.settings;
-        self.pgs.prepare(&self.bodies, &self.contacts, &settings, h);
-        let s = self.pgs.solve(&settings);
+        let s = self.settings;
+        self.pgs.prepare(&self.bodies, &self.contacts, &s, h);
+        self.joint_rows.prepare(
+            &self.joints,
+            self.mouse.as_ref(),
+            &self.bodies,
+            &self.pgs.bodies,
+            &s,
+            h,
+        );
+        let joints = !self.joint_rows.is_empty();
+        let mut st = crate::solver::pgs::SolveStats::default();
+        if s.warm_start {
+            self.pgs.warm_start();
+            self.joint_rows.warm_start(&mut self.pgs.bodies);
+        }
+        for _ in 0..s.iterations {
+            let rj = if joints {
+                self.joint_rows.sweep(&mut self.pgs.bodies)
+            } else {
+                0.0
+            };
+            st.residual = self.pgs.sweep_velocity().max(rj);
+            st.iterations += 1;
+            if st.residual < s.tolerance {
+                break;
+            }
+        }
+        if joints {
+            self.joint_rows.damp(&mut self.pgs.bodies, h);
+            self.joint_rows.store(&mut self.joints);
+        }
+        self.pgs.apply_restitution(s.restitution_threshold);
+        let joint_positions = joints && self.joint_rows.has_position_rows();
+        if s.split_impulse && (joint_positions || self.pgs.needs_position_solve()) {
+            for _ in 0..s.iterations {
+                let mut r = 0.0f32;
+                if joint_positions {
+                    // the joints' rows on the same pseudo-velocities
+                    self.pseudo_bodies.clear();
+                    self.pseudo_bodies
+                        .extend(self.pgs.pseudo.iter().zip(&self.pgs.bodies).map(
+                            |(&(v, w), b)| SolverBody {
+                                v,
+                                w,
+                                inv_m: b.inv_m,
+                                inv_i: b.inv_i,
+                            },
+                        ));
+                    r = self.joint_rows.sweep_position(&mut self.pseudo_bodies);
+                    for (p, b) in self.pgs.pseudo.iter_mut().zip(&self.pseudo_bodies) {
+                        *p = (b.v, b.w);
+                    }
+                }
+                r = r.max(self.pgs.sweep_position());
+                st.position_iterations += 1;
+                if r < s.tolerance {
+                    break;
+                }
+            }
+        }
         self.pgs.store_impulses(&mut self.contacts);
         let t3 = Instant::now();
         // positions: x += h (v + v_pseudo), theta += h (w + w_pseudo)
@@ -493,9 +811,9 @@ impl World {
             }
         }
         let t4 = Instant::now();
-        self.stats.iterations = s.iterations;
-        self.stats.residual = s.residual;
-        self.stats.position_iterations = s.position_iterations;
+        self.stats.iterations = st.iterations;
+        self.stats.residual = st.residual;
+        self.stats.position_iterations = st.position_iterations;
         self.stats.contacts = self.contacts.iter().map(|c| c.manifold.count).sum();
         self.stats.ms_broad = ms_broad;
         self.stats.ms_narrow = ms_narrow;
@@ -564,4 +882,60 @@ pub fn check_settings(s: &SolverSettings) -> Result<(), BuildError> {
         ));
     }
     Ok(())
+}
+
+/// XPBD mouse joint: a compliant attach of the grabbed point to the target,
+/// alpha = 1 / k with k = m (2 pi f)^2, its correction bounded by max force times h^2.
+fn project_mouse(m: &MouseJoint, bodies: &mut [Body], h: f32) {
+    let Some(b) = bodies.get_mut(m.body) else {
+        return;
+    };
+    if !b.is_dynamic() {
+        return;
+    }
+    let r = b.rot.rotate(m.local);
+    let d = m.target - (b.position + r);
+    let len = d.length();
+    if len <= 1e-9 {
+        return;
+    }
+    let n = d / len;
+    let omega = std::f32::consts::TAU * m.hertz.max(0.01);
+    let k = b.mass * omega * omega;
+    // alpha~ = alpha / h^2 = 1 / (k h^2)
+    let soft = 1.0 / (k * h * h);
+    let rn = cross(r, n);
+    let w = b.inv_mass + b.inv_inertia * rn * rn;
+    let dl = (len / (w + soft)).min(m.max_force * h * h);
+    let p = dl * n;
+    crate::joint::move_body(b, b.inv_mass * p, b.inv_inertia * cross(r, p));
+}
+
+/// XPBD mouse damping: removes min(h c / m, 1) of the grabbed point's velocity,
+/// c = 2 m zeta omega.
+fn damp_mouse(m: &MouseJoint, world: &[Body], bodies: &mut [SolverBody], h: f32) {
+    let Some(b) = world.get(m.body) else {
+        return;
+    };
+    if !b.is_dynamic() {
+        return;
+    }
+    let r = b.rot.rotate(m.local);
+    let sb = &mut bodies[m.body];
+    let v = sb.v + crate::math::cross_sv(sb.w, r);
+    let speed = v.length();
+    if speed <= 1e-9 {
+        return;
+    }
+    let n = v / speed;
+    let omega = std::f32::consts::TAU * m.hertz.max(0.01);
+    let f = (h * 2.0 * m.damping_ratio.max(0.0) * omega).min(1.0);
+    let rn = cross(r, n);
+    let w = sb.inv_m + sb.inv_i * rn * rn;
+    if w <= 0.0 {
+        return;
+    }
+    let imp = -(f * speed / w) * n;
+    sb.v += sb.inv_m * imp;
+    sb.w += sb.inv_i * cross(r, imp);
 }

@@ -51,7 +51,6 @@ fn more_pgs_iterations_never_deepen_the_base_20_pyramids_penetration() {
 }
 
 #[test]
-#[ignore = "needs xpbd (issue 4)"]
 fn more_xpbd_substeps_never_worsen_the_pendulums_energy_drift() {
     let sc = scene("pendulum");
     let budget = Budget {

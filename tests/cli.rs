@@ -258,3 +258,251 @@ fn bench_extremes_writes_the_stability_table() {
     assert!(claims.iter().all(|c| c.sweep.name() == "tunneling"));
     assert!(!claims.is_empty());
 }
+
+#[test]
+fn simulate_json_reports_the_joint_error_under_xpbd() {
+    let out = sandbox2d()
+        .args([
+            "simulate", "chain", "--steps", "60", "--json", "--solver", "xpbd",
+        ])
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(v["solver"]["kind"], "xpbd");
+    assert_eq!(v["solver"]["substeps"], 20);
+    let max = v["joint_error"]["max"].as_f64().unwrap();
+    let last = v["joint_error"]["final"].as_f64().unwrap();
+    // a 40-link chain falling from horizontal under 20 substeps: within a few cm
+    assert!(max >= last && max > 0.0 && max < 0.05, "{max} {last}");
+}
+
+/// A fresh empty folder for one test.
+#[cfg(feature = "render")]
+fn fresh_dir(name: &str) -> std::path::PathBuf {
+    let dir = tmp(name);
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
+
+/// True (and says why) when a render failed only for want of a graphics adapter and
+/// the run does not require one.
+#[cfg(feature = "render")]
+fn skipped_for_no_adapter(out: &std::process::Output) -> bool {
+    let err = String::from_utf8_lossy(&out.stderr);
+    if out.status.code() == Some(1) && err.contains("no graphics adapter") {
+        assert!(
+            std::env::var_os("SANDBOX2D_REQUIRE_ADAPTER").is_none(),
+            "no adapter and SANDBOX2D_REQUIRE_ADAPTER is set: {err}"
+        );
+        eprintln!("SKIPPED: no graphics adapter: {err}");
+        return true;
+    }
+    false
+}
+
+#[cfg(feature = "render")]
+fn distinct_colours(img: &image::RgbaImage) -> usize {
+    let mut seen: Vec<[u8; 4]> = img.pixels().map(|p| p.0).collect();
+    seen.sort_unstable();
+    seen.dedup();
+    seen.len()
+}
+
+#[cfg(feature = "render")]
+#[test]
+fn render_writes_numbered_pngs_and_a_gif() {
+    let dir = fresh_dir("render-frames");
+    let gif = dir.join("anim.gif");
+    let out = sandbox2d()
+        .args(["render", "bounce", "--frames", "3", "--every", "20"])
+        .args(["--size", "320x180", "--overlays", "contacts,velocities"])
+        .arg("--out")
+        .arg(dir.join("frames"))
+        .arg("--gif")
+        .arg(&gif)
+        .output()
+        .unwrap();
+    if skipped_for_no_adapter(&out) {
+        return;
+    }
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let stdout = String::from_utf8(out.stdout).unwrap();
+    assert!(stdout.contains("wrote 3 frames"), "{stdout}");
+    let frames: Vec<image::RgbaImage> = (0..3)
+        .map(|k| {
+            let p = dir.join("frames").join(format!("frame_{k:04}.png"));
+            image::open(&p)
+                .unwrap_or_else(|e| panic!("{}: {e}", p.display()))
+                .to_rgba8()
+        })
+        .collect();
+    assert!(!dir.join("frames").join("frame_0003.png").exists());
+    for f in &frames {
+        assert_eq!(f.dimensions(), (320, 180));
+        assert!(
+            distinct_colours(f) >= 5,
+            "a frame of the scene, not a blank"
+        );
+    }
+    assert_ne!(frames[0], frames[2], "the balls move between frames");
+    // The GIF has the same frames.
+    use image::AnimationDecoder;
+    let decoder = image::codecs::gif::GifDecoder::new(std::io::BufReader::new(
+        std::fs::File::open(&gif).unwrap(),
+    ))
+    .unwrap();
+    let gif_frames = decoder.into_frames().collect_frames().unwrap();
+    assert_eq!(gif_frames.len(), 3);
+    assert_eq!(gif_frames[0].buffer().dimensions(), (320, 180));
+}
+
+#[cfg(feature = "render")]
+#[test]
+fn render_refuses_bad_input_with_exit_2() {
+    let dir = fresh_dir("render-bad");
+    let file = dir.join("a_file");
+    std::fs::write(&file, "x").unwrap();
+    let d = dir.join("frames").display().to_string();
+    let f = file.display().to_string();
+    let cases: Vec<(Vec<&str>, bool)> = vec![
+        // (arguments, whether the message is ours: exactly one line)
+        (
+            vec!["render", "no_such_scene", "--frames", "2", "--out", &d],
+            true,
+        ),
+        (vec!["render", "stack", "--frames", "0", "--out", &d], true),
+        (
+            vec![
+                "render", "stack", "--frames", "2", "--every", "0", "--out", &d,
+            ],
+            true,
+        ),
+        (
+            vec![
+                "render",
+                "stack",
+                "--frames",
+                "2",
+                "--iterations",
+                "0",
+                "--out",
+                &d,
+            ],
+            true,
+        ),
+        (vec!["render", "stack", "--frames", "2", "--out", &f], true),
+        (
+            vec![
+                "render", "stack", "--frames", "2", "--size", "0x10", "--out", &d,
+            ],
+            false,
+        ),
+        (
+            vec![
+                "render", "stack", "--frames", "2", "--size", "wide", "--out", &d,
+            ],
+            false,
+        ),
+        (vec!["render", "stack", "--frames", "2"], false),
+        (vec!["run", "no_such_scene"], true),
+        (vec!["run", "stack", "--screenshot", "x.png"], false),
+    ];
+    for (args, ours) in cases {
+        let out = sandbox2d()
+            .args(&args)
+            .env_remove("DISPLAY")
+            .env_remove("WAYLAND_DISPLAY")
+            .output()
+            .unwrap();
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(2), "{args:?}: {err}");
+        assert!(err.starts_with("error:"), "{args:?}: {err}");
+        if ours {
+            assert_eq!(err.lines().count(), 1, "{args:?}: one line: {err}");
+        }
+    }
+    assert!(
+        !dir.join("frames").exists(),
+        "nothing written for bad input"
+    );
+}
+
+/// Without a display, `run` says so in one line, renders the scene headless into ./out
+/// and exits 0.
+#[cfg(feature = "render")]
+#[test]
+fn run_without_a_display_renders_frames_into_out() {
+    let dir = fresh_dir("run-headless");
+    let out = sandbox2d()
+        .args(["run", "stack", "--frames", "3", "--screenshot", "last.png"])
+        .current_dir(&dir)
+        .env_remove("DISPLAY")
+        .env_remove("WAYLAND_DISPLAY")
+        .env_remove("WAYLAND_SOCKET")
+        .output()
+        .unwrap();
+    if skipped_for_no_adapter(&out) {
+        return;
+    }
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        out.status.success(),
+        "{stdout}{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let first = stdout.lines().next().unwrap_or_default();
+    assert!(first.contains("no display"), "{stdout}");
+    assert!(first.contains("./out"), "{stdout}");
+    assert_eq!(
+        stdout.lines().filter(|l| l.contains("no display")).count(),
+        1
+    );
+    for k in 0..3 {
+        let p = dir.join("out").join(format!("frame_{k:04}.png"));
+        let img = image::open(&p)
+            .unwrap_or_else(|e| panic!("{}: {e}", p.display()))
+            .to_rgba8();
+        assert_eq!(img.dimensions(), (1280, 720), "the scene's camera size");
+        assert!(distinct_colours(&img) >= 5);
+    }
+    assert!(!dir.join("out").join("frame_0003.png").exists());
+    assert_eq!(
+        std::fs::read(dir.join("last.png")).unwrap(),
+        std::fs::read(dir.join("out").join("frame_0002.png")).unwrap()
+    );
+}
+
+/// The plain command (what `cargo run --release` runs) falls back the same way.
+#[cfg(feature = "render")]
+#[test]
+fn plain_command_without_a_display_exits_0_with_frames() {
+    let dir = fresh_dir("plain-headless");
+    let out = sandbox2d()
+        .current_dir(&dir)
+        .env_remove("DISPLAY")
+        .env_remove("WAYLAND_DISPLAY")
+        .env_remove("WAYLAND_SOCKET")
+        .output()
+        .unwrap();
+    if skipped_for_no_adapter(&out) {
+        return;
+    }
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let pngs = std::fs::read_dir(dir.join("out")).unwrap().count();
+    assert!(pngs >= 60, "{pngs} frames");
+    assert!(dir.join("out").join("frame_0000.png").exists());
+}

@@ -208,11 +208,10 @@ pub fn settings_grid() -> Vec<Setting> {
     v
 }
 
-/// The largest anchor separation of the world's joints (m), or `None` while the
-/// build has no joints. Wire to `World::joint_error` when joints land (issue 4).
+/// The largest anchor separation of the world's joints (m), or `None` for a world
+/// without joints.
 pub fn joint_error(world: &World) -> Option<f32> {
-    let _ = world;
-    None
+    (!world.joints().is_empty()).then(|| world.joint_error())
 }
 
 /// How long and how often to run a scene.

@@ -14,6 +14,29 @@ pub const OFFSCREEN_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba8Unor
 /// for every renderable colour format).
 pub const SAMPLE_COUNT: u32 = 4;
 
+/// The samples per pixel to use on an adapter: the `SANDBOX2D_MSAA` environment variable
+/// when it is `1` or `4`; otherwise 1 on a CPU rasteriser (llvmpipe, lavapipe: there a
+/// 4x multisampled 1280x720 frame costs about four times a single-sampled one, most of
+/// it clearing and resolving the samples) and [`SAMPLE_COUNT`] on a GPU. Single-sampled
+/// frames differ only at the edges of polygons drawn without an outline: circles, lines
+/// and outlines are antialiased by their distance fields either way.
+pub fn default_samples(info: &wgpu::AdapterInfo) -> u32 {
+    match std::env::var("SANDBOX2D_MSAA")
+        .ok()
+        .as_deref()
+        .map(str::trim)
+    {
+        Some("1") => return 1,
+        Some("4") => return SAMPLE_COUNT,
+        _ => {}
+    }
+    if info.device_type == wgpu::DeviceType::Cpu {
+        1
+    } else {
+        SAMPLE_COUNT
+    }
+}
+
 /// The camera uniform; mirrors `Globals` in `shaders/common.wgsl`.
 #[repr(C)]
 #[derive(Clone, Copy, Pod, Zeroable)]
@@ -135,6 +158,7 @@ pub struct Renderer {
     polygon_data: Vec<PolygonVertex>,
     msaa: Option<MsaaTarget>,
     offscreen: Option<Offscreen>,
+    samples: u32,
 }
 
 impl Renderer {
@@ -143,15 +167,32 @@ impl Renderer {
     /// llvmpipe (GL/EGL) or lavapipe (Vulkan) serve. `WGPU_ADAPTER_NAME` picks an
     /// adapter by name and `WGPU_POWER_PREF` (`low`/`high`) by power.
     ///
+    /// Samples per pixel follow [`default_samples`]: 4x MSAA on a GPU, 1 on a CPU
+    /// rasteriser such as llvmpipe (where MSAA costs several times the whole frame).
+    ///
     /// Returns [`RenderError::NoAdapter`] when no adapter exists; never panics for that.
     pub fn new_headless() -> Result<Self, RenderError> {
         let backends = wgpu::Backends::from_env().unwrap_or(wgpu::Backends::all());
-        Self::new_headless_with(backends)
+        Self::headless(backends, None)
     }
 
-    /// An off-screen renderer on the given backends only, ignoring `WGPU_BACKEND`
-    /// (snapshot tests pin `wgpu::Backends::GL` so that bytes match across machines).
+    /// An off-screen renderer on the given backends only, ignoring `WGPU_BACKEND`, with
+    /// 4x MSAA on any adapter (snapshot tests pin `wgpu::Backends::GL` so that bytes
+    /// match across machines).
     pub fn new_headless_with(backends: wgpu::Backends) -> Result<Self, RenderError> {
+        Self::headless(backends, Some(SAMPLE_COUNT))
+    }
+
+    /// As [`Renderer::new_headless_with`], with `samples` samples per pixel (see
+    /// [`Renderer::with_samples`]).
+    pub fn new_headless_with_samples(
+        backends: wgpu::Backends,
+        samples: u32,
+    ) -> Result<Self, RenderError> {
+        Self::headless(backends, Some(samples))
+    }
+
+    fn headless(backends: wgpu::Backends, samples: Option<u32>) -> Result<Self, RenderError> {
         let mut desc = wgpu::InstanceDescriptor::new_without_display_handle_from_env();
         desc.backends = backends;
         let instance = wgpu::Instance::new(desc);
@@ -184,7 +225,8 @@ impl Renderer {
                 required_limits: adapter.limits(),
                 ..Default::default()
             }))?;
-        let mut renderer = Self::new(device, queue, OFFSCREEN_FORMAT);
+        let samples = samples.unwrap_or_else(|| default_samples(&info));
+        let mut renderer = Self::with_samples(device, queue, OFFSCREEN_FORMAT, samples);
         renderer.adapter_info = Some(info);
         Ok(renderer)
     }
@@ -194,6 +236,20 @@ impl Renderer {
     /// `Bgra8UnormSrgb`, though a non-sRGB one also renders correctly).
     /// `wgpu::Device` and `wgpu::Queue` are cheap handles: pass clones.
     pub fn new(device: wgpu::Device, queue: wgpu::Queue, format: wgpu::TextureFormat) -> Self {
+        Self::with_samples(device, queue, format, SAMPLE_COUNT)
+    }
+
+    /// As [`Renderer::new`], with `samples` samples per pixel: 1 draws straight into the
+    /// target (no multisampled buffer, no resolve; circles, lines and polygon outlines
+    /// stay antialiased by their distance fields, only outline-less polygon edges are
+    /// not), anything else gives [`SAMPLE_COUNT`].
+    pub fn with_samples(
+        device: wgpu::Device,
+        queue: wgpu::Queue,
+        format: wgpu::TextureFormat,
+        samples: u32,
+    ) -> Self {
+        let samples = if samples <= 1 { 1 } else { SAMPLE_COUNT };
         let globals = device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("sandbox2d globals"),
             size: std::mem::size_of::<Globals>() as u64,
@@ -238,6 +294,7 @@ impl Renderer {
             &device,
             &layout,
             format,
+            samples,
             "circle",
             include_str!("shaders/circle.wgsl"),
             wgpu::VertexBufferLayout {
@@ -250,6 +307,7 @@ impl Renderer {
             &device,
             &layout,
             format,
+            samples,
             "line",
             include_str!("shaders/line.wgsl"),
             wgpu::VertexBufferLayout {
@@ -262,6 +320,7 @@ impl Renderer {
             &device,
             &layout,
             format,
+            samples,
             "polygon",
             include_str!("shaders/polygon.wgsl"),
             wgpu::VertexBufferLayout {
@@ -289,12 +348,25 @@ impl Renderer {
             polygon_data: Vec::new(),
             msaa: None,
             offscreen: None,
+            samples,
         }
     }
 
-    /// The adapter a headless renderer runs on (`None` for [`Renderer::new`]).
+    /// The adapter a headless renderer runs on (`None` for [`Renderer::new`] until
+    /// [`Renderer::set_adapter_info`]).
     pub fn adapter_info(&self) -> Option<&wgpu::AdapterInfo> {
         self.adapter_info.as_ref()
+    }
+
+    /// Records the adapter a renderer made with [`Renderer::new`] runs on (for reports).
+    pub fn set_adapter_info(&mut self, info: wgpu::AdapterInfo) {
+        self.adapter_info = Some(info);
+    }
+
+    /// Samples per pixel: 1, or [`SAMPLE_COUNT`] with a multisampled buffer resolved
+    /// into the target.
+    pub fn sample_count(&self) -> u32 {
+        self.samples
     }
 
     /// The target format the pipelines were built for.
@@ -326,19 +398,26 @@ impl Renderer {
     ) {
         let size = [camera.size[0].max(1), camera.size[1].max(1)];
         self.upload(list, camera, size);
-        if self.msaa.as_ref().is_none_or(|m| m.size != size) {
-            self.msaa = Some(self.create_msaa(size));
-        }
-        let Some(msaa) = &self.msaa else { return };
+        // With MSAA: draw into the multisampled buffer, resolve into the target, and
+        // discard the samples. Without: draw into the target and keep it.
+        let (view, resolve_target, store) = if self.samples > 1 {
+            if self.msaa.as_ref().is_none_or(|m| m.size != size) {
+                self.msaa = Some(self.create_msaa(size));
+            }
+            let Some(msaa) = &self.msaa else { return };
+            (&msaa.view, Some(target), wgpu::StoreOp::Discard)
+        } else {
+            (target, None, wgpu::StoreOp::Store)
+        };
         let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
             label: Some("sandbox2d frame"),
             color_attachments: &[Some(wgpu::RenderPassColorAttachment {
-                view: &msaa.view,
+                view,
                 depth_slice: None,
-                resolve_target: Some(target),
+                resolve_target,
                 ops: wgpu::Operations {
                     load: wgpu::LoadOp::Clear(clear_color(list.background, self.format)),
-                    store: wgpu::StoreOp::Discard,
+                    store,
                 },
             })],
             depth_stencil_attachment: None,
@@ -568,7 +647,7 @@ impl Renderer {
                 depth_or_array_layers: 1,
             },
             mip_level_count: 1,
-            sample_count: SAMPLE_COUNT,
+            sample_count: self.samples,
             dimension: wgpu::TextureDimension::D2,
             format: self.format,
             usage: wgpu::TextureUsages::RENDER_ATTACHMENT,
@@ -616,11 +695,12 @@ impl Renderer {
 }
 
 /// A pipeline drawing triangle lists from one vertex buffer, premultiplied-alpha
-/// blending, 4x MSAA; `source` is prepended with `shaders/common.wgsl`.
+/// blending, `samples` samples per pixel; `source` is prepended with `shaders/common.wgsl`.
 fn create_pipeline(
     device: &wgpu::Device,
     layout: &wgpu::PipelineLayout,
     format: wgpu::TextureFormat,
+    samples: u32,
     name: &str,
     source: &str,
     buffer: wgpu::VertexBufferLayout<'_>,
@@ -646,7 +726,7 @@ fn create_pipeline(
         },
         depth_stencil: None,
         multisample: wgpu::MultisampleState {
-            count: SAMPLE_COUNT,
+            count: samples,
             ..Default::default()
         },
         fragment: Some(wgpu::FragmentState {

@@ -3,10 +3,12 @@
 //! [`Renderer::draw`], into any texture view such as a window's surface.
 
 pub mod capture;
+pub mod frames;
 mod gpu;
 
 pub use capture::{GifWriter, save_png};
-pub use gpu::{OFFSCREEN_FORMAT, Renderer, SAMPLE_COUNT};
+pub use frames::{FrameJob, FramesError, FramesWritten, render_frames};
+pub use gpu::{OFFSCREEN_FORMAT, Renderer, SAMPLE_COUNT, default_samples};
 
 /// The wgpu this renderer is built on, for callers that make devices, surfaces and encoders.
 pub use wgpu;

@@ -5,23 +5,49 @@ use super::{Scene, SceneError, load_str};
 /// Names and texts, sorted by name.
 const SCENES: &[(&str, &str)] = &[
     (
+        "ball_and_chain",
+        include_str!("../../assets/scenes/ball_and_chain.toml"),
+    ),
+    (
         "ball_stack",
         include_str!("../../assets/scenes/ball_stack.toml"),
     ),
     ("bounce", include_str!("../../assets/scenes/bounce.toml")),
+    ("bridge", include_str!("../../assets/scenes/bridge.toml")),
+    ("car", include_str!("../../assets/scenes/car.toml")),
+    ("chain", include_str!("../../assets/scenes/chain.toml")),
+    (
+        "double_pendulum",
+        include_str!("../../assets/scenes/double_pendulum.toml"),
+    ),
     (
         "friction_ramp",
         include_str!("../../assets/scenes/friction_ramp.toml"),
     ),
+    ("joints", include_str!("../../assets/scenes/joints.toml")),
     (
         "large_pyramid",
         include_str!("../../assets/scenes/large_pyramid.toml"),
     ),
     (
+        "multi_pendulum",
+        include_str!("../../assets/scenes/multi_pendulum.toml"),
+    ),
+    (
+        "newtons_cradle",
+        include_str!("../../assets/scenes/newtons_cradle.toml"),
+    ),
+    (
         "particles",
         include_str!("../../assets/scenes/particles.toml"),
     ),
+    (
+        "pendulum",
+        include_str!("../../assets/scenes/pendulum.toml"),
+    ),
     ("pyramid", include_str!("../../assets/scenes/pyramid.toml")),
+    ("ragdoll", include_str!("../../assets/scenes/ragdoll.toml")),
+    ("rope", include_str!("../../assets/scenes/rope.toml")),
     ("stack", include_str!("../../assets/scenes/stack.toml")),
     (
         "vacuum_vs_fluid",
@@ -31,12 +57,23 @@ const SCENES: &[(&str, &str)] = &[
 
 /// Names of the scenes [`builtin`] knows, sorted.
 const NAMES: &[&str] = &[
+    "ball_and_chain",
     "ball_stack",
     "bounce",
+    "bridge",
+    "car",
+    "chain",
+    "double_pendulum",
     "friction_ramp",
+    "joints",
     "large_pyramid",
+    "multi_pendulum",
+    "newtons_cradle",
     "particles",
+    "pendulum",
     "pyramid",
+    "ragdoll",
+    "rope",
     "stack",
     "vacuum_vs_fluid",
 ];

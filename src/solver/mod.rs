@@ -2,4 +2,6 @@
 //! contact cache that warm-starts it.
 
 pub mod contact_cache;
+pub mod joint_rows;
 pub mod pgs;
+pub mod xpbd;

@@ -1,0 +1,118 @@
+//! The interactive sandbox (feature `app`): a winit window with a wgpu surface, the
+//! world drawn by [`crate::render::Renderer`], and an egui side panel to pick scenes,
+//! tune the solver, toggle overlays and watch the figures.
+//!
+//! Controls: left drag on a body pulls it with the mouse joint ([`input::drag_body`]); left
+//! drag on empty space pans; the wheel zooms about the cursor; the right button held
+//! pushes bodies away from the cursor; middle click or ctrl+click spawns a box,
+//! shift+click a circle; space pauses, S steps, R resets.
+//!
+//! [`run`] returns [`AppError::NoDisplay`] when there is no display to open a window
+//! on; the command line then renders frames headless instead.
+
+pub mod input;
+pub mod session;
+mod ui;
+mod window;
+
+use std::path::PathBuf;
+
+use crate::defs::SolverOverrides;
+use crate::render::RenderError;
+use crate::scene::Scene;
+
+pub use session::Session;
+
+/// What to show and for how long.
+#[derive(Clone, Debug)]
+pub struct AppOptions {
+    /// Stop after this many presented frames (and write `screenshot`); run until the
+    /// window closes when `None`.
+    pub frames: Option<u64>,
+    /// Save the last frame's world as a PNG here (with `frames`).
+    pub screenshot: Option<PathBuf>,
+}
+
+/// What a run measured.
+#[derive(Clone, Debug, PartialEq)]
+pub struct RunReport {
+    /// Frames presented.
+    pub frames: u64,
+    /// Seconds from the first frame presented to the last.
+    pub seconds: f64,
+    /// Median time between frames (ms).
+    pub frame_ms_median: f32,
+    /// 95th percentile of the time between frames (ms).
+    pub frame_ms_p95: f32,
+    /// The screenshot written, if any.
+    pub screenshot: Option<PathBuf>,
+    /// The graphics adapter the window ran on.
+    pub adapter: String,
+}
+
+impl RunReport {
+    /// Frames per second between the first and the last frame.
+    pub fn fps(&self) -> f64 {
+        if self.frames >= 2 && self.seconds > 0.0 {
+            (self.frames - 1) as f64 / self.seconds
+        } else {
+            0.0
+        }
+    }
+}
+
+/// Why the window could not run.
+#[derive(Debug, thiserror::Error)]
+pub enum AppError {
+    /// No display to open a window on (no X11/Wayland server, or the window was refused).
+    #[error("no display: {0}")]
+    NoDisplay(String),
+    /// The scene's world could not be built.
+    #[error("{0}")]
+    Build(String),
+    /// No adapter, device or surface for the window.
+    #[error("{0}")]
+    Gpu(String),
+    /// Rendering or saving the screenshot failed.
+    #[error(transparent)]
+    Render(#[from] RenderError),
+    /// The event loop failed while running.
+    #[error("event loop: {0}")]
+    EventLoop(String),
+}
+
+/// Opens the window on `scene` (its solver settings merged with `overrides`) and runs
+/// until it is closed or `opts.frames` frames were shown.
+pub fn run(
+    scene: Scene,
+    overrides: SolverOverrides,
+    opts: AppOptions,
+) -> Result<RunReport, AppError> {
+    let session = Session::new(scene, overrides).map_err(AppError::Build)?;
+    let event_loop = winit::event_loop::EventLoop::new().map_err(|e| {
+        AppError::NoDisplay(format!("cannot open a window: {}", tidy(&e.to_string())))
+    })?;
+    window::App::new(opts, session).run(event_loop)
+}
+
+/// winit's message without the source location it prefixes ("os error at FILE:LINE: ").
+fn tidy(message: &str) -> String {
+    message
+        .strip_prefix("os error at ")
+        .and_then(|rest| rest.split_once(": ").map(|(_, why)| why))
+        .unwrap_or(message)
+        .trim_end_matches('.')
+        .to_string()
+}
+
+#[cfg(test)]
+mod tests {
+    #[test]
+    fn tidy_drops_the_source_location() {
+        assert_eq!(
+            super::tidy("os error at /x/winit/src/linux/mod.rs:765: neither DISPLAY nor X is set."),
+            "neither DISPLAY nor X is set"
+        );
+        assert_eq!(super::tidy("plain"), "plain");
+    }
+}

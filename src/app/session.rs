@@ -1,0 +1,363 @@
+//! The window's simulation state: the scene, its world, the settings the panel edits,
+//! pause and time scale, what the mouse is doing, and the recent step figures. No GPU or
+//! window here.
+
+use std::collections::VecDeque;
+use std::time::Instant;
+
+use glam::Vec2;
+
+use super::input::{self, SpawnKind};
+use crate::body::BodyId;
+use crate::defs::{SolverOverrides, SolverSettings};
+use crate::draw::world::Overlays;
+use crate::scene::{self, Scene};
+use crate::world::{World, check_settings};
+
+/// At most this many steps per frame catch up with real time (the rest is dropped, so
+/// a slow frame slows the simulation rather than snowballing).
+pub const MAX_STEPS_PER_FRAME: u32 = 4;
+/// Seconds of step figures kept for the panel's plot.
+pub const HISTORY_SECONDS: f64 = 5.0;
+
+/// One step's figures.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Sample {
+    /// Simulated time after the step (s).
+    pub t: f64,
+    /// Wall time of `World::step` (ms).
+    pub ms: f32,
+    /// Contact points.
+    pub contacts: usize,
+    /// PGS sweeps.
+    pub iterations: u32,
+    /// Largest |delta lambda| of the last sweep (N s).
+    pub residual: f32,
+    /// Deepest overlap (m).
+    pub penetration: f32,
+}
+
+/// A body held by the mouse.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Drag {
+    /// The body.
+    pub body: BodyId,
+    /// The grabbed point in the body frame (relative to the centre of mass).
+    pub local_point: Vec2,
+    /// Where the mouse is (world).
+    pub target: Vec2,
+}
+
+/// The force emitter while its button is held.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Emitter {
+    /// Centre (world).
+    pub center: Vec2,
+    /// Radius (m).
+    pub radius: f32,
+}
+
+/// Acceleration (m/s^2) the emitter gives a body at its centre.
+pub const EMITTER_ACCELERATION: f32 = 60.0;
+
+/// The simulation behind the window.
+pub struct Session {
+    /// The scene shown.
+    pub scene: Scene,
+    /// Solver flags from the command line, applied over every scene loaded.
+    pub cli_overrides: SolverOverrides,
+    /// The world.
+    pub world: World,
+    /// The settings the panel edits; copied into the world by [`Session::apply_settings`].
+    pub settings: SolverSettings,
+    /// Stepping stopped.
+    pub paused: bool,
+    /// The last error (a failed step, refused settings); shown in the panel.
+    pub error: Option<String>,
+    /// Simulated seconds per real second.
+    pub time_scale: f32,
+    /// Debug overlays.
+    pub overlays: Overlays,
+    /// The body the mouse drags.
+    pub drag: Option<Drag>,
+    /// The force emitter, while held.
+    pub emitter: Option<Emitter>,
+    /// Recent step figures, oldest first.
+    pub history: VecDeque<Sample>,
+    accumulator: f64,
+}
+
+impl Session {
+    /// A session on `scene`, its solver settings merged with `cli_overrides`.
+    pub fn new(scene: Scene, cli_overrides: SolverOverrides) -> Result<Session, String> {
+        let settings = scene.world.solver.merged(cli_overrides).resolve();
+        let world = World::from_def(&scene.world, settings)
+            .map_err(|e| format!("{}: {e}", scene.source))?;
+        Ok(Session {
+            scene,
+            cli_overrides,
+            world,
+            settings,
+            paused: false,
+            error: None,
+            time_scale: 1.0,
+            overlays: Overlays::NONE,
+            drag: None,
+            emitter: None,
+            history: VecDeque::new(),
+            accumulator: 0.0,
+        })
+    }
+
+    /// Rebuilds the world from the scene with the current settings.
+    pub fn reset(&mut self) {
+        match World::from_def(&self.scene.world, self.settings) {
+            Ok(w) => {
+                self.world = w;
+                self.error = None;
+            }
+            Err(e) => {
+                self.error = Some(format!("reset: {e}"));
+                self.paused = true;
+            }
+        }
+        self.drag = None;
+        self.history.clear();
+        self.accumulator = 0.0;
+    }
+
+    /// Loads another scene (a built-in name or a file), with its own settings merged with
+    /// the command line's. On failure keeps the current scene and returns the message.
+    pub fn load_scene(&mut self, name: &str) -> Result<(), String> {
+        let sc = scene::load(name).map_err(|e| e.to_string())?;
+        let settings = sc.world.solver.merged(self.cli_overrides).resolve();
+        let world =
+            World::from_def(&sc.world, settings).map_err(|e| format!("{}: {e}", sc.source))?;
+        self.scene = sc;
+        self.settings = settings;
+        self.world = world;
+        self.error = None;
+        self.drag = None;
+        self.history.clear();
+        self.accumulator = 0.0;
+        Ok(())
+    }
+
+    /// Copies the edited settings into the world when they are valid; otherwise shows
+    /// why and keeps the world's. Clears a previous error when they are.
+    pub fn apply_settings(&mut self) {
+        match check_settings(&self.settings) {
+            Ok(()) => {
+                self.world.settings = self.settings;
+                self.error = None;
+            }
+            Err(e) => self.error = Some(e.to_string()),
+        }
+    }
+
+    /// Advances by `real_dt` seconds of wall time times the time scale, in whole steps
+    /// (at most [`MAX_STEPS_PER_FRAME`]); returns the steps taken. Nothing while paused.
+    pub fn advance(&mut self, real_dt: f64) -> u32 {
+        if self.paused {
+            self.accumulator = 0.0;
+            return 0;
+        }
+        let dt = self.world.settings.dt as f64;
+        self.accumulator += real_dt.max(0.0) * self.time_scale.max(0.0) as f64;
+        let mut steps = 0;
+        while self.accumulator >= dt && steps < MAX_STEPS_PER_FRAME {
+            self.accumulator -= dt;
+            if !self.step_once() {
+                break;
+            }
+            steps += 1;
+        }
+        if steps == MAX_STEPS_PER_FRAME {
+            // Behind real time: drop the backlog instead of running further behind.
+            self.accumulator = self.accumulator.min(dt);
+        }
+        steps
+    }
+
+    /// One step with the mouse's forces applied; records its figures. A failed step
+    /// pauses the session and shows the error; returns false then.
+    pub fn step_once(&mut self) -> bool {
+        match self.drag {
+            Some(d) => input::drag_body(&mut self.world, d.body, d.local_point, d.target),
+            None => input::release(&mut self.world),
+        }
+        if let Some(e) = self.emitter {
+            input::push_radial(&mut self.world, e.center, e.radius, EMITTER_ACCELERATION);
+        }
+        let t0 = Instant::now();
+        match self.world.step() {
+            Ok(()) => {
+                let ms = t0.elapsed().as_secs_f32() * 1e3;
+                let s = self.world.stats();
+                self.history.push_back(Sample {
+                    t: self.world.time(),
+                    ms,
+                    contacts: s.contacts,
+                    iterations: s.iterations,
+                    residual: s.residual,
+                    penetration: s.penetration,
+                });
+                while self
+                    .history
+                    .front()
+                    .is_some_and(|f| self.world.time() - f.t > HISTORY_SECONDS)
+                {
+                    self.history.pop_front();
+                }
+                true
+            }
+            Err(e) => {
+                log::warn!("step failed: {e}");
+                self.error = Some(e.to_string());
+                self.paused = true;
+                false
+            }
+        }
+    }
+
+    /// Starts dragging the body under `world_point`, if any; returns whether one was hit.
+    pub fn grab(&mut self, world_point: Vec2) -> bool {
+        let Some(body) = input::body_at(&self.world, world_point) else {
+            return false;
+        };
+        let b = &self.world.bodies[body];
+        if !b.is_dynamic() {
+            return false;
+        }
+        self.drag = Some(Drag {
+            body,
+            local_point: b.rot.inv_rotate(world_point - b.position),
+            target: world_point,
+        });
+        true
+    }
+
+    /// Spawns a body at `at`, sized like the scene's typical body.
+    pub fn spawn(&mut self, kind: SpawnKind, at: Vec2) {
+        let moving: Vec<f32> = self
+            .world
+            .bodies
+            .iter()
+            .filter(|b| b.is_dynamic())
+            .map(|b| b.shape.radius())
+            .collect();
+        let size = if moving.is_empty() {
+            0.5
+        } else {
+            // A box of half-diagonal r is r sqrt(2) wide.
+            moving.iter().sum::<f32>() / moving.len() as f32 * std::f32::consts::SQRT_2
+        };
+        if let Err(e) = input::spawn(&mut self.world, kind, at, size) {
+            self.error = Some(format!("spawn: {e}"));
+        }
+    }
+
+    /// The latest step's figures.
+    pub fn last(&self) -> Option<&Sample> {
+        self.history.back()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::defs::SolverKind;
+
+    fn session() -> Session {
+        Session::new(
+            scene::load("stack").unwrap(),
+            SolverOverrides {
+                iterations: Some(7),
+                ..Default::default()
+            },
+        )
+        .unwrap()
+    }
+
+    #[test]
+    fn cli_overrides_apply_and_survive_a_scene_change() {
+        let mut s = session();
+        assert_eq!(s.world.settings.iterations, 7);
+        s.load_scene("pyramid").unwrap();
+        assert_eq!(s.settings.iterations, 7);
+        assert_eq!(s.world.bodies.len(), 211);
+        assert!(s.load_scene("no_such_scene").is_err());
+        assert_eq!(s.world.bodies.len(), 211, "a bad name keeps the scene");
+    }
+
+    #[test]
+    fn advance_follows_real_time_scaled_and_capped() {
+        let mut s = session();
+        let dt = s.world.settings.dt as f64;
+        assert_eq!(s.advance(dt * 2.5), 2);
+        s.time_scale = 0.5;
+        assert_eq!(
+            s.advance(dt * 2.0),
+            1,
+            "half speed: 2 frames of time, 1 step (+0.5 left)"
+        );
+        s.time_scale = 1.0;
+        assert_eq!(s.advance(10.0), MAX_STEPS_PER_FRAME);
+        s.paused = true;
+        assert_eq!(s.advance(1.0), 0);
+        assert_eq!(s.history.len(), 2 + 1 + MAX_STEPS_PER_FRAME as usize);
+    }
+
+    #[test]
+    fn both_solvers_step_and_a_failed_step_pauses_with_the_error() {
+        let mut s = session();
+        s.settings.kind = SolverKind::Xpbd;
+        s.apply_settings();
+        assert!(s.error.is_none());
+        assert!(s.step_once(), "{:?}", s.error);
+        s.settings.kind = SolverKind::Pgs;
+        s.apply_settings();
+        assert!(s.step_once());
+        // a non-finite push makes the step fail: the session pauses and says why
+        let name = s.world.bodies[1].name.clone();
+        s.world.apply_force(1, Vec2::new(f32::NAN, 0.0), Vec2::ZERO);
+        assert!(!s.step_once());
+        assert!(s.paused);
+        assert!(s.error.as_deref().unwrap().contains(&name), "{:?}", s.error);
+    }
+
+    #[test]
+    fn bad_settings_are_refused_and_reset_rebuilds() {
+        let mut s = session();
+        s.settings.iterations = 0;
+        s.apply_settings();
+        assert!(s.error.is_some());
+        assert_eq!(s.world.settings.iterations, 7);
+        s.settings.iterations = 3;
+        s.apply_settings();
+        let start = s.world.state_hash();
+        for _ in 0..10 {
+            s.step_once();
+        }
+        assert_ne!(s.world.state_hash(), start);
+        s.reset();
+        assert_eq!(s.world.state_hash(), start);
+        assert_eq!(s.world.settings.iterations, 3);
+        assert!(s.history.is_empty());
+    }
+
+    #[test]
+    fn grab_and_spawn() {
+        let mut s = session();
+        let top = s.world.bodies.len() - 1;
+        let p = s.world.bodies[top].position + Vec2::new(0.1, 0.1);
+        assert!(s.grab(p));
+        assert_eq!(s.drag.unwrap().body, top);
+        assert!(!s.grab(Vec2::new(1e4, 1e4)));
+        let n = s.world.bodies.len();
+        s.spawn(SpawnKind::Box, Vec2::new(20.0, 20.0));
+        s.spawn(SpawnKind::Circle, Vec2::new(22.0, 20.0));
+        assert_eq!(s.world.bodies.len(), n + 2);
+        assert!(s.error.is_none());
+    }
+}

@@ -1,0 +1,741 @@
+//! The window: winit 0.30's `ApplicationHandler`, a wgpu surface the world is drawn
+//! into with [`Renderer::draw`], and the egui panel over it.
+
+use std::sync::Arc;
+use std::time::Instant;
+
+use glam::Vec2;
+use winit::application::ApplicationHandler;
+use winit::event::{ElementState, MouseButton, MouseScrollDelta, WindowEvent};
+use winit::event_loop::{ActiveEventLoop, EventLoop};
+use winit::keyboard::{Key, ModifiersState, NamedKey};
+use winit::window::{Window, WindowId};
+
+use super::input::SpawnKind;
+use super::session::{Emitter, Session};
+use super::ui::{self, FrameStats, PANEL_WIDTH};
+use super::{AppError, AppOptions, RunReport};
+use crate::draw::world::{fill_world_draw_list, scene_camera};
+use crate::draw::{Camera, DrawList};
+use crate::render::{Renderer, save_png};
+
+/// Radius of the force emitter in pixels (converted to metres at the current zoom).
+const EMITTER_RADIUS_PX: f32 = 110.0;
+/// Colour of the drag spring and the emitter's ring.
+const TOOL_COLOR: [u8; 4] = [255, 255, 255, 200];
+
+/// Everything that lives while the window does.
+struct Gpu {
+    window: Arc<Window>,
+    surface: wgpu::Surface<'static>,
+    device: wgpu::Device,
+    queue: wgpu::Queue,
+    config: wgpu::SurfaceConfiguration,
+    renderer: Renderer,
+    egui_renderer: egui_wgpu::Renderer,
+    egui_state: egui_winit::State,
+}
+
+/// What the mouse is doing to the view.
+#[derive(Default)]
+struct Mouse {
+    /// Cursor position in physical pixels.
+    cursor: Vec2,
+    /// Left button dragging empty space.
+    panning: bool,
+    modifiers: ModifiersState,
+}
+
+pub(super) struct App {
+    opts: AppOptions,
+    session: Session,
+    camera: Camera,
+    list: DrawList,
+    gpu: Option<Gpu>,
+    mouse: Mouse,
+    /// A failure that ended the event loop.
+    fatal: Option<AppError>,
+    /// Frames presented.
+    frames: u64,
+    first_frame: Option<Instant>,
+    last_frame: Option<Instant>,
+    /// When the last frame started (the simulation's clock).
+    last_advance: Option<Instant>,
+    /// Presentation times of the frames of the last second, for the panel's fps.
+    recent: std::collections::VecDeque<Instant>,
+    /// Time between consecutive frames (ms).
+    frame_ms: Vec<f32>,
+    /// The last frame, read back for `--screenshot`.
+    screenshot: Option<image::RgbaImage>,
+    /// The screenshot was written.
+    screenshot_done: bool,
+}
+
+impl App {
+    pub(super) fn new(opts: AppOptions, session: Session) -> App {
+        App {
+            opts,
+            session,
+            camera: Camera::default(),
+            list: DrawList::new(),
+            gpu: None,
+            mouse: Mouse::default(),
+            fatal: None,
+            frames: 0,
+            first_frame: None,
+            last_frame: None,
+            last_advance: None,
+            recent: Default::default(),
+            frame_ms: Vec::new(),
+            screenshot: None,
+            screenshot_done: false,
+        }
+    }
+
+    /// Runs the event loop to the end.
+    pub(super) fn run(mut self, event_loop: EventLoop<()>) -> Result<RunReport, AppError> {
+        event_loop
+            .run_app(&mut self)
+            .map_err(|e| AppError::EventLoop(e.to_string()))?;
+        if let Some(e) = self.fatal.take() {
+            return Err(e);
+        }
+        let seconds = match (self.first_frame, self.last_frame) {
+            (Some(a), Some(b)) => (b - a).as_secs_f64(),
+            _ => 0.0,
+        };
+        let mut sorted = self.frame_ms.clone();
+        sorted.sort_by(f32::total_cmp);
+        let pick = |q: f64| {
+            sorted
+                .get(((sorted.len().max(1) - 1) as f64 * q).round() as usize)
+                .copied()
+                .unwrap_or(0.0)
+        };
+        Ok(RunReport {
+            frames: self.frames,
+            seconds,
+            frame_ms_median: pick(0.5),
+            frame_ms_p95: pick(0.95),
+            screenshot: self
+                .screenshot_done
+                .then(|| self.opts.screenshot.clone())
+                .flatten(),
+            adapter: self.adapter_name(),
+        })
+    }
+
+    fn adapter_name(&self) -> String {
+        self.gpu
+            .as_ref()
+            .and_then(|g| g.renderer.adapter_info().map(|i| i.name.clone()))
+            .unwrap_or_default()
+    }
+
+    fn fail(&mut self, event_loop: &ActiveEventLoop, e: AppError) {
+        log::error!("{e}");
+        self.fatal = Some(e);
+        event_loop.exit();
+    }
+
+    /// The window's pixels per point (for the panel's width in pixels).
+    fn panel_px(&self) -> f32 {
+        let scale = self
+            .gpu
+            .as_ref()
+            .map(|g| g.window.scale_factor() as f32)
+            .unwrap_or(1.0);
+        PANEL_WIDTH * scale
+    }
+
+    /// The scene's camera for the window, framing the area right of the panel.
+    fn reset_camera(&mut self) {
+        let [w, h] = self.camera.size;
+        let panel = self.panel_px().min(w as f32 * 0.5);
+        let free = [(w as f32 - panel).max(1.0) as u32, h];
+        let mut cam = scene_camera(&self.session.scene.camera, free, &self.session.world);
+        cam.size = [w, h];
+        // Shift the view left by half the panel so the scene sits in the free area.
+        cam.center.x -= 0.5 * panel / cam.pixels_per_meter;
+        self.camera = cam;
+    }
+
+    fn create_gpu(&mut self, event_loop: &ActiveEventLoop) -> Result<(), AppError> {
+        let attrs = Window::default_attributes()
+            .with_title(format!("sandbox2d - {}", self.session.scene.name))
+            .with_inner_size(winit::dpi::LogicalSize::new(1280.0, 720.0));
+        let window = Arc::new(
+            event_loop
+                .create_window(attrs)
+                .map_err(|e| AppError::NoDisplay(format!("cannot create a window: {e}")))?,
+        );
+        let desc = wgpu::InstanceDescriptor::new_with_display_handle_from_env(Box::new(
+            event_loop.owned_display_handle(),
+        ));
+        let instance = wgpu::Instance::new(desc);
+        let surface = instance
+            .create_surface(window.clone())
+            .map_err(|e| AppError::Gpu(format!("cannot create a surface: {e}")))?;
+        let adapter = pollster::block_on(instance.request_adapter(&wgpu::RequestAdapterOptions {
+            power_preference: wgpu::PowerPreference::from_env().unwrap_or_default(),
+            force_fallback_adapter: false,
+            compatible_surface: Some(&surface),
+            apply_limit_buckets: false,
+        }))
+        .map_err(|e| AppError::Gpu(format!("no graphics adapter for the window: {e}")))?;
+        let info = adapter.get_info();
+        log::info!(
+            "window adapter: {} ({:?}, {})",
+            info.name,
+            info.backend,
+            info.driver
+        );
+        let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
+            label: Some("sandbox2d window device"),
+            required_features: wgpu::Features::empty(),
+            required_limits: adapter.limits(),
+            ..Default::default()
+        }))
+        .map_err(|e| AppError::Gpu(format!("could not create a GPU device: {e}")))?;
+        let caps = surface.get_capabilities(&adapter);
+        // An sRGB format, so the window shows the same bytes as a PNG of the same list.
+        let format = caps
+            .formats
+            .iter()
+            .copied()
+            .find(|f| f.is_srgb())
+            .or_else(|| caps.formats.first().copied())
+            .ok_or_else(|| AppError::Gpu("the surface supports no format".into()))?;
+        let size = window.inner_size();
+        let config = wgpu::SurfaceConfiguration {
+            usage: wgpu::TextureUsages::RENDER_ATTACHMENT,
+            format,
+            color_space: wgpu::SurfaceColorSpace::Auto,
+            width: size.width.max(1),
+            height: size.height.max(1),
+            desired_maximum_frame_latency: 2,
+            present_mode: wgpu::PresentMode::AutoVsync,
+            alpha_mode: caps
+                .alpha_modes
+                .first()
+                .copied()
+                .unwrap_or(wgpu::CompositeAlphaMode::Auto),
+            view_formats: vec![],
+        };
+        surface.configure(&device, &config);
+        let samples = crate::render::default_samples(&info);
+        let mut renderer = Renderer::with_samples(device.clone(), queue.clone(), format, samples);
+        log::info!("window: {format:?}, {samples} sample(s) per pixel");
+        renderer.set_adapter_info(info);
+        let egui_renderer =
+            egui_wgpu::Renderer::new(&device, format, egui_wgpu::RendererOptions::default());
+        let egui_ctx = egui::Context::default();
+        let egui_state = egui_winit::State::new(
+            egui_ctx,
+            egui::ViewportId::ROOT,
+            &window,
+            Some(window.scale_factor() as f32),
+            None,
+            Some(device.limits().max_texture_dimension_2d as usize),
+        );
+        self.camera.size = [config.width, config.height];
+        self.gpu = Some(Gpu {
+            window,
+            surface,
+            device,
+            queue,
+            config,
+            renderer,
+            egui_renderer,
+            egui_state,
+        });
+        self.reset_camera();
+        Ok(())
+    }
+
+    fn resize(&mut self, width: u32, height: u32) {
+        let Some(g) = self.gpu.as_mut() else { return };
+        if width == 0 || height == 0 {
+            return;
+        }
+        g.config.width = width;
+        g.config.height = height;
+        g.surface.configure(&g.device, &g.config);
+        self.camera.size = [width, height];
+    }
+
+    /// Steps the world, draws it and the panel, presents; takes the screenshot and
+    /// stops after `--frames`.
+    fn frame(&mut self, event_loop: &ActiveEventLoop) {
+        let now = Instant::now();
+        // Wall time from the start of the last frame to the start of this one.
+        let real_dt = self
+            .last_advance
+            .replace(now)
+            .map(|t| (now - t).as_secs_f64())
+            .unwrap_or(0.0);
+        let steps = self.session.advance(real_dt);
+        log::debug!(
+            "frame {}: real dt {real_dt:.4} s, {steps} step(s), paused {}",
+            self.frames,
+            self.session.paused
+        );
+
+        fill_world_draw_list(&mut self.list, &self.session.world, &self.session.overlays);
+        self.push_tools();
+
+        let Some(g) = self.gpu.as_mut() else { return };
+        // The panel.
+        let fps = self.recent.len() as f32;
+        let frame_stats = FrameStats {
+            fps,
+            bodies: self.session.world.bodies.len(),
+        };
+        let raw = g.egui_state.take_egui_input(&g.window);
+        let ctx = g.egui_state.egui_ctx().clone();
+        let session = &mut self.session;
+        let mut actions = ui::PanelActions::default();
+        let mut out = ctx.run_ui(raw, |ui| {
+            actions = ui::panel(ui, session, frame_stats);
+        });
+        g.egui_state
+            .handle_platform_output(&g.window, std::mem::take(&mut out.platform_output));
+        let jobs = ctx.tessellate(std::mem::take(&mut out.shapes), out.pixels_per_point);
+        // New and changed textures go up before painting; freed ones go after it (or
+        // now, when this frame is skipped).
+        let mut textures = std::mem::take(&mut out.textures_delta);
+        for (id, deltas) in textures.set.drain() {
+            for delta in &deltas {
+                g.egui_renderer
+                    .update_texture(&g.device, &g.queue, id, delta);
+            }
+        }
+        let free: Vec<egui::TextureId> = textures.free.drain().collect();
+
+        let texture = match g.surface.get_current_texture() {
+            wgpu::CurrentSurfaceTexture::Success(t)
+            | wgpu::CurrentSurfaceTexture::Suboptimal(t) => t,
+            other => {
+                if matches!(
+                    other,
+                    wgpu::CurrentSurfaceTexture::Outdated | wgpu::CurrentSurfaceTexture::Lost
+                ) {
+                    g.surface.configure(&g.device, &g.config);
+                }
+                log::debug!("skipping a frame: {other:?}");
+                for id in &free {
+                    g.egui_renderer.free_texture(id);
+                }
+                g.window.request_redraw();
+                return;
+            }
+        };
+        let view = texture
+            .texture
+            .create_view(&wgpu::TextureViewDescriptor::default());
+        let mut encoder = g
+            .device
+            .create_command_encoder(&wgpu::CommandEncoderDescriptor {
+                label: Some("sandbox2d window frame"),
+            });
+        let screen = egui_wgpu::ScreenDescriptor {
+            size_in_pixels: [g.config.width, g.config.height],
+            pixels_per_point: out.pixels_per_point,
+        };
+        let extra =
+            g.egui_renderer
+                .update_buffers(&g.device, &g.queue, &mut encoder, &jobs, &screen);
+        encode_frame(
+            g,
+            &mut encoder,
+            &view,
+            &self.list,
+            &self.camera,
+            &jobs,
+            &screen,
+        );
+        // The last frame of a --frames run with --screenshot: the same passes again into
+        // a texture that can be read back (a surface texture cannot, on every backend).
+        let last = self.opts.frames.is_some_and(|n| self.frames + 1 >= n);
+        let capture = match (&self.opts.screenshot, last) {
+            (Some(_), true) if Capture::supports(g.config.format) => {
+                let c = Capture::new(
+                    &g.device,
+                    g.config.format,
+                    [g.config.width, g.config.height],
+                );
+                let capture_view = c
+                    .texture
+                    .create_view(&wgpu::TextureViewDescriptor::default());
+                encode_frame(
+                    g,
+                    &mut encoder,
+                    &capture_view,
+                    &self.list,
+                    &self.camera,
+                    &jobs,
+                    &screen,
+                );
+                c.copy(&mut encoder);
+                Some(c)
+            }
+            _ => None,
+        };
+        g.queue
+            .submit(extra.into_iter().chain(std::iter::once(encoder.finish())));
+        if let Some(c) = capture {
+            match c.read(&g.device) {
+                Ok(img) => self.screenshot = Some(img),
+                Err(e) => {
+                    self.fail(event_loop, e);
+                    return;
+                }
+            }
+        }
+        g.window.pre_present_notify();
+        g.queue.present(texture);
+        for id in &free {
+            g.egui_renderer.free_texture(id);
+        }
+
+        // Frame timing.
+        let presented = Instant::now();
+        if let Some(prev) = self.last_frame {
+            self.frame_ms.push((presented - prev).as_secs_f32() * 1e3);
+        }
+        self.first_frame.get_or_insert(presented);
+        self.last_frame = Some(presented);
+        self.recent.push_back(presented);
+        while self
+            .recent
+            .front()
+            .is_some_and(|t| (presented - *t).as_secs_f32() > 1.0)
+        {
+            self.recent.pop_front();
+        }
+        self.frames += 1;
+
+        if actions.reset_camera {
+            self.reset_camera();
+            if let Some(g) = &self.gpu {
+                g.window
+                    .set_title(&format!("sandbox2d - {}", self.session.scene.name));
+            }
+        }
+
+        if self.opts.frames.is_some_and(|n| self.frames >= n) {
+            if let Err(e) = self.save_screenshot() {
+                self.fail(event_loop, e);
+                return;
+            }
+            event_loop.exit();
+            return;
+        }
+        if let Some(g) = &self.gpu {
+            g.window.request_redraw();
+        }
+    }
+
+    /// Writes the last frame (world and panel, as the window showed it) to
+    /// `--screenshot`, if given. On a surface format that cannot be read back as RGBA,
+    /// the world alone (the same DrawList and camera, rendered off-screen).
+    fn save_screenshot(&mut self) -> Result<(), AppError> {
+        let (Some(path), Some(g)) = (self.opts.screenshot.clone(), self.gpu.as_ref()) else {
+            return Ok(());
+        };
+        let image = match self.screenshot.take() {
+            Some(image) => image,
+            None => Renderer::with_samples(
+                g.device.clone(),
+                g.queue.clone(),
+                crate::render::OFFSCREEN_FORMAT,
+                g.renderer.sample_count(),
+            )
+            .render_to_image(&self.list, &self.camera)?,
+        };
+        save_png(&path, &image)?;
+        self.screenshot_done = true;
+        Ok(())
+    }
+
+    /// The drag spring and the emitter's ring, over the world.
+    fn push_tools(&mut self) {
+        if let Some(d) = self.session.drag {
+            if let Some(b) = self.session.world.bodies.get(d.body) {
+                let p = b.position + b.rot.rotate(d.local_point);
+                self.list.push_line(p, d.target, 1.5, TOOL_COLOR);
+                self.list.push_line(p, p, 6.0, TOOL_COLOR);
+            }
+        }
+        if let Some(e) = self.session.emitter {
+            self.list
+                .push_circle(e.center, e.radius, None, [255, 255, 255, 18], TOOL_COLOR);
+        }
+    }
+
+    fn cursor_world(&self) -> Vec2 {
+        self.camera.screen_to_world(self.mouse.cursor)
+    }
+
+    fn mouse_button(&mut self, state: ElementState, button: MouseButton, egui_wants: bool) {
+        let at = self.cursor_world();
+        let pressed = state == ElementState::Pressed;
+        if pressed && egui_wants {
+            return;
+        }
+        let shift = self.mouse.modifiers.shift_key();
+        let ctrl = self.mouse.modifiers.control_key();
+        match (button, pressed) {
+            (MouseButton::Left, true) if shift => self.session.spawn(SpawnKind::Circle, at),
+            (MouseButton::Left, true) if ctrl => self.session.spawn(SpawnKind::Box, at),
+            (MouseButton::Left, true) => {
+                if !self.session.grab(at) {
+                    self.mouse.panning = true;
+                }
+            }
+            (MouseButton::Left, false) => {
+                self.session.drag = None;
+                self.mouse.panning = false;
+            }
+            (MouseButton::Middle, true) => self.session.spawn(SpawnKind::Box, at),
+            (MouseButton::Right, true) => {
+                self.session.emitter = Some(Emitter {
+                    center: at,
+                    radius: EMITTER_RADIUS_PX / self.camera.pixels_per_meter,
+                });
+            }
+            (MouseButton::Right, false) => self.session.emitter = None,
+            _ => {}
+        }
+    }
+
+    fn cursor_moved(&mut self, to: Vec2) {
+        let delta = to - self.mouse.cursor;
+        self.mouse.cursor = to;
+        if self.mouse.panning {
+            self.camera.pan_pixels(delta);
+        }
+        let at = self.cursor_world();
+        if let Some(d) = self.session.drag.as_mut() {
+            d.target = at;
+        }
+        if let Some(e) = self.session.emitter.as_mut() {
+            e.center = at;
+        }
+    }
+
+    fn key(&mut self, key: &Key) {
+        match key {
+            Key::Named(NamedKey::Space) => self.session.paused = !self.session.paused,
+            Key::Character(c) if c.eq_ignore_ascii_case("s") => {
+                self.session.paused = true;
+                self.session.step_once();
+            }
+            Key::Character(c) if c.eq_ignore_ascii_case("r") => {
+                self.session.reset();
+                self.reset_camera();
+            }
+            _ => {}
+        }
+    }
+}
+
+impl ApplicationHandler for App {
+    fn resumed(&mut self, event_loop: &ActiveEventLoop) {
+        if self.gpu.is_some() {
+            return;
+        }
+        if let Err(e) = self.create_gpu(event_loop) {
+            self.fail(event_loop, e);
+            return;
+        }
+        if let Some(g) = &self.gpu {
+            g.window.request_redraw();
+        }
+    }
+
+    fn window_event(&mut self, event_loop: &ActiveEventLoop, _id: WindowId, event: WindowEvent) {
+        let Some(g) = self.gpu.as_mut() else { return };
+        let response = g.egui_state.on_window_event(&g.window, &event);
+        let ctx = g.egui_state.egui_ctx();
+        let egui_pointer = response.consumed || ctx.egui_wants_pointer_input();
+        let egui_keys = ctx.egui_wants_keyboard_input();
+        if response.repaint {
+            g.window.request_redraw();
+        }
+        match event {
+            WindowEvent::CloseRequested => event_loop.exit(),
+            WindowEvent::Resized(size) => self.resize(size.width, size.height),
+            WindowEvent::RedrawRequested => self.frame(event_loop),
+            WindowEvent::ModifiersChanged(m) => self.mouse.modifiers = m.state(),
+            WindowEvent::CursorMoved { position, .. } => {
+                self.cursor_moved(Vec2::new(position.x as f32, position.y as f32))
+            }
+            WindowEvent::MouseInput { state, button, .. } => {
+                self.mouse_button(state, button, egui_pointer)
+            }
+            WindowEvent::MouseWheel { delta, .. } if !egui_pointer => {
+                let lines = match delta {
+                    MouseScrollDelta::LineDelta(_, y) => y,
+                    MouseScrollDelta::PixelDelta(p) => p.y as f32 / 50.0,
+                };
+                self.camera
+                    .zoom_about(self.mouse.cursor, 1.15f32.powf(lines));
+            }
+            WindowEvent::KeyboardInput { event, .. }
+                if !egui_keys && event.state == ElementState::Pressed && !event.repeat =>
+            {
+                self.key(&event.logical_key)
+            }
+            _ => {}
+        }
+    }
+}
+
+/// Records one window frame into `target`: the world (cleared to the background), then
+/// the panel over it.
+fn encode_frame(
+    g: &mut Gpu,
+    encoder: &mut wgpu::CommandEncoder,
+    target: &wgpu::TextureView,
+    list: &DrawList,
+    camera: &Camera,
+    jobs: &[egui::ClippedPrimitive],
+    screen: &egui_wgpu::ScreenDescriptor,
+) {
+    g.renderer.draw(encoder, target, list, camera);
+    let mut pass = encoder
+        .begin_render_pass(&wgpu::RenderPassDescriptor {
+            label: Some("sandbox2d egui"),
+            color_attachments: &[Some(wgpu::RenderPassColorAttachment {
+                view: target,
+                depth_slice: None,
+                resolve_target: None,
+                ops: wgpu::Operations {
+                    load: wgpu::LoadOp::Load,
+                    store: wgpu::StoreOp::Store,
+                },
+            })],
+            depth_stencil_attachment: None,
+            timestamp_writes: None,
+            occlusion_query_set: None,
+            multiview_mask: None,
+        })
+        .forget_lifetime();
+    g.egui_renderer.render(&mut pass, jobs, screen);
+}
+
+/// A texture of the surface's format and size that a frame is also drawn into, and the
+/// buffer it is copied to, for `--screenshot`.
+struct Capture {
+    texture: wgpu::Texture,
+    buffer: wgpu::Buffer,
+    format: wgpu::TextureFormat,
+    size: [u32; 2],
+    padded_row: u32,
+}
+
+impl Capture {
+    /// Formats read back as 4 bytes a pixel, RGBA or BGRA.
+    fn supports(format: wgpu::TextureFormat) -> bool {
+        use wgpu::TextureFormat as F;
+        matches!(
+            format,
+            F::Rgba8Unorm | F::Rgba8UnormSrgb | F::Bgra8Unorm | F::Bgra8UnormSrgb
+        )
+    }
+
+    fn new(device: &wgpu::Device, format: wgpu::TextureFormat, size: [u32; 2]) -> Capture {
+        let texture = device.create_texture(&wgpu::TextureDescriptor {
+            label: Some("sandbox2d screenshot"),
+            size: wgpu::Extent3d {
+                width: size[0],
+                height: size[1],
+                depth_or_array_layers: 1,
+            },
+            mip_level_count: 1,
+            sample_count: 1,
+            dimension: wgpu::TextureDimension::D2,
+            format,
+            usage: wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::COPY_SRC,
+            view_formats: &[],
+        });
+        // Copies need rows aligned to 256 bytes.
+        let align = wgpu::COPY_BYTES_PER_ROW_ALIGNMENT;
+        let padded_row = (size[0] * 4).div_ceil(align) * align;
+        let buffer = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("sandbox2d screenshot read-back"),
+            size: padded_row as u64 * size[1] as u64,
+            usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        Capture {
+            texture,
+            buffer,
+            format,
+            size,
+            padded_row,
+        }
+    }
+
+    fn copy(&self, encoder: &mut wgpu::CommandEncoder) {
+        encoder.copy_texture_to_buffer(
+            self.texture.as_image_copy(),
+            wgpu::TexelCopyBufferInfo {
+                buffer: &self.buffer,
+                layout: wgpu::TexelCopyBufferLayout {
+                    offset: 0,
+                    bytes_per_row: Some(self.padded_row),
+                    rows_per_image: Some(self.size[1]),
+                },
+            },
+            wgpu::Extent3d {
+                width: self.size[0],
+                height: self.size[1],
+                depth_or_array_layers: 1,
+            },
+        );
+    }
+
+    /// Waits for the copy and returns the pixels as RGBA (BGRA surfaces are swizzled).
+    fn read(self, device: &wgpu::Device) -> Result<image::RgbaImage, AppError> {
+        let (tx, rx) = std::sync::mpsc::channel();
+        self.buffer.map_async(wgpu::MapMode::Read, .., move |r| {
+            let _ = tx.send(r);
+        });
+        device
+            .poll(wgpu::PollType::wait_indefinitely())
+            .map_err(|e| AppError::Gpu(format!("screenshot: poll: {e}")))?;
+        rx.recv()
+            .map_err(|_| AppError::Gpu("screenshot: read-back never ran".into()))?
+            .map_err(|e| AppError::Gpu(format!("screenshot: map: {e}")))?;
+        let [w, h] = self.size;
+        let row = w as usize * 4;
+        let mut pixels = Vec::with_capacity(row * h as usize);
+        {
+            let view = self
+                .buffer
+                .get_mapped_range(..)
+                .map_err(|e| AppError::Gpu(format!("screenshot: view: {e}")))?;
+            for y in 0..h as usize {
+                let start = y * self.padded_row as usize;
+                pixels.extend_from_slice(&view[start..start + row]);
+            }
+        }
+        self.buffer.unmap();
+        if matches!(
+            self.format,
+            wgpu::TextureFormat::Bgra8Unorm | wgpu::TextureFormat::Bgra8UnormSrgb
+        ) {
+            for px in pixels.chunks_exact_mut(4) {
+                px.swap(0, 2);
+            }
+        }
+        // The surface may be opaque-ignoring; a PNG of the window is opaque.
+        for px in pixels.chunks_exact_mut(4) {
+            px[3] = 255;
+        }
+        image::RgbaImage::from_raw(w, h, pixels)
+            .ok_or_else(|| AppError::Gpu("screenshot: size mismatch".into()))
+    }
+}

@@ -1,0 +1,223 @@
+//! XPBD contacts (Mueller et al. 2020): the step's manifolds are found once, each point
+//! kept as an anchor on each body; every substep measures the gap between the anchors
+//! again, pushes overlapping bodies apart with alpha = 0, cancels the tangential motion
+//! of the touching points while lambda_t <= mu lambda_n (static friction), and, after the
+//! velocities are derived, applies dynamic friction and restitution at the velocity level.
+
+use super::contact_cache::Contact;
+use super::pgs::SolverBody;
+use crate::body::Body;
+use crate::joint::{linear_correction, move_body};
+use crate::math::{Rot, Vec2, cross, cross_sv};
+
+/// One contact point as XPBD keeps it across the substeps of a step.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct XpbdPoint {
+    pub a: u32,
+    pub b: u32,
+    /// Point on a's surface, a's frame, from its centre of mass.
+    pub local_a: Vec2,
+    /// Point on b's surface, b's frame.
+    pub local_b: Vec2,
+    /// Normal (a to b) in a's frame.
+    pub local_n: Vec2,
+    pub friction: f32,
+    pub restitution: f32,
+    /// This substep's multipliers (N s^2).
+    pub lambda_n: f32,
+    pub lambda_t: f32,
+    /// Normal relative velocity before the substep's solve (m/s), for restitution.
+    pub vn_before: f32,
+    /// Which manifold point of which contact it came from (for reporting lambdas).
+    pub contact: u32,
+    pub index: u8,
+}
+
+/// The XPBD solver's per-step state.
+#[derive(Clone, Debug, Default)]
+pub struct XpbdContacts {
+    pub points: Vec<XpbdPoint>,
+    /// Positions and angles at the start of the substep.
+    pub prev: Vec<(Vec2, f32)>,
+    /// Positions and rotations at the start of the substep.
+    pub prev_rot: Vec<(Vec2, Rot)>,
+}
+
+struct Geo {
+    ra: Vec2,
+    rb: Vec2,
+    n: Vec2,
+    /// signed gap (pb - pa) . n
+    gap: f32,
+}
+
+#[inline]
+fn geometry(p: &XpbdPoint, bodies: &[Body]) -> Geo {
+    let (ba, bb) = (&bodies[p.a as usize], &bodies[p.b as usize]);
+    let ra = ba.rot.rotate(p.local_a);
+    let rb = bb.rot.rotate(p.local_b);
+    let n = ba.rot.rotate(p.local_n);
+    let gap = ((bb.position + rb) - (ba.position + ra)).dot(n);
+    Geo { ra, rb, n, gap }
+}
+
+impl XpbdContacts {
+    /// Turns the step's manifolds into anchored points.
+    pub fn prepare(&mut self, bodies: &[Body], contacts: &[Contact]) {
+        self.points.clear();
+        for (ci, c) in contacts.iter().enumerate() {
+            let (ba, bb) = (&bodies[c.a as usize], &bodies[c.b as usize]);
+            let n = c.manifold.normal;
+            for (k, cp) in c.manifold.points().iter().enumerate() {
+                // the surfaces' points: p -/+ n sigma / 2, so (pb - pa) . n = sigma
+                let half = 0.5 * cp.separation * n;
+                self.points.push(XpbdPoint {
+                    a: c.a,
+                    b: c.b,
+                    local_a: ba.rot.inv_rotate(cp.anchor_a - half),
+                    local_b: bb.rot.inv_rotate(cp.anchor_b + half),
+                    local_n: ba.rot.inv_rotate(n),
+                    friction: c.friction,
+                    restitution: c.restitution,
+                    contact: ci as u32,
+                    index: k as u8,
+                    ..Default::default()
+                });
+            }
+        }
+    }
+
+    /// Records where the bodies are at the start of a substep (after the prediction the
+    /// caller does next) and the normal velocities before the solve; resets lambdas.
+    pub fn begin_substep(&mut self, bodies: &[Body]) {
+        self.prev.clear();
+        self.prev
+            .extend(bodies.iter().map(|b| (b.position, b.angle)));
+        self.prev_rot.clear();
+        self.prev_rot
+            .extend(bodies.iter().map(|b| (b.position, b.rot)));
+        for p in &mut self.points {
+            let g = geometry(p, bodies);
+            let (ba, bb) = (&bodies[p.a as usize], &bodies[p.b as usize]);
+            p.vn_before =
+                (bb.velocity_at(bb.position + g.rb) - ba.velocity_at(ba.position + g.ra)).dot(g.n);
+            p.lambda_n = 0.0;
+            p.lambda_t = 0.0;
+        }
+    }
+
+    /// One projection of every contact: the overlap (C = gap < 0), then static friction
+    /// on the tangential motion of the two points since the substep began.
+    /// Returns the deepest overlap met (m).
+    pub fn project(&mut self, bodies: &mut [Body]) -> f32 {
+        let prev_at_start = &self.prev_rot;
+        let mut deepest = 0.0f32;
+        for p in &mut self.points {
+            let g = geometry(p, bodies);
+            if g.gap >= 0.0 {
+                continue;
+            }
+            deepest = deepest.max(-g.gap);
+            let (a, b) = (p.a as usize, p.b as usize);
+            let mut dl = 0.0;
+            let now = [g.ra, g.rb, g.n];
+            linear_correction(bodies, a, b, now, now, g.gap, 0.0, &mut dl);
+            p.lambda_n += dl.max(0.0);
+            // static friction: the relative tangential motion of the points this substep
+            let g = geometry(p, bodies);
+            let pa_now = bodies[a].position + g.ra;
+            let pb_now = bodies[b].position + g.rb;
+            let (xa0, qa0) = prev_at_start[a];
+            let (xb0, qb0) = prev_at_start[b];
+            let pa_then = xa0 + qa0.rotate(p.local_a);
+            let pb_then = xb0 + qb0.rotate(p.local_b);
+            let dp = (pb_now - pb_then) - (pa_now - pa_then);
+            let dt = dp - dp.dot(g.n) * g.n;
+            let slide = dt.length();
+            if slide <= 1e-9 {
+                continue;
+            }
+            let t = dt / slide;
+            let (ima, iia) = (bodies[a].inv_mass, bodies[a].inv_inertia);
+            let (imb, iib) = (bodies[b].inv_mass, bodies[b].inv_inertia);
+            let (rta, rtb) = (cross(g.ra, t), cross(g.rb, t));
+            let w = ima + iia * rta * rta + imb + iib * rtb * rtb;
+            if w <= 0.0 {
+                continue;
+            }
+            // delta lambda_t = -slide / w, applied while |lambda_t| <= mu_s lambda_n
+            let dlt = -slide / w;
+            if (p.lambda_t + dlt).abs() <= p.friction * p.lambda_n {
+                p.lambda_t += dlt;
+                let imp = dlt * t;
+                move_body(&mut bodies[a], -ima * imp, -iia * cross(g.ra, imp));
+                move_body(&mut bodies[b], imb * imp, iib * cross(g.rb, imp));
+            }
+        }
+        deepest
+    }
+
+    /// The velocity pass of the touching points: restitution, then dynamic friction, an
+    /// impulse against the sliding velocity v_t of at most mu times the net normal impulse
+    /// (and no more than stops the sliding); restitution
+    /// v_n' = max(-e v_n_before, 0) (e = 0 below the threshold speed).
+    pub fn velocity_pass(&self, world: &[Body], bodies: &mut [SolverBody], h: f32, threshold: f32) {
+        for p in &self.points {
+            if p.lambda_n <= 0.0 {
+                continue;
+            }
+            let g = geometry(p, world);
+            let (a, b) = (p.a as usize, p.b as usize);
+            let (ima, iia) = (bodies[a].inv_m, bodies[a].inv_i);
+            let (imb, iib) = (bodies[b].inv_m, bodies[b].inv_i);
+            let relative = |bodies: &[SolverBody]| {
+                let (sa, sb) = (bodies[a], bodies[b]);
+                sb.v + cross_sv(sb.w, g.rb) - sa.v - cross_sv(sa.w, g.ra)
+            };
+            // the generalized inverse mass along dir at the two points
+            let w_along = |dir: Vec2| {
+                let (ra_n, rb_n) = (cross(g.ra, dir), cross(g.rb, dir));
+                ima + iia * ra_n * ra_n + imb + iib * rb_n * rb_n
+            };
+            let apply = |dir: Vec2, impulse: f32, bodies: &mut [SolverBody]| {
+                let imp = impulse * dir;
+                let ba = &mut bodies[a];
+                ba.v -= ima * imp;
+                ba.w -= iia * cross(g.ra, imp);
+                let bb = &mut bodies[b];
+                bb.v += imb * imp;
+                bb.w += iib * cross(g.rb, imp);
+            };
+            // restitution first: v_n' = max(-e v_n_before, 0)
+            let vn = relative(bodies).dot(g.n);
+            let e = if p.vn_before.abs() <= threshold {
+                0.0
+            } else {
+                p.restitution
+            };
+            let target = (-e * p.vn_before).max(0.0);
+            let wn = w_along(g.n);
+            let mut jn = 0.0;
+            if wn > 0.0 {
+                jn = (target - vn) / wn;
+                apply(g.n, jn, bodies);
+            }
+            // dynamic friction, bounded by mu times the substep's net normal impulse:
+            // the push-out lambda_n / h less what the pass above took back (the push-out
+            // leaves a separating velocity that the pass removes; counting only the
+            // push-out would double the friction of a resting contact)
+            let rel = relative(bodies);
+            let vt = rel - rel.dot(g.n) * g.n;
+            let speed_t = vt.length();
+            let normal = (p.lambda_n / h + jn).max(0.0);
+            if speed_t > 1e-9 {
+                let t = -vt / speed_t;
+                let w = w_along(t);
+                if w > 0.0 {
+                    let j = (p.friction * normal).min(speed_t / w);
+                    apply(t, j, bodies);
+                }
+            }
+        }
+    }
+}

@@ -1,0 +1,402 @@
+//! Joints under both solvers, against closed forms and bounds.
+
+use glam::Vec2;
+use sandbox2d::scene::load_str;
+use sandbox2d::{SolverKind, World};
+
+fn world(toml: &str, kind: SolverKind) -> World {
+    let sc = load_str(toml, "test.toml").expect("scene parses");
+    let s = sc.world.solver.merged(Default::default());
+    let mut settings = sandbox2d::SolverOverrides {
+        kind: Some(kind),
+        ..s
+    }
+    .resolve();
+    settings.kind = kind;
+    World::from_def(&sc.world, settings).expect("builds")
+}
+
+/// A uniform disc of radius r, mass m, on a hinge at distance L above its centre.
+fn pendulum_scene(theta0: f32, joint: &str) -> String {
+    let (l, r) = (1.0f32, 0.1f32);
+    let (x, y) = (l * theta0.sin(), 2.0 - l * theta0.cos());
+    format!(
+        r#"name = "pendulum"
+[world]
+gravity = [0.0, -9.81]
+[[body]]
+name = "pivot"
+type = "static"
+shape = {{ circle = 0.05 }}
+position = [0.0, 2.0]
+[[body]]
+name = "bob"
+shape = {{ circle = {r} }}
+position = [{x}, {y}]
+angle = {theta0}
+density = 100.0
+[[joint]]
+type = "{joint}"
+bodies = ["pivot", "bob"]
+{anchor}
+"#,
+        anchor = if joint == "hinge" {
+            "anchor = [0.0, 2.0]".to_string()
+        } else {
+            format!("anchors = [[0.0, 2.0], [{x}, {y}]]")
+        }
+    )
+}
+
+/// Angle of the bob from straight down, about the pivot.
+fn swing(w: &World) -> f32 {
+    let d = w.bodies[1].position - Vec2::new(0.0, 2.0);
+    d.x.atan2(-d.y)
+}
+
+/// Period from the times of upward zero crossings (linear interpolation).
+fn measure_period(w: &mut World, seconds: f32) -> f32 {
+    let dt = w.settings.dt;
+    let mut crossings = Vec::new();
+    let mut prev = swing(w);
+    let steps = (seconds / dt) as usize;
+    for k in 1..=steps {
+        w.step().unwrap();
+        let now = swing(w);
+        if prev < 0.0 && now >= 0.0 {
+            let frac = prev / (prev - now);
+            crossings.push((k as f32 - 1.0 + frac) * dt);
+        }
+        prev = now;
+    }
+    assert!(crossings.len() >= 3, "too few periods: {crossings:?}");
+    (crossings[crossings.len() - 1] - crossings[0]) / (crossings.len() - 1) as f32
+}
+
+fn pendulum_period_closed_form() -> f32 {
+    // T = 2 pi sqrt((I + m L^2) / (m g L)), I = m r^2 / 2
+    let (l, r, g) = (1.0f32, 0.1f32, 9.81f32);
+    let i_over_m = 0.5 * r * r;
+    std::f32::consts::TAU * ((i_over_m + l * l) / (g * l)).sqrt()
+}
+
+#[test]
+fn pendulum_period_matches_closed_form() {
+    let t = pendulum_period_closed_form();
+    for (kind, tol) in [(SolverKind::Xpbd, 0.005), (SolverKind::Pgs, 0.02)] {
+        let mut w = world(&pendulum_scene(0.05, "hinge"), kind);
+        let p = measure_period(&mut w, 12.0);
+        let err = (p - t).abs() / t;
+        eprintln!(
+            "{kind:?}: period {p:.5} s vs {t:.5} s, error {:.3}%",
+            err * 100.0
+        );
+        assert!(err < tol, "{kind:?}: period {p} vs {t}");
+    }
+}
+
+#[test]
+fn pendulum_keeps_its_amplitude() {
+    for kind in [SolverKind::Xpbd, SolverKind::Pgs] {
+        let mut w = world(&pendulum_scene(0.5, "distance"), kind);
+        let steps = (20.0 / w.settings.dt) as usize;
+        let (mut first, mut last) = (0.0f32, 0.0f32);
+        let period_steps = (pendulum_period_closed_form() / w.settings.dt) as usize;
+        for k in 0..steps {
+            w.step().unwrap();
+            let a = swing(&w).abs();
+            if k < period_steps {
+                first = first.max(a);
+            }
+            if k >= steps - period_steps {
+                last = last.max(a);
+            }
+        }
+        eprintln!(
+            "{kind:?}: amplitude {first:.5} -> {last:.5} ({:.2}%)",
+            100.0 * last / first
+        );
+        if kind == SolverKind::Xpbd {
+            assert!(
+                last >= 0.99 * first,
+                "XPBD lost amplitude: {first} -> {last}"
+            );
+        }
+    }
+}
+
+/// A built-in scene under the given solver, with the settings the scene declares.
+fn builtin(name: &str, kind: SolverKind) -> World {
+    let sc = sandbox2d::scene::builtin(name)
+        .expect("exists")
+        .expect("parses");
+    let settings = sandbox2d::SolverOverrides {
+        kind: Some(kind),
+        ..sc.world.solver
+    }
+    .resolve();
+    World::from_def(&sc.world, settings).expect("builds")
+}
+
+fn id(w: &World, name: &str) -> usize {
+    w.body_index(name).expect("body exists")
+}
+
+fn run(w: &mut World, seconds: f32) {
+    for _ in 0..(seconds / w.settings.dt).round() as usize {
+        w.step().expect("steps");
+    }
+}
+
+#[test]
+fn hinge_motor_reaches_its_speed() {
+    for kind in [SolverKind::Pgs, SolverKind::Xpbd] {
+        let mut w = builtin("joints", kind);
+        run(&mut w, 2.0);
+        let wheel = id(&w, "motor_wheel");
+        let omega = w.bodies[wheel].angular_velocity;
+        eprintln!("{kind:?}: motor speed {omega:.5} rad/s (target 2)");
+        assert!((omega - 2.0).abs() <= 0.02, "{kind:?}: {omega}");
+    }
+}
+
+#[test]
+fn servo_holds_its_target_against_gravity() {
+    for kind in [SolverKind::Pgs, SolverKind::Xpbd] {
+        let mut w = builtin("joints", kind);
+        run(&mut w, 3.0);
+        let arm = id(&w, "servo_arm");
+        let err = (w.bodies[arm].angle - 0.523599).abs();
+        eprintln!("{kind:?}: servo error {err:.2e} rad");
+        assert!(err <= 0.01, "{kind:?}: {err}");
+    }
+}
+
+#[test]
+fn hinge_and_prismatic_limits_hold() {
+    for kind in [SolverKind::Pgs, SolverKind::Xpbd] {
+        let mut w = builtin("joints", kind);
+        let (arm, slider) = (id(&w, "limit_arm"), id(&w, "slider"));
+        let (mut worst_angle, mut worst_offset) = (0.0f32, 0.0f32);
+        let mut lowest = f32::INFINITY;
+        for _ in 0..300 {
+            w.step().unwrap();
+            // the hinge's limits are [-45, 45] degrees about its start angle 0
+            let a = w.bodies[arm].angle;
+            worst_angle = worst_angle.max((-std::f32::consts::FRAC_PI_4 - a).max(0.0));
+            // the slider's offset along +y from 3.5 is limited to [-1.5, 0.5]
+            let off = w.bodies[slider].position.y - 3.5;
+            worst_offset = worst_offset
+                .max((-1.5 - off).max(0.0))
+                .max((off - 0.5).max(0.0));
+            lowest = lowest.min(off);
+        }
+        eprintln!(
+            "{kind:?}: hinge limit overshoot {worst_angle:.2e} rad, prismatic {worst_offset:.2e} m"
+        );
+        assert!(worst_angle <= 0.01, "{kind:?}: hinge {worst_angle}");
+        assert!(worst_offset <= 0.01, "{kind:?}: prismatic {worst_offset}");
+        // and they are reached: the arm hangs on its lower limit, the slider sits on its own
+        assert!((w.bodies[arm].angle + std::f32::consts::FRAC_PI_4).abs() < 0.01);
+        assert!((lowest + 1.5).abs() < 0.01, "{kind:?}: slider at {lowest}");
+    }
+}
+
+fn hanging_chain(kind: SolverKind, end: &str) -> World {
+    let toml = format!(
+        r#"name = "hanging chain"
+[world]
+gravity = [0.0, -10.0]
+[[chain]]
+links = 40
+link = [0.5, 0.125]
+anchor = [0.0, 20.0]
+direction = [0.0, -1.0]
+joint = "hinge"
+{end}
+"#
+    );
+    world(&toml, kind)
+}
+
+#[test]
+fn hanging_chain_stays_together_under_xpbd() {
+    let mut w = hanging_chain(SolverKind::Xpbd, "");
+    let mut worst = 0.0f32;
+    for _ in 0..300 {
+        w.step().unwrap();
+        worst = worst.max(w.joint_error());
+    }
+    eprintln!("XPBD 20 substeps: 40-link chain, largest anchor separation {worst:.2e} m");
+    assert!(worst <= 0.01, "{worst}");
+}
+
+#[test]
+fn ball_and_chain_stays_bounded_under_both_solvers() {
+    for kind in [SolverKind::Pgs, SolverKind::Xpbd] {
+        let mut w = builtin("ball_and_chain", kind);
+        let mut worst = 0.0f32;
+        for _ in 0..600 {
+            w.step().expect("no NaN");
+            worst = worst.max(w.joint_error());
+            let fastest = w
+                .bodies
+                .iter()
+                .map(|b| b.velocity.length())
+                .fold(0.0, f32::max);
+            assert!(fastest < 100.0, "{kind:?}: a body at {fastest} m/s");
+        }
+        eprintln!("{kind:?}: ball and chain, largest anchor separation {worst:.3} m over 10 s");
+        // the chain is 20 m long: bounded means it never stretches past twice that
+        assert!(worst < 20.0, "{kind:?}: {worst}");
+    }
+}
+
+#[test]
+fn newtons_cradle_passes_the_speed_on() {
+    for kind in [SolverKind::Xpbd, SolverKind::Pgs] {
+        let mut w = builtin("newtons_cradle", kind);
+        let (first, last) = (id(&w, "ball0"), id(&w, "ball4"));
+        let (mut v_in, mut v_out) = (0.0f32, 0.0f32);
+        for _ in 0..120 {
+            w.step().unwrap();
+            v_in = v_in.max(w.bodies[first].velocity.length());
+            v_out = v_out.max(w.bodies[last].velocity.length());
+        }
+        eprintln!(
+            "{kind:?}: cradle, first ball {v_in:.4} m/s, last leaves at {v_out:.4} m/s ({:.1}%)",
+            100.0 * v_out / v_in
+        );
+        if kind == SolverKind::Xpbd {
+            assert!(v_out >= 0.95 * v_in, "{kind:?}: {v_out} vs {v_in}");
+        }
+    }
+}
+
+#[test]
+fn every_builtin_scene_runs_ten_seconds_under_both_solvers() {
+    for &name in sandbox2d::scene::builtin_names() {
+        if name == "large_pyramid" {
+            continue; // 5050 boxes: measured by the bench, too slow for a debug test
+        }
+        for kind in [SolverKind::Pgs, SolverKind::Xpbd] {
+            let mut w = builtin(name, kind);
+            let e0 = w.energy();
+            // energy scale: the start energy's size plus what gravity can give over the
+            // scene's height span
+            let mut e_max = e0;
+            for _ in 0..600 {
+                w.step().unwrap_or_else(|e| panic!("{name} {kind:?}: {e}"));
+                e_max = e_max.max(w.energy());
+            }
+            let scale = e0.abs().max(1.0);
+            let motors = w.joints().iter().any(|j| j.motor.is_some());
+            let allowed = if motors { 2.0 } else { 0.1 };
+            eprintln!("{name} {kind:?}: E0 {e0:.2}, max {e_max:.2}");
+            assert!(
+                e_max.is_finite() && e_max <= e0 + allowed * scale,
+                "{name} {kind:?}: energy {e0} -> max {e_max}"
+            );
+        }
+    }
+}
+
+#[test]
+fn friction_ramp_follows_coulomb_under_both_solvers() {
+    // 25 degree ramps; a box slides with a = g (sin - mu cos) when mu < tan 25 = 0.466
+    let (theta, g) = (0.436332f32, 9.81f32);
+    for kind in [SolverKind::Pgs, SolverKind::Xpbd] {
+        let mut w = builtin("friction_ramp", kind);
+        let t = 20.0 * w.settings.dt;
+        for _ in 0..20 {
+            w.step().unwrap();
+        }
+        for (i, mu) in [0.0f32, 0.2, 0.4, 0.6, 1.0].into_iter().enumerate() {
+            let v = w.bodies[id(&w, &format!("box{i}"))].velocity.length();
+            let expected = (g * (theta.sin() - mu * theta.cos())).max(0.0) * t;
+            eprintln!("{kind:?}: mu {mu}: speed {v:.4} m/s, Coulomb {expected:.4}");
+            assert!(
+                (v - expected).abs() <= 0.03 * expected.max(0.2),
+                "{kind:?} mu {mu}: {v} vs {expected}"
+            );
+        }
+    }
+}
+
+/// A disc on a hinge at its centre (no gravity), for drives and damping.
+fn wheel(kind: SolverKind, extra: &str) -> World {
+    let toml = format!(
+        r#"name = "wheel"
+[[body]]
+name = "axle"
+type = "static"
+shape = {{ circle = 0.05 }}
+position = [0.0, 0.0]
+[[body]]
+name = "wheel"
+shape = {{ circle = 0.5 }}
+position = [0.0, 0.0]
+density = 2.0
+angular_velocity = {w0}
+[[joint]]
+type = "hinge"
+bodies = ["axle", "wheel"]
+anchor = [0.0, 0.0]
+{extra}
+"#,
+        w0 = if extra.is_empty() { 0.0 } else { 3.0 }
+    );
+    world(&toml, kind)
+}
+
+#[test]
+fn a_joint_drive_turns_a_wheel_at_tau_over_i() {
+    for kind in [SolverKind::Pgs, SolverKind::Xpbd] {
+        let mut w = wheel(kind, "");
+        w.set_joint_drive(0, 2.0);
+        run(&mut w, 1.0);
+        // I = m r^2 / 2 with m = 2 pi 0.25; omega = tau t / I
+        let m = 2.0 * std::f32::consts::PI * 0.25;
+        let expected = 2.0 * 1.0 / (0.5 * m * 0.25);
+        let omega = w.bodies[1].angular_velocity;
+        eprintln!("{kind:?}: drive 2 N m for 1 s: omega {omega:.4} vs {expected:.4}");
+        assert!(
+            (omega - expected).abs() <= 0.01 * expected,
+            "{kind:?}: {omega}"
+        );
+    }
+}
+
+#[test]
+fn angular_damping_slows_the_relative_spin() {
+    for kind in [SolverKind::Pgs, SolverKind::Xpbd] {
+        let mut w = wheel(kind, "damping = { angular = 2.0 }");
+        run(&mut w, 1.0);
+        let omega = w.bodies[1].angular_velocity;
+        // removing min(h c, 1) of it per (sub)step: omega ~ 3 exp(-c t), 3 e^-2 = 0.406
+        eprintln!("{kind:?}: damped spin after 1 s {omega:.4} (3 e^-2 = 0.406)");
+        assert!(omega > 0.35 && omega < 0.45, "{kind:?}: {omega}");
+    }
+}
+
+#[test]
+fn the_mouse_joint_pulls_a_body_to_the_target() {
+    for kind in [SolverKind::Pgs, SolverKind::Xpbd] {
+        let settings = wheel(kind, "").settings;
+        // a free box, grabbed at its centre, no gravity
+        let sc = load_str(
+            "name = \"m\"\n[[body]]\nname = \"box\"\nshape = { box = [1.0, 1.0] }\nposition = [0.0, 0.0]\n",
+            "m.toml",
+        )
+        .unwrap();
+        let mut w = World::from_def(&sc.world, settings).unwrap();
+        let mut m = w.grab(0, Vec2::ZERO).expect("dynamic body");
+        m.target = Vec2::new(3.0, 1.0);
+        w.set_mouse(Some(m));
+        run(&mut w, 3.0);
+        let b = &w.bodies[0];
+        let p = b.position + b.rot.rotate(m.local);
+        eprintln!("{kind:?}: grabbed point at {p:?}, target (3, 1)");
+        assert!(p.distance(m.target) < 0.01, "{kind:?}: {p:?}");
+    }
+}

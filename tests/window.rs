@@ -1,0 +1,60 @@
+//! Window smoke test: opens the real window under Xvfb, runs 30 frames and checks the
+//! screenshot is a picture of the scene, not a blank.
+//!
+//! Runs only when `SANDBOX2D_WINDOW_TEST=1` and `xvfb-run` is on the PATH (`.ci/run`
+//! sets the variable after installing xvfb); otherwise it says why and passes.
+#![cfg(feature = "app")]
+
+use std::path::PathBuf;
+use std::process::Command;
+
+fn xvfb_run() -> Option<PathBuf> {
+    let path = std::env::var_os("PATH")?;
+    std::env::split_paths(&path)
+        .map(|d| d.join("xvfb-run"))
+        .find(|p| p.is_file())
+}
+
+#[test]
+fn window_opens_under_xvfb_and_draws_the_scene() {
+    if std::env::var("SANDBOX2D_WINDOW_TEST").as_deref() != Ok("1") {
+        eprintln!("SKIPPED: set SANDBOX2D_WINDOW_TEST=1 to open a window under xvfb-run");
+        return;
+    }
+    let Some(xvfb) = xvfb_run() else {
+        panic!("SANDBOX2D_WINDOW_TEST=1 but xvfb-run is not on the PATH (apt-get install xvfb)");
+    };
+    let dir = std::env::temp_dir().join(format!("sandbox2d-window-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let shot = dir.join("shot.png");
+    let _ = std::fs::remove_file(&shot);
+    let out = Command::new(xvfb)
+        .args(["-a", "-s", "-screen 0 1600x900x24"])
+        .arg(env!("CARGO_BIN_EXE_sandbox2d"))
+        .args(["run", "pyramid", "--frames", "30", "--screenshot"])
+        .arg(&shot)
+        .current_dir(&dir)
+        .output()
+        .unwrap();
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{stdout}\n{stderr}");
+    // The window opened: no headless fallback, and the frame rate was measured.
+    assert!(!stdout.contains("no display"), "{stdout}");
+    assert!(
+        stdout.contains("30 frames") && stdout.contains("fps"),
+        "{stdout}"
+    );
+    let img = image::open(&shot)
+        .unwrap_or_else(|e| panic!("{}: {e}\n{stdout}\n{stderr}", shot.display()))
+        .to_rgba8();
+    assert_eq!(img.dimensions(), (1280, 720), "the window's size in pixels");
+    let mut colours: Vec<[u8; 4]> = img.pixels().map(|p| p.0).collect();
+    colours.sort_unstable();
+    colours.dedup();
+    assert!(
+        colours.len() >= 8,
+        "only {} distinct colours: a blank frame?",
+        colours.len()
+    );
+}
