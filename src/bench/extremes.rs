@@ -772,3 +772,38 @@ pub fn parse_claims(text: &str) -> Result<Vec<Claim>, String> {
     }
     Ok(out)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn every_value_formats_and_parses_back() {
+        for sw in Sweep::ALL {
+            assert_eq!(Sweep::from_name(sw.name()), Some(sw));
+            for v in sw.values() {
+                assert_eq!(sw.parse_value(&sw.format_value(v)), Some(v), "{sw:?} {v}");
+            }
+        }
+    }
+
+    #[test]
+    fn the_headline_is_the_leading_run_of_holds_and_the_next_failure() {
+        let r = SweepResult {
+            sweep: Sweep::StackHeight,
+            setting: settings(Sweep::StackHeight)[0],
+            cases: vec![
+                (5.0, CaseResult::Held("a".into())),
+                (10.0, CaseResult::Held("b".into())),
+                (20.0, CaseResult::Failed("fell".into())),
+                (30.0, CaseResult::Held("c".into())),
+            ],
+        };
+        assert_eq!(r.headline(), (Some(10.0), Some((20.0, "fell".into()))));
+        let md = markdown(std::slice::from_ref(&r));
+        let claims = parse_claims(&md).unwrap();
+        assert_eq!(claims.len(), 1);
+        assert_eq!(claims[0].holds_through, Some(10.0));
+        assert_eq!(claims[0].fails_at, Some(20.0));
+    }
+}

@@ -108,7 +108,8 @@ pub fn svg(scene: &BenchScene, rows: &[Row]) -> Result<Option<String>, String> {
             .configure_mesh()
             .x_desc("ms per step (median)")
             .y_desc(scene.primary.axis_label())
-            .x_label_formatter(&|v| format!("{v:.3}"))
+            .x_labels(8)
+            .x_label_formatter(&|v| short(*v))
             .y_label_formatter(&|v| format!("{v:.0e}"))
             .draw()
             .map_err(|x| e(&x))?;
@@ -144,4 +145,17 @@ pub fn svg(scene: &BenchScene, rows: &[Row]) -> Result<Option<String>, String> {
         root.present().map_err(|x| e(&x))?;
     }
     Ok(Some(text))
+}
+
+/// A tick label with two or three significant digits.
+fn short(v: f64) -> String {
+    if v >= 10.0 {
+        format!("{v:.0}")
+    } else if v >= 1.0 {
+        format!("{v:.1}")
+    } else if v >= 0.01 {
+        format!("{v:.2}")
+    } else {
+        format!("{v:.0e}")
+    }
 }
