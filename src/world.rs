@@ -14,6 +14,9 @@ use crate::math::{Aabb, Rot, Vec2, cross};
 use crate::shape::{Shape, ShapeError};
 use crate::solver::contact_cache::{CacheCursor, Contact, match_points};
 use crate::solver::pgs::PgsSolver;
+use crate::solver::soft::SoftSolver;
+
+mod soft_step;
 
 /// Contact points are kept while the gap is below this many slops (speculative contacts).
 const SPECULATIVE_SLOPS: f32 = 4.0;
@@ -113,6 +116,7 @@ pub struct World {
     contacts: Vec<Contact>,
     old_contacts: Vec<Contact>,
     pgs: PgsSolver,
+    soft: SoftSolver,
     stats: StepStats,
     step_count: u64,
     time: f64,
@@ -133,6 +137,7 @@ impl World {
             contacts: Vec::new(),
             old_contacts: Vec::new(),
             pgs: PgsSolver::default(),
+            soft: SoftSolver::default(),
             stats: StepStats::default(),
             step_count: 0,
             time: 0.0,
@@ -321,6 +326,12 @@ impl World {
         let h = self.settings.dt / n as f32;
         let mut total = StepStats::default();
         for _ in 0..n {
+            if self.settings.soft_step {
+                // one collide, n solver substeps inside (world/soft_step.rs)
+                self.step_soft();
+                total = self.stats;
+                break;
+            }
             self.substep_pgs(h);
             let s = self.stats;
             total.iterations += s.iterations;
@@ -554,6 +565,18 @@ pub fn check_settings(s: &SolverSettings) -> Result<(), BuildError> {
     }
     if !(0.0..=1.0).contains(&s.baumgarte) {
         return bad(format!("baumgarte must be in [0, 1], got {}", s.baumgarte));
+    }
+    if !(s.contact_hertz >= 0.0) || !(s.contact_damping_ratio >= 0.0) {
+        return bad(format!(
+            "contact_hertz and contact_damping_ratio must be >= 0, got {} and {}",
+            s.contact_hertz, s.contact_damping_ratio
+        ));
+    }
+    if !(s.max_push_speed > 0.0) {
+        return bad(format!(
+            "max_push_speed must be > 0, got {}",
+            s.max_push_speed
+        ));
     }
     if !(s.restitution_threshold >= 0.0) {
         return bad(format!(

@@ -3,3 +3,4 @@
 
 pub mod contact_cache;
 pub mod pgs;
+pub mod soft;
