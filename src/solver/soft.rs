@@ -152,6 +152,8 @@ struct WideBody {
     vx: Vec4,
     vy: Vec4,
     w: Vec4,
+    /// kept only to be written back unchanged with the velocities
+    dtheta: Vec4,
     dpx: Vec4,
     dpy: Vec4,
     qc: Vec4,
@@ -159,6 +161,49 @@ struct WideBody {
 }
 
 impl WideBody {
+    /// Loads four bodies (two 16-byte loads each) and transposes them.
+    #[cfg(target_arch = "x86_64")]
+    #[inline(always)]
+    fn gather(bodies: &[SoftBody], idx: &[u32; 4]) -> WideBody {
+        use std::arch::x86_64::*;
+        let rows = idx.map(|i| {
+            let s: &SoftBody = &bodies[i as usize];
+            let p = s as *const SoftBody as *const f32;
+            // SAFETY: SoftBody is repr(C, align(32)): eight f32, so both 16-byte loads
+            // stay inside the body and are aligned (SSE2 is part of x86_64).
+            unsafe { (_mm_load_ps(p), _mm_load_ps(p.add(4))) }
+        });
+        let (v, d) = (
+            transpose4([rows[0].0, rows[1].0, rows[2].0, rows[3].0]),
+            transpose4([rows[0].1, rows[1].1, rows[2].1, rows[3].1]),
+        );
+        WideBody {
+            vx: v[0].into(),
+            vy: v[1].into(),
+            w: v[2].into(),
+            dtheta: v[3].into(),
+            dpx: d[0].into(),
+            dpy: d[1].into(),
+            qc: d[2].into(),
+            qs: d[3].into(),
+        }
+    }
+
+    /// Writes the velocities of four bodies back (one 16-byte store each).
+    #[cfg(target_arch = "x86_64")]
+    #[inline(always)]
+    fn scatter(&self, vx: Vec4, vy: Vec4, w: Vec4, bodies: &mut [SoftBody], idx: &[u32; 4]) {
+        use std::arch::x86_64::*;
+        let rows = transpose4([vx.into(), vy.into(), w.into(), self.dtheta.into()]);
+        for k in 0..4 {
+            let s: &mut SoftBody = &mut bodies[idx[k] as usize];
+            let p = s as *mut SoftBody as *mut f32;
+            // SAFETY: as in gather; the first four f32 are v, w, dtheta.
+            unsafe { _mm_store_ps(p, rows[k]) };
+        }
+    }
+
+    #[cfg(not(target_arch = "x86_64"))]
     #[inline(always)]
     fn gather(bodies: &[SoftBody], idx: &[u32; 4]) -> WideBody {
         let [s0, s1, s2, s3] = idx.map(|i| bodies[i as usize]);
@@ -166,6 +211,7 @@ impl WideBody {
             vx: Vec4::new(s0.v.x, s1.v.x, s2.v.x, s3.v.x),
             vy: Vec4::new(s0.v.y, s1.v.y, s2.v.y, s3.v.y),
             w: Vec4::new(s0.w, s1.w, s2.w, s3.w),
+            dtheta: Vec4::new(s0.dtheta, s1.dtheta, s2.dtheta, s3.dtheta),
             dpx: Vec4::new(s0.dp.x, s1.dp.x, s2.dp.x, s3.dp.x),
             dpy: Vec4::new(s0.dp.y, s1.dp.y, s2.dp.y, s3.dp.y),
             qc: Vec4::new(s0.dq.c, s1.dq.c, s2.dq.c, s3.dq.c),
@@ -173,14 +219,35 @@ impl WideBody {
         }
     }
 
+    #[cfg(not(target_arch = "x86_64"))]
     #[inline(always)]
-    fn scatter(vx: Vec4, vy: Vec4, w: Vec4, bodies: &mut [SoftBody], idx: &[u32; 4]) {
+    fn scatter(&self, vx: Vec4, vy: Vec4, w: Vec4, bodies: &mut [SoftBody], idx: &[u32; 4]) {
         let (vx, vy, w) = (vx.to_array(), vy.to_array(), w.to_array());
         for k in 0..4 {
             let s = &mut bodies[idx[k] as usize];
             s.v = Vec2::new(vx[k], vy[k]);
             s.w = w[k];
         }
+    }
+}
+
+/// The 4x4 transpose of four SSE rows.
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+fn transpose4(r: [std::arch::x86_64::__m128; 4]) -> [std::arch::x86_64::__m128; 4] {
+    use std::arch::x86_64::*;
+    // SAFETY: SSE2 is part of x86_64.
+    unsafe {
+        let t0 = _mm_unpacklo_ps(r[0], r[1]);
+        let t1 = _mm_unpacklo_ps(r[2], r[3]);
+        let t2 = _mm_unpackhi_ps(r[0], r[1]);
+        let t3 = _mm_unpackhi_ps(r[2], r[3]);
+        [
+            _mm_movelh_ps(t0, t1),
+            _mm_movehl_ps(t1, t0),
+            _mm_movelh_ps(t2, t3),
+            _mm_movehl_ps(t3, t2),
+        ]
     }
 }
 
@@ -242,6 +309,10 @@ pub struct SoftSolver {
     pub bodies: Vec<SoftBody>,
     /// Whether the solver moves body i (dynamic).
     moves: Vec<bool>,
+    /// (1/m, 1/I) of body i.
+    inv_mass: Vec<(f32, f32)>,
+    /// Velocity change per substep from forces, (dv, dw), when it is the same each substep.
+    increments: Vec<(Vec2, f32)>,
     /// The constraints, four to a wide constraint, colour by colour.
     wide: Vec<WideConstraint>,
     cold: Vec<WideCold>,
@@ -276,6 +347,10 @@ impl SoftSolver {
         self.bodies.push(SoftBody::default());
         self.moves.clear();
         self.moves.extend(bodies.iter().map(|b| b.is_dynamic()));
+        // inverse mass and inertia, packed, so the contact loop reads no `Body`
+        self.inv_mass.clear();
+        self.inv_mass
+            .extend(bodies.iter().map(|b| (b.inv_mass, b.inv_inertia)));
 
         // greedy colouring: the lowest colour neither moving body uses yet
         self.body_colors.clear();
@@ -349,8 +424,9 @@ impl SoftSolver {
             self.slot.push(at);
             let (wi, k) = ((at / 4) as usize, (at % 4) as usize);
             let (w, cold) = (&mut self.wide[wi], &mut self.cold[wi]);
-            let (ba, bb) = (&bodies[c.a as usize], &bodies[c.b as usize]);
-            let (ima, iia, imb, iib) = (ba.inv_mass, ba.inv_inertia, bb.inv_mass, bb.inv_inertia);
+            let (ba, bb) = (self.bodies[c.a as usize], self.bodies[c.b as usize]);
+            let ((ima, iia), (imb, iib)) =
+                (self.inv_mass[c.a as usize], self.inv_mass[c.b as usize]);
             let (ma, mb) = (self.moves[c.a as usize], self.moves[c.b as usize]);
             let soft = if ma && mb { soft_dynamic } else { soft_static };
             let n = c.manifold.normal;
@@ -381,9 +457,7 @@ impl SoftSolver {
                 let rtb = cross(rb, t);
                 let kt = ima + imb + iia * rta * rta + iib * rtb * rtb;
                 // dv = vb + wb x rb - va - wa x ra
-                let dv = bb.velocity + cross_sv(bb.angular_velocity, rb)
-                    - ba.velocity
-                    - cross_sv(ba.angular_velocity, ra);
+                let dv = bb.v + cross_sv(bb.w, rb) - ba.v - cross_sv(ba.w, ra);
                 cold.relative_velocity[i][k] = n.dot(dv);
                 let (ni, ti) = if s.warm_start {
                     (cp.normal_impulse, cp.tangent_impulse)
@@ -410,6 +484,27 @@ impl SoftSolver {
         for (s, b) in self.bodies.iter_mut().zip(bodies) {
             s.v = b.velocity;
             s.w = b.angular_velocity;
+        }
+    }
+
+    /// Takes the bodies' velocities after the world integrated one substep of forces into
+    /// them: the change since `prepare` is kept as each later substep's increment.
+    pub fn take_increments(&mut self, bodies: &[Body]) {
+        self.increments.clear();
+        for (s, b) in self.bodies.iter_mut().zip(bodies) {
+            // dv = v_after - v_before
+            self.increments
+                .push((b.velocity - s.v, b.angular_velocity - s.w));
+            s.v = b.velocity;
+            s.w = b.angular_velocity;
+        }
+    }
+
+    /// Adds the force increments of one substep: v += dv, w += dw.
+    pub fn apply_increments(&mut self) {
+        for (s, &(dv, dw)) in self.bodies.iter_mut().zip(&self.increments) {
+            s.v += dv;
+            s.w += dw;
         }
     }
 
@@ -443,8 +538,8 @@ impl SoftSolver {
                 vby += c.m.imb * py;
                 wb += c.m.iib * (p.rbx * py - p.rby * px);
             }
-            WideBody::scatter(vax, vay, wa, bodies, &c.wa);
-            WideBody::scatter(vbx, vby, wb, bodies, &c.wb);
+            sa.scatter(vax, vay, wa, bodies, &c.wa);
+            sb.scatter(vbx, vby, wb, bodies, &c.wb);
         }
     }
 
@@ -508,8 +603,8 @@ impl SoftSolver {
                 // of the biased sweep it lets the flanks of a tall pile creep outwards
                 friction_rows(c, &mut v, &mut residual);
             }
-            WideBody::scatter(v.vax, v.vay, v.wa, bodies, &c.wa);
-            WideBody::scatter(v.vbx, v.vby, v.wb, bodies, &c.wb);
+            sa.scatter(v.vax, v.vay, v.wa, bodies, &c.wa);
+            sb.scatter(v.vbx, v.vby, v.wb, bodies, &c.wb);
         }
         residual.max_element()
     }
