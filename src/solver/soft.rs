@@ -520,6 +520,22 @@ impl SoftSolver {
 
     /// Applies the accumulated lambdas (the last substep's impulses).
     pub fn warm_start(&mut self) {
+        #[cfg(target_arch = "x86_64")]
+        if std::arch::is_x86_feature_detected!("avx2") {
+            // SAFETY: the CPU has AVX2.
+            return unsafe { self.warm_start_avx2() };
+        }
+        self.warm_start_impl()
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    fn warm_start_avx2(&mut self) {
+        self.warm_start_impl()
+    }
+
+    #[inline(always)]
+    fn warm_start_impl(&mut self) {
         let bodies = &mut self.bodies;
         for c in &self.wide {
             let sa = WideBody::gather(bodies, &c.a);
@@ -546,6 +562,24 @@ impl SoftSolver {
     /// One sweep over every row: with `BIAS`, soft rows that push overlap out; without,
     /// rigid rows that only remove approach speed (relax). Returns max |delta lambda|.
     pub fn sweep<const BIAS: bool>(&mut self) -> f32 {
+        #[cfg(target_arch = "x86_64")]
+        if std::arch::is_x86_feature_detected!("avx2") {
+            // SAFETY: the CPU has AVX2.
+            return unsafe { self.sweep_avx2::<BIAS>() };
+        }
+        self.sweep_impl::<BIAS>()
+    }
+
+    /// [`Self::sweep`] compiled for AVX2 (three-operand forms, blends): the same
+    /// arithmetic, so the same results to the bit.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    fn sweep_avx2<const BIAS: bool>(&mut self) -> f32 {
+        self.sweep_impl::<BIAS>()
+    }
+
+    #[inline(always)]
+    fn sweep_impl<const BIAS: bool>(&mut self) -> f32 {
         let bodies = &mut self.bodies;
         let inv_h = Vec4::splat(self.inv_h);
         let slop = Vec4::splat(self.slop);
