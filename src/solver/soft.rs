@@ -745,6 +745,25 @@ impl SoftSolver {
         }
     }
 
+    /// Checks the layout: every contact's slot holds its pair, and no moving body appears
+    /// in two lanes of one wide constraint (for tests).
+    pub fn lanes_are_independent(&self, contacts: &[Contact]) -> bool {
+        let sink = self.bodies.len() as u32 - 1;
+        let pairs_ok = contacts.iter().zip(&self.slot).all(|(c, &at)| {
+            let (w, k) = (&self.wide[(at / 4) as usize], (at % 4) as usize);
+            w.a[k] == c.a && w.b[k] == c.b
+        });
+        let lanes_ok = self.wide.iter().all(|w| {
+            let mut written: Vec<u32> = w.wa.iter().chain(&w.wb).copied().collect();
+            written.retain(|&i| i != sink);
+            let n = written.len();
+            written.sort_unstable();
+            written.dedup();
+            written.len() == n
+        });
+        pairs_ok && lanes_ok
+    }
+
     /// Colours in use (the overflow group counts as one), for tests and figures.
     pub fn color_count(&self) -> usize {
         self.colors_used

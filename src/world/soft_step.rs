@@ -71,3 +71,24 @@ impl World {
         self.stats.ms_integrate = (t4 - t3).as_secs_f32() * 1e3;
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use crate::defs::SolverSettings;
+    use crate::world::World;
+
+    #[test]
+    fn lanes_of_a_wide_constraint_share_no_moving_body() {
+        let sc = crate::scene::load("pyramid").unwrap();
+        let mut s = SolverSettings::pgs();
+        s.soft_step = true;
+        s.substeps = 2;
+        let mut w = World::from_def(&sc.world, s).unwrap();
+        for _ in 0..5 {
+            w.step().unwrap();
+        }
+        assert!(!w.contacts.is_empty());
+        assert!(w.soft.lanes_are_independent(&w.contacts));
+        assert!(w.soft.color_count() >= 2);
+    }
+}
