@@ -299,6 +299,12 @@ fn simulate(a: &SimulateArgs) -> Result<(), Failure> {
             settings.baumgarte,
             settings.slop
         );
+        if settings.soft_step {
+            println!(
+                "soft step    contact_hertz={} contact_damping_ratio={} max_push_speed={}",
+                settings.contact_hertz, settings.contact_damping_ratio, settings.max_push_speed
+            );
+        }
         println!(
             "steps        {} ({} bodies)",
             summary.steps,
