@@ -431,9 +431,15 @@ fn a_runaway_world_names_the_body() {
 
 #[test]
 fn restitution_bounces_to_e_squared_height() {
-    // A ball dropped from height H on a pad of restitution e rises to about e^2 H.
-    for e in [0.5f32, 0.8] {
-        let mut w = World::new(Some(Vec2::new(0.0, -10.0)), SolverSettings::pgs());
+    // A ball dropped from height H on a pad of restitution e rises to about e^2 H, with
+    // classic PGS and with the soft step.
+    for (s, e) in [
+        (SolverSettings::pgs(), 0.5f32),
+        (SolverSettings::pgs(), 0.8),
+        (soft_settings(), 0.5),
+        (soft_settings(), 0.8),
+    ] {
+        let mut w = World::new(Some(Vec2::new(0.0, -10.0)), s);
         w.add_body(&BodyDef {
             restitution: e,
             ..ground(10.0)
@@ -467,7 +473,8 @@ fn restitution_bounces_to_e_squared_height() {
         let expected = e * e * 5.0;
         assert!(
             (apex - expected).abs() < 0.05 * 5.0,
-            "e = {e}: apex {apex}, expected {expected}"
+            "soft_step {}, e = {e}: apex {apex}, expected {expected}",
+            s.soft_step
         );
     }
 }
