@@ -486,7 +486,7 @@ fn soft_settings() -> SolverSettings {
     s.substeps = 4;
     s.iterations = 2;
     s.contact_hertz = 60.0;
-    s.slop = 0.002;
+    s.slop = 0.001;
     s
 }
 
