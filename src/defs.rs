@@ -212,11 +212,23 @@ pub struct SolverSettings {
     pub split_impulse: bool,
     /// Impacts slower than this (m/s) do not bounce.
     pub restitution_threshold: f32,
+    /// The soft step instead of classic PGS: one collide per step, `substeps` substeps
+    /// that reuse its manifolds, each with `iterations` soft (biased) sweeps and one rigid
+    /// relax sweep. See `solver::soft`.
+    pub soft_step: bool,
+    /// Soft step: the contact spring's frequency (Hz), capped at a quarter of the substep
+    /// rate; contacts against static or kinematic bodies use twice it.
+    pub contact_hertz: f32,
+    /// Soft step: the contact spring's damping ratio.
+    pub contact_damping_ratio: f32,
+    /// Soft step: the fastest a contact pushes overlapping bodies apart (m/s).
+    pub max_push_speed: f32,
 }
 
 impl SolverSettings {
     /// PGS defaults: dt 1/60, 1 substep, 10 iterations, tolerance 1e-4, warm start,
-    /// beta 0.2, slop 0.005 m, split impulse, restitution threshold 1 m/s.
+    /// beta 0.2, slop 0.005 m, split impulse, restitution threshold 1 m/s; soft step off
+    /// (when on: contacts of 30 Hz, damping ratio 10, push-out at most 3 m/s).
     pub fn pgs() -> Self {
         Self {
             kind: SolverKind::Pgs,
@@ -229,6 +241,10 @@ impl SolverSettings {
             slop: 0.005,
             split_impulse: true,
             restitution_threshold: 1.0,
+            soft_step: false,
+            contact_hertz: 30.0,
+            contact_damping_ratio: 10.0,
+            max_push_speed: 3.0,
         }
     }
 
@@ -270,6 +286,10 @@ pub struct SolverOverrides {
     pub slop: Option<f32>,
     pub split_impulse: Option<bool>,
     pub restitution_threshold: Option<f32>,
+    pub soft_step: Option<bool>,
+    pub contact_hertz: Option<f32>,
+    pub contact_damping_ratio: Option<f32>,
+    pub max_push_speed: Option<f32>,
 }
 
 impl SolverOverrides {
@@ -286,6 +306,10 @@ impl SolverOverrides {
             slop: other.slop.or(self.slop),
             split_impulse: other.split_impulse.or(self.split_impulse),
             restitution_threshold: other.restitution_threshold.or(self.restitution_threshold),
+            soft_step: other.soft_step.or(self.soft_step),
+            contact_hertz: other.contact_hertz.or(self.contact_hertz),
+            contact_damping_ratio: other.contact_damping_ratio.or(self.contact_damping_ratio),
+            max_push_speed: other.max_push_speed.or(self.max_push_speed),
         }
     }
 
@@ -305,6 +329,12 @@ impl SolverOverrides {
             restitution_threshold: self
                 .restitution_threshold
                 .unwrap_or(d.restitution_threshold),
+            soft_step: self.soft_step.unwrap_or(d.soft_step),
+            contact_hertz: self.contact_hertz.unwrap_or(d.contact_hertz),
+            contact_damping_ratio: self
+                .contact_damping_ratio
+                .unwrap_or(d.contact_damping_ratio),
+            max_push_speed: self.max_push_speed.unwrap_or(d.max_push_speed),
         }
     }
 }

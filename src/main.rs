@@ -199,6 +199,18 @@ struct SolverFlags {
     /// Allowed penetration (m).
     #[arg(long)]
     slop: Option<f32>,
+    /// Soft step (one collide per step, substeps reuse its manifolds, soft contacts).
+    #[arg(long, value_enum)]
+    soft_step: Option<OnOff>,
+    /// Soft step: contact spring frequency (Hz).
+    #[arg(long)]
+    contact_hertz: Option<f32>,
+    /// Soft step: contact spring damping ratio.
+    #[arg(long)]
+    contact_damping_ratio: Option<f32>,
+    /// Soft step: fastest push-out of overlap (m/s).
+    #[arg(long)]
+    max_push_speed: Option<f32>,
 }
 
 impl SolverFlags {
@@ -217,6 +229,10 @@ impl SolverFlags {
             slop: self.slop,
             split_impulse: self.split_impulse.map(Into::into),
             restitution_threshold: None,
+            soft_step: self.soft_step.map(Into::into),
+            contact_hertz: self.contact_hertz,
+            contact_damping_ratio: self.contact_damping_ratio,
+            max_push_speed: self.max_push_speed,
         }
     }
 }
@@ -389,6 +405,10 @@ fn simulate(a: &SimulateArgs) -> Result<(), Failure> {
                 "baumgarte": settings.baumgarte,
                 "slop": settings.slop,
                 "restitution_threshold": settings.restitution_threshold,
+                "soft_step": settings.soft_step,
+                "contact_hertz": settings.contact_hertz,
+                "contact_damping_ratio": settings.contact_damping_ratio,
+                "max_push_speed": settings.max_push_speed,
             },
             "steps": summary.steps,
             "bodies": world.bodies.len(),
@@ -420,6 +440,12 @@ fn simulate(a: &SimulateArgs) -> Result<(), Failure> {
             settings.baumgarte,
             settings.slop
         );
+        if settings.soft_step {
+            println!(
+                "soft step    contact_hertz={} contact_damping_ratio={} max_push_speed={}",
+                settings.contact_hertz, settings.contact_damping_ratio, settings.max_push_speed
+            );
+        }
         println!(
             "steps        {} ({} bodies)",
             summary.steps,

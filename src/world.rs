@@ -20,6 +20,9 @@ use crate::solver::pgs::SolverBody;
 use crate::solver::xpbd::XpbdContacts;
 
 mod measure;
+use crate::solver::soft::SoftSolver;
+
+mod soft_step;
 
 /// Contact points are kept while the gap is below this many slops (speculative contacts).
 const SPECULATIVE_SLOPS: f32 = 4.0;
@@ -133,6 +136,7 @@ pub struct World {
     xpbd_bodies: Vec<SolverBody>,
     xpbd_normal_sum: Vec<f32>,
     pseudo_bodies: Vec<SolverBody>,
+    soft: SoftSolver,
     stats: StepStats,
     step_count: u64,
     time: f64,
@@ -163,6 +167,7 @@ impl World {
             xpbd_bodies: Vec::new(),
             xpbd_normal_sum: Vec::new(),
             pseudo_bodies: Vec::new(),
+            soft: SoftSolver::default(),
             stats: StepStats::default(),
             step_count: 0,
             time: 0.0,
@@ -459,6 +464,13 @@ impl World {
         let h = self.settings.dt / n as f32;
         let mut total = StepStats::default();
         for _ in 0..n {
+            // the soft step has no joint rows: a world with joints takes the classic path
+            if self.settings.soft_step && self.joints.is_empty() && self.mouse.is_none() {
+                // one collide, n solver substeps inside (world/soft_step.rs)
+                self.step_soft();
+                total = self.stats;
+                break;
+            }
             self.substep_pgs(h);
             let s = self.stats;
             total.iterations += s.iterations;
@@ -874,6 +886,18 @@ pub fn check_settings(s: &SolverSettings) -> Result<(), BuildError> {
     }
     if !(0.0..=1.0).contains(&s.baumgarte) {
         return bad(format!("baumgarte must be in [0, 1], got {}", s.baumgarte));
+    }
+    if !(s.contact_hertz >= 0.0) || !(s.contact_damping_ratio >= 0.0) {
+        return bad(format!(
+            "contact_hertz and contact_damping_ratio must be >= 0, got {} and {}",
+            s.contact_hertz, s.contact_damping_ratio
+        ));
+    }
+    if !(s.max_push_speed > 0.0) {
+        return bad(format!(
+            "max_push_speed must be > 0, got {}",
+            s.max_push_speed
+        ));
     }
     if !(s.restitution_threshold >= 0.0) {
         return bad(format!(

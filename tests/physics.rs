@@ -431,9 +431,15 @@ fn a_runaway_world_names_the_body() {
 
 #[test]
 fn restitution_bounces_to_e_squared_height() {
-    // A ball dropped from height H on a pad of restitution e rises to about e^2 H.
-    for e in [0.5f32, 0.8] {
-        let mut w = World::new(Some(Vec2::new(0.0, -10.0)), SolverSettings::pgs());
+    // A ball dropped from height H on a pad of restitution e rises to about e^2 H, with
+    // classic PGS and with the soft step.
+    for (s, e) in [
+        (SolverSettings::pgs(), 0.5f32),
+        (SolverSettings::pgs(), 0.8),
+        (soft_settings(), 0.5),
+        (soft_settings(), 0.8),
+    ] {
+        let mut w = World::new(Some(Vec2::new(0.0, -10.0)), s);
         w.add_body(&BodyDef {
             restitution: e,
             ..ground(10.0)
@@ -467,7 +473,79 @@ fn restitution_bounces_to_e_squared_height() {
         let expected = e * e * 5.0;
         assert!(
             (apex - expected).abs() < 0.05 * 5.0,
-            "e = {e}: apex {apex}, expected {expected}"
+            "soft_step {}, e = {e}: apex {apex}, expected {expected}",
+            s.soft_step
         );
     }
+}
+
+/// The soft step as the large pyramid scene runs it.
+fn soft_settings() -> SolverSettings {
+    let mut s = SolverSettings::pgs();
+    s.soft_step = true;
+    s.substeps = 4;
+    s.iterations = 2;
+    s.contact_hertz = 60.0;
+    s.slop = 0.001;
+    s
+}
+
+#[test]
+fn soft_step_holds_the_pyramid_of_20_and_repeats_itself() {
+    let run = || {
+        let mut w = world_of("pyramid", soft_settings());
+        let start: Vec<Vec2> = w.bodies.iter().map(|b| b.position).collect();
+        for _ in 0..600 {
+            w.step().unwrap();
+        }
+        let worst = w
+            .bodies
+            .iter()
+            .zip(&start)
+            .map(|(b, s)| (b.position - *s).length())
+            .fold(0.0f32, f32::max);
+        let top = w.bodies.len() - 1;
+        let drift = (w.bodies[top].position.x - start[top].x).abs();
+        (worst, drift, w.state_hash())
+    };
+    let (worst, drift, hash) = run();
+    // 20 rows, each may sink by the slop and the springs' give
+    assert!(worst < 0.1, "a box moved {worst} m");
+    assert!(drift < 0.02, "top box drifted {drift} m sideways");
+    assert_eq!(run().2, hash, "same scene, same settings, same bits");
+}
+
+#[test]
+fn soft_step_resting_box_settles_and_does_not_creep() {
+    let s = soft_settings();
+    let mut w = World::new(Some(Vec2::new(0.0, -10.0)), s);
+    w.add_body(&ground(20.0)).unwrap();
+    let b = w
+        .add_body(&BodyDef {
+            name: "box".into(),
+            position: Vec2::new(0.0, 0.5),
+            ..Default::default()
+        })
+        .unwrap();
+    let mut x_settled = 0.0;
+    for k in 1..=600 {
+        w.step().unwrap();
+        let body = &w.bodies[b];
+        let pen = 0.5 - body.position.y;
+        assert!(pen <= s.slop + 1e-3, "penetration {pen}");
+        assert!(body.position.y < 0.5 + 1e-3, "the box does not hover");
+        // a soft contact lets the box sink into the slop (about 200 steps here); it
+        // slides a fraction of a millimetre while it sinks, and not after
+        assert!(
+            body.position.x.abs() < 1e-3 && body.angle.abs() < 1e-4,
+            "creep: x {} angle {}",
+            body.position.x,
+            body.angle
+        );
+        if k == 300 {
+            x_settled = body.position.x;
+        }
+    }
+    let creep = (w.bodies[b].position.x - x_settled).abs();
+    assert!(creep < 1e-5, "crept {creep} m in the last 300 steps");
 }

@@ -14,6 +14,15 @@ pub type Pair = (u32, u32);
 #[derive(Clone, Default, Debug)]
 pub struct BroadPhase {
     entries: Vec<(u64, u32)>,
+    /// (body, [x0, y0, x1, y1]): the cells each body that is not large covers.
+    ranges: Vec<(u32, [i64; 4])>,
+    /// Dense grid: where each cell's bodies start in `cell_bodies` (counting sort).
+    cell_start: Vec<u32>,
+    cell_fill: Vec<u32>,
+    cell_bodies: Vec<u32>,
+    /// Counting sort of the pairs by their first body.
+    pair_start: Vec<u32>,
+    pairs_tmp: Vec<Pair>,
     large: Vec<u32>,
     sizes: Vec<f32>,
     /// Candidate pairs from the last [`BroadPhase::find_pairs`], sorted.
@@ -64,7 +73,10 @@ impl BroadPhase {
             (2.0 * *m).max(1e-3)
         };
         let inv = 1.0 / cell;
-        let to_cell = |v: Vec2| ((v.x * inv).floor() as i64, (v.y * inv).floor() as i64);
+        let to_cell = |v: Vec2| (floor_i64(v.x * inv), floor_i64(v.y * inv));
+        // each body's cell range; the grid's bounds
+        self.ranges.clear();
+        let (mut gx0, mut gy0, mut gx1, mut gy1) = (i64::MAX, i64::MAX, i64::MIN, i64::MIN);
         for (i, b) in aabbs.iter().enumerate() {
             let (x0, y0) = to_cell(b.min);
             let (x1, y1) = to_cell(b.max);
@@ -76,9 +88,170 @@ impl BroadPhase {
                 self.large.push(i as u32);
                 continue;
             }
+            self.ranges.push((i as u32, [x0, y0, x1, y1]));
+            (gx0, gy0, gx1, gy1) = (gx0.min(x0), gy0.min(y0), gx1.max(x1), gy1.max(y1));
+        }
+        let (w, h) = (gx1 - gx0 + 1, gy1 - gy0 + 1);
+        let dense = !self.ranges.is_empty()
+            && w > 0
+            && h > 0
+            && w.saturating_mul(h) <= (8 * self.ranges.len() as i64).max(1 << 16);
+        if dense {
+            self.pairs_dense(
+                aabbs,
+                moves,
+                &can_collide,
+                inv,
+                [gx0, gy0],
+                w as usize,
+                h as usize,
+            );
+        } else {
+            self.pairs_sorted(aabbs, moves, &can_collide, inv);
+        }
+
+        for (k, &l) in self.large.iter().enumerate() {
+            let bl = &aabbs[l as usize];
+            for (i, b) in aabbs.iter().enumerate() {
+                let i = i as u32;
+                // a large-large pair is tested once, from the earlier large body
+                if i == l || (self.large[..=k].contains(&i)) {
+                    continue;
+                }
+                if !(moves[l as usize] || moves[i as usize]) || !bl.overlaps(b) {
+                    continue;
+                }
+                let p = if l < i { (l, i) } else { (i, l) };
+                if can_collide(p.0, p.1) {
+                    self.pairs.push(p);
+                }
+            }
+        }
+        self.sort_pairs(aabbs.len());
+        self.pairs.dedup();
+    }
+
+    /// Sorts the pairs by (a, b): a counting sort by a, then each (short) run of equal a
+    /// by insertion. The same order as `sort_unstable`, in linear time.
+    fn sort_pairs(&mut self, bodies: usize) {
+        let start = &mut self.pair_start;
+        start.clear();
+        start.resize(bodies + 1, 0);
+        for &(a, _) in &self.pairs {
+            start[a as usize + 1] += 1;
+        }
+        for i in 1..start.len() {
+            start[i] += start[i - 1];
+        }
+        self.pairs_tmp.clear();
+        self.pairs_tmp.resize(self.pairs.len(), (0, 0));
+        // start[a] runs over a's slots as they fill, and ends at a + 1's first slot
+        for &p in &self.pairs {
+            let at = &mut start[p.0 as usize];
+            self.pairs_tmp[*at as usize] = p;
+            *at += 1;
+        }
+        std::mem::swap(&mut self.pairs, &mut self.pairs_tmp);
+        let mut lo = 0;
+        for &hi in &start[..bodies] {
+            let run = &mut self.pairs[lo..hi as usize];
+            for i in 1..run.len() {
+                let x = run[i];
+                let mut j = i;
+                while j > 0 && run[j - 1] > x {
+                    run[j] = run[j - 1];
+                    j -= 1;
+                }
+                run[j] = x;
+            }
+            lo = hi as usize;
+        }
+    }
+}
+
+impl BroadPhase {
+    /// The cells of a bounded grid (w x h cells from `origin`) hold the bodies, placed by
+    /// a counting sort: within a cell in body order, cells in row order.
+    #[allow(clippy::too_many_arguments)]
+    fn pairs_dense(
+        &mut self,
+        aabbs: &[Aabb],
+        moves: &[bool],
+        can_collide: &impl Fn(u32, u32) -> bool,
+        inv: f32,
+        origin: [i64; 2],
+        w: usize,
+        h: usize,
+    ) {
+        let cell_of = |ix: i64, iy: i64| (iy - origin[1]) as usize * w + (ix - origin[0]) as usize;
+        self.cell_start.clear();
+        self.cell_start.resize(w * h + 1, 0);
+        for &(_, [x0, y0, x1, y1]) in &self.ranges {
+            for iy in y0..=y1 {
+                for ix in x0..=x1 {
+                    self.cell_start[cell_of(ix, iy) + 1] += 1;
+                }
+            }
+        }
+        for c in 1..self.cell_start.len() {
+            self.cell_start[c] += self.cell_start[c - 1];
+        }
+        let total = self.cell_start[w * h] as usize;
+        self.cell_bodies.clear();
+        self.cell_bodies.resize(total, 0);
+        // fill: cell_fill[c] runs from cell_start[c]
+        self.cell_fill.clear();
+        self.cell_fill.extend_from_slice(&self.cell_start[..w * h]);
+        for &(i, [x0, y0, x1, y1]) in &self.ranges {
+            for iy in y0..=y1 {
+                for ix in x0..=x1 {
+                    let c = cell_of(ix, iy);
+                    self.cell_bodies[self.cell_fill[c] as usize] = i;
+                    self.cell_fill[c] += 1;
+                }
+            }
+        }
+        for c in 0..w * h {
+            let (start, end) = (self.cell_start[c] as usize, self.cell_start[c + 1] as usize);
+            if end - start < 2 {
+                continue;
+            }
+            let (cx, cy) = ((c % w) as i64 + origin[0], (c / w) as i64 + origin[1]);
+            let here = &self.cell_bodies[start..end];
+            for (k, &a) in here.iter().enumerate() {
+                let ba = &aabbs[a as usize];
+                for &b in &here[k + 1..] {
+                    let bb = &aabbs[b as usize];
+                    if !(moves[a as usize] || moves[b as usize]) || !ba.overlaps(bb) {
+                        continue;
+                    }
+                    // report only from the cell holding the overlap's lower-left corner
+                    let corner = ba.min.max(bb.min);
+                    if (floor_i64(corner.x * inv), floor_i64(corner.y * inv)) != (cx, cy) {
+                        continue;
+                    }
+                    // a < b: bodies lie in a cell in increasing order
+                    if can_collide(a, b) {
+                        self.pairs.push((a, b));
+                    }
+                }
+            }
+        }
+    }
+
+    /// The sparse case: (cell key, body) entries sorted.
+    fn pairs_sorted(
+        &mut self,
+        aabbs: &[Aabb],
+        moves: &[bool],
+        can_collide: &impl Fn(u32, u32) -> bool,
+        inv: f32,
+    ) {
+        let to_cell = |v: Vec2| (floor_i64(v.x * inv), floor_i64(v.y * inv));
+        for &(i, [x0, y0, x1, y1]) in &self.ranges {
             for ix in x0..=x1 {
                 for iy in y0..=y1 {
-                    self.entries.push((cell_key(ix, iy), i as u32));
+                    self.entries.push((cell_key(ix, iy), i));
                 }
             }
         }
@@ -114,27 +287,14 @@ impl BroadPhase {
             }
             start = end;
         }
-
-        for (k, &l) in self.large.iter().enumerate() {
-            let bl = &aabbs[l as usize];
-            for (i, b) in aabbs.iter().enumerate() {
-                let i = i as u32;
-                // a large-large pair is tested once, from the earlier large body
-                if i == l || (self.large[..=k].contains(&i)) {
-                    continue;
-                }
-                if !(moves[l as usize] || moves[i as usize]) || !bl.overlaps(b) {
-                    continue;
-                }
-                let p = if l < i { (l, i) } else { (i, l) };
-                if can_collide(p.0, p.1) {
-                    self.pairs.push(p);
-                }
-            }
-        }
-        self.pairs.sort_unstable();
-        self.pairs.dedup();
     }
+}
+
+/// floor(x) as an integer, without a libm call: truncate, then step down below zero.
+#[inline(always)]
+fn floor_i64(x: f32) -> i64 {
+    let i = x as i64;
+    if (i as f32) > x { i - 1 } else { i }
 }
 
 #[cfg(test)]
@@ -174,6 +334,30 @@ mod tests {
                 }
             }
         }
+        assert_eq!(bp.pairs, brute);
+    }
+
+    #[test]
+    fn sparse_grid_matches_all_pairs() {
+        // two clusters far apart: too many cells for the dense grid, so entries are sorted
+        let mut boxes = Vec::new();
+        for k in 0..40 {
+            let x = (k % 8) as f32 * 0.7 + if k < 20 { 0.0 } else { 1.0e5 };
+            let y = (k / 8) as f32 * 0.7;
+            boxes.push(aabb(x, y, x + 1.0, y + 1.0));
+        }
+        let moves = vec![true; boxes.len()];
+        let mut bp = BroadPhase::default();
+        bp.find_pairs(&boxes, &moves, |_, _| true);
+        let mut brute = Vec::new();
+        for a in 0..boxes.len() {
+            for b in a + 1..boxes.len() {
+                if boxes[a].overlaps(&boxes[b]) {
+                    brute.push((a as u32, b as u32));
+                }
+            }
+        }
+        assert!(!brute.is_empty());
         assert_eq!(bp.pairs, brute);
     }
 }

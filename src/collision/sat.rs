@@ -168,17 +168,35 @@ pub fn collide_polygons(
     xb: &Transform,
     margin: f32,
 ) -> Manifold {
+    if pa.count == 4 && pb.count == 4 {
+        // boxes: the same code with the counts known, so every loop unrolls
+        collide_polygons_n(pa, 4, xa, pb, 4, xb, margin)
+    } else {
+        collide_polygons_n(pa, pa.count, xa, pb, pb.count, xb, margin)
+    }
+}
+
+/// [`collide_polygons`] for polygons of `na` and `nb` vertices.
+#[inline(always)]
+fn collide_polygons_n(
+    pa: &Polygon,
+    na_count: usize,
+    xa: &Transform,
+    pb: &Polygon,
+    nb_count: usize,
+    xb: &Transform,
+    margin: f32,
+) -> Manifold {
     let mut m = Manifold::default();
     let rel = xa.inv_mul(xb);
-    let nb_count = pb.count;
     let mut vb = [Vec2::ZERO; MAX_POLYGON_VERTICES];
     let mut nb = [Vec2::ZERO; MAX_POLYGON_VERTICES];
     for i in 0..nb_count {
         vb[i] = rel.apply(pb.vertices[i]);
         nb[i] = rel.q.rotate(pb.normals[i]);
     }
-    let va = &pa.vertices[..pa.count];
-    let na = &pa.normals[..pa.count];
+    let va = &pa.vertices[..na_count];
+    let na = &pa.normals[..na_count];
     let vb = &vb[..nb_count];
     let nb = &nb[..nb_count];
 

@@ -83,6 +83,10 @@ pub(crate) struct FileSolver {
     pub slop: Option<S<f32>>,
     pub split_impulse: Option<S<bool>>,
     pub restitution_threshold: Option<S<f32>>,
+    pub soft_step: Option<S<bool>>,
+    pub contact_hertz: Option<S<f32>>,
+    pub contact_damping_ratio: Option<S<f32>>,
+    pub max_push_speed: Option<S<f32>>,
 }
 
 /// `[camera]`.

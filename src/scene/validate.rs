@@ -468,6 +468,16 @@ impl Ctx<'_> {
             restitution_threshold: f(&s.restitution_threshold, &|v| {
                 self.non_negative(who, "restitution_threshold", v)
             })?,
+            soft_step: s.soft_step.as_ref().map(|v| *v.get_ref()),
+            contact_hertz: f(&s.contact_hertz, &|v| {
+                self.non_negative(who, "contact_hertz", v)
+            })?,
+            contact_damping_ratio: f(&s.contact_damping_ratio, &|v| {
+                self.non_negative(who, "contact_damping_ratio", v)
+            })?,
+            max_push_speed: f(&s.max_push_speed, &|v| {
+                self.positive(who, "max_push_speed", v)
+            })?,
         })
     }
 

@@ -4,4 +4,5 @@
 pub mod contact_cache;
 pub mod joint_rows;
 pub mod pgs;
+pub mod soft;
 pub mod xpbd;

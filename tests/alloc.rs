@@ -1,0 +1,54 @@
+//! The step allocates nothing in steady state (counted by a global allocator; this file
+//! holds one test so no other test allocates on the same counter).
+
+use std::alloc::{GlobalAlloc, Layout, System};
+use std::cell::Cell;
+
+use sandbox2d::{SolverSettings, World, scene};
+
+struct Counting;
+
+thread_local! {
+    static ALLOCS: Cell<usize> = const { Cell::new(0) };
+}
+
+// SAFETY: forwards to the system allocator; only counts, per thread.
+unsafe impl GlobalAlloc for Counting {
+    unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
+        ALLOCS.with(|a| a.set(a.get() + 1));
+        unsafe { System.alloc(layout) }
+    }
+    unsafe fn dealloc(&self, ptr: *mut u8, layout: Layout) {
+        unsafe { System.dealloc(ptr, layout) }
+    }
+    unsafe fn realloc(&self, ptr: *mut u8, layout: Layout, new_size: usize) -> *mut u8 {
+        ALLOCS.with(|a| a.set(a.get() + 1));
+        unsafe { System.realloc(ptr, layout, new_size) }
+    }
+}
+
+#[global_allocator]
+static COUNTING: Counting = Counting;
+
+#[test]
+fn steady_steps_allocate_nothing() {
+    let mut soft = SolverSettings::pgs();
+    soft.soft_step = true;
+    soft.substeps = 4;
+    soft.iterations = 2;
+    for s in [SolverSettings::pgs(), soft] {
+        let built = ALLOCS.with(|a| a.get());
+        let sc = scene::load("pyramid").unwrap();
+        let mut w = World::from_def(&sc.world, s).unwrap();
+        assert!(ALLOCS.with(|a| a.get()) > built, "the counter counts");
+        for _ in 0..100 {
+            w.step().unwrap();
+        }
+        let before = ALLOCS.with(|a| a.get());
+        for _ in 0..100 {
+            w.step().unwrap();
+        }
+        let after = ALLOCS.with(|a| a.get());
+        assert_eq!(after - before, 0, "soft_step {}: allocations", s.soft_step);
+    }
+}
