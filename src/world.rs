@@ -50,8 +50,6 @@ pub enum BuildError {
         index: usize,
         count: usize,
     },
-    #[error("joints are not supported by this build yet ({0} joint(s) in the scene)")]
-    JointsUnsupported(usize),
     #[error("joint #{0}: {1}")]
     Joint(usize, String),
     #[error("solver: {0}")]
@@ -71,8 +69,6 @@ pub enum StepError {
         position: Vec2,
         velocity: Vec2,
     },
-    #[error("the {0} solver is not available in this build")]
-    Unsupported(&'static str),
 }
 
 /// What one step did and cost.

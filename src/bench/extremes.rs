@@ -12,7 +12,7 @@ use super::{Setting, joint_error};
 use crate::defs::{SolverKind, WorldDef};
 use crate::math::Vec2;
 use crate::scene;
-use crate::world::{BuildError, StepError, World};
+use crate::world::World;
 
 /// Allowed overlap before a run counts as inaccurate (m): ten slops.
 pub const MAX_PENETRATION: f32 = 0.05;
@@ -384,11 +384,6 @@ fn drive(
     for k in 1..=steps {
         match world.step() {
             Ok(()) => {}
-            Err(StepError::Unsupported(what)) => {
-                return Err(CaseResult::Unsupported(format!(
-                    "the {what} solver is not available in this build"
-                )));
-            }
             Err(e) => {
                 return Err(CaseResult::Failed(format!(
                     "unstable: non-finite at step {k}: {e}"
@@ -413,7 +408,6 @@ pub fn check(sweep: Sweep, value: f64, setting: &Setting) -> CaseResult {
     let def = world_def(sweep, value);
     let mut world = match World::from_def(&def, setting.resolve(&def.solver)) {
         Ok(w) => w,
-        Err(e @ BuildError::JointsUnsupported(_)) => return CaseResult::Unsupported(e.to_string()),
         Err(e) => return CaseResult::Failed(format!("build: {e}")),
     };
     match run_case(sweep, value, &mut world) {

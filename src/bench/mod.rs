@@ -21,7 +21,7 @@ use std::time::Instant;
 
 use crate::defs::{SolverKind, SolverOverrides, SolverSettings, WorldDef};
 use crate::math::Vec2;
-use crate::world::{BuildError, StepError, World};
+use crate::world::World;
 
 pub use scenes::{BenchScene, Metric, Track};
 
@@ -342,10 +342,6 @@ pub fn tracked_body(world: &World, track: &Track) -> Option<usize> {
     }
 }
 
-fn is_unsupported_build(e: &BuildError) -> bool {
-    matches!(e, BuildError::JointsUnsupported(_))
-}
-
 fn median(v: &mut [f64]) -> f64 {
     if v.is_empty() {
         return f64::NAN;
@@ -362,13 +358,7 @@ fn median(v: &mut [f64]) -> f64 {
 /// Builds a world for a scene description at a setting.
 pub fn build(def: &WorldDef, setting: &Setting) -> Result<World, Outcome> {
     let settings = setting.resolve(&def.solver);
-    World::from_def(def, settings).map_err(|e| {
-        if is_unsupported_build(&e) {
-            Outcome::Unsupported(e.to_string())
-        } else {
-            Outcome::Failed(e.to_string())
-        }
-    })
+    World::from_def(def, settings).map_err(|e| Outcome::Failed(e.to_string()))
 }
 
 /// Runs one scene at one setting: `budget.repeats` timed runs of `budget.steps` steps;
@@ -418,11 +408,6 @@ pub fn run_case(scene: &BenchScene, setting: &Setting, budget: &Budget) -> Outco
             let ms = t.elapsed().as_secs_f64() * 1e3;
             match r {
                 Ok(()) => {}
-                Err(StepError::Unsupported(what)) => {
-                    return Outcome::Unsupported(format!(
-                        "the {what} solver is not available in this build"
-                    ));
-                }
                 Err(e) => {
                     failure = Some(format!("non-finite state at step {k}: {e}"));
                     break;

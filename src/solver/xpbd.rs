@@ -37,8 +37,6 @@ pub struct XpbdPoint {
 #[derive(Clone, Debug, Default)]
 pub struct XpbdContacts {
     pub points: Vec<XpbdPoint>,
-    /// Positions and angles at the start of the substep.
-    pub prev: Vec<(Vec2, f32)>,
     /// Positions and rotations at the start of the substep.
     pub prev_rot: Vec<(Vec2, Rot)>,
 }
@@ -90,9 +88,6 @@ impl XpbdContacts {
     /// Records where the bodies are at the start of a substep (after the prediction the
     /// caller does next) and the normal velocities before the solve; resets lambdas.
     pub fn begin_substep(&mut self, bodies: &[Body]) {
-        self.prev.clear();
-        self.prev
-            .extend(bodies.iter().map(|b| (b.position, b.angle)));
         self.prev_rot.clear();
         self.prev_rot
             .extend(bodies.iter().map(|b| (b.position, b.rot)));
