@@ -729,7 +729,7 @@ impl World {
     }
 
     fn substep_pgs(&mut self, h: f32) {
-        let (ms_broad, ms_narrow) = self.collide(h, false);
+        let (ms_broad, ms_narrow) = self.collide(h, true);
         let t1 = Instant::now();
         self.integrate_velocities(h);
         let t2 = Instant::now();
@@ -745,6 +745,9 @@ impl World {
         );
         let joints = !self.joint_rows.is_empty();
         let mut st = crate::solver::pgs::SolveStats::default();
+        // restitution first, as collisions passed pair to pair
+        self.pgs
+            .resolve_collisions(s.restitution_threshold, h, s.iterations);
         if s.warm_start {
             self.pgs.warm_start();
             self.joint_rows.warm_start(&mut self.pgs.bodies);
@@ -765,7 +768,6 @@ impl World {
             self.joint_rows.damp(&mut self.pgs.bodies, h);
             self.joint_rows.store(&mut self.joints);
         }
-        self.pgs.apply_restitution(s.restitution_threshold);
         let joint_positions = joints && self.joint_rows.has_position_rows();
         if s.split_impulse && (joint_positions || self.pgs.needs_position_solve()) {
             for _ in 0..s.iterations {
@@ -808,7 +810,9 @@ impl World {
                 }
             }
             let (pv, pw) = if b.is_dynamic() {
-                self.pgs.pseudo[i]
+                // pseudo-velocities (split impulse) and collisions' time-of-impact shifts
+                let ((pv, pw), (iv, iw)) = (self.pgs.pseudo[i], self.pgs.impact[i]);
+                (pv + iv, pw + iw)
             } else {
                 (Vec2::ZERO, 0.0)
             };

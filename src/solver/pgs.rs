@@ -98,9 +98,8 @@ struct Point {
     /// the pseudo-velocity row's target: -beta/dt S
     position_bias: f32,
     pseudo_impulse: f32,
-    /// relative normal velocity before the solve, for restitution
-    relative_velocity: f32,
-    max_normal_impulse: f32,
+    /// the gap at the step start (m, < 0 overlapping), to tell whether a collision is due
+    separation: f32,
 }
 
 #[derive(Clone, Copy, Debug, Default)]
@@ -112,6 +111,8 @@ struct Constraint {
     restitution: f32,
     count: u32,
     points: [Point; 2],
+    /// collided this step (its time-of-impact correction is made once)
+    collided: bool,
 }
 
 /// What one solve did.
@@ -133,6 +134,9 @@ pub struct PgsSolver {
     pub bodies: Vec<SolverBody>,
     /// Pseudo-velocities (split impulse) of this step: (v, w).
     pub pseudo: Vec<(Vec2, f32)>,
+    /// Time-of-impact corrections of this step's collisions, as velocities over the
+    /// step (the displacement is h times them): (v, w). Zero where nothing collided.
+    pub impact: Vec<(Vec2, f32)>,
 }
 
 impl PgsSolver {
@@ -149,6 +153,8 @@ impl PgsSolver {
         }));
         self.pseudo.clear();
         self.pseudo.resize(bodies.len(), (Vec2::ZERO, 0.0));
+        self.impact.clear();
+        self.impact.resize(bodies.len(), (Vec2::ZERO, 0.0));
         self.constraints.clear();
         for c in contacts {
             let ba = self.bodies[c.a as usize];
@@ -163,6 +169,7 @@ impl PgsSolver {
                 restitution: c.restitution,
                 count: c.manifold.count as u32,
                 points: [Point::default(); 2],
+                collided: false,
             };
             for (i, cp) in c.manifold.points().iter().enumerate() {
                 let (ra, rb) = (cp.anchor_a, cp.anchor_b);
@@ -173,7 +180,6 @@ impl PgsSolver {
                 let rta = cross(ra, t);
                 let rtb = cross(rb, t);
                 let kt = ba.inv_m + bb.inv_m + ba.inv_i * rta * rta + bb.inv_i * rtb * rtb;
-                let dv = bb.v + cross_sv(bb.w, rb) - ba.v - cross_sv(ba.w, ra);
                 let sep = cp.separation;
                 // S = min(sigma + slop, 0): the overlap beyond the slop
                 let s_err = (sep + s.slop).min(0.0);
@@ -201,8 +207,7 @@ impl PgsSolver {
                     velocity_bias,
                     position_bias,
                     pseudo_impulse: 0.0,
-                    relative_velocity: n.dot(dv),
-                    max_normal_impulse: 0.0,
+                    separation: sep,
                 };
             }
             self.constraints.push(con);
@@ -251,7 +256,6 @@ impl PgsSolver {
                 let new = (p.normal_impulse + d).max(0.0);
                 let d = new - p.normal_impulse;
                 p.normal_impulse = new;
-                p.max_normal_impulse = p.max_normal_impulse.max(new);
                 residual = residual.max(d.abs());
                 pv.apply(d * n, p.ra, p.rb);
             }
@@ -260,29 +264,115 @@ impl PgsSolver {
         residual
     }
 
-    /// Restitution: a point that was approaching faster than the threshold and is pushed
-    /// leaves with -e times its approach speed.
-    pub fn apply_restitution(&mut self, threshold: f32) {
-        for c in &mut self.constraints {
-            if c.restitution == 0.0 {
-                continue;
-            }
-            let n = c.normal;
-            let mut pv = PairVel::load(&self.bodies, c.a, c.b);
-            for p in &mut c.points[..c.count as usize] {
-                if p.relative_velocity > -threshold || p.max_normal_impulse == 0.0 {
+    /// Restitution as a sequence of collisions, run before the velocity sweeps (the
+    /// collision phase of Guendelman et al. 2003). A manifold whose points approach faster
+    /// than `threshold` and would meet within `dt` collides: its normal impulses (and
+    /// friction, bounded by mu times them) are solved to the target v_n' = -e v_n, with
+    /// v_n the approach speed *now*. Sweeps repeat, up to `max_sweeps`, while any
+    /// manifold collides, so a collision passes along a row of touching bodies one pair
+    /// at a time, as in Newton's cradle, instead of the row sharing it at once. These
+    /// impulses are not cached: the velocity sweeps that follow see separating pairs and
+    /// leave them alone.
+    ///
+    /// A pair still apart at the step start (gap g > 0, a speculative contact) meets at
+    /// tau = g / -v_n into the step, not at its start. Reversing it at once would end the
+    /// step (1 + e) g too far apart and gain that much height every bounce, so the first
+    /// collision of a pair in a step also records, in `impact`, the displacement that
+    /// closes that difference. Returns the sweeps run.
+    pub fn resolve_collisions(&mut self, threshold: f32, dt: f32, max_sweeps: u32) -> u32 {
+        // inner Gauss-Seidel passes over one manifold's (at most 2 normal + 2 friction) rows
+        const INNER: usize = 4;
+        let mut sweeps = 0;
+        if self.constraints.iter().all(|c| c.restitution == 0.0) {
+            return 0;
+        }
+        let inv_dt = 1.0 / dt;
+        for _ in 0..max_sweeps {
+            sweeps += 1;
+            let mut collided = false;
+            for c in &mut self.constraints {
+                if c.restitution == 0.0 {
                     continue;
                 }
-                // target J v = -e v_before
-                let d = -p.normal_mass
-                    * (pv.relative(p.ra, p.rb).dot(n) + c.restitution * p.relative_velocity);
-                let new = (p.normal_impulse + d).max(0.0);
-                let d = new - p.normal_impulse;
-                p.normal_impulse = new;
-                pv.apply(d * n, p.ra, p.rb);
+                let n = c.normal;
+                let t = Vec2::new(n.y, -n.x);
+                let count = c.count as usize;
+                let mut pv = PairVel::load(&self.bodies, c.a, c.b);
+                let mut target = [0.0f32; 2];
+                let mut active = [false; 2];
+                let mut hit = [false; 2];
+                for (i, p) in c.points[..count].iter().enumerate() {
+                    let vn = pv.relative(p.ra, p.rb).dot(n);
+                    // touching, or the gap closes before the step ends
+                    if p.separation + vn * dt < 0.0 {
+                        active[i] = true;
+                        if vn < -threshold {
+                            target[i] = -c.restitution * vn;
+                            hit[i] = true;
+                        }
+                    }
+                }
+                if !hit[0] && !hit[1] {
+                    continue;
+                }
+                collided = true;
+                let (mut ln, mut lt) = ([0.0f32; 2], [0.0f32; 2]);
+                for _ in 0..INNER {
+                    for i in 0..count {
+                        if !active[i] {
+                            continue;
+                        }
+                        let p = &c.points[i];
+                        let d = -p.tangent_mass * pv.relative(p.ra, p.rb).dot(t);
+                        let bound = c.friction * ln[i];
+                        let new = (lt[i] + d).clamp(-bound, bound);
+                        pv.apply((new - lt[i]) * t, p.ra, p.rb);
+                        lt[i] = new;
+                    }
+                    for i in 0..count {
+                        if !active[i] {
+                            continue;
+                        }
+                        let p = &c.points[i];
+                        let d = -p.normal_mass * (pv.relative(p.ra, p.rb).dot(n) - target[i]);
+                        let new = (ln[i] + d).max(0.0);
+                        pv.apply((new - ln[i]) * n, p.ra, p.rb);
+                        ln[i] = new;
+                    }
+                }
+                pv.store(&mut self.bodies, c.a, c.b);
+                if !c.collided {
+                    c.collided = true;
+                    // the gap at the step's end should be (1 + e) g smaller than a
+                    // reversal at the start leaves it: solve J u = -(1 + e) g / dt for
+                    // the displacement velocities u, pulling only
+                    let gapped = |i: usize| hit[i] && c.points[i].separation > 0.0;
+                    if gapped(0) || (count > 1 && gapped(1)) {
+                        let mut uv = PairVel::load_pseudo(&self.bodies, &self.impact, c.a, c.b);
+                        let mut q = [0.0f32; 2];
+                        for _ in 0..INNER {
+                            for i in 0..count {
+                                if !gapped(i) {
+                                    continue;
+                                }
+                                let p = &c.points[i];
+                                let goal = -(1.0 + c.restitution) * p.separation * inv_dt;
+                                let d = -p.normal_mass * (uv.relative(p.ra, p.rb).dot(n) - goal);
+                                let new = (q[i] + d).min(0.0);
+                                uv.apply((new - q[i]) * n, p.ra, p.rb);
+                                q[i] = new;
+                            }
+                        }
+                        self.impact[c.a as usize] = (uv.va, uv.wa);
+                        self.impact[c.b as usize] = (uv.vb, uv.wb);
+                    }
+                }
             }
-            pv.store(&mut self.bodies, c.a, c.b);
+            if !collided {
+                break;
+            }
         }
+        sweeps
     }
 
     /// Whether any point has position error beyond the slop to correct apart.
@@ -315,10 +405,11 @@ impl PgsSolver {
         residual
     }
 
-    /// The whole solve: warm start, velocity sweeps to the cap or the tolerance,
-    /// restitution, then (split impulse) the position sweeps.
-    pub fn solve(&mut self, s: &SolverSettings) -> SolveStats {
+    /// The whole solve of a step of `dt`: collisions (restitution), warm start, velocity
+    /// sweeps to the cap or the tolerance, then (split impulse) the position sweeps.
+    pub fn solve(&mut self, s: &SolverSettings, dt: f32) -> SolveStats {
         let mut stats = SolveStats::default();
+        self.resolve_collisions(s.restitution_threshold, dt, s.iterations);
         if s.warm_start {
             self.warm_start();
         }
@@ -329,7 +420,6 @@ impl PgsSolver {
                 break;
             }
         }
-        self.apply_restitution(s.restitution_threshold);
         if s.split_impulse && self.needs_position_solve() {
             for _ in 0..s.iterations {
                 let r = self.sweep_position();
