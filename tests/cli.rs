@@ -189,8 +189,12 @@ fn bench_writes_csv_markdown_and_plots_quietly() {
         assert!(header.contains(&col), "{col} missing from {header:?}");
     }
     let rows: Vec<Vec<&str>> = lines.map(|l| l.split(',').collect()).collect();
-    // 24 PGS settings and 6 XPBD settings of the one scene "stack"
-    assert_eq!(rows.len(), 30);
+    // 24 PGS settings, 6 XPBD and 6 soft-step settings of the one scene "stack"
+    assert_eq!(rows.len(), 36);
+    let solver = header.iter().position(|c| *c == "solver").unwrap();
+    for (name, count) in [("pgs", 24), ("xpbd", 6), ("soft", 6)] {
+        assert_eq!(rows.iter().filter(|r| r[solver] == name).count(), count);
+    }
     let stable = header.iter().position(|c| *c == "stable").unwrap();
     let ms = header.iter().position(|c| *c == "ms_per_step").unwrap();
     for r in &rows {

@@ -14,6 +14,7 @@ fn color(f: Family) -> RGBColor {
         Family::PgsSplit => RGBColor(255, 127, 14),
         Family::PgsCold => RGBColor(148, 103, 189),
         Family::Xpbd => RGBColor(214, 39, 40),
+        Family::Soft => RGBColor(23, 190, 207),
     }
 }
 

@@ -79,7 +79,8 @@ pub fn csv(rows: &[Row]) -> String {
         let s = &r.setting;
         let mut f = vec![
             csv_field(&r.scene),
-            s.kind.name().to_string(),
+            // "pgs", "xpbd", or "soft" (PGS's soft step)
+            if s.soft_step { "soft" } else { s.kind.name() }.to_string(),
             s.iterations.to_string(),
             s.substeps.to_string(),
             s.warm_start.to_string(),
