@@ -150,7 +150,7 @@ fn a_resting_box_s_converged_lambdas_carry_its_weight() {
 }
 
 #[test]
-fn what_the_build_cannot_run_is_na_not_unstable() {
+fn both_solvers_run_stacks_and_joints_and_a_build_failure_is_na() {
     let sc = scene("pyramid20");
     let budget = Budget {
         steps: 5,
@@ -164,9 +164,9 @@ fn what_the_build_cannot_run_is_na_not_unstable() {
     let csv = bench::report::csv(&[bench::Row {
         scene: "pendulum".into(),
         setting: Setting::xpbd(4),
-        outcome: Outcome::Unsupported("xpbd".into()),
+        outcome: Outcome::Failed("no such body".into()),
     }]);
-    assert!(csv.lines().nth(1).unwrap().contains(",n/a (unsupported),"));
+    assert!(csv.lines().nth(1).unwrap().contains(",n/a (build failed),"));
 }
 
 #[test]

@@ -1,7 +1,6 @@
 //! The claims of docs/stability.md, re-checked: every "holds through" value must hold
 //! and every "fails at" value must fail, with the same scenes and bounds as
 //! `sandbox2d bench --suite extremes` (closed forms and bounds in src/bench/extremes.rs).
-//! Rows marked n/a (XPBD, joints not in this build) make no claim.
 
 use sandbox2d::bench::extremes::{self, CaseResult, Sweep};
 

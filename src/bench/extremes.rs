@@ -212,8 +212,6 @@ pub enum CaseResult {
     Held(String),
     /// Why not.
     Failed(String),
-    /// The build cannot run it yet (XPBD, joints).
-    Unsupported(String),
 }
 
 impl CaseResult {
@@ -375,7 +373,7 @@ const RAMP_ANGLE: f64 = 0.436_332_312_998_582_4;
 const DROP: f64 = 2.0;
 
 /// Steps a world, calling `each(world, k)` after step k (from 1); stops at the first
-/// `Err` it returns. Unsupported solvers and non-finite states become results.
+/// `Err` it returns. A non-finite state becomes a failed result.
 fn drive(
     world: &mut World,
     steps: u64,
@@ -583,23 +581,16 @@ pub struct SweepResult {
 impl SweepResult {
     /// (holds through, first failure with its reason) along the values, easy to hard.
     /// `None` for holds-through when the first value fails; `None` for the failure when
-    /// every value held. Unsupported when the first case is unsupported.
+    /// every value held.
     pub fn headline(&self) -> (Option<f64>, Option<(f64, String)>) {
         let mut last = None;
         for (v, r) in &self.cases {
             match r {
                 CaseResult::Held(_) => last = Some(*v),
                 CaseResult::Failed(why) => return (last, Some((*v, why.clone()))),
-                CaseResult::Unsupported(why) => return (last, Some((*v, why.clone()))),
             }
         }
         (last, None)
-    }
-
-    pub fn unsupported(&self) -> bool {
-        self.cases
-            .iter()
-            .all(|(_, r)| matches!(r, CaseResult::Unsupported(_)))
     }
 }
 
@@ -653,21 +644,12 @@ pub fn markdown(results: &[SweepResult]) -> String {
          (stable and within the bound), \"fails at\" the next value and how it failed. \
          PGS settings are the defaults (tolerance 1e-4, warm start, split impulse, dt 1/60, slop \
          0.005 m, beta 0.2) but for the sweeps they name; \"no split\" is Baumgarte in the \
-         velocity rows. n/a: this build cannot run it yet (XPBD, joints). `tests/extremes.rs` \
+         velocity rows. `tests/extremes.rs` \
          re-checks every claim of the table below.\n"
     );
     let _ = writeln!(s, "{TABLE_HEADER}\n|---|---|---|---|---|");
     for r in results {
         let sw = r.sweep;
-        if r.unsupported() {
-            let _ = writeln!(
-                s,
-                "| {} | {} | n/a | n/a | unsupported |",
-                sw.name(),
-                r.setting.label
-            );
-            continue;
-        }
         let (held, fail) = r.headline();
         let held = held.map_or("none".to_string(), |v| sw.format_value(v));
         let (at, how) = match fail {
@@ -703,7 +685,6 @@ pub fn markdown(results: &[SweepResult]) -> String {
                 let cell = match r.cases.get(i).map(|c| &c.1) {
                     Some(CaseResult::Held(d)) => format!("held: {d}"),
                     Some(CaseResult::Failed(d)) => format!("**failed**: {d}"),
-                    Some(CaseResult::Unsupported(_)) => "n/a".into(),
                     None => String::new(),
                 };
                 let _ = write!(s, " {} |", cell.replace('|', "/"));
@@ -724,7 +705,7 @@ pub struct Claim {
     pub fails_at: Option<f64>,
 }
 
-/// Reads the claims of a stability.md summary table (rows marked n/a are skipped).
+/// Reads the claims of a stability.md summary table.
 pub fn parse_claims(text: &str) -> Result<Vec<Claim>, String> {
     let mut lines = text.lines().skip_while(|l| l.trim() != TABLE_HEADER);
     if lines.next().is_none() {
@@ -745,9 +726,6 @@ pub fn parse_claims(text: &str) -> Result<Vec<Claim>, String> {
             .into_iter()
             .find(|s| s.label == cells[1])
             .ok_or_else(|| format!("unknown setting: {line}"))?;
-        if cells[2] == "n/a" {
-            continue;
-        }
         let value = |c: &str| -> Result<Option<f64>, String> {
             match c {
                 "none" | "-" => Ok(None),

@@ -1,13 +1,13 @@
 //! The bench: what each solver setting costs and how right it is, scene by scene.
 //!
 //! For every scene of a suite and every setting of the grid (PGS at 1..32 sweeps with
-//! warm start and split impulse on and off, XPBD at 1..32 substeps), [`run_case`] builds
+//! warm start and split impulse on and off, XPBD at 1..32 substeps, the soft step at 1..32
+//! substeps; scenes with joints skip the soft step, which has no joint rows), [`run_case`] builds
 //! the world, steps it and records the median wall time per step over repeats, the time
 //! per pipeline stage, and the accuracy measures of `shared/benchmarks.md`: penetration
 //! (max, mean), drift of the tracked body (the top of a stack), joint error, energy
 //! drift, the residual against the same step's MLCP solved to convergence, and a
-//! stable verdict. A setting the build does not support (XPBD, joints) gives a row
-//! marked "n/a (unsupported)", not a failure.
+//! stable verdict. A case that blows up is stopped early and reported unstable.
 //!
 //! [`report`] writes `results.csv` and `results.md`, [`plot`] one SVG per scene, and
 //! [`extremes`] the one-thing-at-a-time stability sweeps behind `stability.md`.
@@ -314,8 +314,6 @@ impl Measured {
 #[derive(Clone, Debug, PartialEq)]
 pub enum Outcome {
     Ran(Measured),
-    /// The build cannot run this (XPBD or joints not there yet): reported as n/a.
-    Unsupported(String),
     /// The scene could not be built for another reason.
     Failed(String),
 }

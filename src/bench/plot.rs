@@ -1,6 +1,6 @@
 //! One SVG per scene: the scene's error against ms per step, log scales, one curve per
 //! solver family (points in order of sweeps or substeps). Unstable runs are drawn as
-//! crosses; rows that did not run (n/a) are left out.
+//! crosses; rows whose scene could not be built (n/a) are left out.
 
 use plotters::prelude::*;
 

@@ -56,7 +56,6 @@ pub fn stable_text(o: &Outcome) -> &'static str {
     match o {
         Outcome::Ran(m) if m.verdict.is_stable() => "yes",
         Outcome::Ran(_) => "no",
-        Outcome::Unsupported(_) => "n/a (unsupported)",
         Outcome::Failed(_) => "n/a (build failed)",
     }
 }
@@ -67,7 +66,7 @@ fn note(o: &Outcome) -> String {
             super::Verdict::Stable => String::new(),
             super::Verdict::Unstable(why) => why.clone(),
         },
-        Outcome::Unsupported(why) | Outcome::Failed(why) => why.clone(),
+        Outcome::Failed(why) => why.clone(),
     }
 }
 
@@ -214,7 +213,7 @@ pub fn markdown(suite: Suite, scenes: &[BenchScene], rows: &[Row], plots: &[Stri
          of sweeps (tolerance 0). A setting dominates another when it is at least as accurate on every measure of the \
          scene (and stable when the other is) and cheaper, or within 5% of its cost (timing \
          noise) and strictly more accurate on some measure. \
-         n/a (unsupported): this build cannot run it yet (XPBD, joints).\n"
+         n/a (build failed): the scene could not be built with that setting.\n"
     );
     for sc in scenes {
         let _ = writeln!(s, "## {}\n\n{}\n", sc.name, sc.about);
