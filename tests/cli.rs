@@ -199,10 +199,7 @@ fn bench_writes_csv_markdown_and_plots_quietly() {
     let ms = header.iter().position(|c| *c == "ms_per_step").unwrap();
     for r in &rows {
         assert_eq!(r[0], "stack");
-        assert!(
-            ["yes", "no"].contains(&r[stable]),
-            "{r:?}"
-        );
+        assert!(["yes", "no"].contains(&r[stable]), "{r:?}");
         if r[1] == "pgs" {
             assert!(r[ms].parse::<f64>().unwrap() > 0.0, "{r:?}");
         }

@@ -11,6 +11,7 @@
 //! on; the command line then renders frames headless instead.
 
 pub mod input;
+mod panel_layer;
 pub mod session;
 mod ui;
 mod window;

@@ -12,6 +12,7 @@ use winit::keyboard::{Key, ModifiersState, NamedKey};
 use winit::window::{Window, WindowId};
 
 use super::input::SpawnKind;
+use super::panel_layer::PanelLayer;
 use super::session::{Emitter, Session};
 use super::ui::{self, FrameStats, PANEL_WIDTH};
 use super::{AppError, AppOptions, RunReport};
@@ -23,6 +24,8 @@ use crate::render::{Renderer, save_png};
 const EMITTER_RADIUS_PX: f32 = 110.0;
 /// Colour of the drag spring and the emitter's ring.
 const TOOL_COLOR: [u8; 4] = [255, 255, 255, 200];
+/// How often the panel is redrawn when nothing touches it (its live figures and plots).
+const PANEL_REFRESH: std::time::Duration = std::time::Duration::from_millis(250);
 
 /// Everything that lives while the window does.
 struct Gpu {
@@ -34,6 +37,8 @@ struct Gpu {
     renderer: Renderer,
     egui_renderer: egui_wgpu::Renderer,
     egui_state: egui_winit::State,
+    /// The panel, drawn by egui when it changes and laid over every frame.
+    panel: PanelLayer,
 }
 
 /// What the mouse is doing to the view.
@@ -64,6 +69,10 @@ pub(super) struct App {
     phase_ms: [f64; 5],
     /// The side panel is shown (H toggles it).
     panel_visible: bool,
+    /// The panel must be drawn again (input over it, an egui animation, a resize).
+    panel_dirty: bool,
+    /// When the panel's figures are next refreshed, if not dirty before.
+    panel_next: Option<Instant>,
     /// When the last frame started (the simulation's clock).
     last_advance: Option<Instant>,
     /// Presentation times of the frames of the last second, for the panel's fps.
@@ -92,6 +101,8 @@ impl App {
             last_frame: None,
             last_advance: None,
             panel_visible,
+            panel_dirty: true,
+            panel_next: None,
             phase_ms: [0.0; 5],
             recent: Default::default(),
             frame_ms: Vec::new(),
@@ -246,6 +257,7 @@ impl App {
         renderer.set_adapter_info(info);
         let egui_renderer =
             egui_wgpu::Renderer::new(&device, format, egui_wgpu::RendererOptions::default());
+        let panel = PanelLayer::new(&device, format);
         let egui_ctx = egui::Context::default();
         let egui_state = egui_winit::State::new(
             egui_ctx,
@@ -265,6 +277,7 @@ impl App {
             renderer,
             egui_renderer,
             egui_state,
+            panel,
         });
         self.reset_camera();
         Ok(())
@@ -302,36 +315,56 @@ impl App {
         self.push_tools();
 
         let Some(g) = self.gpu.as_mut() else { return };
-        // The panel.
+        // The panel: egui runs only when it is due (see PanelLayer); otherwise last
+        // time's layer is laid over the world again.
         let fps = self.recent.len() as f32;
         let frame_stats = FrameStats {
             fps,
             bodies: self.session.world.bodies.len(),
         };
         let t_sim = Instant::now();
-        let raw = g.egui_state.take_egui_input(&g.window);
-        let ctx = g.egui_state.egui_ctx().clone();
-        let session = &mut self.session;
-        let mut actions = ui::PanelActions::default();
+        let size = [g.config.width, g.config.height];
         let visible = self.panel_visible;
-        let mut out = ctx.run_ui(raw, |ui| {
-            if visible {
+        let due = visible
+            && (self.panel_dirty
+                || self.panel_next.is_none_or(|t| now >= t)
+                || !g.panel.ready(size));
+        let mut actions = ui::PanelActions::default();
+        let mut drawn: Option<(Vec<egui::ClippedPrimitive>, f32)> = None;
+        let mut free: Vec<egui::TextureId> = Vec::new();
+        if !visible {
+            // keep egui's input queue from growing while it is not run
+            drop(g.egui_state.take_egui_input(&g.window));
+        } else if due {
+            let raw = g.egui_state.take_egui_input(&g.window);
+            let ctx = g.egui_state.egui_ctx().clone();
+            let session = &mut self.session;
+            let mut out = ctx.run_ui(raw, |ui| {
                 actions = ui::panel(ui, session, frame_stats);
+            });
+            g.egui_state
+                .handle_platform_output(&g.window, std::mem::take(&mut out.platform_output));
+            // an animation (a popup opening, a header folding) wants the next frame too
+            self.panel_dirty = out
+                .viewport_output
+                .get(&egui::ViewportId::ROOT)
+                .is_some_and(|v| v.repaint_delay.is_zero());
+            if self.panel_dirty {
+                log::debug!("panel repaint asked: {:?}", ctx.repaint_causes());
             }
-        });
-        g.egui_state
-            .handle_platform_output(&g.window, std::mem::take(&mut out.platform_output));
-        let jobs = ctx.tessellate(std::mem::take(&mut out.shapes), out.pixels_per_point);
-        // New and changed textures go up before painting; freed ones go after it (or
-        // now, when this frame is skipped).
-        let mut textures = std::mem::take(&mut out.textures_delta);
-        for (id, deltas) in textures.set.drain() {
-            for delta in &deltas {
-                g.egui_renderer
-                    .update_texture(&g.device, &g.queue, id, delta);
+            self.panel_next = Some(now + PANEL_REFRESH);
+            let jobs = ctx.tessellate(std::mem::take(&mut out.shapes), out.pixels_per_point);
+            // New and changed textures go up before painting; freed ones go after it.
+            let mut textures = std::mem::take(&mut out.textures_delta);
+            for (id, deltas) in textures.set.drain() {
+                for delta in &deltas {
+                    g.egui_renderer
+                        .update_texture(&g.device, &g.queue, id, delta);
+                }
             }
+            free = textures.free.drain().collect();
+            drawn = Some((jobs, out.pixels_per_point));
         }
-        let free: Vec<egui::TextureId> = textures.free.drain().collect();
 
         let t_ui = Instant::now();
         let texture = match g.surface.get_current_texture() {
@@ -345,6 +378,8 @@ impl App {
                     g.surface.configure(&g.device, &g.config);
                 }
                 log::debug!("skipping a frame: {other:?}");
+                // what egui drew this time was not recorded
+                self.panel_dirty = true;
                 for id in &free {
                     g.egui_renderer.free_texture(id);
                 }
@@ -361,22 +396,19 @@ impl App {
             .create_command_encoder(&wgpu::CommandEncoderDescriptor {
                 label: Some("sandbox2d window frame"),
             });
-        let screen = egui_wgpu::ScreenDescriptor {
-            size_in_pixels: [g.config.width, g.config.height],
-            pixels_per_point: out.pixels_per_point,
-        };
-        let extra =
-            g.egui_renderer
-                .update_buffers(&g.device, &g.queue, &mut encoder, &jobs, &screen);
-        encode_frame(
-            g,
-            &mut encoder,
-            &view,
-            &self.list,
-            &self.camera,
-            &jobs,
-            &screen,
-        );
+        let mut extra = Vec::new();
+        if let Some((jobs, pixels_per_point)) = &drawn {
+            let screen = egui_wgpu::ScreenDescriptor {
+                size_in_pixels: size,
+                pixels_per_point: *pixels_per_point,
+            };
+            extra =
+                g.egui_renderer
+                    .update_buffers(&g.device, &g.queue, &mut encoder, jobs, &screen);
+            draw_panel(g, &mut encoder, jobs, &screen);
+            g.panel.set_painted(jobs, *pixels_per_point);
+        }
+        encode_frame(g, &mut encoder, &view, &self.list, &self.camera, visible);
         // The last frame of a --frames run with --screenshot: the same passes again into
         // a texture that can be read back (a surface texture cannot, on every backend).
         let last = self.opts.frames.is_some_and(|n| self.frames + 1 >= n);
@@ -396,8 +428,7 @@ impl App {
                     &capture_view,
                     &self.list,
                     &self.camera,
-                    &jobs,
-                    &screen,
+                    visible,
                 );
                 c.copy(&mut encoder);
                 Some(c)
@@ -571,6 +602,7 @@ impl App {
             }
             Key::Character(c) if c.eq_ignore_ascii_case("h") => {
                 self.panel_visible = !self.panel_visible;
+                self.panel_dirty = true;
             }
             _ => {}
         }
@@ -595,9 +627,44 @@ impl ApplicationHandler for App {
         let Some(g) = self.gpu.as_mut() else { return };
         let response = g.egui_state.on_window_event(&g.window, &event);
         let ctx = g.egui_state.egui_ctx();
-        let egui_pointer = response.consumed || ctx.egui_wants_pointer_input();
+        // egui runs only when the panel is due, so its own idea of where the pointer is
+        // may be old: whether the pointer is over the panel comes from what the panel
+        // painted last and the cursor now.
+        let painted = g.panel.painted().filter(|_| self.panel_visible);
+        let over = |p: Vec2| {
+            painted.is_some_and(|[x0, y0, x1, y1]| {
+                p.x >= x0 as f32 && p.x < x1 as f32 && p.y >= y0 as f32 && p.y < y1 as f32
+            })
+        };
+        let before = self.mouse.cursor;
+        let now = match &event {
+            WindowEvent::CursorMoved { position, .. } => {
+                Vec2::new(position.x as f32, position.y as f32)
+            }
+            _ => before,
+        };
+        let using = ctx.egui_is_using_pointer();
+        let egui_pointer = response.consumed || using || over(now);
         let egui_keys = ctx.egui_wants_keyboard_input();
-        if response.repaint {
+        // the pointer over the world (dragging bodies, panning) leaves the panel alone;
+        // over it or leaving it (hover), the keys and a resize redraw it; a redraw
+        // request (every frame) does not
+        let for_panel = match &event {
+            WindowEvent::CursorMoved { .. }
+            | WindowEvent::MouseInput { .. }
+            | WindowEvent::MouseWheel { .. }
+            | WindowEvent::CursorLeft { .. }
+            | WindowEvent::Touch(_) => using || over(before) || over(now),
+            WindowEvent::KeyboardInput { .. }
+            | WindowEvent::Ime(_)
+            | WindowEvent::Resized(_)
+            | WindowEvent::ScaleFactorChanged { .. }
+            | WindowEvent::Focused(_)
+            | WindowEvent::ThemeChanged(_) => true,
+            _ => false,
+        };
+        if response.repaint && for_panel {
+            self.panel_dirty = true;
             g.window.request_redraw();
         }
         match event {
@@ -630,26 +697,38 @@ impl ApplicationHandler for App {
 }
 
 /// Records one window frame into `target`: the world (cleared to the background), then
-/// the panel over it.
+/// the panel's layer over it.
 fn encode_frame(
     g: &mut Gpu,
     encoder: &mut wgpu::CommandEncoder,
     target: &wgpu::TextureView,
     list: &DrawList,
     camera: &Camera,
+    panel: bool,
+) {
+    g.renderer.draw(encoder, target, list, camera);
+    if panel {
+        g.panel.composite(encoder, target);
+    }
+}
+
+/// Draws egui's output into the panel's layer, cleared to transparent first.
+fn draw_panel(
+    g: &mut Gpu,
+    encoder: &mut wgpu::CommandEncoder,
     jobs: &[egui::ClippedPrimitive],
     screen: &egui_wgpu::ScreenDescriptor,
 ) {
-    g.renderer.draw(encoder, target, list, camera);
+    let view = g.panel.view(&g.device, screen.size_in_pixels);
     let mut pass = encoder
         .begin_render_pass(&wgpu::RenderPassDescriptor {
             label: Some("sandbox2d egui"),
             color_attachments: &[Some(wgpu::RenderPassColorAttachment {
-                view: target,
+                view,
                 depth_slice: None,
                 resolve_target: None,
                 ops: wgpu::Operations {
-                    load: wgpu::LoadOp::Load,
+                    load: wgpu::LoadOp::Clear(wgpu::Color::TRANSPARENT),
                     store: wgpu::StoreOp::Store,
                 },
             })],
