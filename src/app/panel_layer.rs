@@ -4,6 +4,9 @@
 //! triangle. On llvmpipe egui's own pass costs about 13 ms a frame (many small
 //! triangles and draw calls), the layer about 1 ms.
 
+/// The label of the layer's GPU objects.
+const LABEL: &str = "sandbox2d panel layer";
+
 /// Copies the layer's pixels 1:1 (premultiplied alpha, as egui writes them).
 const SHADER: &str = r#"
 @group(0) @binding(0) var layer: texture_2d<f32>;
@@ -41,7 +44,7 @@ pub(super) struct PanelLayer {
 impl PanelLayer {
     pub(super) fn new(device: &wgpu::Device, format: wgpu::TextureFormat) -> PanelLayer {
         let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-            label: Some("sandbox2d panel layer"),
+            label: Some(LABEL),
             entries: &[wgpu::BindGroupLayoutEntry {
                 binding: 0,
                 visibility: wgpu::ShaderStages::FRAGMENT,
@@ -54,39 +57,23 @@ impl PanelLayer {
             }],
         });
         let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-            label: Some("sandbox2d panel layer"),
+            label: Some(LABEL),
             bind_group_layouts: &[Some(&layout)],
             immediate_size: 0,
         });
         let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
-            label: Some("sandbox2d panel layer"),
+            label: Some(LABEL),
             source: wgpu::ShaderSource::Wgsl(SHADER.into()),
         });
-        let pipeline = device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
-            label: Some("sandbox2d panel layer"),
-            layout: Some(&pipeline_layout),
-            vertex: wgpu::VertexState {
-                module: &module,
-                entry_point: Some("vs_main"),
-                compilation_options: Default::default(),
-                buffers: &[],
-            },
-            primitive: wgpu::PrimitiveState::default(),
-            depth_stencil: None,
-            multisample: wgpu::MultisampleState::default(),
-            fragment: Some(wgpu::FragmentState {
-                module: &module,
-                entry_point: Some("fs_main"),
-                compilation_options: Default::default(),
-                targets: &[Some(wgpu::ColorTargetState {
-                    format,
-                    blend: Some(wgpu::BlendState::PREMULTIPLIED_ALPHA_BLENDING),
-                    write_mask: wgpu::ColorWrites::ALL,
-                })],
-            }),
-            multiview_mask: None,
-            cache: None,
-        });
+        let pipeline = crate::render::premultiplied_pipeline(
+            device,
+            &pipeline_layout,
+            format,
+            1,
+            LABEL,
+            &module,
+            &[],
+        );
         PanelLayer {
             pipeline,
             layout,
@@ -100,7 +87,7 @@ impl PanelLayer {
     pub(super) fn view(&mut self, device: &wgpu::Device, size: [u32; 2]) -> &wgpu::TextureView {
         if self.target.as_ref().is_none_or(|t| t.size != size) {
             let texture = device.create_texture(&wgpu::TextureDescriptor {
-                label: Some("sandbox2d panel layer"),
+                label: Some(LABEL),
                 size: wgpu::Extent3d {
                     width: size[0].max(1),
                     height: size[1].max(1),
@@ -116,7 +103,7 @@ impl PanelLayer {
             });
             let view = texture.create_view(&wgpu::TextureViewDescriptor::default());
             let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
-                label: Some("sandbox2d panel layer"),
+                label: Some(LABEL),
                 layout: &self.layout,
                 entries: &[wgpu::BindGroupEntry {
                     binding: 0,
@@ -155,7 +142,7 @@ impl PanelLayer {
             return;
         };
         let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
-            label: Some("sandbox2d panel layer"),
+            label: Some(LABEL),
             color_attachments: &[Some(wgpu::RenderPassColorAttachment {
                 view: target,
                 depth_slice: None,

@@ -710,14 +710,37 @@ fn create_pipeline(
         label: Some(name),
         source: wgpu::ShaderSource::Wgsl(code.into()),
     });
+    premultiplied_pipeline(
+        device,
+        layout,
+        format,
+        samples,
+        name,
+        &module,
+        &[Some(buffer)],
+    )
+}
+
+/// A pipeline of `module`'s `vs_main` and `fs_main` drawing triangle lists from
+/// `buffers` with premultiplied-alpha blending into `format` at `samples` samples per
+/// pixel (the window's panel layer uses it too).
+pub(crate) fn premultiplied_pipeline(
+    device: &wgpu::Device,
+    layout: &wgpu::PipelineLayout,
+    format: wgpu::TextureFormat,
+    samples: u32,
+    name: &str,
+    module: &wgpu::ShaderModule,
+    buffers: &[Option<wgpu::VertexBufferLayout<'_>>],
+) -> wgpu::RenderPipeline {
     device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
         label: Some(name),
         layout: Some(layout),
         vertex: wgpu::VertexState {
-            module: &module,
+            module,
             entry_point: Some("vs_main"),
             compilation_options: Default::default(),
-            buffers: &[Some(buffer)],
+            buffers,
         },
         primitive: wgpu::PrimitiveState {
             topology: wgpu::PrimitiveTopology::TriangleList,
@@ -730,7 +753,7 @@ fn create_pipeline(
             ..Default::default()
         },
         fragment: Some(wgpu::FragmentState {
-            module: &module,
+            module,
             entry_point: Some("fs_main"),
             compilation_options: Default::default(),
             targets: &[Some(wgpu::ColorTargetState {
