@@ -8,6 +8,7 @@ mod gpu;
 
 pub use capture::{GifWriter, save_png};
 pub use frames::{FrameJob, FramesError, FramesWritten, render_frames};
+#[cfg(feature = "app")]
 pub(crate) use gpu::premultiplied_pipeline;
 pub use gpu::{OFFSCREEN_FORMAT, Renderer, SAMPLE_COUNT, default_samples};
 
