@@ -458,15 +458,14 @@ impl World {
     fn step_pgs(&mut self) {
         let n = self.settings.substeps.max(1);
         let h = self.settings.dt / n as f32;
+        // the soft step has no joint rows: a world with joints takes the classic path
+        if self.settings.soft_step && self.joints.is_empty() && self.mouse.is_none() {
+            // one collide, n solver substeps inside (world/soft_step.rs)
+            self.step_soft();
+            return;
+        }
         let mut total = StepStats::default();
         for _ in 0..n {
-            // the soft step has no joint rows: a world with joints takes the classic path
-            if self.settings.soft_step && self.joints.is_empty() && self.mouse.is_none() {
-                // one collide, n solver substeps inside (world/soft_step.rs)
-                self.step_soft();
-                total = self.stats;
-                break;
-            }
             self.substep_pgs(h);
             let s = self.stats;
             total.iterations += s.iterations;

@@ -19,6 +19,41 @@ fn ground(width: f32) -> BodyDef {
     }
 }
 
+/// A 1 m box resting on a 20 m ground under gravity 10; returns the world and the box.
+fn box_on_ground(settings: SolverSettings) -> (World, usize) {
+    let mut w = World::new(Some(Vec2::new(0.0, -10.0)), settings);
+    w.add_body(&ground(20.0)).unwrap();
+    let b = w
+        .add_body(&BodyDef {
+            name: "box".into(),
+            position: Vec2::new(0.0, 0.5),
+            ..Default::default()
+        })
+        .unwrap();
+    (w, b)
+}
+
+/// A ball of `radius` whose bottom is `height` above a 10 m pad, both of restitution
+/// `e`, under gravity 10; returns the world and the ball.
+fn ball_over_pad(settings: SolverSettings, e: f32, radius: f32, height: f32) -> (World, usize) {
+    let mut w = World::new(Some(Vec2::new(0.0, -10.0)), settings);
+    w.add_body(&BodyDef {
+        restitution: e,
+        ..ground(10.0)
+    })
+    .unwrap();
+    let b = w
+        .add_body(&BodyDef {
+            name: "ball".into(),
+            shape: ShapeDef::Circle { radius },
+            position: Vec2::new(0.0, height + radius),
+            restitution: e,
+            ..Default::default()
+        })
+        .unwrap();
+    (w, b)
+}
+
 fn world_of(name: &str, settings: SolverSettings) -> World {
     let sc = scene::load(name).expect("built-in scene");
     World::from_def(&sc.world, settings).expect("builds")
@@ -239,15 +274,7 @@ fn feature_ids_survive_small_motion() {
 #[test]
 fn resting_box_stays_within_slop_and_does_not_creep() {
     let s = SolverSettings::pgs();
-    let mut w = World::new(Some(Vec2::new(0.0, -10.0)), s);
-    w.add_body(&ground(20.0)).unwrap();
-    let b = w
-        .add_body(&BodyDef {
-            name: "box".into(),
-            position: Vec2::new(0.0, 0.5),
-            ..Default::default()
-        })
-        .unwrap();
+    let (mut w, b) = box_on_ground(s);
     for _ in 0..600 {
         w.step().unwrap();
         let body = &w.bodies[b];
@@ -437,21 +464,7 @@ fn restitution_bounces_to_e_squared_height() {
         (soft_settings(), 0.5),
         (soft_settings(), 0.8),
     ] {
-        let mut w = World::new(Some(Vec2::new(0.0, -10.0)), s);
-        w.add_body(&BodyDef {
-            restitution: e,
-            ..ground(10.0)
-        })
-        .unwrap();
-        let b = w
-            .add_body(&BodyDef {
-                name: "ball".into(),
-                shape: ShapeDef::Circle { radius: 0.1 },
-                position: Vec2::new(0.0, 5.1),
-                restitution: e,
-                ..Default::default()
-            })
-            .unwrap();
+        let (mut w, b) = ball_over_pad(s, e, 0.1, 5.0);
         let mut bounced = false;
         let mut apex = 0.0f32;
         for _ in 0..400 {
@@ -483,21 +496,7 @@ fn elastic_ball_keeps_its_height_bounce_after_bounce() {
     // at the step start instead of at the time of impact gains up to v h per bounce (6%
     // from 2 m at 60 Hz), and a bounce taken after sinking into the pad gains the depth.
     let h0 = 2.0f32;
-    let mut w = World::new(Some(Vec2::new(0.0, -10.0)), SolverSettings::pgs());
-    w.add_body(&BodyDef {
-        restitution: 1.0,
-        ..ground(10.0)
-    })
-    .unwrap();
-    let b = w
-        .add_body(&BodyDef {
-            name: "ball".into(),
-            shape: ShapeDef::Circle { radius: 0.25 },
-            position: Vec2::new(0.0, h0 + 0.25),
-            restitution: 1.0,
-            ..Default::default()
-        })
-        .unwrap();
+    let (mut w, b) = ball_over_pad(SolverSettings::pgs(), 1.0, 0.25, h0);
     let mut apexes = Vec::new();
     for _ in 0..1200 {
         let vy_before = w.bodies[b].velocity.y;
@@ -557,15 +556,7 @@ fn soft_step_holds_the_pyramid_of_20_and_repeats_itself() {
 #[test]
 fn soft_step_resting_box_settles_and_does_not_creep() {
     let s = soft_settings();
-    let mut w = World::new(Some(Vec2::new(0.0, -10.0)), s);
-    w.add_body(&ground(20.0)).unwrap();
-    let b = w
-        .add_body(&BodyDef {
-            name: "box".into(),
-            position: Vec2::new(0.0, 0.5),
-            ..Default::default()
-        })
-        .unwrap();
+    let (mut w, b) = box_on_ground(s);
     let mut x_settled = 0.0;
     for k in 1..=600 {
         w.step().unwrap();

@@ -278,17 +278,15 @@ impl PgsSolver {
     /// tau = g / -v_n into the step, not at its start. Reversing it at once would end the
     /// step (1 + e) g too far apart and gain that much height every bounce, so the first
     /// collision of a pair in a step also records, in `impact`, the displacement that
-    /// closes that difference. Returns the sweeps run.
-    pub fn resolve_collisions(&mut self, threshold: f32, dt: f32, max_sweeps: u32) -> u32 {
+    /// closes that difference.
+    pub fn resolve_collisions(&mut self, threshold: f32, dt: f32, max_sweeps: u32) {
         // inner Gauss-Seidel passes over one manifold's (at most 2 normal + 2 friction) rows
         const INNER: usize = 4;
-        let mut sweeps = 0;
         if self.constraints.iter().all(|c| c.restitution == 0.0) {
-            return 0;
+            return;
         }
         let inv_dt = 1.0 / dt;
         for _ in 0..max_sweeps {
-            sweeps += 1;
             let mut collided = false;
             for c in &mut self.constraints {
                 if c.restitution == 0.0 {
@@ -372,7 +370,6 @@ impl PgsSolver {
                 break;
             }
         }
-        sweeps
     }
 
     /// Whether any point has position error beyond the slop to correct apart.
@@ -403,33 +400,6 @@ impl PgsSolver {
             self.pseudo[c.b as usize] = (pv.vb, pv.wb);
         }
         residual
-    }
-
-    /// The whole solve of a step of `dt`: collisions (restitution), warm start, velocity
-    /// sweeps to the cap or the tolerance, then (split impulse) the position sweeps.
-    pub fn solve(&mut self, s: &SolverSettings, dt: f32) -> SolveStats {
-        let mut stats = SolveStats::default();
-        self.resolve_collisions(s.restitution_threshold, dt, s.iterations);
-        if s.warm_start {
-            self.warm_start();
-        }
-        for _ in 0..s.iterations {
-            stats.residual = self.sweep_velocity();
-            stats.iterations += 1;
-            if stats.residual < s.tolerance {
-                break;
-            }
-        }
-        if s.split_impulse && self.needs_position_solve() {
-            for _ in 0..s.iterations {
-                let r = self.sweep_position();
-                stats.position_iterations += 1;
-                if r < s.tolerance {
-                    break;
-                }
-            }
-        }
-        stats
     }
 
     /// Writes the lambdas back into the contacts, for next step's warm start.
