@@ -24,6 +24,7 @@ pub mod scene;
 pub mod shape;
 pub mod sim;
 pub mod solver;
+pub mod step;
 pub mod world;
 
 #[cfg(feature = "render")]

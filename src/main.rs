@@ -22,7 +22,7 @@ const DEFAULT_SCENE: &str = "pyramid";
 #[command(
     name = "sandbox2d",
     version,
-    about = "A 2D physics sandbox: PGS and XPBD solvers, measured for speed and accuracy."
+    about = "A 2D physics sandbox: the soft step, PGS and XPBD solvers, measured for speed and accuracy."
 )]
 struct Cli {
     #[command(subcommand)]
@@ -165,14 +165,19 @@ impl From<OnOff> for bool {
 
 #[derive(Clone, Copy, ValueEnum)]
 enum SolverArg {
+    /// The soft step (the default): soft contacts and joints, substeps, relax sweeps.
+    Soft,
+    /// Classic projected Gauss-Seidel on the contact MLCP (the seed's method).
     Pgs,
+    /// Extended position-based dynamics with substeps.
     Xpbd,
 }
 
 /// Flags that override the scene's `[solver]` table.
 #[derive(Args, Clone, Default)]
 struct SolverFlags {
-    /// Solver: pgs or xpbd. Settings the scene does not give take this solver's defaults.
+    /// Solver: soft (the default), pgs or xpbd. Settings the scene does not give take
+    /// this solver's defaults.
     #[arg(long, value_enum)]
     solver: Option<SolverArg>,
     /// Time step (s).
@@ -199,9 +204,6 @@ struct SolverFlags {
     /// Allowed penetration (m).
     #[arg(long)]
     slop: Option<f32>,
-    /// Soft step (one collide per step, substeps reuse its manifolds, soft contacts).
-    #[arg(long, value_enum)]
-    soft_step: Option<OnOff>,
     /// Soft step: contact spring frequency (Hz).
     #[arg(long)]
     contact_hertz: Option<f32>,
@@ -211,12 +213,19 @@ struct SolverFlags {
     /// Soft step: fastest push-out of overlap (m/s).
     #[arg(long)]
     max_push_speed: Option<f32>,
+    /// Soft step: rigid joints' spring frequency in the biased sweeps (Hz).
+    #[arg(long)]
+    joint_hertz: Option<f32>,
+    /// Soft step: rigid joints' spring damping ratio in the biased sweeps.
+    #[arg(long)]
+    joint_damping_ratio: Option<f32>,
 }
 
 impl SolverFlags {
     fn overrides(&self) -> SolverOverrides {
         SolverOverrides {
             kind: self.solver.map(|s| match s {
+                SolverArg::Soft => SolverKind::Soft,
                 SolverArg::Pgs => SolverKind::Pgs,
                 SolverArg::Xpbd => SolverKind::Xpbd,
             }),
@@ -229,10 +238,11 @@ impl SolverFlags {
             slop: self.slop,
             split_impulse: self.split_impulse.map(Into::into),
             restitution_threshold: None,
-            soft_step: self.soft_step.map(Into::into),
             contact_hertz: self.contact_hertz,
             contact_damping_ratio: self.contact_damping_ratio,
             max_push_speed: self.max_push_speed,
+            joint_hertz: self.joint_hertz,
+            joint_damping_ratio: self.joint_damping_ratio,
         }
     }
 }
@@ -405,10 +415,11 @@ fn simulate(a: &SimulateArgs) -> Result<(), Failure> {
                 "baumgarte": settings.baumgarte,
                 "slop": settings.slop,
                 "restitution_threshold": settings.restitution_threshold,
-                "soft_step": settings.soft_step,
                 "contact_hertz": settings.contact_hertz,
                 "contact_damping_ratio": settings.contact_damping_ratio,
                 "max_push_speed": settings.max_push_speed,
+                "joint_hertz": settings.joint_hertz,
+                "joint_damping_ratio": settings.joint_damping_ratio,
             },
             "steps": summary.steps,
             "bodies": world.bodies.len(),
@@ -419,6 +430,7 @@ fn simulate(a: &SimulateArgs) -> Result<(), Failure> {
             "penetration": { "max": summary.penetration_max, "final": summary.penetration_final },
             "energy": { "start": summary.energy_start, "end": summary.energy_end },
             "joint_error": { "max": summary.joint_error_max, "final": summary.joint_error_final },
+            "displacement": { "max": summary.displacement_max },
             "stage_ms": {
                 "forces": summary.stage_ms[0], "broad_phase": summary.stage_ms[1], "narrow_phase": summary.stage_ms[2],
                 "solver": summary.stage_ms[3], "integrate": summary.stage_ms[4],
@@ -440,10 +452,14 @@ fn simulate(a: &SimulateArgs) -> Result<(), Failure> {
             settings.baumgarte,
             settings.slop
         );
-        if settings.soft_step {
+        if settings.kind == SolverKind::Soft {
             println!(
-                "soft step    contact_hertz={} contact_damping_ratio={} max_push_speed={}",
-                settings.contact_hertz, settings.contact_damping_ratio, settings.max_push_speed
+                "soft step    contact_hertz={} contact_damping_ratio={} max_push_speed={} joint_hertz={} joint_damping_ratio={}",
+                settings.contact_hertz,
+                settings.contact_damping_ratio,
+                settings.max_push_speed,
+                settings.joint_hertz,
+                settings.joint_damping_ratio
             );
         }
         println!(
@@ -471,6 +487,10 @@ fn simulate(a: &SimulateArgs) -> Result<(), Failure> {
         println!(
             "energy       start {:.4} J  end {:.4} J",
             summary.energy_start, summary.energy_end
+        );
+        println!(
+            "displacement max {:.4} m (the farthest a body ended from its start)",
+            summary.displacement_max
         );
         if !world_has_no_joints {
             println!(

@@ -27,6 +27,9 @@ pub struct RunSummary {
     /// Largest joint anchor separation over the run, and at the end (m).
     pub joint_error_max: f32,
     pub joint_error_final: f32,
+    /// The farthest any dynamic body ended from where it started (m): how far a stack
+    /// or a pile moved.
+    pub displacement_max: f32,
     /// Mean time per stage (ms): forces, broad phase, narrow phase, solver, integration.
     pub stage_ms: [f64; 5],
 }
@@ -113,6 +116,11 @@ pub fn run(
         write_trace_header(tr.out)?;
         write_trace_rows(tr.out, world)?;
     }
+    let start: Vec<(bool, crate::math::Vec2)> = world
+        .bodies
+        .iter()
+        .map(|b| (b.is_dynamic(), b.position))
+        .collect();
     let (mut contacts, mut iters, mut res, mut pen, mut pos_iters) =
         (0.0f64, 0.0f64, 0.0f64, 0.0f64, 0.0f64);
     for k in 1..=steps {
@@ -155,6 +163,13 @@ pub fn run(
     s.residual_mean = res / n;
     s.penetration_mean = pen / n;
     s.energy_end = world.energy();
+    s.displacement_max = world
+        .bodies
+        .iter()
+        .zip(&start)
+        .filter(|(_, (dynamic, _))| *dynamic)
+        .map(|(b, (_, p))| b.position.distance(*p))
+        .fold(0.0, f32::max);
     for v in &mut s.stage_ms {
         *v /= n;
     }

@@ -2,30 +2,20 @@
 //! forces -> integrate velocities -> broad phase -> narrow phase -> contact cache
 //! -> solver -> integrate positions -> step stats.
 
-use std::time::Instant;
-
 use crate::body::{Body, BodyId};
 use crate::collision::broad_phase::BroadPhase;
 use crate::collision::sat;
 use crate::defs::{
-    BodyDef, BodyModel, BodyType, DragDef, ForceDef, JointDef, SolverKind, SolverSettings, WorldDef,
+    BodyDef, BodyModel, BodyType, DragDef, ForceDef, JointDef, SolverSettings, WorldDef,
 };
-use crate::joint::{Joint, JointId, MouseJoint, SLOTS};
+use crate::joint::{Joint, JointId, MouseJoint};
 use crate::math::{Aabb, Rot, Vec2, cross};
 use crate::shape::{Shape, ShapeError};
 use crate::solver::contact_cache::{CacheCursor, Contact, match_points};
-use crate::solver::joint_rows::{JointRows, apply_drives, xpbd_velocity_pass};
-use crate::solver::pgs::PgsSolver;
-use crate::solver::pgs::SolverBody;
-use crate::solver::xpbd::XpbdContacts;
+use crate::solver::joint_rows::apply_drives;
+use crate::step::{Stage, StageClock, StepContext, Stepper, new_stepper};
 
 mod measure;
-use crate::solver::soft::SoftSolver;
-
-mod soft_step;
-
-/// Contact points are kept while the gap is below this many slops (speculative contacts).
-const SPECULATIVE_SLOPS: f32 = 4.0;
 
 /// Why a world could not be built from its description.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
@@ -117,22 +107,16 @@ pub struct World {
     broad: BroadPhase,
     aabbs: Vec<Aabb>,
     dynamic: Vec<bool>,
-    /// How far each body can move this step (XPBD's contact margin).
+    /// How far each body can move this step (the speculative margin's part per body).
     reach: Vec<f32>,
-    contacts: Vec<Contact>,
+    pub(crate) contacts: Vec<Contact>,
     old_contacts: Vec<Contact>,
-    pgs: PgsSolver,
-    joints: Vec<Joint>,
-    mouse: Option<MouseJoint>,
-    joint_rows: JointRows,
+    pub(crate) joints: Vec<Joint>,
+    pub(crate) mouse: Option<MouseJoint>,
     /// Body pairs joined by a joint that must not collide, sorted.
     no_collide: Vec<(u32, u32)>,
-    xpbd: XpbdContacts,
-    xpbd_lambdas: Vec<[f32; SLOTS]>,
-    xpbd_bodies: Vec<SolverBody>,
-    xpbd_normal_sum: Vec<f32>,
-    pseudo_bodies: Vec<SolverBody>,
-    soft: SoftSolver,
+    /// The solver of `settings.kind` and its scratch (taken out while it steps).
+    stepper: Option<Box<dyn Stepper>>,
     stats: StepStats,
     step_count: u64,
     time: f64,
@@ -153,17 +137,10 @@ impl World {
             reach: Vec::new(),
             contacts: Vec::new(),
             old_contacts: Vec::new(),
-            pgs: PgsSolver::default(),
             joints: Vec::new(),
             mouse: None,
-            joint_rows: JointRows::default(),
             no_collide: Vec::new(),
-            xpbd: XpbdContacts::default(),
-            xpbd_lambdas: Vec::new(),
-            xpbd_bodies: Vec::new(),
-            xpbd_normal_sum: Vec::new(),
-            pseudo_bodies: Vec::new(),
-            soft: SoftSolver::default(),
+            stepper: None,
             stats: StepStats::default(),
             step_count: 0,
             time: 0.0,
@@ -172,7 +149,7 @@ impl World {
 
     /// Builds the world a description asks for, with these solver settings.
     pub fn from_def(def: &WorldDef, settings: SolverSettings) -> Result<World, BuildError> {
-        check_settings(&settings)?;
+        settings.check().map_err(BuildError::Settings)?;
         let mut w = World::new(def.gravity, settings);
         w.drag = def.drag;
         for b in &def.bodies {
@@ -440,12 +417,20 @@ impl World {
         &self.contacts
     }
 
-    /// Advances the world by one step of `settings.dt` (in `settings.substeps` substeps).
+    /// Advances the world by one step of `settings.dt` (in `settings.substeps` substeps)
+    /// with the solver `settings.kind`.
     pub fn step(&mut self) -> Result<(), StepError> {
-        match self.settings.kind {
-            SolverKind::Pgs => self.step_pgs(),
-            SolverKind::Xpbd => self.step_xpbd(),
-        }
+        let kind = self.settings.kind;
+        let mut stepper = match self.stepper.take() {
+            Some(st) if st.kind() == kind => st,
+            _ => new_stepper(kind),
+        };
+        let cx = StepContext::new(&self.settings);
+        let mut clock = StageClock::start();
+        let mut stats = stepper.step(self, &cx, &mut clock);
+        clock.fill(&mut stats);
+        self.stats = stats;
+        self.stepper = Some(stepper);
         for b in &mut self.bodies {
             b.force = Vec2::ZERO;
             b.torque = 0.0;
@@ -455,142 +440,9 @@ impl World {
         self.check_finite()
     }
 
-    fn step_pgs(&mut self) {
-        let n = self.settings.substeps.max(1);
-        let h = self.settings.dt / n as f32;
-        // the soft step has no joint rows: a world with joints takes the classic path
-        if self.settings.soft_step && self.joints.is_empty() && self.mouse.is_none() {
-            // one collide, n solver substeps inside (world/soft_step.rs)
-            self.step_soft();
-            return;
-        }
-        let mut total = StepStats::default();
-        for _ in 0..n {
-            self.substep_pgs(h);
-            let s = self.stats;
-            total.iterations += s.iterations;
-            total.position_iterations += s.position_iterations;
-            total.residual = s.residual;
-            total.contacts = s.contacts;
-            total.penetration = total.penetration.max(s.penetration);
-            total.ms_forces += s.ms_forces;
-            total.ms_broad += s.ms_broad;
-            total.ms_narrow += s.ms_narrow;
-            total.ms_solve += s.ms_solve;
-            total.ms_integrate += s.ms_integrate;
-        }
-        self.stats = total;
-    }
-
-    /// One XPBD step: contacts found once, then per substep h = dt / n: predict
-    /// (v += h a, x += h v), project the joints and contacts `iterations` times, derive
-    /// v = (x - x_prev) / h, and a velocity pass (friction, restitution, motors, damping).
-    fn step_xpbd(&mut self) {
-        let s = self.settings;
-        let n = s.substeps.max(1);
-        let h = s.dt / n as f32;
-        let (ms_broad, ms_narrow) = self.collide(s.dt, true);
-        let t0 = Instant::now();
-        self.xpbd.prepare(&self.bodies, &self.contacts);
-        self.xpbd_lambdas.clear();
-        self.xpbd_lambdas.resize(self.joints.len(), [0.0; SLOTS]);
-        let mut normal_sum = std::mem::take(&mut self.xpbd_normal_sum);
-        normal_sum.clear();
-        normal_sum.resize(self.xpbd.points.len(), 0.0);
-        let (mut ms_forces, mut ms_integrate) = (0.0f32, 0.0f32);
-        let mut deepest = self.stats.penetration;
-        for _ in 0..n {
-            let ta = Instant::now();
-            self.integrate_velocities(h);
-            let tb = Instant::now();
-            self.xpbd.begin_substep(&self.bodies);
-            // predict: x += h v, theta += h w
-            for b in &mut self.bodies {
-                if b.body_type == BodyType::Static {
-                    continue;
-                }
-                b.position += h * b.velocity;
-                if b.model == BodyModel::Rigid && b.angular_velocity != 0.0 {
-                    b.angle += h * b.angular_velocity;
-                    b.rot = Rot::from_angle(b.angle);
-                }
-            }
-            let tc = Instant::now();
-            for _ in 0..s.iterations.max(1) {
-                for (j, lam) in self.joints.iter().zip(self.xpbd_lambdas.iter_mut()) {
-                    j.project(&mut self.bodies, &self.xpbd.prev_rot, h, lam);
-                }
-                if let Some(m) = self.mouse {
-                    project_mouse(&m, &mut self.bodies, h);
-                }
-                let d = self.xpbd.project(&mut self.bodies);
-                deepest = deepest.max(d);
-            }
-            // v = (x - x_prev) / h, w = (theta - theta_prev) / h, as v += dx / h
-            for b in &mut self.bodies {
-                if b.is_dynamic() {
-                    b.velocity += b.correction / h;
-                    b.angular_velocity += b.correction_angle / h;
-                }
-                b.correction = Vec2::ZERO;
-                b.correction_angle = 0.0;
-            }
-            // velocity pass
-            self.xpbd_bodies.clear();
-            self.xpbd_bodies
-                .extend(self.bodies.iter().map(|b| SolverBody {
-                    v: b.velocity,
-                    w: b.angular_velocity,
-                    inv_m: b.inv_mass,
-                    inv_i: b.inv_inertia,
-                }));
-            self.xpbd.velocity_pass(
-                &self.bodies,
-                &mut self.xpbd_bodies,
-                h,
-                s.restitution_threshold,
-            );
-            xpbd_velocity_pass(
-                &self.joints,
-                &self.bodies,
-                &mut self.xpbd_bodies,
-                h,
-                &mut self.joint_rows,
-            );
-            if let Some(m) = self.mouse {
-                damp_mouse(&m, &self.bodies, &mut self.xpbd_bodies, h);
-            }
-            for (b, sb) in self.bodies.iter_mut().zip(&self.xpbd_bodies) {
-                if b.is_dynamic() {
-                    b.velocity = sb.v;
-                    b.angular_velocity = sb.w;
-                }
-            }
-            for (acc, p) in normal_sum.iter_mut().zip(&self.xpbd.points) {
-                // impulse of the substep: lambda / h
-                *acc += p.lambda_n / h;
-            }
-            ms_forces += (tb - ta).as_secs_f32() * 1e3;
-            ms_integrate += (tc - tb).as_secs_f32() * 1e3;
-        }
-        for (p, &sum) in self.xpbd.points.iter().zip(&normal_sum) {
-            let m = &mut self.contacts[p.contact as usize].manifold;
-            m.points[p.index as usize].normal_impulse = sum;
-        }
-        self.xpbd_normal_sum = normal_sum;
-        let total = t0.elapsed().as_secs_f32() * 1e3;
-        self.stats = StepStats {
-            iterations: n * s.iterations.max(1),
-            residual: 0.0,
-            position_iterations: 0,
-            contacts: self.xpbd.points.len(),
-            penetration: deepest,
-            ms_forces,
-            ms_broad,
-            ms_narrow,
-            ms_solve: (total - ms_forces - ms_integrate).max(0.0),
-            ms_integrate,
-        };
+    /// The solver that ran the last step, as its own type (for tests and tools).
+    pub fn stepper_as<T: 'static>(&self) -> Option<&T> {
+        self.stepper.as_ref()?.as_any().downcast_ref::<T>()
     }
 
     fn check_finite(&self) -> Result<(), StepError> {
@@ -614,7 +466,7 @@ impl World {
 
     /// Semi-implicit Euler, velocity half: v += h (g + F/m), w += h tau / I; drag taken
     /// implicitly so it can only slow a body down, whatever the step.
-    fn integrate_velocities(&mut self, h: f32) {
+    pub(crate) fn integrate_velocities(&mut self, h: f32) {
         if !self.joints.is_empty() {
             apply_drives(&self.joints, &mut self.bodies, h);
         }
@@ -652,12 +504,16 @@ impl World {
         }
     }
 
-    /// Broad and narrow phase. With `sweep`, each pair keeps points up to the distance
-    /// its bodies can close in `h` (XPBD finds contacts once per step); otherwise up to
-    /// the speculative margin.
-    fn collide(&mut self, h: f32, sweep: bool) -> (f32, f32) {
-        let t0 = Instant::now();
-        let margin = SPECULATIVE_SLOPS * self.settings.slop.max(0.001);
+    /// Broad and narrow phase; returns the deepest overlap found (m, >= 0). With
+    /// `sweep`, each pair keeps points up to `margin` plus the distance its bodies can
+    /// close in `h` (speculative contacts); otherwise up to `margin`.
+    pub(crate) fn collide(
+        &mut self,
+        h: f32,
+        margin: f32,
+        sweep: bool,
+        clock: &mut StageClock,
+    ) -> f32 {
         self.aabbs.clear();
         self.dynamic.clear();
         self.reach.clear();
@@ -684,7 +540,7 @@ impl World {
         self.broad.find_pairs(&self.aabbs, &self.dynamic, |a, b| {
             no_collide.is_empty() || no_collide.binary_search(&(a.min(b), a.max(b))).is_err()
         });
-        let t1 = Instant::now();
+        clock.lap(Stage::Broad);
 
         std::mem::swap(&mut self.contacts, &mut self.old_contacts);
         self.contacts.clear();
@@ -722,115 +578,8 @@ impl World {
                 restitution: ba.restitution.max(bb.restitution),
             });
         }
-        let t2 = Instant::now();
-        self.stats.penetration = deepest;
-        ((t1 - t0).as_secs_f32() * 1e3, (t2 - t1).as_secs_f32() * 1e3)
-    }
-
-    fn substep_pgs(&mut self, h: f32) {
-        let (ms_broad, ms_narrow) = self.collide(h, true);
-        let t1 = Instant::now();
-        self.integrate_velocities(h);
-        let t2 = Instant::now();
-        let s = self.settings;
-        self.pgs.prepare(&self.bodies, &self.contacts, &s, h);
-        self.joint_rows.prepare(
-            &self.joints,
-            self.mouse.as_ref(),
-            &self.bodies,
-            &self.pgs.bodies,
-            &s,
-            h,
-        );
-        let joints = !self.joint_rows.is_empty();
-        let mut st = crate::solver::pgs::SolveStats::default();
-        // restitution first, as collisions passed pair to pair
-        self.pgs
-            .resolve_collisions(s.restitution_threshold, h, s.iterations);
-        if s.warm_start {
-            self.pgs.warm_start();
-            self.joint_rows.warm_start(&mut self.pgs.bodies);
-        }
-        for _ in 0..s.iterations {
-            let rj = if joints {
-                self.joint_rows.sweep(&mut self.pgs.bodies)
-            } else {
-                0.0
-            };
-            st.residual = self.pgs.sweep_velocity().max(rj);
-            st.iterations += 1;
-            if st.residual < s.tolerance {
-                break;
-            }
-        }
-        if joints {
-            self.joint_rows.damp(&mut self.pgs.bodies, h);
-            self.joint_rows.store(&mut self.joints);
-        }
-        let joint_positions = joints && self.joint_rows.has_position_rows();
-        if s.split_impulse && (joint_positions || self.pgs.needs_position_solve()) {
-            for _ in 0..s.iterations {
-                let mut r = 0.0f32;
-                if joint_positions {
-                    // the joints' rows on the same pseudo-velocities
-                    self.pseudo_bodies.clear();
-                    self.pseudo_bodies
-                        .extend(self.pgs.pseudo.iter().zip(&self.pgs.bodies).map(
-                            |(&(v, w), b)| SolverBody {
-                                v,
-                                w,
-                                inv_m: b.inv_m,
-                                inv_i: b.inv_i,
-                            },
-                        ));
-                    r = self.joint_rows.sweep_position(&mut self.pseudo_bodies);
-                    for (p, b) in self.pgs.pseudo.iter_mut().zip(&self.pseudo_bodies) {
-                        *p = (b.v, b.w);
-                    }
-                }
-                r = r.max(self.pgs.sweep_position());
-                st.position_iterations += 1;
-                if r < s.tolerance {
-                    break;
-                }
-            }
-        }
-        self.pgs.store_impulses(&mut self.contacts);
-        let t3 = Instant::now();
-        // positions: x += h (v + v_pseudo), theta += h (w + w_pseudo)
-        for (i, b) in self.bodies.iter_mut().enumerate() {
-            match b.body_type {
-                BodyType::Static => continue,
-                BodyType::Kinematic => {}
-                BodyType::Dynamic => {
-                    let sb = self.pgs.bodies[i];
-                    b.velocity = sb.v;
-                    b.angular_velocity = sb.w;
-                }
-            }
-            let (pv, pw) = if b.is_dynamic() {
-                // pseudo-velocities (split impulse) and collisions' time-of-impact shifts
-                let ((pv, pw), (iv, iw)) = (self.pgs.pseudo[i], self.pgs.impact[i]);
-                (pv + iv, pw + iw)
-            } else {
-                (Vec2::ZERO, 0.0)
-            };
-            b.position += h * (b.velocity + pv);
-            if b.model == BodyModel::Rigid {
-                b.angle += h * (b.angular_velocity + pw);
-                b.rot = Rot::from_angle(b.angle);
-            }
-        }
-        let t4 = Instant::now();
-        self.stats.iterations = st.iterations;
-        self.stats.residual = st.residual;
-        self.stats.position_iterations = st.position_iterations;
-        self.stats.contacts = self.contacts.iter().map(|c| c.manifold.count).sum();
-        self.stats.ms_broad = ms_broad;
-        self.stats.ms_narrow = ms_narrow;
-        self.stats.ms_forces = (t2 - t1).as_secs_f32() * 1e3;
-        self.stats.ms_solve = (t3 - t2).as_secs_f32() * 1e3;
-        self.stats.ms_integrate = (t4 - t3).as_secs_f32() * 1e3;
+        clock.lap(Stage::Narrow);
+        deepest
     }
 
     /// Kinetic plus gravitational potential energy of the dynamic bodies (J), with the
@@ -863,102 +612,4 @@ impl World {
         }
         h
     }
-}
-
-/// Refuses settings the solver cannot run with.
-pub fn check_settings(s: &SolverSettings) -> Result<(), BuildError> {
-    let bad = |m: String| Err(BuildError::Settings(m));
-    if !(s.dt > 0.0) || !s.dt.is_finite() {
-        return bad(format!("dt must be > 0, got {}", s.dt));
-    }
-    if s.iterations == 0 {
-        return bad("iterations must be at least 1".into());
-    }
-    if s.substeps == 0 {
-        return bad("substeps must be at least 1".into());
-    }
-    if !(s.tolerance >= 0.0) {
-        return bad(format!("tolerance must be >= 0, got {}", s.tolerance));
-    }
-    if !(s.slop >= 0.0) || !s.slop.is_finite() {
-        return bad(format!("slop must be >= 0, got {}", s.slop));
-    }
-    if !(0.0..=1.0).contains(&s.baumgarte) {
-        return bad(format!("baumgarte must be in [0, 1], got {}", s.baumgarte));
-    }
-    if !(s.contact_hertz >= 0.0) || !(s.contact_damping_ratio >= 0.0) {
-        return bad(format!(
-            "contact_hertz and contact_damping_ratio must be >= 0, got {} and {}",
-            s.contact_hertz, s.contact_damping_ratio
-        ));
-    }
-    if !(s.max_push_speed > 0.0) {
-        return bad(format!(
-            "max_push_speed must be > 0, got {}",
-            s.max_push_speed
-        ));
-    }
-    if !(s.restitution_threshold >= 0.0) {
-        return bad(format!(
-            "restitution_threshold must be >= 0, got {}",
-            s.restitution_threshold
-        ));
-    }
-    Ok(())
-}
-
-/// XPBD mouse joint: a compliant attach of the grabbed point to the target,
-/// alpha = 1 / k with k = m (2 pi f)^2, its correction bounded by max force times h^2.
-fn project_mouse(m: &MouseJoint, bodies: &mut [Body], h: f32) {
-    let Some(b) = bodies.get_mut(m.body) else {
-        return;
-    };
-    if !b.is_dynamic() {
-        return;
-    }
-    let r = b.rot.rotate(m.local);
-    let d = m.target - (b.position + r);
-    let len = d.length();
-    if len <= 1e-9 {
-        return;
-    }
-    let n = d / len;
-    let omega = std::f32::consts::TAU * m.hertz.max(0.01);
-    let k = b.mass * omega * omega;
-    // alpha~ = alpha / h^2 = 1 / (k h^2)
-    let soft = 1.0 / (k * h * h);
-    let rn = cross(r, n);
-    let w = b.inv_mass + b.inv_inertia * rn * rn;
-    let dl = (len / (w + soft)).min(m.max_force * h * h);
-    let p = dl * n;
-    crate::joint::move_body(b, b.inv_mass * p, b.inv_inertia * cross(r, p));
-}
-
-/// XPBD mouse damping: removes min(h c / m, 1) of the grabbed point's velocity,
-/// c = 2 m zeta omega.
-fn damp_mouse(m: &MouseJoint, world: &[Body], bodies: &mut [SolverBody], h: f32) {
-    let Some(b) = world.get(m.body) else {
-        return;
-    };
-    if !b.is_dynamic() {
-        return;
-    }
-    let r = b.rot.rotate(m.local);
-    let sb = &mut bodies[m.body];
-    let v = sb.v + crate::math::cross_sv(sb.w, r);
-    let speed = v.length();
-    if speed <= 1e-9 {
-        return;
-    }
-    let n = v / speed;
-    let omega = std::f32::consts::TAU * m.hertz.max(0.01);
-    let f = (h * 2.0 * m.damping_ratio.max(0.0) * omega).min(1.0);
-    let rn = cross(r, n);
-    let w = sb.inv_m + sb.inv_i * rn * rn;
-    if w <= 0.0 {
-        return;
-    }
-    let imp = -(f * speed / w) * n;
-    sb.v += sb.inv_m * imp;
-    sb.w += sb.inv_i * cross(r, imp);
 }

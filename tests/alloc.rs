@@ -4,7 +4,7 @@
 use std::alloc::{GlobalAlloc, Layout, System};
 use std::cell::Cell;
 
-use sandbox2d::{SolverSettings, World, scene};
+use sandbox2d::{SolverKind, SolverSettings, World, scene};
 
 struct Counting;
 
@@ -32,13 +32,14 @@ static COUNTING: Counting = Counting;
 
 #[test]
 fn steady_steps_allocate_nothing() {
-    let mut soft = SolverSettings::pgs();
-    soft.soft_step = true;
-    soft.substeps = 4;
-    soft.iterations = 2;
-    for s in [SolverSettings::pgs(), soft] {
+    // every solver, on a pile, on joints (the pendulum) and with drag
+    for (kind, name) in SolverKind::ALL
+        .into_iter()
+        .flat_map(|k| [(k, "pyramid"), (k, "pendulum"), (k, "vacuum_vs_fluid")])
+    {
+        let s = SolverSettings::defaults(kind);
         let built = ALLOCS.with(|a| a.get());
-        let sc = scene::load("pyramid").unwrap();
+        let sc = scene::load(name).unwrap();
         let mut w = World::from_def(&sc.world, s).unwrap();
         assert!(ALLOCS.with(|a| a.get()) > built, "the counter counts");
         for _ in 0..100 {
@@ -49,6 +50,6 @@ fn steady_steps_allocate_nothing() {
             w.step().unwrap();
         }
         let after = ALLOCS.with(|a| a.get());
-        assert_eq!(after - before, 0, "soft_step {}: allocations", s.soft_step);
+        assert_eq!(after - before, 0, "{kind:?} on {name}: allocations");
     }
 }

@@ -1,4 +1,4 @@
-//! Joints under both solvers, against closed forms and bounds.
+//! Joints under every solver (the soft step, PGS, XPBD), against closed forms and bounds.
 
 use glam::Vec2;
 use sandbox2d::scene::load_str;
@@ -83,7 +83,11 @@ fn pendulum_period_closed_form() -> f32 {
 #[test]
 fn pendulum_period_matches_closed_form() {
     let t = pendulum_period_closed_form();
-    for (kind, tol) in [(SolverKind::Xpbd, 0.005), (SolverKind::Pgs, 0.02)] {
+    for (kind, tol) in [
+        (SolverKind::Soft, 0.02),
+        (SolverKind::Xpbd, 0.005),
+        (SolverKind::Pgs, 0.02),
+    ] {
         let mut w = world(&pendulum_scene(0.05, "hinge"), kind);
         let p = measure_period(&mut w, 12.0);
         let err = (p - t).abs() / t;
@@ -97,7 +101,7 @@ fn pendulum_period_matches_closed_form() {
 
 #[test]
 fn pendulum_keeps_its_amplitude() {
-    for kind in [SolverKind::Xpbd, SolverKind::Pgs] {
+    for kind in SolverKind::ALL {
         let mut w = world(&pendulum_scene(0.5, "distance"), kind);
         let steps = (20.0 / w.settings.dt) as usize;
         let (mut first, mut last) = (0.0f32, 0.0f32);
@@ -116,12 +120,12 @@ fn pendulum_keeps_its_amplitude() {
             "{kind:?}: amplitude {first:.5} -> {last:.5} ({:.2}%)",
             100.0 * last / first
         );
-        if kind == SolverKind::Xpbd {
-            assert!(
-                last >= 0.99 * first,
-                "XPBD lost amplitude: {first} -> {last}"
-            );
-        }
+        // no solver may gain energy; each keeps most of the swing (XPBD almost all)
+        let keep = if kind == SolverKind::Xpbd { 0.99 } else { 0.95 };
+        assert!(
+            last >= keep * first && last <= 1.001 * first,
+            "{kind:?}: amplitude {first} -> {last}"
+        );
     }
 }
 
@@ -150,7 +154,7 @@ fn run(w: &mut World, seconds: f32) {
 
 #[test]
 fn hinge_motor_reaches_its_speed() {
-    for kind in [SolverKind::Pgs, SolverKind::Xpbd] {
+    for kind in SolverKind::ALL {
         let mut w = builtin("joints", kind);
         run(&mut w, 2.0);
         let wheel = id(&w, "motor_wheel");
@@ -162,7 +166,7 @@ fn hinge_motor_reaches_its_speed() {
 
 #[test]
 fn servo_holds_its_target_against_gravity() {
-    for kind in [SolverKind::Pgs, SolverKind::Xpbd] {
+    for kind in SolverKind::ALL {
         let mut w = builtin("joints", kind);
         run(&mut w, 3.0);
         let arm = id(&w, "servo_arm");
@@ -174,7 +178,7 @@ fn servo_holds_its_target_against_gravity() {
 
 #[test]
 fn hinge_and_prismatic_limits_hold() {
-    for kind in [SolverKind::Pgs, SolverKind::Xpbd] {
+    for kind in SolverKind::ALL {
         let mut w = builtin("joints", kind);
         let (arm, slider) = (id(&w, "limit_arm"), id(&w, "slider"));
         let (mut worst_angle, mut worst_offset) = (0.0f32, 0.0f32);
@@ -232,8 +236,8 @@ fn hanging_chain_stays_together_under_xpbd() {
 }
 
 #[test]
-fn ball_and_chain_stays_bounded_under_both_solvers() {
-    for kind in [SolverKind::Pgs, SolverKind::Xpbd] {
+fn ball_and_chain_stays_bounded_under_every_solver() {
+    for kind in SolverKind::ALL {
         let mut w = builtin("ball_and_chain", kind);
         let mut worst = 0.0f32;
         for _ in 0..600 {
@@ -255,8 +259,11 @@ fn ball_and_chain_stays_bounded_under_both_solvers() {
 #[test]
 fn newtons_cradle_passes_the_speed_on() {
     // e = 1, equal masses: the collision passes down the row, so the last ball leaves
-    // with the first ball's speed and the others are left (almost) at rest
-    for kind in [SolverKind::Xpbd, SolverKind::Pgs] {
+    // with the first ball's speed and the others are left (almost) at rest. PGS and
+    // XPBD pass it on; the soft step's restitution is a pass after the solve (as Box2D
+    // v3's), which shares the impulse along the row: measured in docs/tradeoffs.md,
+    // not asserted here.
+    for kind in [SolverKind::Pgs, SolverKind::Xpbd] {
         let mut w = builtin("newtons_cradle", kind);
         let balls: Vec<usize> = (0..5).map(|i| id(&w, &format!("ball{i}"))).collect();
         let (mut v_in, mut v_out, mut rest) = (0.0f32, 0.0f32, 0.0f32);
@@ -287,12 +294,12 @@ fn newtons_cradle_passes_the_speed_on() {
 }
 
 #[test]
-fn every_builtin_scene_runs_ten_seconds_under_both_solvers() {
+fn every_builtin_scene_runs_ten_seconds_under_every_solver() {
     for &name in sandbox2d::scene::builtin_names() {
         if name == "large_pyramid" {
             continue; // 5050 boxes: measured by the bench, too slow for a debug test
         }
-        for kind in [SolverKind::Pgs, SolverKind::Xpbd] {
+        for kind in SolverKind::ALL {
             let mut w = builtin(name, kind);
             let e0 = w.energy();
             // energy scale: the start energy's size plus what gravity can give over the
@@ -315,10 +322,10 @@ fn every_builtin_scene_runs_ten_seconds_under_both_solvers() {
 }
 
 #[test]
-fn friction_ramp_follows_coulomb_under_both_solvers() {
+fn friction_ramp_follows_coulomb_under_every_solver() {
     // 25 degree ramps; a box slides with a = g (sin - mu cos) when mu < tan 25 = 0.466
     let (theta, g) = (0.436332f32, 9.81f32);
-    for kind in [SolverKind::Pgs, SolverKind::Xpbd] {
+    for kind in SolverKind::ALL {
         let mut w = builtin("friction_ramp", kind);
         let t = 20.0 * w.settings.dt;
         for _ in 0..20 {
@@ -364,7 +371,7 @@ anchor = [0.0, 0.0]
 
 #[test]
 fn a_joint_drive_turns_a_wheel_at_tau_over_i() {
-    for kind in [SolverKind::Pgs, SolverKind::Xpbd] {
+    for kind in SolverKind::ALL {
         let mut w = wheel(kind, "");
         w.set_joint_drive(0, 2.0);
         run(&mut w, 1.0);
@@ -382,7 +389,7 @@ fn a_joint_drive_turns_a_wheel_at_tau_over_i() {
 
 #[test]
 fn angular_damping_slows_the_relative_spin() {
-    for kind in [SolverKind::Pgs, SolverKind::Xpbd] {
+    for kind in SolverKind::ALL {
         let mut w = wheel(kind, "damping = { angular = 2.0 }");
         run(&mut w, 1.0);
         let omega = w.bodies[1].angular_velocity;
@@ -394,7 +401,7 @@ fn angular_damping_slows_the_relative_spin() {
 
 #[test]
 fn the_mouse_joint_pulls_a_body_to_the_target() {
-    for kind in [SolverKind::Pgs, SolverKind::Xpbd] {
+    for kind in SolverKind::ALL {
         let settings = wheel(kind, "").settings;
         // a free box, grabbed at its centre, no gravity
         let sc = load_str(
@@ -412,4 +419,133 @@ fn the_mouse_joint_pulls_a_body_to_the_target() {
         eprintln!("{kind:?}: grabbed point at {p:?}, target (3, 1)");
         assert!(p.distance(m.target) < 0.01, "{kind:?}: {p:?}");
     }
+}
+
+/// A chain of `links` links (0.5 m x 0.125 m, 0.0625 kg) from a static anchor,
+/// horizontal, with a ball of `ratio` times a link's mass at its end, under the default
+/// solver.
+fn ball_on_chain(links: u32, ratio: f32) -> World {
+    // a link is 0.5 x 0.125 x density 1 = 0.0625 kg; a disc of radius 1 has area pi
+    let density = ratio * 0.0625 / std::f32::consts::PI;
+    let toml = format!(
+        r#"name = "ball on chain"
+[world]
+gravity = [0.0, -10.0]
+[[chain]]
+links = {links}
+link = [0.5, 0.125]
+anchor = [0.0, 20.0]
+direction = [1.0, 0.0]
+joint = "hinge"
+end = {{ shape = {{ circle = 1.0 }}, density = {density} }}
+"#
+    );
+    let sc = load_str(&toml, "chain.toml").expect("parses");
+    World::from_def(&sc.world, sc.world.solver.resolve()).expect("builds")
+}
+
+fn largest_separation(w: &mut World, seconds: f32) -> f32 {
+    let mut worst = 0.0f32;
+    for _ in 0..(seconds / w.settings.dt).round() as usize {
+        w.step().expect("finite");
+        worst = worst.max(w.joint_error());
+    }
+    worst
+}
+
+#[test]
+fn heavy_balls_on_chains_hold_under_the_default_solver() {
+    // the default solver is the soft step, joints included (no fallback)
+    let mut w = builtin("ball_and_chain", SolverKind::Soft);
+    assert_eq!(sandbox2d::SolverSettings::default().kind, SolverKind::Soft);
+    let worst500 = largest_separation(&mut w, 10.0);
+    let mut w = ball_on_chain(20, 200.0);
+    assert_eq!(w.settings.kind, SolverKind::Soft);
+    let worst200 = largest_separation(&mut w, 10.0);
+    eprintln!(
+        "soft step: ball and chain 500:1 largest separation {worst500:.4} m, 200:1 on 20 links {worst200:.4} m"
+    );
+    // Box2D v3 0.10 m and rapier2d 0.30 m on the 200:1 case; the 500:1 ratio on 40 links
+    // stretches 0.06 m at the default 8 substeps (12 substeps: 0.03 m), so it is held to
+    // Box2D's 200:1 figure here
+    assert!(worst500 <= 0.10, "500:1: {worst500} m");
+    assert!(worst200 <= 0.05, "200:1: {worst200} m");
+}
+
+/// Box2D's joint grid layout: n x n circles of radius 0.4 at 1 m spacing, each hinged to
+/// its left and lower neighbours, 7 static anchors in the middle of the top row; the gap
+/// between neighbours keeps them from touching (no filters yet).
+fn joint_grid(n: usize, kind: SolverKind) -> World {
+    use sandbox2d::{BodyDef, BodyType, JointDef, JointKind, ShapeDef, SolverSettings};
+    let mut w = World::new(Some(Vec2::new(0.0, -10.0)), SolverSettings::defaults(kind));
+    let spacing = 1.0f32;
+    let mut index = vec![vec![0usize; n]; n];
+    for (k, row) in index.iter_mut().enumerate() {
+        for (i, slot) in row.iter_mut().enumerate() {
+            *slot = w
+                .add_body(&BodyDef {
+                    name: format!("b{k}_{i}"),
+                    body_type: if k == n - 1 && i + 3 >= n / 2 && i <= n / 2 + 3 {
+                        BodyType::Static
+                    } else {
+                        BodyType::Dynamic
+                    },
+                    shape: ShapeDef::Circle { radius: 0.4 },
+                    position: Vec2::new(i as f32 * spacing, k as f32 * spacing),
+                    ..Default::default()
+                })
+                .unwrap();
+        }
+    }
+    let hinge = |a: usize, b: usize, at: Vec2| JointDef {
+        kind: JointKind::Hinge,
+        bodies: [a, b],
+        anchor: Some(at),
+        anchors: None,
+        length: None,
+        axis: None,
+        limits: None,
+        motor: None,
+        servo: None,
+        compliance: 0.0,
+        damping: Default::default(),
+        collide_connected: false,
+    };
+    for k in 0..n {
+        for i in 0..n {
+            let here = Vec2::new(i as f32 * spacing, k as f32 * spacing);
+            if i > 0 {
+                w.add_joint(&hinge(
+                    index[k][i - 1],
+                    index[k][i],
+                    here - Vec2::new(0.5, 0.0),
+                ))
+                .unwrap();
+            }
+            if k > 0 {
+                w.add_joint(&hinge(
+                    index[k - 1][i],
+                    index[k][i],
+                    here - Vec2::new(0.0, 0.5),
+                ))
+                .unwrap();
+            }
+        }
+    }
+    w
+}
+
+#[test]
+fn a_joint_grid_holds_under_the_default_solver() {
+    // 30 x 30 here (a debug test); `cargo run --release --example joint_grid` measures
+    // Box2D's 100 x 100 (Box2D v3: 0.36 m at step 60, 0.42 m at step 500). Classic PGS
+    // and XPBD still go non-finite on large grids (an open weakness, docs/tradeoffs.md).
+    let mut w = joint_grid(30, SolverKind::Soft);
+    let mut worst = 0.0f32;
+    for _ in 0..500 {
+        w.step().unwrap_or_else(|e| panic!("soft: {e}"));
+        worst = worst.max(w.joint_error());
+    }
+    eprintln!("soft: 30x30 joint grid, largest stretch {worst:.4} m over 500 steps");
+    assert!(worst < 0.5, "soft: {worst}");
 }

@@ -484,8 +484,8 @@ fn restitution_bounces_to_e_squared_height() {
         let expected = e * e * 5.0;
         assert!(
             (apex - expected).abs() < 0.05 * 5.0,
-            "soft_step {}, e = {e}: apex {apex}, expected {expected}",
-            s.soft_step
+            "{:?}, e = {e}: apex {apex}, expected {expected}",
+            s.kind
         );
     }
 }
@@ -519,8 +519,7 @@ fn elastic_ball_keeps_its_height_bounce_after_bounce() {
 
 /// The soft step as the large pyramid scene runs it.
 fn soft_settings() -> SolverSettings {
-    let mut s = SolverSettings::pgs();
-    s.soft_step = true;
+    let mut s = SolverSettings::soft();
     s.substeps = 4;
     s.iterations = 2;
     s.contact_hertz = 60.0;

@@ -84,22 +84,54 @@ fn contents(ui: &mut Ui, s: &mut Session, frame: FrameStats, actions: &mut Panel
     }
 
     ui.separator();
-    ui.label("solver");
-    let before = s.settings;
+    ui.label(format!(
+        "solver: {} (running)",
+        s.world.settings.kind.label()
+    ));
+    let mut kind = s.settings.kind;
     ui.horizontal(|ui| {
-        ui.selectable_value(&mut s.settings.kind, SolverKind::Pgs, "PGS");
-        ui.selectable_value(&mut s.settings.kind, SolverKind::Xpbd, "XPBD");
+        for k in SolverKind::ALL {
+            ui.selectable_value(&mut kind, k, k.label());
+        }
     });
-    ui.add(egui::Slider::new(&mut s.settings.iterations, 1..=100).text("iterations"));
-    ui.add(egui::Slider::new(&mut s.settings.substeps, 1..=16).text("substeps"));
-    ui.add(egui::Slider::new(&mut s.settings.baumgarte, 0.0..=1.0).text("baumgarte"));
-    ui.add(
-        egui::Slider::new(&mut s.settings.slop, 0.0..=0.05)
-            .text("slop (m)")
-            .max_decimals(4),
-    );
-    ui.checkbox(&mut s.settings.warm_start, "warm start");
-    ui.checkbox(&mut s.settings.split_impulse, "split impulse");
+    if kind != s.settings.kind {
+        s.switch_solver(kind);
+    }
+    let before = s.settings;
+    // only the running kind's own settings
+    let keys = crate::defs::SolverSettings::keys(s.settings.kind);
+    let has = |k: &str| keys.contains(&k);
+    let st = &mut s.settings;
+    let (it_label, it_max) = match st.kind {
+        SolverKind::Soft => ("soft sweeps / substep", 8),
+        SolverKind::Pgs => ("PGS sweeps", 100),
+        SolverKind::Xpbd => ("XPBD iterations / substep", 8),
+    };
+    ui.add(egui::Slider::new(&mut st.iterations, 1..=it_max).text(it_label));
+    ui.add(egui::Slider::new(&mut st.substeps, 1..=64).text("substeps"));
+    if has("baumgarte") {
+        ui.add(egui::Slider::new(&mut st.baumgarte, 0.0..=1.0).text("baumgarte"));
+    }
+    if has("slop") {
+        ui.add(
+            egui::Slider::new(&mut st.slop, 0.0..=0.05)
+                .text("slop (m)")
+                .max_decimals(4),
+        );
+    }
+    if has("contact_hertz") {
+        ui.add(egui::Slider::new(&mut st.contact_hertz, 1.0..=240.0).text("contact Hz"));
+        ui.add(egui::Slider::new(&mut st.joint_hertz, 1.0..=240.0).text("joint Hz"));
+        ui.add(
+            egui::Slider::new(&mut st.joint_damping_ratio, 0.0..=20.0).text("joint damping ratio"),
+        );
+    }
+    if has("warm_start") {
+        ui.checkbox(&mut st.warm_start, "warm start");
+    }
+    if has("split_impulse") {
+        ui.checkbox(&mut st.split_impulse, "split impulse");
+    }
     if s.settings != before {
         s.apply_settings();
     }

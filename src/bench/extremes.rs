@@ -147,6 +147,13 @@ fn pgs(iterations: u32, split_impulse: bool) -> Setting {
     }
 }
 
+fn soft(substeps: u32) -> Setting {
+    Setting {
+        substeps,
+        ..Setting::defaults(SolverKind::Soft)
+    }
+}
+
 fn xpbd(substeps: u32) -> Setting {
     Setting {
         substeps,
@@ -160,6 +167,10 @@ fn xpbd(substeps: u32) -> Setting {
 pub fn settings(sweep: Sweep) -> Vec<ExSetting> {
     if sweep == Sweep::Iterations {
         return vec![
+            ExSetting {
+                label: "Soft step",
+                setting: soft(4),
+            },
             ExSetting {
                 label: "PGS",
                 setting: pgs(10, true),
@@ -178,6 +189,14 @@ pub fn settings(sweep: Sweep) -> Vec<ExSetting> {
         ];
     }
     vec![
+        ExSetting {
+            label: "Soft 4",
+            setting: soft(4),
+        },
+        ExSetting {
+            label: "Soft 8",
+            setting: soft(8),
+        },
         ExSetting {
             label: "PGS 4",
             setting: pgs(4, true),

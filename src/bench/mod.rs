@@ -2,7 +2,7 @@
 //!
 //! For every scene of a suite and every setting of the grid (PGS at 1..32 sweeps with
 //! warm start and split impulse on and off, XPBD at 1..32 substeps, the soft step at 1..32
-//! substeps; scenes with joints skip the soft step, which has no joint rows), [`run_case`] builds
+//! substeps), [`run_case`] builds
 //! the world, steps it and records the median wall time per step over repeats, the time
 //! per pipeline stage, and the accuracy measures of `shared/benchmarks.md`: penetration
 //! (max, mean), drift of the tracked body (the top of a stack), joint error, energy
@@ -57,7 +57,7 @@ pub enum Family {
     PgsSplit,
     PgsCold,
     Xpbd,
-    /// PGS's opt-in soft step (soft contacts, substeps reusing one collide).
+    /// The soft step (soft contacts and joints, substeps reusing one collide).
     Soft,
 }
 
@@ -80,14 +80,14 @@ impl Family {
             Family::PgsSplit => "PGS split",
             Family::PgsCold => "PGS cold",
             Family::Xpbd => "XPBD",
-            Family::Soft => "PGS soft step",
+            Family::Soft => "Soft step",
         }
     }
 
     fn of(s: &SolverSettings) -> Family {
         match (s.kind, s.warm_start, s.split_impulse) {
             (SolverKind::Xpbd, _, _) => Family::Xpbd,
-            (SolverKind::Pgs, _, _) if s.soft_step => Family::Soft,
+            (SolverKind::Soft, _, _) => Family::Soft,
             (SolverKind::Pgs, true, true) => Family::PgsWarmSplit,
             (SolverKind::Pgs, true, false) => Family::PgsWarm,
             (SolverKind::Pgs, false, true) => Family::PgsSplit,
@@ -108,9 +108,6 @@ pub struct Setting {
     pub split_impulse: bool,
     /// PGS early exit; the grid uses 0 so a row runs exactly `iterations` sweeps.
     pub tolerance: f32,
-    /// PGS's soft step (substeps x `iterations` soft sweeps); false: classic PGS, even
-    /// where the scene's `[solver]` turns it on.
-    pub soft_step: bool,
 }
 
 impl Setting {
@@ -123,20 +120,18 @@ impl Setting {
             warm_start,
             split_impulse,
             tolerance: 0.0,
-            soft_step: false,
         }
     }
 
     /// The soft step: `substeps` substeps of `iterations` soft sweeps (and a relax sweep).
     pub fn soft(substeps: u32, iterations: u32) -> Setting {
         Setting {
-            kind: SolverKind::Pgs,
+            kind: SolverKind::Soft,
             iterations,
             substeps,
             warm_start: true,
             split_impulse: false,
             tolerance: 0.0,
-            soft_step: true,
         }
     }
 
@@ -149,7 +144,6 @@ impl Setting {
             warm_start: true,
             split_impulse: true,
             tolerance: 0.0,
-            soft_step: false,
         }
     }
 
@@ -164,7 +158,6 @@ impl Setting {
             warm_start: d.warm_start,
             split_impulse: d.split_impulse,
             tolerance: d.tolerance,
-            soft_step: false,
         }
     }
 
@@ -175,10 +168,8 @@ impl Setting {
     /// A short label: `pgs 8 warm+split`, `pgs 8 cold`, `xpbd 16 substeps`.
     pub fn label(&self) -> String {
         match self.kind {
-            SolverKind::Pgs if self.soft_step => {
-                format!("soft {} substeps x {}", self.substeps, self.iterations)
-                    .replace("soft 1 substeps", "soft 1 substep")
-            }
+            SolverKind::Soft => format!("soft {} substeps x {}", self.substeps, self.iterations)
+                .replace("soft 1 substeps", "soft 1 substep"),
             SolverKind::Pgs => {
                 let mode = match (self.warm_start, self.split_impulse) {
                     (true, true) => "warm+split",
@@ -212,7 +203,6 @@ impl Setting {
                 warm_start: Some(self.warm_start),
                 split_impulse: Some(self.split_impulse),
                 tolerance: Some(self.tolerance),
-                soft_step: Some(self.soft_step),
                 ..Default::default()
             })
             .resolve()
@@ -404,6 +394,8 @@ pub fn run_case(scene: &BenchScene, setting: &Setting, budget: &Budget) -> Outco
             Err(o) => return o,
         };
         let accuracy = repeat == 0;
+        // the residual against a converged solve of the same MLCP: classic PGS with one
+        // substep (the soft step's rows are softened on purpose, and XPBD has no MLCP)
         let residual_on = accuracy
             && budget.residual_samples > 0
             && world.settings.kind == SolverKind::Pgs
@@ -597,17 +589,9 @@ const BLOW_UP: f64 = 100.0;
 /// The (scene, setting) pairs a scene runs.
 pub fn scene_settings(scene: &BenchScene) -> Vec<Setting> {
     if scene.full_grid {
-        // the soft step has no joint rows (a world with joints takes classic PGS)
-        let joints = !scene.def.joints.is_empty();
         settings_grid()
-            .into_iter()
-            .filter(|s| !(s.soft_step && joints))
-            .collect()
     } else {
-        vec![
-            Setting::defaults(SolverKind::Pgs),
-            Setting::defaults(SolverKind::Xpbd),
-        ]
+        SolverKind::ALL.into_iter().map(Setting::defaults).collect()
     }
 }
 

@@ -33,7 +33,9 @@ pub fn series(scene: &BenchScene, rows: &[Row]) -> Option<(Vec<(Family, Vec<Poin
                 Outcome::Ran(m) if m.ms_per_step.is_finite() => {
                     let count = match r.setting.kind {
                         crate::defs::SolverKind::Pgs => r.setting.iterations,
-                        crate::defs::SolverKind::Xpbd => r.setting.substeps,
+                        crate::defs::SolverKind::Xpbd | crate::defs::SolverKind::Soft => {
+                            r.setting.substeps
+                        }
                     };
                     Some((
                         m.ms_per_step,

@@ -79,7 +79,7 @@ pub fn csv(rows: &[Row]) -> String {
         let mut f = vec![
             csv_field(&r.scene),
             // "pgs", "xpbd", or "soft" (PGS's soft step)
-            if s.soft_step { "soft" } else { s.kind.name() }.to_string(),
+            s.kind.name().to_string(),
             s.iterations.to_string(),
             s.substeps.to_string(),
             s.warm_start.to_string(),

@@ -232,19 +232,20 @@ fn collide_polygons_n(
     let r2 = rv[(ref_edge + 1) % rv.len()];
     let t = (r2 - r1).normalize();
 
-    // The incident segment with a feature tag per end: vertex index, or clip plane.
+    // The incident segment with a feature id per end: the reference edge and the
+    // incident vertex that end starts from. An end keeps its id when it is clipped: in
+    // an aligned stack the incident vertices sit on the side planes, and an id that
+    // changed with clipping flipped on 1e-7 m of jitter and lost the cached lambdas.
     let flip_bit: u32 = if flipped { 1 << 31 } else { 0 };
     let vertex_id = |v: usize| flip_bit | ((ref_edge as u32) << 8) | v as u32;
-    let clip_id =
-        |ref_vertex: usize| flip_bit | (1 << 30) | ((ref_vertex as u32) << 8) | inc as u32;
     let mut seg = [(iv[inc], vertex_id(inc)), (iv[inc2], vertex_id(inc2))];
 
     // clip against the side plane through r1 (keep t.(p - r1) >= 0)
-    if !clip(&mut seg, -t, -t.dot(r1), clip_id(ref_edge)) {
+    if !clip(&mut seg, -t, -t.dot(r1)) {
         return m;
     }
     // and through r2 (keep t.(p - r2) <= 0)
-    if !clip(&mut seg, t, t.dot(r2), clip_id((ref_edge + 1) % rv.len())) {
+    if !clip(&mut seg, t, t.dot(r2)) {
         return m;
     }
 
@@ -264,10 +265,10 @@ fn collide_polygons_n(
     m
 }
 
-/// Clips a segment to the half-plane normal.p <= offset; the new end takes `id`.
+/// Clips a segment to the half-plane normal.p <= offset; a clipped end keeps its id.
 /// Returns false when nothing is left.
 #[inline]
-fn clip(seg: &mut [(Vec2, FeatureId); 2], normal: Vec2, offset: f32, id: FeatureId) -> bool {
+fn clip(seg: &mut [(Vec2, FeatureId); 2], normal: Vec2, offset: f32) -> bool {
     let d0 = normal.dot(seg[0].0) - offset;
     let d1 = normal.dot(seg[1].0) - offset;
     if d0 <= 0.0 && d1 <= 0.0 {
@@ -279,9 +280,9 @@ fn clip(seg: &mut [(Vec2, FeatureId); 2], normal: Vec2, offset: f32, id: Feature
     let t = d0 / (d0 - d1);
     let p = seg[0].0 + t * (seg[1].0 - seg[0].0);
     if d0 > 0.0 {
-        seg[0] = (p, id);
+        seg[0].0 = p;
     } else {
-        seg[1] = (p, id);
+        seg[1].0 = p;
     }
     true
 }

@@ -87,6 +87,8 @@ pub(crate) struct FileSolver {
     pub contact_hertz: Option<S<f32>>,
     pub contact_damping_ratio: Option<S<f32>>,
     pub max_push_speed: Option<S<f32>>,
+    pub joint_hertz: Option<S<f32>>,
+    pub joint_damping_ratio: Option<S<f32>>,
 }
 
 /// `[camera]`.

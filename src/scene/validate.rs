@@ -436,48 +436,71 @@ impl Ctx<'_> {
         Ok((gravity, drag))
     }
 
-    /// `[solver]`.
+    /// `[solver]`. Ranges come from [`SolverSettings::check_value`], the one place
+    /// they are defined. `soft_step = true` is the old spelling of `kind = "soft"` (and
+    /// `soft_step = false` of `kind = "pgs"`).
     pub fn solver(&self, s: &FileSolver) -> R<SolverOverrides> {
         let who = "solver";
-        let count =
-            |v: &Option<S<u32>>, key: &str| v.as_ref().map(|v| self.count(who, key, v)).transpose();
-        let f = |v: &Option<S<f32>>, check: &dyn Fn(&S<f32>) -> R<f32>| {
-            v.as_ref().map(check).transpose()
+        let checked = |key: &str, span: std::ops::Range<usize>, value: f64| -> R<()> {
+            match SolverSettings::check_value(key, value) {
+                None => Ok(()),
+                Some(e) => Err(self.err(span, format!("{who}: {e}"))),
+            }
         };
+        let count = |v: &Option<S<u32>>, key: &str| -> R<Option<u32>> {
+            v.as_ref()
+                .map(|v| checked(key, v.span(), *v.get_ref() as f64).map(|_| *v.get_ref()))
+                .transpose()
+        };
+        let f = |v: &Option<S<f32>>, key: &str| -> R<Option<f32>> {
+            v.as_ref()
+                .map(|v| checked(key, v.span(), *v.get_ref() as f64).map(|_| *v.get_ref()))
+                .transpose()
+        };
+        let names: Vec<(&str, SolverKind)> =
+            SolverKind::ALL.iter().map(|&k| (k.name(), k)).collect();
+        let mut kind = s
+            .kind
+            .as_ref()
+            .map(|k| self.choice(who, "kind", k, &names))
+            .transpose()?;
+        if let Some(v) = &s.soft_step {
+            let old = if *v.get_ref() {
+                SolverKind::Soft
+            } else {
+                SolverKind::Pgs
+            };
+            match kind {
+                Some(k) if k != old => {
+                    return Err(self.err(
+                        v.span(),
+                        format!(
+                            "{who}: soft_step = {} contradicts kind = \"{}\" (soft_step is the old spelling of kind = \"{}\")",
+                            v.get_ref(),
+                            k.name(),
+                            old.name()
+                        ),
+                    ));
+                }
+                _ => kind = Some(old),
+            }
+        }
         Ok(SolverOverrides {
-            kind: s
-                .kind
-                .as_ref()
-                .map(|k| {
-                    self.choice(
-                        who,
-                        "kind",
-                        k,
-                        &[("pgs", SolverKind::Pgs), ("xpbd", SolverKind::Xpbd)],
-                    )
-                })
-                .transpose()?,
-            dt: f(&s.dt, &|v| self.positive(who, "dt", v))?,
+            kind,
+            dt: f(&s.dt, "dt")?,
             substeps: count(&s.substeps, "substeps")?,
             iterations: count(&s.iterations, "iterations")?,
-            tolerance: f(&s.tolerance, &|v| self.non_negative(who, "tolerance", v))?,
+            tolerance: f(&s.tolerance, "tolerance")?,
             warm_start: s.warm_start.as_ref().map(|v| *v.get_ref()),
-            baumgarte: f(&s.baumgarte, &|v| self.unit(who, "baumgarte", v))?,
-            slop: f(&s.slop, &|v| self.non_negative(who, "slop", v))?,
+            baumgarte: f(&s.baumgarte, "baumgarte")?,
+            slop: f(&s.slop, "slop")?,
             split_impulse: s.split_impulse.as_ref().map(|v| *v.get_ref()),
-            restitution_threshold: f(&s.restitution_threshold, &|v| {
-                self.non_negative(who, "restitution_threshold", v)
-            })?,
-            soft_step: s.soft_step.as_ref().map(|v| *v.get_ref()),
-            contact_hertz: f(&s.contact_hertz, &|v| {
-                self.non_negative(who, "contact_hertz", v)
-            })?,
-            contact_damping_ratio: f(&s.contact_damping_ratio, &|v| {
-                self.non_negative(who, "contact_damping_ratio", v)
-            })?,
-            max_push_speed: f(&s.max_push_speed, &|v| {
-                self.positive(who, "max_push_speed", v)
-            })?,
+            restitution_threshold: f(&s.restitution_threshold, "restitution_threshold")?,
+            contact_hertz: f(&s.contact_hertz, "contact_hertz")?,
+            contact_damping_ratio: f(&s.contact_damping_ratio, "contact_damping_ratio")?,
+            max_push_speed: f(&s.max_push_speed, "max_push_speed")?,
+            joint_hertz: f(&s.joint_hertz, "joint_hertz")?,
+            joint_damping_ratio: f(&s.joint_damping_ratio, "joint_damping_ratio")?,
         })
     }
 

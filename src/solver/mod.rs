@@ -5,4 +5,5 @@ pub mod contact_cache;
 pub mod joint_rows;
 pub mod pgs;
 pub mod soft;
+pub mod soft_joints;
 pub mod xpbd;

@@ -317,7 +317,7 @@ pub struct SoftSolver {
     /// Whether the solver moves body i (dynamic).
     moves: Vec<bool>,
     /// (1/m, 1/I) of body i.
-    inv_mass: Vec<(f32, f32)>,
+    pub(crate) inv_mass: Vec<(f32, f32)>,
     /// Velocity change per substep from forces, (dv, dw), when it is the same each substep.
     increments: Vec<(Vec2, f32)>,
     /// The constraints, four to a wide constraint, colour by colour.

@@ -1,0 +1,634 @@
+//! Joint rows of the soft step (the scheme of Box2D v3's soft step, written for this
+//! project): every joint of [`crate::joint`] and the mouse joint, solved beside the soft
+//! contacts on the same substep velocities.
+//!
+//! The geometry is taken once per step (the arms `r0`, the anchor gap `d0`, the axis
+//! and the relative angle at the step's start) and brought up to date in every sweep
+//! from each body's motion since then: r = q r0, d = d0 + (dp_b - dp_a) + (r_b - r_b0)
+//! - (r_a - r_a0), angle = angle0 + dtheta_b - dtheta_a. So a row always sees its
+//!   current error without re-collecting positions.
+//!
+//! A rigid row (compliance 0) is soft in the biased sweeps (a spring-damper of
+//! `joint_hertz` and `joint_damping_ratio`: lambda += -m s_m (J v + rate C) - s_i lambda,
+//! see [`Softness`]) and rigid in the relax sweep (lambda += -m J v), which removes the
+//! speed the spring's push-out left. A compliant row (compliance alpha) is XPBD's
+//! implicit spring written for impulses in both sweeps:
+//! (K + alpha/h^2) dlambda = -(J v + C/h + alpha/h^2 lambda), so a compliance means what
+//! it means under the other solvers. A limit is speculative while open (J v >= -C/h) and
+//! soft once reached. Motors are velocity rows bounded by max force times h; a servo is a
+//! rigid equality on the angle (offset) error. Lambdas are impulses per substep; they
+//! carry from substep to substep and, through the joint, to the next step (warm start).
+
+use super::soft::{SoftBody, Softness};
+use crate::body::Body;
+use crate::defs::{JointKind, SolverSettings};
+use crate::joint::{Joint, MouseJoint, SLOTS, slot, wrap_angle};
+use crate::math::{Vec2, cross, cross_sv};
+
+/// A joint's geometry at the step's start and its lambdas.
+#[derive(Clone, Copy, Debug, Default)]
+struct Prepared {
+    a: usize,
+    b: usize,
+    /// Arms from the centres of mass to the anchors, world frame, at the step's start.
+    ra0: Vec2,
+    rb0: Vec2,
+    /// Anchor gap p_b - p_a at the step's start.
+    d0: Vec2,
+    /// World axis at the step's start (prismatic; it turns with a).
+    axis0: Vec2,
+    /// theta_b - theta_a - ref at the step's start.
+    angle0: f32,
+    impulses: [f32; SLOTS],
+}
+
+/// The mouse joint, prepared: a soft point between a body's point and the target.
+#[derive(Clone, Copy, Debug, Default)]
+struct PreparedMouse {
+    body: usize,
+    rb0: Vec2,
+    /// point - target at the step's start.
+    c0: Vec2,
+    soft: Softness,
+    max_impulse: f32,
+    impulse: Vec2,
+}
+
+/// The current geometry of a joint.
+#[derive(Clone, Copy, Debug)]
+struct Geometry {
+    ra: Vec2,
+    rb: Vec2,
+    d: Vec2,
+    axis: Vec2,
+    angle: f32,
+}
+
+/// A scalar row's Jacobian: J v = la . v_a + ka w_a + lb . v_b + kb w_b.
+#[derive(Clone, Copy, Debug)]
+struct Jac {
+    la: Vec2,
+    ka: f32,
+    lb: Vec2,
+    kb: f32,
+}
+
+impl Jac {
+    /// w_b - w_a
+    fn angle() -> Jac {
+        Jac {
+            la: Vec2::ZERO,
+            ka: -1.0,
+            lb: Vec2::ZERO,
+            kb: 1.0,
+        }
+    }
+
+    /// e . (v_b + w_b x r_b - v_a - w_a x r_a)
+    fn linear(ra: Vec2, rb: Vec2, e: Vec2) -> Jac {
+        Jac {
+            la: -e,
+            ka: -cross(ra, e),
+            lb: e,
+            kb: cross(rb, e),
+        }
+    }
+
+    fn negated(self) -> Jac {
+        Jac {
+            la: -self.la,
+            ka: -self.ka,
+            lb: -self.lb,
+            kb: -self.kb,
+        }
+    }
+}
+
+/// The two bodies of a joint during a solve, with their inverse masses.
+struct Pair {
+    a: SoftBody,
+    b: SoftBody,
+    ima: f32,
+    iia: f32,
+    imb: f32,
+    iib: f32,
+}
+
+impl Pair {
+    /// J M^-1 J^T
+    #[inline]
+    fn k(&self, j: &Jac) -> f32 {
+        self.ima * j.la.length_squared()
+            + self.iia * j.ka * j.ka
+            + self.imb * j.lb.length_squared()
+            + self.iib * j.kb * j.kb
+    }
+
+    #[inline]
+    fn jv(&self, j: &Jac) -> f32 {
+        j.la.dot(self.a.v) + j.ka * self.a.w + j.lb.dot(self.b.v) + j.kb * self.b.w
+    }
+
+    /// v += M^-1 J^T lambda
+    #[inline]
+    fn apply(&mut self, j: &Jac, lambda: f32) {
+        self.a.v += self.ima * lambda * j.la;
+        self.a.w += self.iia * lambda * j.ka;
+        self.b.v += self.imb * lambda * j.lb;
+        self.b.w += self.iib * lambda * j.kb;
+    }
+
+    /// A point impulse p on b at rb and -p on a at ra.
+    #[inline]
+    fn apply_point(&mut self, ra: Vec2, rb: Vec2, p: Vec2) {
+        self.a.v -= self.ima * p;
+        self.a.w -= self.iia * cross(ra, p);
+        self.b.v += self.imb * p;
+        self.b.w += self.iib * cross(rb, p);
+    }
+
+    /// (v_b + w_b x r_b) - (v_a + w_a x r_a)
+    #[inline]
+    fn point_velocity(&self, ra: Vec2, rb: Vec2) -> Vec2 {
+        self.b.v + cross_sv(self.b.w, rb) - self.a.v - cross_sv(self.a.w, ra)
+    }
+
+    /// The 2x2 K = M_a^-1 + M_b^-1 of a point between arms ra and rb, plus gamma on the
+    /// diagonal, solved for rhs (zero where K is singular).
+    #[inline]
+    fn solve_point(&self, ra: Vec2, rb: Vec2, gamma: f32, rhs: Vec2) -> Vec2 {
+        let m = self.ima + self.imb;
+        let k11 = m + self.iia * ra.y * ra.y + self.iib * rb.y * rb.y + gamma;
+        let k12 = -self.iia * ra.x * ra.y - self.iib * rb.x * rb.y;
+        let k22 = m + self.iia * ra.x * ra.x + self.iib * rb.x * rb.x + gamma;
+        let det = k11 * k22 - k12 * k12;
+        if det.abs() <= f32::MIN_POSITIVE {
+            return Vec2::ZERO;
+        }
+        let inv = 1.0 / det;
+        Vec2::new(
+            inv * (k22 * rhs.x - k12 * rhs.y),
+            inv * (k11 * rhs.y - k12 * rhs.x),
+        )
+    }
+}
+
+/// How a row is softened in this sweep.
+#[derive(Clone, Copy, Debug)]
+struct Sweep {
+    /// The biased (soft) sweep, or the relax sweep.
+    bias: bool,
+    /// Rigid rows in the biased sweep.
+    soft: Softness,
+    h: f32,
+    inv_h: f32,
+}
+
+impl Sweep {
+    /// An equality row C = 0 with compliance alpha: returns the new lambda.
+    #[inline]
+    fn equality(&self, p: &mut Pair, j: &Jac, c: f32, compliance: f32, lambda: &mut f32) -> f32 {
+        let k = p.k(j);
+        let d = if compliance > 0.0 {
+            // (K + alpha/h^2) dlambda = -(J v + C/h + alpha/h^2 lambda)
+            let gamma = compliance * self.inv_h * self.inv_h;
+            -(p.jv(j) + c * self.inv_h + gamma * *lambda) / (k + gamma)
+        } else if k <= 0.0 {
+            0.0
+        } else if self.bias {
+            // soft: -m s_m (J v + rate C) - s_i lambda
+            -(self.soft.mass_scale / k) * (p.jv(j) + self.soft.bias_rate * c)
+                - self.soft.impulse_scale * *lambda
+        } else {
+            -p.jv(j) / k
+        };
+        *lambda += d;
+        p.apply(j, d);
+        d.abs()
+    }
+
+    /// An inequality row C >= 0, lambda >= 0: speculative while open, soft once reached.
+    #[inline]
+    fn inequality(&self, p: &mut Pair, j: &Jac, c: f32, lambda: &mut f32) -> f32 {
+        let k = p.k(j);
+        if k <= 0.0 {
+            return 0.0;
+        }
+        let (bias, ms, is) = if c > 0.0 {
+            (c * self.inv_h, 1.0, 0.0)
+        } else if self.bias {
+            (
+                self.soft.bias_rate * c,
+                self.soft.mass_scale,
+                self.soft.impulse_scale,
+            )
+        } else {
+            (0.0, 1.0, 0.0)
+        };
+        let d = -(ms / k) * (p.jv(j) + bias) - is * *lambda;
+        let new = (*lambda + d).max(0.0);
+        let d = new - *lambda;
+        *lambda = new;
+        p.apply(j, d);
+        d.abs()
+    }
+
+    /// A motor row: J v = speed with |lambda| <= max force h.
+    #[inline]
+    fn motor(&self, p: &mut Pair, j: &Jac, speed: f32, max_force: f32, lambda: &mut f32) -> f32 {
+        let k = p.k(j);
+        if k <= 0.0 {
+            return 0.0;
+        }
+        let max = max_force * self.h;
+        let new = (*lambda - (p.jv(j) - speed) / k).clamp(-max, max);
+        let d = new - *lambda;
+        *lambda = new;
+        p.apply(j, d);
+        d.abs()
+    }
+
+    /// A hinge or weld point: C = d (2 rows), as one 2x2 block.
+    #[inline]
+    fn point(&self, p: &mut Pair, g: &Geometry, compliance: f32, lambda: &mut Vec2) -> f32 {
+        let cdot = p.point_velocity(g.ra, g.rb);
+        let d = if compliance > 0.0 {
+            let gamma = compliance * self.inv_h * self.inv_h;
+            -p.solve_point(g.ra, g.rb, gamma, cdot + g.d * self.inv_h + gamma * *lambda)
+        } else if self.bias {
+            -self.soft.mass_scale * p.solve_point(g.ra, g.rb, 0.0, cdot + self.soft.bias_rate * g.d)
+                - self.soft.impulse_scale * *lambda
+        } else {
+            -p.solve_point(g.ra, g.rb, 0.0, cdot)
+        };
+        *lambda += d;
+        p.apply_point(g.ra, g.rb, d);
+        d.abs().max_element()
+    }
+}
+
+/// The soft step's joint rows and their lambdas.
+#[derive(Clone, Debug, Default)]
+pub struct SoftJoints {
+    prepared: Vec<Prepared>,
+    mouse: Option<PreparedMouse>,
+    soft: Softness,
+    h: f32,
+}
+
+impl SoftJoints {
+    /// Takes the joints' geometry at the step's start for substeps of `h`; lambdas start
+    /// from the joints' stored ones if warm starting.
+    pub fn prepare(
+        &mut self,
+        joints: &[Joint],
+        mouse: Option<&MouseJoint>,
+        bodies: &[Body],
+        s: &SolverSettings,
+        h: f32,
+    ) {
+        self.h = h;
+        // a rigid row's spring: at most a quarter of the substep rate
+        let hertz = s.joint_hertz.min(0.25 / h);
+        self.soft = Softness::new(hertz, s.joint_damping_ratio, h);
+        self.prepared.clear();
+        for j in joints {
+            let f = j.frame(bodies);
+            self.prepared.push(Prepared {
+                a: j.a,
+                b: j.b,
+                ra0: f.ra,
+                rb0: f.rb,
+                d0: f.d,
+                axis0: f.axis,
+                angle0: f.angle,
+                impulses: if s.warm_start {
+                    j.impulses
+                } else {
+                    [0.0; SLOTS]
+                },
+            });
+        }
+        self.mouse = mouse.and_then(|m| {
+            let b = bodies.get(m.body).filter(|b| b.is_dynamic())?;
+            let rb0 = b.rot.rotate(m.local);
+            // the spring as if the body's whole mass hung on it: k = m omega^2,
+            // c = 2 m zeta omega, made per unit effective mass
+            let rn = rb0.length_squared();
+            let k_point = b.inv_mass + b.inv_inertia * rn;
+            let m_eff = if k_point > 0.0 { 1.0 / k_point } else { b.mass };
+            let omega = std::f32::consts::TAU * m.hertz.max(0.01);
+            // the same stiffness and damping seen through the point's effective mass
+            let omega_p = omega * (b.mass / m_eff).sqrt();
+            let zeta_p = m.damping_ratio.max(0.0) * (b.mass / m_eff).sqrt();
+            Some(PreparedMouse {
+                body: m.body,
+                rb0,
+                c0: b.position + rb0 - m.target,
+                soft: Softness::new(omega_p / std::f32::consts::TAU, zeta_p, h),
+                max_impulse: m.max_force.max(0.0) * h,
+                impulse: Vec2::ZERO,
+            })
+        });
+    }
+
+    /// Whether there is anything to solve.
+    pub fn is_empty(&self) -> bool {
+        self.prepared.is_empty() && self.mouse.is_none()
+    }
+
+    fn pair(p: &Prepared, bodies: &[SoftBody], inv_mass: &[(f32, f32)]) -> Pair {
+        let ((ima, iia), (imb, iib)) = (inv_mass[p.a], inv_mass[p.b]);
+        Pair {
+            a: bodies[p.a],
+            b: bodies[p.b],
+            ima,
+            iia,
+            imb,
+            iib,
+        }
+    }
+
+    fn store_pair(p: &Prepared, pair: &Pair, bodies: &mut [SoftBody], inv_mass: &[(f32, f32)]) {
+        if inv_mass[p.a] != (0.0, 0.0) {
+            bodies[p.a].v = pair.a.v;
+            bodies[p.a].w = pair.a.w;
+        }
+        if inv_mass[p.b] != (0.0, 0.0) {
+            bodies[p.b].v = pair.b.v;
+            bodies[p.b].w = pair.b.w;
+        }
+    }
+
+    /// The joint's geometry now, from the bodies' motion since the step's start.
+    #[inline]
+    fn geometry(p: &Prepared, pair: &Pair) -> Geometry {
+        let ra = pair.a.dq.rotate(p.ra0);
+        let rb = pair.b.dq.rotate(p.rb0);
+        // d = d0 + (dp_b - dp_a) + (rb - rb0) - (ra - ra0)
+        let d = p.d0 + (pair.b.dp - pair.a.dp) + (rb - p.rb0) - (ra - p.ra0);
+        Geometry {
+            ra,
+            rb,
+            d,
+            axis: pair.a.dq.rotate(p.axis0),
+            angle: p.angle0 + pair.b.dtheta - pair.a.dtheta,
+        }
+    }
+
+    /// Applies the lambdas (start of each substep).
+    pub fn warm_start(&self, joints: &[Joint], bodies: &mut [SoftBody], inv_mass: &[(f32, f32)]) {
+        for (p, j) in self.prepared.iter().zip(joints) {
+            let mut pair = Self::pair(p, bodies, inv_mass);
+            let g = Self::geometry(p, &pair);
+            let l = &p.impulses;
+            match j.kind {
+                JointKind::Hinge | JointKind::Weld => {
+                    pair.apply_point(g.ra, g.rb, Vec2::new(l[slot::POINT_X], l[slot::POINT_Y]));
+                    // every angular row has J v = w_b - w_a (upper limit: negated)
+                    let ang = l[slot::ANGLE] + l[slot::MOTOR] + l[slot::SERVO] + l[slot::LOWER]
+                        - l[slot::UPPER];
+                    pair.apply(&Jac::angle(), ang);
+                }
+                JointKind::Prismatic => {
+                    let ax = Jac::linear(g.ra + g.d, g.rb, g.axis);
+                    let along = l[slot::MOTOR] + l[slot::SERVO] + l[slot::LOWER] - l[slot::UPPER];
+                    pair.apply(&ax, along);
+                    let perp = Jac::linear(g.ra + g.d, g.rb, g.axis.perp());
+                    pair.apply(&perp, l[slot::AXIAL]);
+                    pair.apply(&Jac::angle(), l[slot::ANGLE]);
+                }
+                JointKind::Distance => {
+                    let u = g.d.normalize_or(Vec2::Y);
+                    let r = Jac::linear(g.ra, g.rb, u);
+                    pair.apply(&r, l[slot::AXIAL] + l[slot::LOWER] - l[slot::UPPER]);
+                }
+            }
+            Self::store_pair(p, &pair, bodies, inv_mass);
+        }
+        if let Some(m) = &self.mouse {
+            let (im, ii) = inv_mass[m.body];
+            let b = &mut bodies[m.body];
+            let rb = b.dq.rotate(m.rb0);
+            b.v += im * m.impulse;
+            b.w += ii * cross(rb, m.impulse);
+        }
+    }
+
+    /// One sweep over every joint row: with `bias`, rigid rows are soft springs that pull
+    /// the error out; without, rigid rows only remove relative speed (relax). Returns the
+    /// largest |delta lambda|.
+    pub fn sweep(
+        &mut self,
+        joints: &[Joint],
+        bodies: &mut [SoftBody],
+        inv_mass: &[(f32, f32)],
+        bias: bool,
+    ) -> f32 {
+        let sw = Sweep {
+            bias,
+            soft: self.soft,
+            h: self.h,
+            inv_h: 1.0 / self.h,
+        };
+        let mut residual = 0.0f32;
+        for (p, j) in self.prepared.iter_mut().zip(joints) {
+            let mut pair = Self::pair(p, bodies, inv_mass);
+            let g = Self::geometry(p, &pair);
+            let l = &mut p.impulses;
+            let alpha = j.compliance;
+            let r = match j.kind {
+                JointKind::Hinge | JointKind::Weld => {
+                    let ang = Jac::angle();
+                    let mut r = 0.0f32;
+                    if let Some(m) = j.motor {
+                        r = r.max(sw.motor(
+                            &mut pair,
+                            &ang,
+                            m.speed,
+                            m.max_force,
+                            &mut l[slot::MOTOR],
+                        ));
+                    }
+                    if j.kind == JointKind::Hinge {
+                        r = r.max(range(&sw, &mut pair, j, &ang, g.angle, true, l));
+                    } else {
+                        r = r.max(sw.equality(
+                            &mut pair,
+                            &ang,
+                            g.angle,
+                            alpha,
+                            &mut l[slot::ANGLE],
+                        ));
+                    }
+                    // the point last: it matters most (positions do not move within a
+                    // sweep, so the geometry still holds)
+                    let mut lam = Vec2::new(l[slot::POINT_X], l[slot::POINT_Y]);
+                    r = r.max(sw.point(&mut pair, &g, alpha, &mut lam));
+                    (l[slot::POINT_X], l[slot::POINT_Y]) = (lam.x, lam.y);
+                    r
+                }
+                JointKind::Prismatic => {
+                    let ax = Jac::linear(g.ra + g.d, g.rb, g.axis);
+                    let mut r = 0.0f32;
+                    if let Some(m) = j.motor {
+                        r = r.max(sw.motor(
+                            &mut pair,
+                            &ax,
+                            m.speed,
+                            m.max_force,
+                            &mut l[slot::MOTOR],
+                        ));
+                    }
+                    r = r.max(range(&sw, &mut pair, j, &ax, g.axis.dot(g.d), false, l));
+                    let perp = g.axis.perp();
+                    let pr = Jac::linear(g.ra + g.d, g.rb, perp);
+                    r = r.max(sw.equality(
+                        &mut pair,
+                        &pr,
+                        perp.dot(g.d),
+                        alpha,
+                        &mut l[slot::AXIAL],
+                    ));
+                    r.max(sw.equality(
+                        &mut pair,
+                        &Jac::angle(),
+                        g.angle,
+                        alpha,
+                        &mut l[slot::ANGLE],
+                    ))
+                }
+                JointKind::Distance => {
+                    let len = g.d.length();
+                    let u = if len > 1e-9 { g.d / len } else { Vec2::Y };
+                    let row = Jac::linear(g.ra, g.rb, u);
+                    match j.limits {
+                        Some([lo, hi]) => {
+                            let r1 = sw.inequality(&mut pair, &row, len - lo, &mut l[slot::LOWER]);
+                            let r2 = sw.inequality(
+                                &mut pair,
+                                &row.negated(),
+                                hi - len,
+                                &mut l[slot::UPPER],
+                            );
+                            r1.max(r2)
+                        }
+                        None => {
+                            sw.equality(&mut pair, &row, len - j.length, alpha, &mut l[slot::AXIAL])
+                        }
+                    }
+                }
+            };
+            residual = residual.max(r);
+            Self::store_pair(p, &pair, bodies, inv_mass);
+        }
+        if let Some(m) = &mut self.mouse {
+            residual = residual.max(solve_mouse(m, bodies, inv_mass));
+        }
+        residual
+    }
+
+    /// Joint damping: removes the fraction min(h c, 1) of the relative velocity along
+    /// each damped row, once per substep (the seed's DampLinear / DampAngular).
+    pub fn damp(&self, joints: &[Joint], bodies: &mut [SoftBody], inv_mass: &[(f32, f32)]) {
+        let h = self.h;
+        for (p, j) in self.prepared.iter().zip(joints) {
+            if j.damping.linear <= 0.0 && j.damping.angular <= 0.0 {
+                continue;
+            }
+            let mut pair = Self::pair(p, bodies, inv_mass);
+            let g = Self::geometry(p, &pair);
+            let damp = |pair: &mut Pair, row: Jac, c: f32| {
+                let k = pair.k(&row);
+                if k > 0.0 {
+                    let d = -(pair.jv(&row) / k) * (h * c).min(1.0);
+                    pair.apply(&row, d);
+                }
+            };
+            if j.damping.linear > 0.0 {
+                match j.kind {
+                    JointKind::Prismatic => damp(
+                        &mut pair,
+                        Jac::linear(g.ra + g.d, g.rb, g.axis),
+                        j.damping.linear,
+                    ),
+                    JointKind::Distance => damp(
+                        &mut pair,
+                        Jac::linear(g.ra, g.rb, g.d.normalize_or(Vec2::Y)),
+                        j.damping.linear,
+                    ),
+                    _ => {}
+                }
+            }
+            if j.damping.angular > 0.0 && j.kind != JointKind::Distance {
+                damp(&mut pair, Jac::angle(), j.damping.angular);
+            }
+            Self::store_pair(p, &pair, bodies, inv_mass);
+        }
+    }
+
+    /// Writes the lambdas back into the joints, for the next step's warm start.
+    pub fn store(&self, joints: &mut [Joint]) {
+        for (p, j) in self.prepared.iter().zip(joints) {
+            j.impulses = p.impulses;
+        }
+    }
+}
+
+/// Limits and servo rows on the joint's angle (hinge) or offset (prismatic) x.
+fn range(
+    sw: &Sweep,
+    pair: &mut Pair,
+    j: &Joint,
+    row: &Jac,
+    x: f32,
+    angular: bool,
+    l: &mut [f32; SLOTS],
+) -> f32 {
+    let mut r = 0.0f32;
+    if let Some([lo, hi]) = j.limits {
+        r = r.max(sw.inequality(pair, row, x - lo, &mut l[slot::LOWER]));
+        r = r.max(sw.inequality(pair, &row.negated(), hi - x, &mut l[slot::UPPER]));
+    }
+    if let Some(s) = j.servo {
+        let c = if angular {
+            wrap_angle(x - s.target)
+        } else {
+            x - s.target
+        };
+        r = r.max(sw.equality(pair, row, c, 0.0, &mut l[slot::SERVO]));
+    }
+    r
+}
+
+/// The mouse: a soft point between the body's point and the target, the same in both
+/// sweeps, its lambda bounded by max force times h.
+fn solve_mouse(m: &mut PreparedMouse, bodies: &mut [SoftBody], inv_mass: &[(f32, f32)]) -> f32 {
+    let (im, ii) = inv_mass[m.body];
+    let b = &mut bodies[m.body];
+    let rb = b.dq.rotate(m.rb0);
+    // C = point - target, brought up to date from the body's motion
+    let c = m.c0 + b.dp + (rb - m.rb0);
+    let cdot = b.v + cross_sv(b.w, rb);
+    let pair = Pair {
+        a: SoftBody::default(),
+        b: *b,
+        ima: 0.0,
+        iia: 0.0,
+        imb: im,
+        iib: ii,
+    };
+    let rhs = cdot + m.soft.bias_rate * c;
+    let d = -m.soft.mass_scale * pair.solve_point(Vec2::ZERO, rb, 0.0, rhs)
+        - m.soft.impulse_scale * m.impulse;
+    let mut new = m.impulse + d;
+    let len = new.length();
+    if len > m.max_impulse {
+        new *= m.max_impulse / len;
+    }
+    let d = new - m.impulse;
+    m.impulse = new;
+    b.v += im * d;
+    b.w += ii * cross(rb, d);
+    d.abs().max_element()
+}

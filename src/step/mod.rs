@@ -1,0 +1,157 @@
+//! The solvers' common shape. Each [`SolverKind`] is one [`Stepper`]: it owns its
+//! scratch, and its `step` is the order of stages and nothing else, calling the shared
+//! stages on the world ([`World::collide`], [`World::integrate_velocities`]) and its own
+//! kernels in `crate::solver`. The world owns the state (bodies, joints, contacts).
+//!
+//! Adding a solver: a file here with a type that implements [`Stepper`], its kernels
+//! under `src/solver/`, one variant in [`SolverKind`] (with its name, defaults and keys
+//! in `defs.rs`), and one arm in [`new_stepper`].
+
+use std::time::Instant;
+
+use crate::defs::{SolverKind, SolverSettings};
+use crate::world::{StepStats, World};
+
+pub mod pgs;
+pub mod soft;
+pub mod xpbd;
+
+pub use pgs::PgsStepper;
+pub use soft::SoftStepper;
+pub use xpbd::XpbdStepper;
+
+/// Contact points are kept while the gap is below this many slops (speculative contacts).
+pub const SPECULATIVE_SLOPS: f32 = 4.0;
+
+/// What a step needs to know of time, computed once per step.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct StepContext {
+    /// The step (s).
+    pub dt: f32,
+    /// Substeps.
+    pub substeps: u32,
+    /// The substep, dt / substeps (s).
+    pub h: f32,
+    /// 1 / h.
+    pub inv_h: f32,
+    /// The speculative margin (m): a pair keeps points while its gap is below this
+    /// (plus, where the solver asks, the distance its bodies can close).
+    pub margin: f32,
+}
+
+impl StepContext {
+    /// The context of one step with these settings.
+    pub fn new(s: &SolverSettings) -> StepContext {
+        let n = s.substeps.max(1);
+        let h = s.dt / n as f32;
+        StepContext {
+            dt: s.dt,
+            substeps: n,
+            h,
+            inv_h: 1.0 / h,
+            margin: SPECULATIVE_SLOPS * s.slop.max(0.001),
+        }
+    }
+}
+
+/// The stages a step's time is split into.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Stage {
+    /// Forces, drives, gravity and drag into the velocities.
+    Forces,
+    /// Boxes and candidate pairs.
+    Broad,
+    /// SAT manifolds and the contact cache.
+    Narrow,
+    /// The solver's rows (contacts and joints).
+    Solve,
+    /// Positions from velocities.
+    Integrate,
+}
+
+impl Stage {
+    /// How many stages there are.
+    pub const COUNT: usize = 5;
+}
+
+/// Times the stages of a step: each `lap` charges the time since the last lap to a stage.
+#[derive(Clone, Copy, Debug)]
+pub struct StageClock {
+    last: Instant,
+    /// Milliseconds per stage, indexed by `Stage as usize`.
+    pub ms: [f32; Stage::COUNT],
+}
+
+impl StageClock {
+    /// A clock starting now with nothing charged.
+    pub fn start() -> StageClock {
+        StageClock {
+            last: Instant::now(),
+            ms: [0.0; Stage::COUNT],
+        }
+    }
+
+    /// Charges the time since the last lap (or the start) to `stage`.
+    #[inline]
+    pub fn lap(&mut self, stage: Stage) {
+        let now = Instant::now();
+        self.ms[stage as usize] += (now - self.last).as_secs_f32() * 1e3;
+        self.last = now;
+    }
+
+    /// The charged times as the stats' named fields.
+    pub fn fill(&self, s: &mut StepStats) {
+        s.ms_forces = self.ms[Stage::Forces as usize];
+        s.ms_broad = self.ms[Stage::Broad as usize];
+        s.ms_narrow = self.ms[Stage::Narrow as usize];
+        s.ms_solve = self.ms[Stage::Solve as usize];
+        s.ms_integrate = self.ms[Stage::Integrate as usize];
+    }
+}
+
+/// A solver: advances the world's state by one step.
+pub trait Stepper: std::fmt::Debug + Send + Sync {
+    /// Which kind this is.
+    fn kind(&self) -> SolverKind;
+
+    /// One step of `cx.dt`: the world's bodies, joints and contacts are advanced in
+    /// place; the returned stats hold the counts (the caller fills the stage times from
+    /// `clock`).
+    fn step(&mut self, world: &mut World, cx: &StepContext, clock: &mut StageClock) -> StepStats;
+
+    /// The contact lambdas of the last solve, normal and friction of every point,
+    /// contact by contact in pair order (N s).
+    fn contact_lambdas(&self, world: &World, out: &mut Vec<f32>);
+
+    /// A boxed copy (worlds are cloned by the bench).
+    fn box_clone(&self) -> Box<dyn Stepper>;
+
+    /// The stepper as `Any`, for [`World::stepper_as`].
+    fn as_any(&self) -> &dyn std::any::Any;
+}
+
+impl Clone for Box<dyn Stepper> {
+    fn clone(&self) -> Self {
+        self.box_clone()
+    }
+}
+
+/// A fresh stepper of the given kind.
+pub fn new_stepper(kind: SolverKind) -> Box<dyn Stepper> {
+    match kind {
+        SolverKind::Soft => Box::new(SoftStepper::default()),
+        SolverKind::Pgs => Box::new(PgsStepper::default()),
+        SolverKind::Xpbd => Box::new(XpbdStepper::default()),
+    }
+}
+
+/// The lambdas the contacts hold (what the solver stored for the next warm start).
+pub(crate) fn stored_lambdas(world: &World, out: &mut Vec<f32>) {
+    out.clear();
+    for c in world.contacts() {
+        for p in c.manifold.points() {
+            out.push(p.normal_impulse);
+            out.push(p.tangent_impulse);
+        }
+    }
+}

@@ -1,0 +1,155 @@
+//! The soft step (the default solver): one collide per step, then `substeps` substeps
+//! that reuse its manifolds. Per substep: integrate velocities, warm start, `iterations`
+//! biased sweeps (joints, then contacts: soft rows that pull errors out), integrate
+//! positions, one relax sweep (rigid rows, no bias). After the last substep:
+//! restitution, and the bodies take their new velocities and positions. See
+//! `solver::soft` (contacts) and `solver::soft_joints` (joints).
+
+use super::{Stage, StageClock, StepContext, Stepper};
+use crate::defs::{BodyModel, BodyType, SolverKind};
+use crate::math::Rot;
+use crate::solver::soft::SoftSolver;
+use crate::solver::soft_joints::SoftJoints;
+use crate::world::{StepStats, World};
+
+/// The soft step and its scratch.
+#[derive(Clone, Debug, Default)]
+pub struct SoftStepper {
+    pub(crate) soft: SoftSolver,
+    joints: SoftJoints,
+}
+
+impl Stepper for SoftStepper {
+    fn kind(&self) -> SolverKind {
+        SolverKind::Soft
+    }
+
+    fn step(&mut self, world: &mut World, cx: &StepContext, clock: &mut StageClock) -> StepStats {
+        let s = world.settings;
+        let (n, h) = (cx.substeps, cx.h);
+        // points out to the distance each pair can close in the step (speculative
+        // contacts): a fast body meets what it would pass through
+        let penetration = world.collide(cx.dt, cx.margin, true, clock);
+        self.soft.prepare(&world.bodies, &world.contacts, &s, h);
+        let joints = !world.joints.is_empty() || world.mouse.is_some();
+        if joints {
+            self.joints
+                .prepare(&world.joints, world.mouse.as_ref(), &world.bodies, &s, h);
+        }
+        clock.lap(Stage::Solve);
+        let (mut iterations, mut residual) = (0u32, 0.0f32);
+        // without drag the forces change every substep's velocities by the same amount:
+        // integrate once, and the solver adds that increment in the later substeps
+        let uniform = world.drag.is_none();
+        for i in 0..n {
+            if !uniform || i == 0 {
+                world.integrate_velocities(h);
+            }
+            if !uniform {
+                self.soft.load_velocities(&world.bodies);
+            } else if i == 0 {
+                self.soft.take_increments(&world.bodies);
+            } else {
+                self.soft.apply_increments();
+            }
+            clock.lap(Stage::Forces);
+            let soft = &mut self.soft;
+            if s.warm_start {
+                if joints {
+                    self.joints
+                        .warm_start(&world.joints, &mut soft.bodies, &soft.inv_mass);
+                }
+                soft.warm_start();
+            }
+            for _ in 0..s.iterations {
+                let rj = if joints {
+                    self.joints
+                        .sweep(&world.joints, &mut soft.bodies, &soft.inv_mass, true)
+                } else {
+                    0.0
+                };
+                let _ = soft.sweep::<true>().max(rj);
+                iterations += 1;
+            }
+            if joints {
+                self.joints
+                    .damp(&world.joints, &mut soft.bodies, &soft.inv_mass);
+            }
+            soft.integrate_positions(h);
+            let rj = if joints {
+                self.joints
+                    .sweep(&world.joints, &mut soft.bodies, &soft.inv_mass, false)
+            } else {
+                0.0
+            };
+            residual = soft.sweep::<false>().max(rj);
+            iterations += 1;
+
+            if !uniform {
+                soft.store_velocities(&mut world.bodies);
+            }
+            clock.lap(Stage::Solve);
+        }
+        self.soft.apply_restitution(s.restitution_threshold);
+        self.soft.store_velocities(&mut world.bodies);
+        self.soft.store_impulses(&mut world.contacts);
+        if joints {
+            self.joints.store(&mut world.joints);
+        }
+        clock.lap(Stage::Solve);
+        // x = x0 + sum h v, theta = theta0 + sum h w
+        for (b, sb) in world.bodies.iter_mut().zip(&self.soft.bodies) {
+            if b.body_type == BodyType::Static {
+                continue;
+            }
+            b.position += sb.dp;
+            if b.model == BodyModel::Rigid {
+                b.angle += sb.dtheta;
+                b.rot = Rot::from_angle(b.angle);
+            }
+        }
+        clock.lap(Stage::Integrate);
+        StepStats {
+            iterations,
+            residual,
+            position_iterations: 0,
+            contacts: world.contacts.iter().map(|c| c.manifold.count).sum(),
+            penetration,
+            ..Default::default()
+        }
+    }
+
+    fn contact_lambdas(&self, _world: &World, out: &mut Vec<f32>) {
+        self.soft.lambdas(out);
+    }
+
+    fn box_clone(&self) -> Box<dyn Stepper> {
+        Box::new(self.clone())
+    }
+
+    fn as_any(&self) -> &dyn std::any::Any {
+        self
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use crate::defs::SolverSettings;
+    use crate::step::soft::SoftStepper;
+    use crate::world::World;
+
+    #[test]
+    fn lanes_of_a_wide_constraint_share_no_moving_body() {
+        let sc = crate::scene::load("pyramid").unwrap();
+        let mut s = SolverSettings::soft();
+        s.substeps = 2;
+        let mut w = World::from_def(&sc.world, s).unwrap();
+        for _ in 0..5 {
+            w.step().unwrap();
+        }
+        assert!(!w.contacts().is_empty());
+        let st = w.stepper_as::<SoftStepper>().expect("a soft stepper");
+        assert!(st.soft.lanes_are_independent(w.contacts()));
+        assert!(st.soft.color_count() >= 2);
+    }
+}

@@ -1,0 +1,193 @@
+//! XPBD (Mueller et al. 2020): contacts found once per step, then per substep predict,
+//! project joints and contacts, derive velocities, and a velocity pass.
+
+use super::{Stage, StageClock, StepContext, Stepper};
+use crate::body::Body;
+use crate::defs::{BodyModel, BodyType, SolverKind};
+use crate::joint::{MouseJoint, SLOTS};
+use crate::math::{Rot, Vec2, cross};
+use crate::solver::joint_rows::{JointRows, xpbd_velocity_pass};
+use crate::solver::pgs::SolverBody;
+use crate::solver::xpbd::XpbdContacts;
+use crate::world::{StepStats, World};
+
+/// Extended position-based dynamics and its scratch.
+#[derive(Clone, Debug, Default)]
+pub struct XpbdStepper {
+    xpbd: XpbdContacts,
+    lambdas: Vec<[f32; SLOTS]>,
+    bodies: Vec<SolverBody>,
+    normal_sum: Vec<f32>,
+    joint_rows: JointRows,
+}
+
+impl Stepper for XpbdStepper {
+    fn kind(&self) -> SolverKind {
+        SolverKind::Xpbd
+    }
+
+    /// One XPBD step: contacts found once, then per substep h = dt / n: predict
+    /// (v += h a, x += h v), project the joints and contacts `iterations` times, derive
+    /// v = (x - x_prev) / h, and a velocity pass (friction, restitution, motors, damping).
+    fn step(&mut self, world: &mut World, cx: &StepContext, clock: &mut StageClock) -> StepStats {
+        let s = world.settings;
+        let (n, h) = (cx.substeps, cx.h);
+        let mut deepest = world.collide(cx.dt, cx.margin, true, clock);
+        self.xpbd.prepare(&world.bodies, &world.contacts);
+        self.lambdas.clear();
+        self.lambdas.resize(world.joints.len(), [0.0; SLOTS]);
+        let mut normal_sum = std::mem::take(&mut self.normal_sum);
+        normal_sum.clear();
+        normal_sum.resize(self.xpbd.points.len(), 0.0);
+        clock.lap(Stage::Solve);
+        for _ in 0..n {
+            world.integrate_velocities(h);
+            clock.lap(Stage::Forces);
+            self.xpbd.begin_substep(&world.bodies);
+            // predict: x += h v, theta += h w
+            for b in &mut world.bodies {
+                if b.body_type == BodyType::Static {
+                    continue;
+                }
+                b.position += h * b.velocity;
+                if b.model == BodyModel::Rigid && b.angular_velocity != 0.0 {
+                    b.angle += h * b.angular_velocity;
+                    b.rot = Rot::from_angle(b.angle);
+                }
+            }
+            clock.lap(Stage::Integrate);
+            for _ in 0..s.iterations.max(1) {
+                for (j, lam) in world.joints.iter().zip(self.lambdas.iter_mut()) {
+                    j.project(&mut world.bodies, &self.xpbd.prev_rot, h, lam);
+                }
+                if let Some(m) = world.mouse {
+                    project_mouse(&m, &mut world.bodies, h);
+                }
+                let d = self.xpbd.project(&mut world.bodies);
+                deepest = deepest.max(d);
+            }
+            // v = (x - x_prev) / h, w = (theta - theta_prev) / h, as v += dx / h
+            for b in &mut world.bodies {
+                if b.is_dynamic() {
+                    b.velocity += b.correction / h;
+                    b.angular_velocity += b.correction_angle / h;
+                }
+                b.correction = Vec2::ZERO;
+                b.correction_angle = 0.0;
+            }
+            // velocity pass
+            self.bodies.clear();
+            self.bodies.extend(world.bodies.iter().map(|b| SolverBody {
+                v: b.velocity,
+                w: b.angular_velocity,
+                inv_m: b.inv_mass,
+                inv_i: b.inv_inertia,
+            }));
+            self.xpbd
+                .velocity_pass(&world.bodies, &mut self.bodies, h, s.restitution_threshold);
+            xpbd_velocity_pass(
+                &world.joints,
+                &world.bodies,
+                &mut self.bodies,
+                h,
+                &mut self.joint_rows,
+            );
+            if let Some(m) = world.mouse {
+                damp_mouse(&m, &world.bodies, &mut self.bodies, h);
+            }
+            for (b, sb) in world.bodies.iter_mut().zip(&self.bodies) {
+                if b.is_dynamic() {
+                    b.velocity = sb.v;
+                    b.angular_velocity = sb.w;
+                }
+            }
+            for (acc, p) in normal_sum.iter_mut().zip(&self.xpbd.points) {
+                // impulse of the substep: lambda / h
+                *acc += p.lambda_n / h;
+            }
+            clock.lap(Stage::Solve);
+        }
+        for (p, &sum) in self.xpbd.points.iter().zip(&normal_sum) {
+            let m = &mut world.contacts[p.contact as usize].manifold;
+            m.points[p.index as usize].normal_impulse = sum;
+        }
+        self.normal_sum = normal_sum;
+        clock.lap(Stage::Solve);
+        StepStats {
+            iterations: n * s.iterations.max(1),
+            residual: 0.0,
+            position_iterations: 0,
+            contacts: self.xpbd.points.len(),
+            penetration: deepest,
+            ..Default::default()
+        }
+    }
+
+    fn contact_lambdas(&self, world: &World, out: &mut Vec<f32>) {
+        super::stored_lambdas(world, out);
+    }
+
+    fn box_clone(&self) -> Box<dyn Stepper> {
+        Box::new(self.clone())
+    }
+
+    fn as_any(&self) -> &dyn std::any::Any {
+        self
+    }
+}
+
+/// XPBD mouse joint: a compliant attach of the grabbed point to the target,
+/// alpha = 1 / k with k = m (2 pi f)^2, its correction bounded by max force times h^2.
+fn project_mouse(m: &MouseJoint, bodies: &mut [Body], h: f32) {
+    let Some(b) = bodies.get_mut(m.body) else {
+        return;
+    };
+    if !b.is_dynamic() {
+        return;
+    }
+    let r = b.rot.rotate(m.local);
+    let d = m.target - (b.position + r);
+    let len = d.length();
+    if len <= 1e-9 {
+        return;
+    }
+    let n = d / len;
+    let omega = std::f32::consts::TAU * m.hertz.max(0.01);
+    let k = b.mass * omega * omega;
+    // alpha~ = alpha / h^2 = 1 / (k h^2)
+    let soft = 1.0 / (k * h * h);
+    let rn = cross(r, n);
+    let w = b.inv_mass + b.inv_inertia * rn * rn;
+    let dl = (len / (w + soft)).min(m.max_force * h * h);
+    let p = dl * n;
+    crate::joint::move_body(b, b.inv_mass * p, b.inv_inertia * cross(r, p));
+}
+
+/// XPBD mouse damping: removes min(h c / m, 1) of the grabbed point's velocity,
+/// c = 2 m zeta omega.
+fn damp_mouse(m: &MouseJoint, world: &[Body], bodies: &mut [SolverBody], h: f32) {
+    let Some(b) = world.get(m.body) else {
+        return;
+    };
+    if !b.is_dynamic() {
+        return;
+    }
+    let r = b.rot.rotate(m.local);
+    let sb = &mut bodies[m.body];
+    let v = sb.v + crate::math::cross_sv(sb.w, r);
+    let speed = v.length();
+    if speed <= 1e-9 {
+        return;
+    }
+    let n = v / speed;
+    let omega = std::f32::consts::TAU * m.hertz.max(0.01);
+    let f = (h * 2.0 * m.damping_ratio.max(0.0) * omega).min(1.0);
+    let rn = cross(r, n);
+    let w = sb.inv_m + sb.inv_i * rn * rn;
+    if w <= 0.0 {
+        return;
+    }
+    let imp = -(f * speed / w) * n;
+    sb.v += sb.inv_m * imp;
+    sb.w += sb.inv_i * cross(r, imp);
+}
