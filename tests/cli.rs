@@ -953,3 +953,72 @@ fn a_frame_that_cannot_be_written_in_full_is_not_left() {
         "no truncated PNG"
     );
 }
+
+/// On a terminal, a run longer than two seconds shows its progress (on stderr); `script`
+/// gives the run a terminal. Skipped where `script` (util-linux) is missing.
+#[cfg(target_os = "linux")]
+#[test]
+fn a_long_run_shows_progress_on_a_terminal() {
+    let bin = env!("CARGO_BIN_EXE_sandbox2d");
+    let Ok(mut child) = Command::new("script")
+        .args(["-qfec"])
+        .arg(format!("{bin} simulate stack --steps 1000000000"))
+        .arg("/dev/null")
+        .stdin(std::process::Stdio::null())
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::null())
+        .spawn()
+    else {
+        eprintln!("SKIPPED: no `script` to give the run a terminal");
+        return;
+    };
+    std::thread::sleep(std::time::Duration::from_millis(3500));
+    let _ = child.kill();
+    let out = child.wait_with_output().unwrap();
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        text.contains("/1000000000 steps"),
+        "no progress after 3.5 s: {text:?}"
+    );
+}
+
+#[cfg(feature = "render")]
+#[test]
+fn a_huge_frame_count_is_not_preallocated() {
+    let dir = fresh_tmp("huge-frames");
+    let mut child = sandbox2d()
+        .args([
+            "render",
+            "stack",
+            "--frames",
+            "4294967295",
+            "--size",
+            "32x18",
+            "--out",
+        ])
+        .arg(dir.join("f"))
+        .stdout(std::process::Stdio::null())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    let f = dir.join("f");
+    let t = std::time::Instant::now();
+    while !f.join("frame_0001.png").exists() && t.elapsed().as_secs() < 20 {
+        if child.try_wait().unwrap().is_some() {
+            break;
+        }
+        std::thread::sleep(std::time::Duration::from_millis(20));
+    }
+    let running = child.try_wait().unwrap().is_none();
+    if running {
+        child.kill().unwrap();
+    }
+    let out = child.wait_with_output().unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    if err.contains("no graphics adapter") {
+        eprintln!("SKIPPED: no graphics adapter: {err}");
+        return;
+    }
+    assert!(running, "ended early (an abort on allocation?): {err}");
+    assert!(f.join("frame_0001.png").exists());
+}

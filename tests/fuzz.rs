@@ -12,6 +12,14 @@ use proptest::test_runner::{Config, TestRunner};
 use sandbox2d::World;
 use sandbox2d::scene::{builtin_names, load_str};
 
+/// Cases are multiplied by `FUZZ_SCALE` (default 1) for a longer hunt.
+fn scale() -> u32 {
+    std::env::var("FUZZ_SCALE")
+        .ok()
+        .and_then(|s| s.parse().ok())
+        .unwrap_or(1)
+}
+
 /// The built-in scenes' text, from the assets folder.
 fn builtin_texts() -> Vec<(String, String)> {
     let dir = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("assets/scenes");
@@ -195,11 +203,16 @@ fn check_refusal(shown: &str, file: &str) -> Result<(), TestCaseError> {
 fn mutated_builtin_scenes_load_build_and_run_or_are_refused_with_a_place() {
     let texts = builtin_texts();
     let mut runner = TestRunner::new(Config {
-        cases: 300,
+        cases: 300 * scale(),
         failure_persistence: None,
         ..Config::default()
     });
     let strategy = (0..texts.len(), prop::collection::vec(mutation(), 1..4));
+    let (loaded, refused, stepped) = (
+        std::cell::Cell::new(0),
+        std::cell::Cell::new(0),
+        std::cell::Cell::new(0),
+    );
     runner
         .run(&strategy, |(k, muts)| {
             let (name, text) = &texts[k];
@@ -207,10 +220,12 @@ fn mutated_builtin_scenes_load_build_and_run_or_are_refused_with_a_place() {
             let file = format!("{name}.toml");
             match load_str(&mutated, &file) {
                 Err(e) => {
+                    refused.set(refused.get() + 1);
                     prop_assert!(e.line().is_some(), "{e}");
                     check_refusal(&e.to_string(), &file)?;
                 }
                 Ok(sc) => {
+                    loaded.set(loaded.get() + 1);
                     let settings = sc.world.solver.resolve();
                     // A scene that loads builds: every build-time refusal has a place.
                     let mut world = World::from_def(&sc.world, settings).map_err(|e| {
@@ -220,6 +235,7 @@ fn mutated_builtin_scenes_load_build_and_run_or_are_refused_with_a_place() {
                     // a few steps where they are cheap
                     let work = settings.iterations as u64 * settings.substeps as u64;
                     if world.bodies.len() <= 400 && work <= 400 {
+                        stepped.set(stepped.get() + 1);
                         for _ in 0..3 {
                             if let Err(e) = world.step() {
                                 let m = e.to_string();
@@ -233,6 +249,14 @@ fn mutated_builtin_scenes_load_build_and_run_or_are_refused_with_a_place() {
             Ok(())
         })
         .unwrap();
+    // the mutations reach both outcomes, and the runs
+    eprintln!(
+        "loaded {}, refused {}, stepped {}",
+        loaded.get(),
+        refused.get(),
+        stepped.get()
+    );
+    assert!(loaded.get() >= 30 && refused.get() >= 30 && stepped.get() >= 10);
 }
 
 fn sandbox2d() -> Command {
@@ -306,7 +330,7 @@ fn mutated_scenes_through_the_binary() {
     let dir = std::env::temp_dir().join(format!("sandbox2d-fuzz-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
     let mut runner = TestRunner::new(Config {
-        cases: 24,
+        cases: 24 * scale(),
         failure_persistence: None,
         ..Config::default()
     });
@@ -359,7 +383,7 @@ fn random_flags_through_the_binary() {
         ("--solver", &["pgs", "xpbd", "soft"]),
     ];
     let mut runner = TestRunner::new(Config {
-        cases: 32,
+        cases: 32 * scale(),
         failure_persistence: None,
         ..Config::default()
     });

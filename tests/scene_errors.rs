@@ -1454,3 +1454,21 @@ fn iterations_and_substeps_have_upper_bounds() {
     .unwrap();
     assert_eq!(sc.world.solver.iterations, Some(10000));
 }
+
+#[test]
+fn friction_is_bounded_so_that_mixing_fits_f32() {
+    // sqrt(a b) of two 1e20 frictions overflows: the solver would see NaN bounds
+    check(
+        &body("shape = { circle = 1 }\nfriction = 1e20"),
+        4,
+        12,
+        &["friction must be at most 1e6"],
+    );
+    check(
+        "name = \"t\"\n[[pyramid]]\nbase = 2\nfriction = 1e7\n",
+        4,
+        12,
+        &["pyramid0", "friction"],
+    );
+    assert!(load_str(&body("shape = { circle = 1 }\nfriction = 1e6"), "ok.toml").is_ok());
+}

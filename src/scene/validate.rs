@@ -22,6 +22,10 @@ pub const MAX_ITERATIONS: u32 = 10_000;
 /// The most substeps a scene or flag may ask for.
 pub const MAX_SUBSTEPS: u32 = 1_000;
 
+/// The largest friction coefficient: two bodies' coefficients are mixed as sqrt(a b),
+/// and the product must stay finite in f32 (real ones are below 2).
+pub const MAX_FRICTION: f32 = 1e6;
+
 /// Results of this module.
 pub(crate) type R<T> = Result<T, SceneError>;
 
@@ -328,7 +332,17 @@ impl Ctx<'_> {
         Ok(Material {
             density,
             mass,
-            friction: self.opt(friction, 0.6, |v| self.non_negative(who, "friction", v))?,
+            friction: self.opt(friction, 0.6, |v| {
+                let f = self.non_negative(who, "friction", v)?;
+                // the world mixes two bodies' friction as sqrt(a b): the product must fit f32
+                if f > MAX_FRICTION {
+                    return Err(self.err(
+                        v.span(),
+                        format!("{who}: friction must be at most {MAX_FRICTION:e}, got {f}"),
+                    ));
+                }
+                Ok(f)
+            })?,
             restitution: self.opt(restitution, 0.0, |v| self.unit(who, "restitution", v))?,
             color: color.map(|c| self.color(who, c)).transpose()?,
         })
