@@ -455,8 +455,17 @@ fn build(name: &str, flags: &SolverFlags) -> Result<(Scene, World, SolverSetting
         Some(def.bodies.len() as u64),
         "{bar:40} {pos}/{len} bodies built {elapsed}",
     );
+    // World::add_body's duplicate-name check scans every body (quadratic for a million
+    // bodies): the names are checked here with a set, then the bodies made as add_body
+    // makes them.
+    let mut names = std::collections::HashSet::with_capacity(def.bodies.len());
     for (i, b) in def.bodies.iter().enumerate() {
-        world.add_body(b).map_err(fail)?;
+        if !names.insert(b.name.as_str()) {
+            return Err(fail(sandbox2d::BuildError::DuplicateName(b.name.clone())));
+        }
+        world
+            .bodies
+            .push(World::make_body(b, def.gravity).map_err(fail)?);
         if i % 1024 == 0 {
             bar.set_position(i as u64);
         }
@@ -584,7 +593,8 @@ fn simulate(a: &SimulateArgs) -> Result<(), Failure> {
         });
         println!("{v}");
     } else {
-        println!("scene        {} ({})", sc.name, sc.source);
+        // quoted with escapes: a name cannot put control characters on the terminal
+        println!("scene        {:?} ({})", sc.name, one_line(&sc.source));
         println!(
             "solver       {} dt={} substeps={} iterations={} tolerance={} warm_start={} split_impulse={} baumgarte={} slop={}",
             settings.kind.name(),
@@ -823,7 +833,7 @@ fn run(a: &RunArgs) -> Result<(), Failure> {
             }
             Err(AppError::NoDisplay(why)) => {
                 println!(
-                    "sandbox2d: no display ({why}); rendering \"{}\" headless into ./out instead",
+                    "sandbox2d: no display ({why}); rendering {:?} headless into ./out instead",
                     sc.name
                 );
             }
@@ -833,7 +843,7 @@ fn run(a: &RunArgs) -> Result<(), Failure> {
     }
     #[cfg(not(feature = "app"))]
     println!(
-        "sandbox2d: built without the window (feature \"app\"); rendering \"{}\" headless into ./out instead",
+        "sandbox2d: built without the window (feature \"app\"); rendering {:?} headless into ./out instead",
         sc.name
     );
     run_headless(a, &sc)
