@@ -698,8 +698,9 @@ fn render_job(
     });
     bar.finish_and_clear();
     written.map_err(|e| match e {
-        sandbox2d::render::FramesError::Step { step, source } => {
-            Failure::run(format!("{}: step {}: {source}", sc.source, step + 1))
+        // the step error names the body and the step
+        sandbox2d::render::FramesError::Step { source, .. } => {
+            Failure::run(format!("{}: {source}", sc.source))
         }
         e => frames_failure(e),
     })

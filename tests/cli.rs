@@ -1022,3 +1022,36 @@ fn a_huge_frame_count_is_not_preallocated() {
     assert!(running, "ended early (an abort on allocation?): {err}");
     assert!(f.join("frame_0001.png").exists());
 }
+
+#[cfg(feature = "render")]
+#[test]
+fn a_render_that_blows_up_names_the_scene_the_step_and_the_body() {
+    let dir = fresh_tmp("blow-up-render");
+    let scene = dir.join("boom.toml");
+    std::fs::write(&scene, BLOWS_UP).unwrap();
+    let out = sandbox2d()
+        .arg("render")
+        .arg(&scene)
+        .args(["--frames", "3", "--size", "32x18", "--out"])
+        .arg(dir.join("f"))
+        .arg("--gif")
+        .arg(dir.join("a.gif"))
+        .output()
+        .unwrap();
+    if skipped_for_no_adapter(&out) {
+        return;
+    }
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{err}");
+    assert_eq!(err.lines().count(), 1, "{err}");
+    assert!(
+        err.starts_with(&format!("error: {}: body \"ball\"", scene.display())),
+        "{err}"
+    );
+    assert!(err.contains("after step 1"), "{err}");
+    assert!(!dir.join("a.gif").exists(), "no unfinished GIF");
+    assert!(
+        dir.join("f").join("frame_0000.png").exists(),
+        "frame 0 is complete"
+    );
+}
