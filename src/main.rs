@@ -446,7 +446,10 @@ fn build(name: &str, flags: &SolverFlags) -> Result<(Scene, World, SolverSetting
     let sc = sc?;
     let settings = sc.world.solver.merged(flags.overrides()).resolve();
     let fail = |e: sandbox2d::BuildError| Failure::input(format!("{}: {e}", sc.source));
-    sandbox2d::world::check_settings(&settings).map_err(fail)?;
+    // the scene's own [solver] values were checked at load (with their place): what
+    // fails here comes from a flag
+    sandbox2d::world::check_settings(&settings)
+        .map_err(|e| Failure::input(format!("command-line flags: {e}")))?;
     // World::from_def, body by body, with progress
     let def = &sc.world;
     let mut world = World::new(def.gravity, settings);

@@ -1055,3 +1055,17 @@ fn a_render_that_blows_up_names_the_scene_the_step_and_the_body() {
         "frame 0 is complete"
     );
 }
+
+#[test]
+fn a_bad_solver_flag_is_blamed_on_the_flags_not_the_scene() {
+    let out = sandbox2d()
+        .args(["simulate", "stack", "--steps", "1", "--dt", "0"])
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{err}");
+    assert_eq!(
+        err.trim_end(),
+        "error: command-line flags: solver: dt must be > 0, got 0"
+    );
+}
