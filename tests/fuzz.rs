@@ -12,6 +12,26 @@ use proptest::test_runner::{Config, TestRunner};
 use sandbox2d::World;
 use sandbox2d::scene::{builtin_names, load_str};
 
+/// A runner: the same cases every run (so `cargo test` is repeatable), or, with
+/// `FUZZ_SCALE` set, `FUZZ_SCALE` times as many random ones for a longer hunt.
+fn runner(cases: u32) -> TestRunner {
+    let config = Config {
+        cases: cases * scale(),
+        failure_persistence: None,
+        ..Config::default()
+    };
+    if std::env::var_os("FUZZ_SCALE").is_some() {
+        TestRunner::new(config)
+    } else {
+        TestRunner::new_with_rng(
+            config,
+            proptest::test_runner::TestRng::deterministic_rng(
+                proptest::test_runner::RngAlgorithm::ChaCha,
+            ),
+        )
+    }
+}
+
 /// Cases are multiplied by `FUZZ_SCALE` (default 1) for a longer hunt.
 fn scale() -> u32 {
     std::env::var("FUZZ_SCALE")
@@ -202,19 +222,19 @@ fn check_refusal(shown: &str, file: &str) -> Result<(), TestCaseError> {
 #[test]
 fn mutated_builtin_scenes_load_build_and_run_or_are_refused_with_a_place() {
     let texts = builtin_texts();
-    let mut runner = TestRunner::new(Config {
-        cases: 300 * scale(),
-        failure_persistence: None,
-        ..Config::default()
-    });
-    let strategy = (0..texts.len(), prop::collection::vec(mutation(), 1..4));
+    let mut runner = runner(300);
+    let strategy = (
+        0..texts.len(),
+        prop::collection::vec(mutation(), 1..4),
+        0..3usize,
+    );
     let (loaded, refused, stepped) = (
         std::cell::Cell::new(0),
         std::cell::Cell::new(0),
         std::cell::Cell::new(0),
     );
     runner
-        .run(&strategy, |(k, muts)| {
+        .run(&strategy, |(k, muts, solver)| {
             let (name, text) = &texts[k];
             let mutated = apply(text, &muts);
             let file = format!("{name}.toml");
@@ -226,7 +246,12 @@ fn mutated_builtin_scenes_load_build_and_run_or_are_refused_with_a_place() {
                 }
                 Ok(sc) => {
                     loaded.set(loaded.get() + 1);
-                    let settings = sc.world.solver.resolve();
+                    let flags = sandbox2d::SolverOverrides {
+                        kind: (solver == 1).then_some(sandbox2d::SolverKind::Xpbd),
+                        soft_step: (solver == 2).then_some(true),
+                        ..Default::default()
+                    };
+                    let settings = sc.world.solver.merged(flags).resolve();
                     // A scene that loads builds: every build-time refusal has a place.
                     let mut world = World::from_def(&sc.world, settings).map_err(|e| {
                         TestCaseError::fail(format!("loaded but did not build: {e}\n{mutated}"))
@@ -329,15 +354,15 @@ fn mutated_scenes_through_the_binary() {
         .collect();
     let dir = std::env::temp_dir().join(format!("sandbox2d-fuzz-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
-    let mut runner = TestRunner::new(Config {
-        cases: 24 * scale(),
-        failure_persistence: None,
-        ..Config::default()
-    });
-    let strategy = (0..texts.len(), prop::collection::vec(mutation(), 1..3));
+    let mut runner = runner(24);
+    let strategy = (
+        0..texts.len(),
+        prop::collection::vec(mutation(), 1..3),
+        0..3usize,
+    );
     let case = std::cell::Cell::new(0);
     runner
-        .run(&strategy, |(k, muts)| {
+        .run(&strategy, |(k, muts, solver)| {
             let (name, text) = &texts[k];
             case.set(case.get() + 1);
             let path = dir.join(format!("{name}-{}.toml", case.get()));
@@ -356,6 +381,11 @@ fn mutated_scenes_through_the_binary() {
             ]
             .iter()
             .map(|s| s.to_string())
+            .chain(
+                [&[][..], &["--solver", "xpbd"], &["--soft-step", "on"]][solver]
+                    .iter()
+                    .map(|s| s.to_string()),
+            )
             .collect();
             check_run(&args, Some(&file))
         })
@@ -381,12 +411,11 @@ fn random_flags_through_the_binary() {
         ("--slop", &["-1", "0", "inf"]),
         ("--trace-every", &["0", "1"]),
         ("--solver", &["pgs", "xpbd", "soft"]),
+        ("--soft-step", &["on", "off"]),
+        ("--contact-hertz", &["0", "30", "1e30", "inf", "-1"]),
+        ("--max-push-speed", &["0", "3", "1e30"]),
     ];
-    let mut runner = TestRunner::new(Config {
-        cases: 32 * scale(),
-        failure_persistence: None,
-        ..Config::default()
-    });
+    let mut runner = runner(32);
     let strategy = (
         prop::sample::select(vec!["stack", "bounce", "chain", "particles"]),
         prop::collection::vec((0..flags.len(), any::<usize>()), 0..4),
