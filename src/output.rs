@@ -167,3 +167,65 @@ pub fn interrupt() {
 pub fn clear_interrupt() {
     INTERRUPTED.store(false, Ordering::Relaxed);
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn dir(name: &str) -> PathBuf {
+        let d =
+            std::env::temp_dir().join(format!("sandbox2d-output-{name}-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&d);
+        std::fs::create_dir_all(&d).unwrap();
+        d
+    }
+
+    #[test]
+    fn an_uncommitted_file_leaves_nothing_and_a_committed_one_is_whole() {
+        let d = dir("atomic");
+        let path = d.join("out.csv");
+        std::fs::write(&path, "old, complete\n").unwrap();
+        {
+            let mut f = AtomicFile::create(&path).unwrap();
+            f.write_all(b"half a r").unwrap();
+            // dropped (an error, an interrupt): the old file stays as it was
+        }
+        assert_eq!(std::fs::read_to_string(&path).unwrap(), "old, complete\n");
+        assert_eq!(
+            std::fs::read_dir(&d).unwrap().count(),
+            1,
+            "no temporary file left"
+        );
+        write_atomic(&path, b"new\n").unwrap();
+        assert_eq!(std::fs::read_to_string(&path).unwrap(), "new\n");
+        assert_eq!(std::fs::read_dir(&d).unwrap().count(), 1);
+        std::fs::remove_dir_all(&d).unwrap();
+    }
+
+    #[test]
+    fn an_unwritable_place_is_an_error_that_names_the_file() {
+        let d = dir("missing");
+        let path = d.join("no_such_folder").join("results.md");
+        let e = write_atomic(&path, b"x").unwrap_err();
+        assert_eq!(e.path, path);
+        assert!(
+            e.to_string()
+                .starts_with(&format!("{}: cannot write:", path.display()))
+        );
+        std::fs::remove_dir_all(&d).unwrap();
+    }
+
+    #[test]
+    fn same_file_sees_through_spellings() {
+        let d = dir("same");
+        let a = d.join("a.toml");
+        std::fs::write(&a, "x").unwrap();
+        assert!(same_file(&a, &d.join(".").join("a.toml")));
+        assert!(
+            same_file(&d.join("new.csv"), &d.join("x").join("..").join("new.csv"))
+                || !d.join("x").exists()
+        );
+        assert!(!same_file(&a, &d.join("b.toml")));
+        std::fs::remove_dir_all(&d).unwrap();
+    }
+}

@@ -1069,3 +1069,25 @@ fn a_bad_solver_flag_is_blamed_on_the_flags_not_the_scene() {
         "error: command-line flags: solver: dt must be > 0, got 0"
     );
 }
+
+#[test]
+fn a_name_with_control_characters_cannot_reach_the_terminal_raw() {
+    let dir = fresh_tmp("escapes");
+    let scene = dir.join("esc.toml");
+    // an escape sequence (clear screen) and a carriage return that would overwrite the line
+    std::fs::write(
+        &scene,
+        "name = \"t\"\n[[body]]\nname = \"\\u001b[2J\\rerror: all fine\"\nshape = { circle = -1 }\n",
+    )
+    .unwrap();
+    let out = sandbox2d().arg("simulate").arg(&scene).output().unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{err}");
+    assert_eq!(err.lines().count(), 1, "{err:?}");
+    let line = err.strip_suffix('\n').unwrap();
+    assert!(!line.chars().any(|c| c.is_control()), "{line:?}");
+    assert!(
+        line.contains("body \"\\u{1b}[2J\\rerror: all fine\""),
+        "{line:?}"
+    );
+}
