@@ -86,7 +86,12 @@ impl GifWriter {
             error: error.clone(),
         };
         let mut encoder = GifEncoder::new_with_speed(writer, speed.clamp(1, 30));
-        encoder.set_repeat(Repeat::Infinite)?;
+        encoder
+            .set_repeat(Repeat::Infinite)
+            .map_err(|e| RenderError::Io {
+                path: path.clone(),
+                source: std::io::Error::other(e),
+            })?;
         let fps = if fps.is_finite() {
             fps.clamp(0.1, 100.0)
         } else {
