@@ -343,6 +343,12 @@ fn progress(len: Option<u64>, template: &str) -> indicatif::ProgressBar {
 /// Refuses an output path that is one of the run's inputs or another of its outputs.
 fn check_distinct(outputs: &[(&str, &Path)], inputs: &[(&str, &Path)]) -> Result<(), Failure> {
     for (i, (what, p)) in outputs.iter().enumerate() {
+        if p.is_dir() {
+            return Err(Failure::input(format!(
+                "{}: {what} is a folder; give a file name",
+                p.display()
+            )));
+        }
         for (other, q) in inputs.iter().chain(&outputs[..i]) {
             if output::same_file(p, q) {
                 return Err(Failure::input(format!(
@@ -501,8 +507,10 @@ fn simulate(a: &SimulateArgs) -> Result<(), Failure> {
     if a.trace_every == 0 {
         return Err(Failure::input("--trace-every must be at least 1"));
     }
-    if let (Some(trace), Some(file)) = (&a.trace, scene_file(&a.scene)) {
-        check_distinct(&[("--trace", trace)], &[("scene file", &file)])?;
+    if let Some(trace) = &a.trace {
+        let file = scene_file(&a.scene);
+        let inputs: Vec<(&str, &Path)> = file.iter().map(|f| ("scene file", f.as_path())).collect();
+        check_distinct(&[("--trace", trace)], &inputs)?;
     }
     let (sc, mut world, settings) = build(&a.scene, &a.solver)?;
     // the trace goes to a temporary file, renamed once the run is complete

@@ -1091,3 +1091,17 @@ fn a_name_with_control_characters_cannot_reach_the_terminal_raw() {
         "{line:?}"
     );
 }
+
+#[test]
+fn a_trace_that_is_a_folder_is_refused_before_the_run() {
+    let dir = fresh_tmp("trace-folder");
+    let out = sandbox2d()
+        .args(["simulate", "stack", "--steps", "5", "--trace"])
+        .arg(&dir)
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{err}");
+    assert!(err.contains("--trace is a folder"), "{err}");
+    assert!(out.stdout.is_empty(), "refused before the run");
+}
