@@ -513,6 +513,9 @@ fn simulate(a: &SimulateArgs) -> Result<(), Failure> {
         check_distinct(&[("--trace", trace)], &inputs)?;
     }
     let (sc, mut world, settings) = build(&a.scene, &a.solver)?;
+    // from here an interrupt stops the run cleanly (before the trace exists, so that no
+    // interrupt can leave its temporary file behind)
+    GRACEFUL.store(true, Ordering::Relaxed);
     // the trace goes to a temporary file, renamed once the run is complete
     let mut trace_file = match &a.trace {
         Some(p) => Some(AtomicFile::create(p).map_err(Failure::input)?),
@@ -523,7 +526,6 @@ fn simulate(a: &SimulateArgs) -> Result<(), Failure> {
         out: f as &mut dyn Write,
         every: a.trace_every,
     });
-    GRACEFUL.store(true, Ordering::Relaxed);
     let result = sim::run(&mut world, a.steps, trace, |k| {
         if k % 16 == 0 {
             bar.set_position(k);
@@ -1010,13 +1012,13 @@ fn bench(a: &BenchArgs) -> Result<(), Failure> {
     let bar = bench_progress(total);
     // Each finished case's row goes to results.partial.csv at once, so an interrupted
     // (or failed) suite keeps what it measured; the complete results replace it at the end.
+    GRACEFUL.store(true, Ordering::Relaxed);
     let partial_path = a.out.join("results.partial.csv");
     let mut partial = std::fs::File::create(&partial_path)
         .map_err(|e| Failure::input(format!("{}: cannot write: {e}", partial_path.display())))?;
     let partial_err =
         |e: std::io::Error| Failure::run(format!("{}: cannot write: {e}", partial_path.display()));
     writeln!(partial, "{}", bench::report::CSV_COLUMNS.join(",")).map_err(partial_err)?;
-    GRACEFUL.store(true, Ordering::Relaxed);
     let (rows, complete) = bench::run_scenes_each(&scenes, &opts, |done, _, what, row| {
         bar.set_position(done as u64);
         bar.set_message(what.to_string());
