@@ -761,6 +761,7 @@ fn render(a: &RenderArgs) -> Result<(), Failure> {
                 .and_then(|r| r.strip_suffix(".png"))
                 .and_then(|d| d.parse::<u32>().ok())
             && k < a.frames
+            && sandbox2d::render::frame_name(k) == name
         {
             inputs.push((
                 "frame it writes",
@@ -886,6 +887,7 @@ fn run_headless(a: &RunArgs, sc: &Scene) -> Result<(), Failure> {
                 .and_then(|r| r.strip_suffix(".png"))
                 .and_then(|d| d.parse::<u32>().ok())
             && k < frames
+            && sandbox2d::render::frame_name(k) == name
         {
             inputs.push((
                 "frame it writes",

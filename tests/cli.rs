@@ -972,13 +972,13 @@ fn a_long_run_shows_progress_on_a_terminal() {
         eprintln!("SKIPPED: no `script` to give the run a terminal");
         return;
     };
-    std::thread::sleep(std::time::Duration::from_millis(3500));
+    std::thread::sleep(std::time::Duration::from_millis(4500));
     let _ = child.kill();
     let out = child.wait_with_output().unwrap();
     let text = String::from_utf8_lossy(&out.stdout);
     assert!(
         text.contains("/1000000000 steps"),
-        "no progress after 3.5 s: {text:?}"
+        "no progress after 4.5 s: {text:?}"
     );
 }
 
