@@ -20,6 +20,7 @@ pub mod defs;
 pub mod draw;
 pub mod joint;
 pub mod math;
+pub mod output;
 pub mod scene;
 pub mod shape;
 pub mod sim;

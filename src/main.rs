@@ -1,11 +1,14 @@
 //! The sandbox2d command line: `scenes`, `simulate`, `render`, `run`, and (with no
 //! command) the window on the default scene.
 
-use std::io::{BufWriter, IsTerminal, Write};
-use std::path::PathBuf;
+use std::io::{IsTerminal, Write};
+use std::path::{Path, PathBuf};
 use std::process::ExitCode;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::time::Duration;
 
 use clap::{Args, Parser, Subcommand, ValueEnum};
+use sandbox2d::output::{self, AtomicFile};
 use sandbox2d::scene::{self, Scene};
 use sandbox2d::sim::{self, Trace};
 use sandbox2d::{SolverKind, SolverOverrides, SolverSettings, World};
@@ -286,12 +289,99 @@ impl Failure {
             message: message.to_string(),
         }
     }
+    /// Stopped by SIGINT or SIGTERM: exit 130, as a shell reports a Ctrl-C.
+    fn interrupted(message: impl std::fmt::Display) -> Failure {
+        Failure {
+            code: 130,
+            message: message.to_string(),
+        }
+    }
+}
+
+/// Set by a command that stops cleanly on an interrupt (it checks
+/// [`output::interrupted`] and removes what is incomplete); otherwise an interrupt ends
+/// the process at once, as it would without a handler.
+static GRACEFUL: AtomicBool = AtomicBool::new(false);
+
+/// SIGINT / SIGTERM: the first asks a graceful command to stop; a second, or any while
+/// no graceful command runs, exits at once with 130.
+fn install_interrupt_handler() {
+    let _ = ctrlc::set_handler(|| {
+        if GRACEFUL.load(Ordering::Relaxed) && !output::interrupted() {
+            output::interrupt();
+        } else {
+            std::process::exit(130);
+        }
+    });
+}
+
+/// The message on one line: control characters (a newline, a carriage return, an
+/// escape) written as Rust escapes, so no input can split or spoof it.
+fn one_line(s: &str) -> String {
+    let mut out = String::with_capacity(s.len());
+    for c in s.chars() {
+        if c.is_control() {
+            out.extend(c.escape_default());
+        } else {
+            out.push(c);
+        }
+    }
+    out
+}
+
+/// A progress bar on stderr that appears only when stderr is a terminal and the work
+/// has taken more than two seconds; its elapsed time ticks even while one long step runs.
+fn progress(len: Option<u64>, template: &str) -> indicatif::ProgressBar {
+    let b = indicatif::ProgressBar::with_draw_target(len, indicatif::ProgressDrawTarget::hidden());
+    b.set_style(
+        indicatif::ProgressStyle::with_template(template)
+            .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
+    );
+    if std::io::stderr().is_terminal() {
+        let shown = b.clone();
+        std::thread::spawn(move || {
+            std::thread::sleep(Duration::from_secs(2));
+            if !shown.is_finished() {
+                shown.set_draw_target(indicatif::ProgressDrawTarget::stderr());
+                shown.enable_steady_tick(Duration::from_millis(200));
+            }
+        });
+    }
+    b
+}
+
+/// Refuses an output path that is one of the run's inputs or another of its outputs.
+fn check_distinct(outputs: &[(&str, &Path)], inputs: &[(&str, &Path)]) -> Result<(), Failure> {
+    for (i, (what, p)) in outputs.iter().enumerate() {
+        if p.is_dir() {
+            return Err(Failure::input(format!(
+                "{}: {what} is a folder; give a file name",
+                p.display()
+            )));
+        }
+        for (other, q) in inputs.iter().chain(&outputs[..i]) {
+            if output::same_file(p, q) {
+                return Err(Failure::input(format!(
+                    "{}: {what} would overwrite the {other} ({})",
+                    p.display(),
+                    q.display()
+                )));
+            }
+        }
+    }
+    Ok(())
+}
+
+/// The scene file a name loads, when it is a file and not a built-in scene.
+fn scene_file(name: &str) -> Option<PathBuf> {
+    scene::builtin(name).is_none().then(|| PathBuf::from(name))
 }
 
 fn main() -> ExitCode {
     env_logger::Builder::from_env(env_logger::Env::default().default_filter_or(DEFAULT_LOG_FILTER))
         .init();
     let cli = Cli::parse();
+    install_interrupt_handler();
     let result = match cli.command {
         None => default_command(),
         Some(Command::Scenes) => list_scenes(),
@@ -305,7 +395,7 @@ fn main() -> ExitCode {
     match result {
         Ok(()) => ExitCode::SUCCESS,
         Err(f) => {
-            eprintln!("error: {}", f.message);
+            eprintln!("error: {}", one_line(&f.message));
             ExitCode::from(f.code)
         }
     }
@@ -349,53 +439,143 @@ fn default_command() -> Result<(), Failure> {
     })
 }
 
-/// Loads a scene and builds its world with the command line's solver flags applied.
+/// Refuses solver flags beyond the documented bounds (the rest is checked with the
+/// scene's values by the world).
+fn check_flags(flags: &SolverFlags) -> Result<(), Failure> {
+    let bounded = |flag: &str, v: Option<u32>, max: u32| match v {
+        Some(n) if !(1..=max).contains(&n) => Err(Failure::input(format!(
+            "--{flag} must be 1..={max}, got {n}"
+        ))),
+        _ => Ok(()),
+    };
+    bounded("iterations", flags.iterations, scene::MAX_ITERATIONS)?;
+    bounded("substeps", flags.substeps, scene::MAX_SUBSTEPS)
+}
+
+/// Loads a scene and builds its world with the command line's solver flags applied,
+/// with a progress bar for a build that takes more than a couple of seconds.
 fn build(name: &str, flags: &SolverFlags) -> Result<(Scene, World, SolverSettings), Failure> {
-    let sc = scene::load(name).map_err(Failure::input)?;
+    check_flags(flags)?;
+    let spinner = progress(None, "{spinner} loading the scene {elapsed}");
+    let sc = scene::load(name).map_err(Failure::input);
+    spinner.finish_and_clear();
+    let sc = sc?;
     let settings = sc.world.solver.merged(flags.overrides()).resolve();
-    let world = World::from_def(&sc.world, settings)
-        .map_err(|e| Failure::input(format!("{}: {e}", sc.source)))?;
+    let fail = |e: sandbox2d::BuildError| Failure::input(format!("{}: {e}", sc.source));
+    // the scene's own [solver] values were checked at load (with their place): what
+    // fails here comes from a flag
+    settings
+        .check()
+        .map_err(|e| Failure::input(format!("command-line flags: solver: {e}")))?;
+    // World::from_def, body by body, with progress
+    let def = &sc.world;
+    let mut world = World::new(def.gravity, settings);
+    world.drag = def.drag;
+    let bar = progress(
+        Some(def.bodies.len() as u64),
+        "{bar:40} {pos}/{len} bodies built {elapsed}",
+    );
+    // World::add_body's duplicate-name check scans every body (quadratic for a million
+    // bodies): the names are checked here with a set, then the bodies made as add_body
+    // makes them.
+    let mut names = std::collections::HashSet::with_capacity(def.bodies.len());
+    for (i, b) in def.bodies.iter().enumerate() {
+        if !names.insert(b.name.as_str()) {
+            return Err(fail(sandbox2d::BuildError::DuplicateName(b.name.clone())));
+        }
+        world
+            .bodies
+            .push(World::make_body(b, def.gravity).map_err(fail)?);
+        if i % 1024 == 0 {
+            bar.set_position(i as u64);
+        }
+    }
+    bar.finish_and_clear();
+    for f in &def.forces {
+        world.add_force(f).map_err(fail)?;
+    }
+    for j in &def.joints {
+        world.add_joint(j).map_err(fail)?;
+    }
     Ok((sc, world, settings))
 }
 
+/// A run that stopped on a non-finite state or an interrupt: one line that names the
+/// scene and the step (and, for a blow-up, the body).
+fn run_failure(source: &str, e: sim::RunError) -> Failure {
+    match e {
+        sim::RunError::Interrupted { step } => {
+            Failure::interrupted(format!("{source}: interrupted after step {step}"))
+        }
+        e => Failure::run(format!("{source}: {e}")),
+    }
+}
+
 fn simulate(a: &SimulateArgs) -> Result<(), Failure> {
+    if a.steps == 0 {
+        return Err(Failure::input("--steps must be at least 1"));
+    }
     if a.trace_every == 0 {
         return Err(Failure::input("--trace-every must be at least 1"));
     }
+    if let Some(trace) = &a.trace {
+        let file = scene_file(&a.scene);
+        let inputs: Vec<(&str, &Path)> = file.iter().map(|f| ("scene file", f.as_path())).collect();
+        check_distinct(&[("--trace", trace)], &inputs)?;
+    }
     let (sc, mut world, settings) = build(&a.scene, &a.solver)?;
+    // from here an interrupt stops the run cleanly (before the trace exists, so that no
+    // interrupt can leave its temporary file behind)
+    GRACEFUL.store(true, Ordering::Relaxed);
+    // the trace goes to a temporary file, renamed once the run is complete
     let mut trace_file = match &a.trace {
-        Some(p) => Some(BufWriter::new(std::fs::File::create(p).map_err(|e| {
-            Failure::input(format!("{}: cannot create: {e}", p.display()))
-        })?)),
+        Some(p) => Some(AtomicFile::create(p).map_err(Failure::input)?),
         None => None,
     };
-    let bar = if std::io::stderr().is_terminal() && a.steps >= 200 {
-        let b = indicatif::ProgressBar::new(a.steps);
-        b.set_style(
-            indicatif::ProgressStyle::with_template("{bar:40} {pos}/{len} steps {elapsed}")
-                .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
-        );
-        Some(b)
-    } else {
-        None
-    };
+    let bar = progress(Some(a.steps), "{bar:40} {pos}/{len} steps {elapsed}");
     let trace = trace_file.as_mut().map(|f| Trace {
         out: f as &mut dyn Write,
         every: a.trace_every,
     });
-    let summary = sim::run(&mut world, a.steps, trace, |k| {
-        if let Some(b) = &bar {
-            if k % 16 == 0 {
-                b.set_position(k);
-            }
+    let result = sim::run(&mut world, a.steps, trace, |k| {
+        if k % 16 == 0 {
+            bar.set_position(k);
         }
-    })
-    .map_err(Failure::run)?;
-    if let Some(b) = bar {
-        b.finish_and_clear();
+    });
+    bar.finish_and_clear();
+    let summary = match result {
+        Ok(s) => s,
+        Err(sim::RunError::Io(e)) => {
+            let path = a.trace.as_deref().unwrap_or(Path::new("trace"));
+            return Err(Failure::run(format!(
+                "{}: cannot write: {e}",
+                path.display()
+            )));
+        }
+        Err(e) => {
+            let mut f = run_failure(&sc.source, e);
+            if let Some(p) = &a.trace {
+                f.message += &format!("; {}: not written (the run did not finish)", p.display());
+            }
+            return Err(f);
+        }
+    };
+    if let Some(f) = trace_file {
+        f.commit().map_err(Failure::run)?;
     }
-    if let Some(mut f) = trace_file {
-        f.flush().map_err(Failure::run)?;
+    let figures = [
+        ("energy at the start", summary.energy_start),
+        ("energy at the end", summary.energy_end),
+        ("mean residual", summary.residual_mean),
+        ("largest residual", summary.residual_max as f64),
+        ("largest penetration", summary.penetration_max as f64),
+        ("largest joint error", summary.joint_error_max as f64),
+    ];
+    if let Some((what, v)) = figures.iter().find(|(_, v)| !v.is_finite()) {
+        return Err(Failure::run(format!(
+            "{}: after step {}: the {what} is {v}, not a finite number",
+            sc.source, summary.steps
+        )));
     }
     let (median, mean, p95) = summary.ms_per_step();
     let world_has_no_joints = world.joints().is_empty();
@@ -439,7 +619,8 @@ fn simulate(a: &SimulateArgs) -> Result<(), Failure> {
         });
         println!("{v}");
     } else {
-        println!("scene        {} ({})", sc.name, sc.source);
+        // quoted with escapes: a name cannot put control characters on the terminal
+        println!("scene        {:?} ({})", sc.name, one_line(&sc.source));
         println!(
             "solver       {} dt={} substeps={} iterations={} tolerance={} warm_start={} split_impulse={} baumgarte={} slop={}",
             settings.kind.name(),
@@ -503,22 +684,6 @@ fn simulate(a: &SimulateArgs) -> Result<(), Failure> {
     Ok(())
 }
 
-/// A progress bar on stderr when stdout is a terminal; none otherwise.
-#[cfg(feature = "render")]
-fn progress_bar(len: u64, what: &str) -> Option<indicatif::ProgressBar> {
-    if !std::io::stdout().is_terminal() {
-        return None;
-    }
-    let b = indicatif::ProgressBar::new(len);
-    b.set_style(
-        indicatif::ProgressStyle::with_template(&format!(
-            "{{bar:40}} {{pos}}/{{len}} {what} {{elapsed}}"
-        ))
-        .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
-    );
-    Some(b)
-}
-
 /// The exit code a frame-rendering failure gets: 2 when the input (a size, a path) is
 /// at fault, 1 when the run failed.
 #[cfg(feature = "render")]
@@ -527,8 +692,22 @@ fn frames_failure(e: sandbox2d::render::FramesError) -> Failure {
     match &e {
         FramesError::Zero(_)
         | FramesError::OutDir { .. }
-        | FramesError::Render(RenderError::Io { .. })
         | FramesError::Render(RenderError::InvalidSize { .. }) => Failure::input(e),
+        FramesError::Interrupted { written } => {
+            let kept = match (written.pngs.first(), written.pngs.last()) {
+                (Some(first), Some(last)) => format!(
+                    "kept {} complete frame(s), {} .. {}",
+                    written.pngs.len(),
+                    first.display(),
+                    last.display()
+                ),
+                _ => "kept no frame".to_owned(),
+            };
+            Failure::interrupted(format!(
+                "interrupted after step {}: {kept}; no GIF was written",
+                written.steps
+            ))
+        }
         _ => Failure::run(e),
     }
 }
@@ -543,17 +722,22 @@ fn render_job(
 ) -> Result<sandbox2d::render::FramesWritten, Failure> {
     let camera = sandbox2d::draw::world::scene_camera(&sc.camera, size, world);
     let mut renderer = sandbox2d::render::Renderer::new_headless().map_err(Failure::run)?;
-    let bar = progress_bar(job.frames as u64, "frames");
+    let bar = progress(
+        Some(job.frames as u64),
+        "{bar:40} {pos}/{len} frames {elapsed}",
+    );
+    GRACEFUL.store(true, Ordering::Relaxed);
     let written = sandbox2d::render::render_frames(world, &camera, &mut renderer, job, |k| {
-        if let Some(b) = &bar {
-            b.set_position(k as u64 + 1);
+        bar.set_position(k as u64 + 1);
+    });
+    bar.finish_and_clear();
+    written.map_err(|e| match e {
+        // the step error names the body and the step
+        sandbox2d::render::FramesError::Step { source, .. } => {
+            Failure::run(format!("{}: {source}", sc.source))
         }
+        e => frames_failure(e),
     })
-    .map_err(frames_failure)?;
-    if let Some(b) = bar {
-        b.finish_and_clear();
-    }
-    Ok(written)
 }
 
 /// Tells where the frames went: one line.
@@ -585,6 +769,39 @@ fn render(a: &RenderArgs) -> Result<(), Failure> {
     }
     if a.every == 0 {
         return Err(Failure::input("--every must be at least 1"));
+    }
+    if let Some(gif) = &a.gif {
+        let mut inputs: Vec<(&str, PathBuf)> = vec![("--out folder", a.out.clone())];
+        if let Some(file) = scene_file(&a.scene) {
+            inputs.push(("scene file", file));
+        }
+        // a frame of this run: frame_NNNN.png in --out, for NNNN < --frames
+        if let Some(name) = gif.file_name().and_then(|n| n.to_str())
+            && let Some(k) = name
+                .strip_prefix("frame_")
+                .and_then(|r| r.strip_suffix(".png"))
+                .and_then(|d| d.parse::<u32>().ok())
+            && k < a.frames
+            && sandbox2d::render::frame_name(k) == name
+        {
+            inputs.push((
+                "frame it writes",
+                a.out.join(sandbox2d::render::frame_name(k)),
+            ));
+        }
+        let inputs: Vec<(&str, &Path)> = inputs.iter().map(|(w, p)| (*w, p.as_path())).collect();
+        check_distinct(&[("--gif", gif)], &inputs)?;
+        let folder = match gif.parent() {
+            Some(d) if !d.as_os_str().is_empty() => d,
+            _ => Path::new("."),
+        };
+        if !folder.is_dir() {
+            return Err(Failure::input(format!(
+                "{}: cannot create: the folder {} does not exist",
+                gif.display(),
+                folder.display()
+            )));
+        }
     }
     let (sc, mut world, _) = build(&a.scene, &a.solver)?;
     std::fs::create_dir_all(&a.out).map_err(|e| {
@@ -618,6 +835,9 @@ const FALLBACK_FRAMES: u32 = 120;
 #[cfg(feature = "render")]
 fn run(a: &RunArgs) -> Result<(), Failure> {
     // Refuse a bad scene or flag before any window opens.
+    if let (Some(shot), Some(file)) = (&a.screenshot, scene_file(&a.scene)) {
+        check_distinct(&[("--screenshot", shot)], &[("scene file", &file)])?;
+    }
     let (sc, _, _) = build(&a.scene, &a.solver)?;
     #[cfg(feature = "app")]
     {
@@ -649,7 +869,7 @@ fn run(a: &RunArgs) -> Result<(), Failure> {
             }
             Err(AppError::NoDisplay(why)) => {
                 println!(
-                    "sandbox2d: no display ({why}); rendering \"{}\" headless into ./out instead",
+                    "sandbox2d: no display ({why}); rendering {:?} headless into ./out instead",
                     sc.name
                 );
             }
@@ -659,7 +879,7 @@ fn run(a: &RunArgs) -> Result<(), Failure> {
     }
     #[cfg(not(feature = "app"))]
     println!(
-        "sandbox2d: built without the window (feature \"app\"); rendering \"{}\" headless into ./out instead",
+        "sandbox2d: built without the window (feature \"app\"); rendering {:?} headless into ./out instead",
         sc.name
     );
     run_headless(a, &sc)
@@ -669,12 +889,36 @@ fn run(a: &RunArgs) -> Result<(), Failure> {
 /// `--screenshot`).
 #[cfg(feature = "render")]
 fn run_headless(a: &RunArgs, sc: &Scene) -> Result<(), Failure> {
-    let (_, mut world, _) = build(&a.scene, &a.solver)?;
     let out = PathBuf::from("out");
     let frames = match a.frames {
-        Some(n) => u32::try_from(n.max(1)).unwrap_or(u32::MAX),
+        Some(0) => return Err(Failure::input("--frames must be at least 1")),
+        Some(n) => u32::try_from(n).map_err(|_| {
+            Failure::input(format!("--frames must be at most {}, got {n}", u32::MAX))
+        })?,
         None => FALLBACK_FRAMES,
     };
+    if let Some(shot) = &a.screenshot {
+        let mut inputs: Vec<(&str, PathBuf)> = vec![("output folder", out.clone())];
+        if let Some(file) = scene_file(&a.scene) {
+            inputs.push(("scene file", file));
+        }
+        if let Some(name) = shot.file_name().and_then(|n| n.to_str())
+            && let Some(k) = name
+                .strip_prefix("frame_")
+                .and_then(|r| r.strip_suffix(".png"))
+                .and_then(|d| d.parse::<u32>().ok())
+            && k < frames
+            && sandbox2d::render::frame_name(k) == name
+        {
+            inputs.push((
+                "frame it writes",
+                out.join(sandbox2d::render::frame_name(k)),
+            ));
+        }
+        let inputs: Vec<(&str, &Path)> = inputs.iter().map(|(w, p)| (*w, p.as_path())).collect();
+        check_distinct(&[("--screenshot", shot)], &inputs)?;
+    }
+    let (_, mut world, _) = build(&a.scene, &a.solver)?;
     let job = sandbox2d::render::FrameJob {
         frames,
         every: 1,
@@ -685,8 +929,9 @@ fn run_headless(a: &RunArgs, sc: &Scene) -> Result<(), Failure> {
     let written = render_job(sc, &mut world, sc.camera.size, &job)?;
     print_written(&written, &out);
     if let (Some(shot), Some(last)) = (&a.screenshot, written.pngs.last()) {
-        std::fs::copy(last, shot)
-            .map_err(|e| Failure::input(format!("{}: cannot write: {e}", shot.display())))?;
+        let bytes = std::fs::read(last)
+            .map_err(|e| Failure::run(format!("{}: cannot read: {e}", last.display())))?;
+        output::write_atomic(shot, &bytes).map_err(Failure::run)?;
         println!("screenshot: {}", shot.display());
     }
     Ok(())
@@ -705,9 +950,26 @@ fn bench_progress(total: usize) -> indicatif::ProgressBar {
     b
 }
 
+/// Writes a result file in full or not at all.
 fn write_file(path: &std::path::Path, text: &str) -> Result<(), Failure> {
-    std::fs::write(path, text)
-        .map_err(|e| Failure::run(format!("{}: cannot write: {e}", path.display())))
+    output::write_atomic(path, text.as_bytes()).map_err(Failure::run)
+}
+
+/// Creates the results folder and checks that a file can be written in it, before any
+/// case runs (rather than after minutes of measuring).
+fn writable_dir(dir: &Path) -> Result<(), Failure> {
+    std::fs::create_dir_all(dir)
+        .map_err(|e| Failure::input(format!("{}: cannot create: {e}", dir.display())))?;
+    let probe = dir.join("results.csv");
+    // created and dropped uncommitted: the temporary file is removed again
+    AtomicFile::create(&probe).map_err(|e| {
+        Failure::input(format!(
+            "{}: cannot write in this folder: {}",
+            dir.display(),
+            e.source
+        ))
+    })?;
+    Ok(())
 }
 
 fn bench(a: &BenchArgs) -> Result<(), Failure> {
@@ -739,8 +1001,7 @@ fn bench(a: &BenchArgs) -> Result<(), Failure> {
                 filter.unwrap_or_default()
             )));
         }
-        std::fs::create_dir_all(&a.out)
-            .map_err(|e| Failure::input(format!("{}: cannot create: {e}", a.out.display())))?;
+        writable_dir(&a.out)?;
         let total: usize = sweeps
             .iter()
             .map(|s| s.values().len() * extremes::settings(*s).len())
@@ -769,15 +1030,36 @@ fn bench(a: &BenchArgs) -> Result<(), Failure> {
             suite.name()
         )));
     }
-    std::fs::create_dir_all(&a.out)
-        .map_err(|e| Failure::input(format!("{}: cannot create: {e}", a.out.display())))?;
+    writable_dir(&a.out)?;
     let total: usize = scenes.iter().map(|s| bench::scene_settings(s).len()).sum();
     let bar = bench_progress(total);
-    let rows = bench::run_scenes(&scenes, &opts, |done, _, what| {
+    // Each finished case's row goes to results.partial.csv at once, so an interrupted
+    // (or failed) suite keeps what it measured; the complete results replace it at the end.
+    GRACEFUL.store(true, Ordering::Relaxed);
+    let partial_path = a.out.join("results.partial.csv");
+    let mut partial = std::fs::File::create(&partial_path)
+        .map_err(|e| Failure::input(format!("{}: cannot write: {e}", partial_path.display())))?;
+    let partial_err =
+        |e: std::io::Error| Failure::run(format!("{}: cannot write: {e}", partial_path.display()));
+    writeln!(partial, "{}", bench::report::CSV_COLUMNS.join(",")).map_err(partial_err)?;
+    let (rows, complete) = bench::run_scenes_each(&scenes, &opts, |done, _, what, row| {
         bar.set_position(done as u64);
         bar.set_message(what.to_string());
-    });
+        let csv = bench::report::csv(std::slice::from_ref(row));
+        let line = csv.split_once('\n').map_or("", |(_, rest)| rest);
+        partial
+            .write_all(line.as_bytes())
+            .and_then(|()| partial.flush())
+            .map_err(partial_err)
+    })?;
     bar.finish_and_clear();
+    if !complete {
+        return Err(Failure::interrupted(format!(
+            "interrupted: kept the {} finished case(s) of {total} in {}; results.csv, results.md and the plots were not written",
+            rows.len(),
+            partial_path.display()
+        )));
+    }
     let mut plots = Vec::new();
     for sc in &scenes {
         if let Some(svg) = bench::plot::svg(sc, &rows).map_err(Failure::run)? {
@@ -791,6 +1073,8 @@ fn bench(a: &BenchArgs) -> Result<(), Failure> {
         &a.out.join("results.md"),
         &bench::report::markdown(suite, &scenes, &rows, &plots),
     )?;
+    drop(partial);
+    let _ = std::fs::remove_file(&partial_path);
     println!(
         "wrote {}: results.csv, results.md and {} plot(s) ({} rows)",
         a.out.display(),

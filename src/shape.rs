@@ -5,7 +5,7 @@ use crate::defs::ShapeDef;
 use crate::math::{Aabb, Transform, Vec2, cross};
 
 /// The most vertices a polygon may have (after the convex hull is taken).
-pub const MAX_POLYGON_VERTICES: usize = 8;
+pub const MAX_POLYGON_VERTICES: usize = 16;
 
 /// Points closer than this (m) are welded into one when the hull is built.
 const WELD_DISTANCE: f32 = 1e-4;

@@ -10,7 +10,9 @@ use crate::world::{StepError, World};
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct RunSummary {
     pub steps: u64,
-    /// Wall time per step (ms), one entry per step.
+    /// Wall time per step (ms): one entry per step for runs of up to
+    /// [`MAX_STEP_SAMPLES`] steps; beyond that an even sample of them (every 2nd, 4th,
+    /// ... step), so a long run's memory stays bounded.
     pub step_ms: Vec<f64>,
     pub contacts_mean: f64,
     pub contacts_max: usize,
@@ -50,6 +52,9 @@ impl RunSummary {
         )
     }
 }
+
+/// The most step times a [`RunSummary`] keeps (8 MiB).
+pub const MAX_STEP_SAMPLES: usize = 1 << 20;
 
 /// Where and how often to write the trace CSV.
 pub struct Trace<'a> {
@@ -98,6 +103,9 @@ pub enum RunError {
     Step(#[from] StepError),
     #[error("writing the trace: {0}")]
     Io(#[from] std::io::Error),
+    /// An interrupt ([`crate::output::interrupted`]) stopped the run after `step` steps.
+    #[error("interrupted after step {step}")]
+    Interrupted { step: u64 },
 }
 
 /// Steps `world` `steps` times, timing each step, and sums up the figures.
@@ -109,7 +117,8 @@ pub fn run(
 ) -> Result<RunSummary, RunError> {
     let mut s = RunSummary {
         energy_start: world.energy(),
-        step_ms: Vec::with_capacity(steps as usize),
+        // grown as the run goes: `steps` is the user's count, not a promise
+        step_ms: Vec::new(),
         ..Default::default()
     };
     if let Some(tr) = trace.as_mut() {
@@ -123,10 +132,25 @@ pub fn run(
         .collect();
     let (mut contacts, mut iters, mut res, mut pen, mut pos_iters) =
         (0.0f64, 0.0f64, 0.0f64, 0.0f64, 0.0f64);
+    // keep every `stride`-th step time; halve the samples when they reach the cap
+    let mut stride: u64 = 1;
     for k in 1..=steps {
+        if crate::output::interrupted() {
+            return Err(RunError::Interrupted { step: k - 1 });
+        }
         let t = Instant::now();
         world.step()?;
-        s.step_ms.push(t.elapsed().as_secs_f64() * 1e3);
+        if k % stride == 0 {
+            s.step_ms.push(t.elapsed().as_secs_f64() * 1e3);
+            if s.step_ms.len() >= MAX_STEP_SAMPLES {
+                let mut i = 0;
+                s.step_ms.retain(|_| {
+                    i += 1;
+                    i % 2 == 0
+                });
+                stride *= 2;
+            }
+        }
         let st = *world.stats();
         contacts += st.contacts as f64;
         s.contacts_max = s.contacts_max.max(st.contacts);

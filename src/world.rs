@@ -17,22 +17,31 @@ use crate::step::{Stage, StageClock, StepContext, Stepper, new_stepper};
 
 mod measure;
 
-/// Why a world could not be built from its description.
+/// Why a world could not be built from its description. Names are quoted with escapes
+/// (as Rust's `{:?}` writes them), so a name cannot break a message over lines.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum BuildError {
-    #[error("body \"{name}\": {source}")]
+    #[error("body {name:?}: {source}")]
     Shape { name: String, source: ShapeError },
-    #[error("body \"{0}\": a particle must have a circle shape")]
+    #[error("body {0:?}: a particle must have a circle shape")]
     ParticleShape(String),
-    #[error("body \"{name}\": {what} must be > 0, got {value}")]
+    #[error("body {name:?}: {what} must be > 0, got {value}")]
     NotPositive {
         name: String,
         what: &'static str,
         value: f32,
     },
-    #[error("body \"{name}\": {what} is not a finite number")]
+    #[error("body {name:?}: {what} is not a finite number")]
     NotFinite { name: String, what: &'static str },
-    #[error("duplicate body name \"{0}\"")]
+    /// A quantity the world derives from the description (mass, inertia, centre of
+    /// mass, energy) is not finite or not usable; `input` says which given value made it.
+    #[error("body {name:?}: {what}")]
+    Derived {
+        name: String,
+        input: BodyInput,
+        what: String,
+    },
+    #[error("duplicate body name {0:?}")]
     DuplicateName(String),
     #[error("{what} names body #{index}, but the world has {count} bodies")]
     NoSuchBody {
@@ -46,11 +55,23 @@ pub enum BuildError {
     Settings(String),
 }
 
+/// Which value of a [`BodyDef`] a [`BuildError::Derived`] comes from.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum BodyInput {
+    /// The shape (its size gives the mass and inertia).
+    Shape,
+    /// `density` or `mass`.
+    Mass,
+    Position,
+    Velocity,
+    AngularVelocity,
+}
+
 /// Why a step failed.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum StepError {
     #[error(
-        "body \"{name}\" (#{index}) has a non-finite state after step {step}: position {position:?}, velocity {velocity:?}"
+        "body {name:?} (#{index}) has a non-finite state after step {step}: position {position:?}, velocity {velocity:?}"
     )]
     NonFinite {
         name: String,
@@ -180,7 +201,7 @@ impl World {
         let bad = |m: String| Err(BuildError::Joint(id, m));
         let [a, b] = def.bodies;
         if a == b {
-            return bad(format!("joins body \"{}\" to itself", self.bodies[a].name));
+            return bad(format!("joins body {:?} to itself", self.bodies[a].name));
         }
         if let Some([lo, hi]) = def.limits {
             if !(lo <= hi) {
@@ -208,7 +229,14 @@ impl World {
         if !finite {
             return bad("anchors and axis must be finite".into());
         }
-        self.joints.push(Joint::from_def(def, &self.bodies));
+        let joint = Joint::from_def(def, &self.bodies);
+        if let Some(what) = joint_not_finite(&joint) {
+            return bad(format!(
+                "its {what} is not finite (the bodies {:?} and {:?} are too far apart for f32)",
+                self.bodies[a].name, self.bodies[b].name
+            ));
+        }
+        self.joints.push(joint);
         if !def.collide_connected {
             let pair = (a.min(b) as u32, a.max(b) as u32);
             if let Err(at) = self.no_collide.binary_search(&pair) {
@@ -266,10 +294,19 @@ impl World {
 
     /// Adds a body; its mass and inertia come from the shape and density (or the given mass).
     pub fn add_body(&mut self, def: &BodyDef) -> Result<BodyId, BuildError> {
-        let name = def.name.clone();
-        if self.bodies.iter().any(|b| b.name == name) {
-            return Err(BuildError::DuplicateName(name));
+        if self.bodies.iter().any(|b| b.name == def.name) {
+            return Err(BuildError::DuplicateName(def.name.clone()));
         }
+        let body = World::make_body(def, self.gravity)?;
+        self.bodies.push(body);
+        Ok(self.bodies.len() - 1)
+    }
+
+    /// The body a description makes, as [`World::add_body`] would add it to a world with
+    /// this gravity, without adding it: every value it derives (centre of mass, mass,
+    /// inertia and their inverses, kinetic and potential energy) is checked to be finite.
+    pub fn make_body(def: &BodyDef, gravity: Option<Vec2>) -> Result<Body, BuildError> {
+        let name = def.name.clone();
         let finite = |what: &'static str, ok: bool| {
             if ok {
                 Ok(())
@@ -295,9 +332,18 @@ impl World {
         if particle && !matches!(shape, Shape::Circle { .. }) {
             return Err(BuildError::ParticleShape(name));
         }
+        let derived = |input: BodyInput, what: String| BuildError::Derived {
+            name: def.name.clone(),
+            input,
+            what,
+        };
         let dynamic = def.body_type == BodyType::Dynamic;
         let (mut mass, mut inertia) = (0.0, 0.0);
         if dynamic {
+            // Which value to blame for a mass that is not usable: the given mass, else the
+            // shape when its area is what under- or overflows, else the density.
+            let unit = shape.mass_data(1.0);
+            let area_ok = unit.mass.is_finite() && unit.mass > 0.0 && unit.inertia.is_finite();
             let md = match def.mass {
                 Some(m) => {
                     if !(m > 0.0) || !m.is_finite() {
@@ -308,7 +354,6 @@ impl World {
                         });
                     }
                     // scale the unit-density inertia to the given mass
-                    let unit = shape.mass_data(1.0);
                     crate::shape::MassData {
                         mass: m,
                         center: unit.center,
@@ -326,18 +371,50 @@ impl World {
                     shape.mass_data(def.density)
                 }
             };
+            let blame = if area_ok {
+                BodyInput::Mass
+            } else {
+                BodyInput::Shape
+            };
+            if !(md.mass.is_finite() && md.mass > 0.0 && (1.0 / md.mass).is_finite()) {
+                return Err(derived(
+                    blame,
+                    format!(
+                        "its mass is {} (area {} m^2): too large or too small to simulate",
+                        md.mass, unit.mass
+                    ),
+                ));
+            }
+            if !particle
+                && !(md.inertia.is_finite() && md.inertia > 0.0 && (1.0 / md.inertia).is_finite())
+            {
+                return Err(derived(
+                    blame,
+                    format!(
+                        "its rotational inertia is {} kg m^2: too large or too small to simulate",
+                        md.inertia
+                    ),
+                ));
+            }
             mass = md.mass;
             inertia = if particle { 0.0 } else { md.inertia };
         }
         let angle = if particle { 0.0 } else { def.angle };
         let rot = Rot::from_angle(angle);
+        let position = def.position + rot.rotate(centroid);
+        if !position.is_finite() {
+            return Err(derived(
+                BodyInput::Position,
+                "its centre of mass is not finite (the position is too large for f32)".into(),
+            ));
+        }
         let body = Body {
             name,
             body_type: def.body_type,
             model: def.model,
             shape,
             origin_offset: -centroid,
-            position: def.position + rot.rotate(centroid),
+            position,
             angle,
             rot,
             velocity: def.velocity,
@@ -354,8 +431,40 @@ impl World {
             correction: Vec2::ZERO,
             correction_angle: 0.0,
         };
-        self.bodies.push(body);
-        Ok(self.bodies.len() - 1)
+        if dynamic {
+            // the terms of World::energy, in the same precision
+            let linear = 0.5 * body.mass * body.velocity.length_squared();
+            if !linear.is_finite() {
+                return Err(derived(
+                    BodyInput::Velocity,
+                    format!(
+                        "its kinetic energy is not finite (mass {} kg, velocity {:?})",
+                        body.mass, body.velocity
+                    ),
+                ));
+            }
+            let angular = 0.5 * body.inertia * body.angular_velocity * body.angular_velocity;
+            if !angular.is_finite() || !(linear + angular).is_finite() {
+                return Err(derived(
+                    BodyInput::AngularVelocity,
+                    format!(
+                        "its rotational kinetic energy is not finite (inertia {} kg m^2, angular_velocity {})",
+                        body.inertia, body.angular_velocity
+                    ),
+                ));
+            }
+            let g = gravity.unwrap_or(Vec2::ZERO);
+            if !(body.mass * g.dot(body.position)).is_finite() {
+                return Err(derived(
+                    BodyInput::Position,
+                    format!(
+                        "its potential energy is not finite (mass {} kg at {:?} under gravity {:?})",
+                        body.mass, body.position, g
+                    ),
+                ));
+            }
+        }
+        Ok(body)
     }
 
     /// Adds a constant force at a body point (the point is in the body's shape frame).
@@ -611,5 +720,18 @@ impl World {
             eat(b.angular_velocity);
         }
         h
+    }
+}
+
+/// The first derived value of a new joint that is not finite, by name.
+pub(crate) fn joint_not_finite(j: &Joint) -> Option<&'static str> {
+    if !j.length.is_finite() {
+        Some("length")
+    } else if !(j.local_a.is_finite() && j.local_b.is_finite()) {
+        Some("anchor offset")
+    } else if !(j.local_axis.is_finite() && j.ref_angle.is_finite()) {
+        Some("axis or reference angle")
+    } else {
+        None
     }
 }

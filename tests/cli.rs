@@ -509,3 +509,601 @@ fn plain_command_without_a_display_exits_0_with_frames() {
     assert!(pngs >= 60, "{pngs} frames");
     assert!(dir.join("out").join("frame_0000.png").exists());
 }
+
+// ---------------------------------------------------------------------------
+// Issue 13: no panics, no preallocation from a count, outputs written in full or not
+// at all, interrupts that say what was kept, outputs that would overwrite an input.
+
+/// Starts `args`, waits `secs`, and returns whether it is still running (then kills
+/// it): a run of a huge count must neither panic nor abort on allocation.
+fn still_running_after(args: &[&str], secs: f32) -> bool {
+    let mut child = sandbox2d()
+        .args(args)
+        .stdout(std::process::Stdio::null())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    std::thread::sleep(std::time::Duration::from_secs_f32(secs));
+    let running = child.try_wait().unwrap().is_none();
+    if running {
+        child.kill().unwrap();
+    }
+    let out = child.wait_with_output().unwrap();
+    if !running {
+        eprintln!("{}", String::from_utf8_lossy(&out.stderr));
+    }
+    running
+}
+
+#[test]
+fn huge_step_counts_are_not_preallocated() {
+    for steps in [
+        "2305843009213693952",
+        "100000000000",
+        "18446744073709551615",
+    ] {
+        assert!(
+            still_running_after(&["simulate", "stack", "--steps", steps], 1.5),
+            "--steps {steps} ended early (a panic or an abort)"
+        );
+    }
+}
+
+#[test]
+fn zero_steps_are_refused_like_bench_does() {
+    let out = sandbox2d()
+        .args(["simulate", "stack", "--steps", "0"])
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{err}");
+    assert_eq!(err.trim(), "error: --steps must be at least 1");
+    assert!(out.stdout.is_empty());
+}
+
+#[test]
+fn iteration_and_substep_flags_have_upper_bounds() {
+    for (flag, value, max) in [
+        ("--iterations", "1000001", "10000"),
+        ("--substeps", "1001", "1000"),
+    ] {
+        let out = sandbox2d()
+            .args(["simulate", "stack", "--steps", "1", flag, value])
+            .output()
+            .unwrap();
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(2), "{err}");
+        assert_eq!(err.lines().count(), 1, "{err}");
+        assert!(err.contains(flag) && err.contains(max), "{err}");
+    }
+}
+
+/// A scene that is fine at load and blows up in its first step: a force of 3e38 N on
+/// a small ball.
+const BLOWS_UP: &str = "name = \"boom\"\n[[body]]\nname = \"ball\"\nshape = { circle = 0.05 }\n\
+                        [[force]]\nbody = \"ball\"\nforce = [3e38, 0]\n";
+
+#[test]
+fn a_non_finite_state_names_the_scene_the_step_and_the_body() {
+    let dir = fresh_tmp("blow-up");
+    let scene = dir.join("boom.toml");
+    std::fs::write(&scene, BLOWS_UP).unwrap();
+    let trace = dir.join("trace.csv");
+    let out = sandbox2d()
+        .args(["simulate"])
+        .arg(&scene)
+        .args(["--steps", "10", "--trace"])
+        .arg(&trace)
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{err}");
+    assert_eq!(err.lines().count(), 1, "one line: {err}");
+    let last = err.lines().last().unwrap();
+    assert!(
+        last.starts_with(&format!("error: {}: ", scene.display())),
+        "{err}"
+    );
+    assert!(
+        last.contains("\"ball\"") && last.contains("after step 1"),
+        "{err}"
+    );
+    // the trace is incomplete: not left at its name, and no temporary file either
+    assert!(!trace.exists(), "an incomplete trace was left");
+    assert_eq!(
+        std::fs::read_dir(&dir).unwrap().count(),
+        1,
+        "only the scene"
+    );
+    assert!(
+        err.contains("trace.csv: not written"),
+        "says what was kept: {err}"
+    );
+}
+
+/// A fresh empty folder (also without the render feature).
+fn fresh_tmp(name: &str) -> std::path::PathBuf {
+    let dir = tmp(name);
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
+
+/// Runs `cmd` under a file-size limit of `kib` KiB with SIGXFSZ ignored: a write past
+/// it fails with EFBIG, as a write to a full disk fails with ENOSPC.
+fn with_file_limit(kib: u32, args: &[&str], cwd: &std::path::Path) -> std::process::Output {
+    let mut cmd = Command::new("sh");
+    cmd.arg("-c")
+        .arg(format!("trap '' XFSZ; ulimit -f {kib}; exec \"$0\" \"$@\""))
+        .arg(env!("CARGO_BIN_EXE_sandbox2d"))
+        .args(args)
+        .current_dir(cwd);
+    cmd.output().unwrap()
+}
+
+#[cfg(unix)]
+#[test]
+fn a_trace_that_cannot_be_written_in_full_is_not_left_and_the_error_names_it() {
+    let dir = fresh_tmp("full-trace");
+    let out = with_file_limit(
+        4,
+        &["simulate", "pyramid", "--steps", "30", "--trace", "t.csv"],
+        &dir,
+    );
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{err}");
+    assert_eq!(err.lines().count(), 1, "{err}");
+    assert!(err.starts_with("error: t.csv: cannot write:"), "{err}");
+    assert_eq!(
+        std::fs::read_dir(&dir).unwrap().count(),
+        0,
+        "neither the trace nor its temporary file is left"
+    );
+}
+
+#[cfg(unix)]
+#[test]
+fn bench_results_that_cannot_be_written_in_full_are_not_left() {
+    let dir = fresh_tmp("full-bench");
+    // room for the partial rows, not for the plots
+    let out = with_file_limit(
+        2,
+        &[
+            "bench",
+            "--out",
+            "r",
+            "--filter",
+            "stack",
+            "--steps",
+            "5",
+            "--repeats",
+            "1",
+        ],
+        &dir,
+    );
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{err}");
+    let line = err.lines().last().unwrap();
+    assert!(
+        line.starts_with("error: r/") && line.contains("cannot write"),
+        "names the file: {err}"
+    );
+    for name in ["results.csv", "results.md", "stack.svg"] {
+        assert!(!dir.join("r").join(name).exists(), "{name} left");
+    }
+    for e in std::fs::read_dir(dir.join("r")).unwrap() {
+        let name = e.unwrap().file_name().to_string_lossy().into_owned();
+        assert!(!name.ends_with(".tmp"), "temporary file {name} left");
+    }
+}
+
+#[cfg(target_os = "linux")]
+#[test]
+fn bench_checks_its_folder_before_measuring() {
+    let t = std::time::Instant::now();
+    // /proc/self exists and takes no new files, even for root
+    let out = sandbox2d()
+        .args(["bench", "--suite", "standard", "--out", "/proc/self"])
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{err}");
+    assert_eq!(err.lines().count(), 1, "{err}");
+    assert!(err.starts_with("error: /proc/self: cannot write"), "{err}");
+    assert!(t.elapsed().as_secs() < 10, "refused before measuring");
+}
+
+/// Sends `signal` to a child once `ready` holds (or 20 s pass).
+fn interrupt_when(
+    child: &mut std::process::Child,
+    signal: &str,
+    ready: impl Fn() -> bool,
+) -> std::process::ExitStatus {
+    let t = std::time::Instant::now();
+    while !ready() && t.elapsed().as_secs() < 20 {
+        if let Some(status) = child.try_wait().unwrap() {
+            return status;
+        }
+        std::thread::sleep(std::time::Duration::from_millis(20));
+    }
+    Command::new("kill")
+        .args([signal, &child.id().to_string()])
+        .status()
+        .unwrap();
+    child.wait().unwrap()
+}
+
+#[cfg(unix)]
+#[test]
+fn an_interrupted_simulation_leaves_no_trace_and_says_so() {
+    let dir = fresh_tmp("interrupt-sim");
+    for signal in ["-INT", "-TERM"] {
+        let mut child = sandbox2d()
+            .args([
+                "simulate",
+                "pyramid",
+                "--steps",
+                "100000000",
+                "--trace",
+                "t.csv",
+            ])
+            .current_dir(&dir)
+            .stderr(std::process::Stdio::piped())
+            .stdout(std::process::Stdio::null())
+            .spawn()
+            .unwrap();
+        // the temporary trace appears once the run has started
+        let d = dir.clone();
+        let status = interrupt_when(&mut child, signal, move || {
+            std::fs::read_dir(&d).unwrap().count() > 0
+        });
+        let mut err = String::new();
+        std::io::Read::read_to_string(child.stderr.as_mut().unwrap(), &mut err).unwrap();
+        assert_eq!(status.code(), Some(130), "{signal}: {err}");
+        assert_eq!(err.lines().count(), 1, "{err}");
+        assert!(err.contains("interrupted after step"), "{err}");
+        assert!(err.contains("t.csv: not written"), "{err}");
+        assert_eq!(std::fs::read_dir(&dir).unwrap().count(), 0, "nothing left");
+    }
+}
+
+#[cfg(unix)]
+#[test]
+fn an_interrupted_bench_keeps_the_cases_it_finished_and_says_so() {
+    let dir = fresh_tmp("interrupt-bench");
+    let mut child = sandbox2d()
+        .args(["bench", "--out", "r", "--steps", "20", "--repeats", "1"])
+        .current_dir(&dir)
+        .stderr(std::process::Stdio::piped())
+        .stdout(std::process::Stdio::null())
+        .spawn()
+        .unwrap();
+    let partial = dir.join("r").join("results.partial.csv");
+    let p = partial.clone();
+    let status = interrupt_when(&mut child, "-INT", move || {
+        std::fs::read_to_string(&p).is_ok_and(|t| t.lines().count() >= 3)
+    });
+    let mut err = String::new();
+    std::io::Read::read_to_string(child.stderr.as_mut().unwrap(), &mut err).unwrap();
+    assert_eq!(status.code(), Some(130), "{err}");
+    assert!(err.contains("interrupted: kept the"), "{err}");
+    assert!(err.contains("results.partial.csv"), "{err}");
+    let rows = std::fs::read_to_string(&partial).unwrap();
+    assert!(rows.lines().count() >= 3, "{rows}");
+    assert!(rows.starts_with("scene,"), "{rows}");
+    assert!(!dir.join("r").join("results.csv").exists());
+    assert!(!dir.join("r").join("results.md").exists());
+}
+
+#[test]
+fn an_output_that_is_an_input_is_refused() {
+    let dir = fresh_tmp("collide-trace");
+    let scene = dir.join("my.toml");
+    let text = "name = \"mine\"\n[[body]]\nshape = { circle = 1 }\n";
+    std::fs::write(&scene, text).unwrap();
+    // the same file, spelt another way
+    let other = dir.join(".").join("my.toml");
+    let out = sandbox2d()
+        .arg("simulate")
+        .arg(&scene)
+        .arg("--trace")
+        .arg(&other)
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{err}");
+    assert_eq!(err.lines().count(), 1, "{err}");
+    assert!(
+        err.contains("--trace would overwrite the scene file"),
+        "{err}"
+    );
+    assert_eq!(
+        std::fs::read_to_string(&scene).unwrap(),
+        text,
+        "scene unchanged"
+    );
+}
+
+#[cfg(feature = "render")]
+#[test]
+fn render_and_run_refuse_outputs_that_collide() {
+    let dir = fresh_tmp("collide-render");
+    let d = dir.join("d");
+    let out = sandbox2d()
+        .args(["render", "stack", "--frames", "3", "--out"])
+        .arg(&d)
+        .arg("--gif")
+        .arg(d.join("frame_0001.png"))
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{err}");
+    assert!(
+        err.contains("--gif would overwrite the frame it writes"),
+        "{err}"
+    );
+    assert!(!d.exists(), "nothing written");
+    // the GIF may be a later frame's name when there are fewer frames
+    let out = sandbox2d()
+        .args(["render", "stack", "--frames", "3", "--out"])
+        .arg(&d)
+        .arg("--gif")
+        .arg(&d)
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{err}");
+    assert!(err.contains("--out folder"), "{err}");
+
+    let out = sandbox2d()
+        .args([
+            "run",
+            "stack",
+            "--frames",
+            "3",
+            "--screenshot",
+            "out/frame_0002.png",
+        ])
+        .current_dir(&dir)
+        .env_remove("DISPLAY")
+        .env_remove("WAYLAND_DISPLAY")
+        .env_remove("WAYLAND_SOCKET")
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{err}");
+    assert!(
+        err.contains("--screenshot would overwrite the frame it writes"),
+        "{err}"
+    );
+    assert!(!dir.join("out").join("frame_0002.png").exists());
+}
+
+#[cfg(feature = "render")]
+#[test]
+fn an_interrupted_render_keeps_complete_frames_and_no_gif() {
+    let dir = fresh_tmp("interrupt-render");
+    let mut child = sandbox2d()
+        .args(["render", "stack", "--frames", "100000", "--size", "64x36"])
+        .args(["--out", "f", "--gif", "a.gif"])
+        .current_dir(&dir)
+        .stderr(std::process::Stdio::piped())
+        .stdout(std::process::Stdio::null())
+        .spawn()
+        .unwrap();
+    let f = dir.join("f");
+    let status = interrupt_when(&mut child, "-INT", move || {
+        f.join("frame_0002.png").exists()
+    });
+    let mut err = String::new();
+    std::io::Read::read_to_string(child.stderr.as_mut().unwrap(), &mut err).unwrap();
+    if status.code() == Some(1) && err.contains("no graphics adapter") {
+        eprintln!("SKIPPED: no graphics adapter: {err}");
+        return;
+    }
+    assert_eq!(status.code(), Some(130), "{err}");
+    assert_eq!(err.lines().count(), 1, "{err}");
+    assert!(err.contains("interrupted after step"), "{err}");
+    assert!(
+        err.contains("complete frame(s)") && err.contains("no GIF"),
+        "{err}"
+    );
+    assert!(!dir.join("a.gif").exists(), "no GIF without a trailer");
+    for e in std::fs::read_dir(&dir)
+        .unwrap()
+        .chain(std::fs::read_dir(dir.join("f")).unwrap())
+    {
+        let name = e.unwrap().file_name().to_string_lossy().into_owned();
+        assert!(!name.ends_with(".tmp"), "temporary file {name} left");
+    }
+    // every frame kept is a whole PNG
+    for e in std::fs::read_dir(dir.join("f")).unwrap() {
+        let p = e.unwrap().path();
+        image::open(&p).unwrap_or_else(|e| panic!("{}: {e}", p.display()));
+    }
+}
+
+#[cfg(feature = "render")]
+#[test]
+fn a_frame_that_cannot_be_written_in_full_is_not_left() {
+    let dir = fresh_tmp("full-render");
+    let out = with_file_limit(
+        4,
+        &[
+            "render", "stack", "--frames", "2", "--out", "f", "--gif", "a.gif",
+        ],
+        &dir,
+    );
+    let err = String::from_utf8_lossy(&out.stderr);
+    if out.status.code() == Some(1) && err.contains("no graphics adapter") {
+        eprintln!("SKIPPED: no graphics adapter: {err}");
+        return;
+    }
+    assert_eq!(out.status.code(), Some(1), "{err}");
+    let line = err.lines().last().unwrap();
+    assert!(
+        line.contains("cannot write") || line.contains("File too large"),
+        "{err}"
+    );
+    assert!(
+        line.contains("f/frame_0000.png") || line.contains("a.gif"),
+        "names the file: {err}"
+    );
+    assert!(!dir.join("a.gif").exists());
+    assert!(
+        !dir.join("f").join("frame_0000.png").exists(),
+        "no truncated PNG"
+    );
+}
+
+/// On a terminal, a run longer than two seconds shows its progress (on stderr); `script`
+/// gives the run a terminal. Skipped where `script` (util-linux) is missing.
+#[cfg(target_os = "linux")]
+#[test]
+fn a_long_run_shows_progress_on_a_terminal() {
+    let bin = env!("CARGO_BIN_EXE_sandbox2d");
+    let Ok(mut child) = Command::new("script")
+        .args(["-qfec"])
+        .arg(format!("{bin} simulate stack --steps 1000000000"))
+        .arg("/dev/null")
+        .stdin(std::process::Stdio::null())
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::null())
+        .spawn()
+    else {
+        eprintln!("SKIPPED: no `script` to give the run a terminal");
+        return;
+    };
+    std::thread::sleep(std::time::Duration::from_millis(4500));
+    let _ = child.kill();
+    let out = child.wait_with_output().unwrap();
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        text.contains("/1000000000 steps"),
+        "no progress after 4.5 s: {text:?}"
+    );
+}
+
+#[cfg(feature = "render")]
+#[test]
+fn a_huge_frame_count_is_not_preallocated() {
+    let dir = fresh_tmp("huge-frames");
+    let mut child = sandbox2d()
+        .args([
+            "render",
+            "stack",
+            "--frames",
+            "4294967295",
+            "--size",
+            "32x18",
+            "--out",
+        ])
+        .arg(dir.join("f"))
+        .stdout(std::process::Stdio::null())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    let f = dir.join("f");
+    let t = std::time::Instant::now();
+    while !f.join("frame_0001.png").exists() && t.elapsed().as_secs() < 20 {
+        if child.try_wait().unwrap().is_some() {
+            break;
+        }
+        std::thread::sleep(std::time::Duration::from_millis(20));
+    }
+    let running = child.try_wait().unwrap().is_none();
+    if running {
+        child.kill().unwrap();
+    }
+    let out = child.wait_with_output().unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    if err.contains("no graphics adapter") {
+        eprintln!("SKIPPED: no graphics adapter: {err}");
+        return;
+    }
+    assert!(running, "ended early (an abort on allocation?): {err}");
+    assert!(f.join("frame_0001.png").exists());
+}
+
+#[cfg(feature = "render")]
+#[test]
+fn a_render_that_blows_up_names_the_scene_the_step_and_the_body() {
+    let dir = fresh_tmp("blow-up-render");
+    let scene = dir.join("boom.toml");
+    std::fs::write(&scene, BLOWS_UP).unwrap();
+    let out = sandbox2d()
+        .arg("render")
+        .arg(&scene)
+        .args(["--frames", "3", "--size", "32x18", "--out"])
+        .arg(dir.join("f"))
+        .arg("--gif")
+        .arg(dir.join("a.gif"))
+        .output()
+        .unwrap();
+    if skipped_for_no_adapter(&out) {
+        return;
+    }
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{err}");
+    assert_eq!(err.lines().count(), 1, "{err}");
+    assert!(
+        err.starts_with(&format!("error: {}: body \"ball\"", scene.display())),
+        "{err}"
+    );
+    assert!(err.contains("after step 1"), "{err}");
+    assert!(!dir.join("a.gif").exists(), "no unfinished GIF");
+    assert!(
+        dir.join("f").join("frame_0000.png").exists(),
+        "frame 0 is complete"
+    );
+}
+
+#[test]
+fn a_bad_solver_flag_is_blamed_on_the_flags_not_the_scene() {
+    let out = sandbox2d()
+        .args(["simulate", "stack", "--steps", "1", "--dt", "0"])
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{err}");
+    assert_eq!(
+        err.trim_end(),
+        "error: command-line flags: solver: dt must be > 0, got 0"
+    );
+}
+
+#[test]
+fn a_name_with_control_characters_cannot_reach_the_terminal_raw() {
+    let dir = fresh_tmp("escapes");
+    let scene = dir.join("esc.toml");
+    // an escape sequence (clear screen) and a carriage return that would overwrite the line
+    std::fs::write(
+        &scene,
+        "name = \"t\"\n[[body]]\nname = \"\\u001b[2J\\rerror: all fine\"\nshape = { circle = -1 }\n",
+    )
+    .unwrap();
+    let out = sandbox2d().arg("simulate").arg(&scene).output().unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{err}");
+    assert_eq!(err.lines().count(), 1, "{err:?}");
+    let line = err.strip_suffix('\n').unwrap();
+    assert!(!line.chars().any(|c| c.is_control()), "{line:?}");
+    assert!(
+        line.contains("body \"\\u{1b}[2J\\rerror: all fine\""),
+        "{line:?}"
+    );
+}
+
+#[test]
+fn a_trace_that_is_a_folder_is_refused_before_the_run() {
+    let dir = fresh_tmp("trace-folder");
+    let out = sandbox2d()
+        .args(["simulate", "stack", "--steps", "5", "--trace"])
+        .arg(&dir)
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{err}");
+    assert!(err.contains("--trace is a folder"), "{err}");
+    assert!(out.stdout.is_empty(), "refused before the run");
+}

@@ -1215,3 +1215,260 @@ fn load_takes_a_builtin_name_or_a_path() {
             .contains("cannot read")
     );
 }
+
+// ---------------------------------------------------------------------------
+// Issue 13: what the world derives at build time is checked at load, and refused at
+// the value that caused it; names are quoted with escapes; limits are per file.
+
+#[test]
+fn polygon_of_16_vertices_loads_and_builds() {
+    let points: Vec<String> = (0..16)
+        .map(|i| {
+            let a = i as f32 * std::f32::consts::TAU / 16.0;
+            format!("[{}, {}]", a.cos(), a.sin())
+        })
+        .collect();
+    let text = body(&format!("shape = {{ polygon = [{}] }}", points.join(", ")));
+    let sc = load_str(&text, "ok.toml").unwrap();
+    let w = sandbox2d::World::from_def(&sc.world, sc.world.solver.resolve()).unwrap();
+    match &w.bodies[0].shape {
+        sandbox2d::shape::Shape::Polygon(p) => assert_eq!(p.count, 16),
+        s => panic!("{s:?}"),
+    }
+}
+
+#[test]
+fn polygon_hull_of_more_than_16_vertices_is_refused_at_the_polygon() {
+    let points: Vec<String> = (0..20)
+        .map(|i| {
+            let a = i as f32 * std::f32::consts::TAU / 20.0;
+            format!("[{}, {}]", a.cos(), a.sin())
+        })
+        .collect();
+    let text = body(&format!("shape = {{ polygon = [{}] }}", points.join(", ")));
+    check(
+        &text,
+        3,
+        21,
+        &["body \"body0\"", "20 vertices", "at most 16"],
+    );
+}
+
+#[test]
+fn polygon_with_too_many_points_is_refused() {
+    let points: Vec<String> = (0..65).map(|i| format!("[{}, {}]", i % 2, i / 2)).collect();
+    let text = body(&format!("shape = {{ polygon = [{}] }}", points.join(", ")));
+    check(&text, 3, 21, &["65 points", "at most 64"]);
+}
+
+#[test]
+fn points_the_engine_welds_into_one_are_refused_at_the_polygon() {
+    // three points 1e-5 apart: distinct to the 1e-6 check, one point to the engine
+    check(
+        &body("shape = { polygon = [[0, 0], [0.00001, 0], [0, 0.00001]] }"),
+        3,
+        21,
+        &["body \"body0\"", "polygon"],
+    );
+}
+
+#[test]
+fn grid_position_beyond_f32_is_refused_at_the_spacing() {
+    check(
+        "name = \"t\"\n[[grid]]\nrows = 1\ncolumns = 3\nspacing = [3e38, 3e38]\nshape = { circle = 0.1 }\n",
+        5,
+        11,
+        &["grid0", "body 2", "spacing"],
+    );
+}
+
+#[test]
+fn stack_offset_beyond_f32_is_refused_at_the_offset() {
+    check(
+        "name = \"t\"\n[[stack]]\ncount = 3\noffset = 3e38\n",
+        4,
+        10,
+        &["stack0", "offset"],
+    );
+}
+
+#[test]
+fn chain_link_too_long_is_refused_at_the_link() {
+    check(
+        "name = \"t\"\n[[chain]]\nlinks = 4\nlink = [1e38, 0.1]\nanchor = [0, 0]\n",
+        4,
+        8,
+        &["chain0", "body 3", "link"],
+    );
+    // one link: its position fits, but its rotational inertia does not
+    check(
+        "name = \"t\"\n[[chain]]\nlinks = 1\nlink = [3e38, 0.1]\nanchor = [0, 0]\njoint = \"distance\"\n",
+        4,
+        8,
+        &["chain0_0", "inertia"],
+    );
+}
+
+#[test]
+fn joint_length_at_creation_beyond_f32_is_refused_at_the_anchors() {
+    check(
+        "name = \"t\"\n[[body]]\nname = \"a\"\nshape = { circle = 1 }\nposition = [-3e38, 0]\n\
+         [[body]]\nname = \"b\"\nshape = { circle = 1 }\nposition = [3e38, 0]\n\
+         [[joint]]\ntype = \"distance\"\nbodies = [\"a\", \"b\"]\n",
+        12,
+        10,
+        &["distance joint \"a\"-\"b\"", "length", "not finite"],
+    );
+}
+
+#[test]
+fn huge_box_has_no_finite_mass_and_is_refused_at_the_shape() {
+    check(
+        &body("shape = { box = [3e38, 3e38] }"),
+        3,
+        9,
+        &["body \"body0\"", "mass"],
+    );
+}
+
+#[test]
+fn tiny_box_has_no_usable_mass_and_is_refused_at_the_shape() {
+    check(
+        &body("shape = { box = [1e-30, 1e-30] }"),
+        3,
+        9,
+        &["body \"body0\"", "mass"],
+    );
+}
+
+#[test]
+fn huge_density_is_refused_at_the_density() {
+    check(
+        &body("shape = { box = [1e5, 1e5] }\ndensity = 1e30"),
+        4,
+        11,
+        &["mass is inf"],
+    );
+}
+
+#[test]
+fn infinite_energy_is_refused_at_the_velocity_that_makes_it() {
+    check(
+        &body("shape = { circle = 1 }\nangular_velocity = 1e38"),
+        4,
+        20,
+        &["kinetic energy is not finite"],
+    );
+    check(
+        &body("shape = { circle = 1 }\nvelocity = [1e20, 0]"),
+        4,
+        12,
+        &["kinetic energy is not finite"],
+    );
+    check(
+        "name = \"t\"\n[world]\ngravity = [0, -1e30]\n[[body]]\nshape = { circle = 1 }\nposition = [0, 1e10]\n",
+        6,
+        12,
+        &["potential energy is not finite"],
+    );
+}
+
+#[test]
+fn energy_and_mass_of_every_loaded_scene_are_finite() {
+    // the largest values that still fit: accepted, and the world agrees
+    let sc = load_str(
+        &body("shape = { circle = 1 }\nangular_velocity = 1e18\nvelocity = [1e18, 0]"),
+        "ok.toml",
+    )
+    .unwrap();
+    let w = sandbox2d::World::from_def(&sc.world, sc.world.solver.resolve()).unwrap();
+    assert!(w.energy().is_finite() && w.energy() > 1e36);
+}
+
+#[test]
+fn names_in_messages_are_quoted_with_escapes() {
+    // a newline, a carriage return and an escape sequence in a body name
+    for (name, shown) in [
+        ("a\\nb", "\"a\\nb\""),
+        ("ok\\rerror: spoofed", "\"ok\\rerror: spoofed\""),
+        ("\\u001b[2J", "\"\\u{1b}[2J\""),
+    ] {
+        let text =
+            format!("name = \"t\"\n[[body]]\nname = \"{name}\"\nshape = {{ circle = -1 }}\n");
+        let e = refuse(&text);
+        let m = e.to_string();
+        assert!(!m.chars().any(|c| c.is_control()), "{m:?}");
+        assert!(
+            m.contains(&format!("body {shown}")),
+            "{m:?} should show {shown}"
+        );
+    }
+    // a name in a joint that does not exist, a type and a colour
+    let e = refuse("name = \"t\"\n[[force]]\nbody = \"x\\ny\"\nforce = [1, 0]\n");
+    assert!(e.to_string().contains("no body named \"x\\ny\""), "{e}");
+    let e = refuse(&body("shape = { circle = 1 }\ntype = \"st\\natic\""));
+    assert!(e.to_string().contains("\"st\\natic\""), "{e}");
+    let e = refuse(&body("shape = { circle = 1 }\ncolor = \"\\u001b\""));
+    assert!(!e.to_string().chars().any(|c| c.is_control()), "{e}");
+}
+
+#[test]
+fn the_body_limit_is_per_file() {
+    // 20 stacks of 100,000 boxes: each table is under the limit, the file is not
+    let mut text = String::from("name = \"t\"\n");
+    for _ in 0..20 {
+        text.push_str("[[stack]]\ncount = 100000\n");
+    }
+    let e = refuse(&text);
+    // line 23: the count of the 11th table
+    assert_eq!(e.line(), Some(23), "{e}");
+    assert!(e.message().contains("stack10"), "{e}");
+    assert!(e.message().contains("1100000 in the file"), "{e}");
+    assert!(e.message().contains("at most 1000000 in one file"), "{e}");
+}
+
+#[test]
+fn iterations_and_substeps_have_upper_bounds() {
+    check(
+        "name = \"t\"\n[solver]\niterations = 1000001\n",
+        3,
+        14,
+        &["iterations must be at most 10000"],
+    );
+    check(
+        "name = \"t\"\n[solver]\nsubsteps = 1001\n",
+        3,
+        12,
+        &["substeps must be at most 1000"],
+    );
+    check(
+        "name = \"t\"\n[solver]\niterations = 1e9\n",
+        3,
+        14,
+        &["expected u32"],
+    );
+    let sc = load_str(
+        "name = \"t\"\n[solver]\niterations = 10000\nsubsteps = 1000\n",
+        "ok.toml",
+    )
+    .unwrap();
+    assert_eq!(sc.world.solver.iterations, Some(10000));
+}
+
+#[test]
+fn friction_is_bounded_so_that_mixing_fits_f32() {
+    // sqrt(a b) of two 1e20 frictions overflows: the solver would see NaN bounds
+    check(
+        &body("shape = { circle = 1 }\nfriction = 1e20"),
+        4,
+        12,
+        &["friction must be at most 1e6"],
+    );
+    check(
+        "name = \"t\"\n[[pyramid]]\nbase = 2\nfriction = 1e7\n",
+        4,
+        12,
+        &["pyramid0", "friction"],
+    );
+    assert!(load_str(&body("shape = { circle = 1 }\nfriction = 1e6"), "ok.toml").is_ok());
+}

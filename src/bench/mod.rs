@@ -411,7 +411,8 @@ pub fn run_case(scene: &BenchScene, setting: &Setting, budget: &Budget) -> Outco
         let mut joint_max: Option<f64> = None;
         let (mut res_num, mut res_den) = (0.0f64, 0.0f64);
         let (mut lam, mut lam_ref) = (Vec::new(), Vec::new());
-        let mut step_ms = Vec::with_capacity(budget.steps as usize);
+        // capacity bounded: `steps` may come from the command line
+        let mut step_ms = Vec::with_capacity((budget.steps as usize).min(1 << 16));
         let mut failure: Option<String> = None;
         let mut steps_done = 0u64;
         for k in 0..budget.steps {
@@ -601,11 +602,31 @@ pub fn run_scenes(
     opts: &Options,
     mut progress: impl FnMut(usize, usize, &str),
 ) -> Vec<Row> {
+    run_scenes_each(scenes, opts, |done, total, what, _| {
+        progress(done, total, what);
+        Ok::<(), std::convert::Infallible>(())
+    })
+    .map(|(rows, _)| rows)
+    .unwrap_or_default()
+}
+
+/// As [`run_scenes`], handing each finished row to `on_row(done, total, what, row)` as
+/// soon as it is measured (to write it out), and stopping before the next case when
+/// [`crate::output::interrupted`] says so. Returns the rows and whether the suite ran
+/// to the end; an error from `on_row` stops the suite and is returned.
+pub fn run_scenes_each<E>(
+    scenes: &[BenchScene],
+    opts: &Options,
+    mut on_row: impl FnMut(usize, usize, &str, &Row) -> Result<(), E>,
+) -> Result<(Vec<Row>, bool), E> {
     let total: usize = scenes.iter().map(|s| scene_settings(s).len()).sum();
-    let mut rows = Vec::with_capacity(total);
+    let mut rows = Vec::new();
     for sc in scenes {
         let budget = opts.budget(sc);
         for setting in scene_settings(sc) {
+            if crate::output::interrupted() {
+                return Ok((rows, false));
+            }
             let what = format!("{} / {}", sc.name, setting.label());
             log::debug!("bench: {what}");
             let outcome = run_case(sc, &setting, &budget);
@@ -614,8 +635,8 @@ pub fn run_scenes(
                 setting,
                 outcome,
             });
-            progress(rows.len(), total, &what);
+            on_row(rows.len(), total, &what, &rows[rows.len() - 1])?;
         }
     }
-    rows
+    Ok((rows, true))
 }

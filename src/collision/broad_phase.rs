@@ -91,7 +91,11 @@ impl BroadPhase {
             self.ranges.push((i as u32, [x0, y0, x1, y1]));
             (gx0, gy0, gx1, gy1) = (gx0.min(x0), gy0.min(y0), gx1.max(x1), gy1.max(y1));
         }
-        let (w, h) = (gx1 - gx0 + 1, gy1 - gy0 + 1);
+        // saturating: with no ranges the bounds are still (MAX, MIN)
+        let (w, h) = (
+            gx1.saturating_sub(gx0).saturating_add(1),
+            gy1.saturating_sub(gy0).saturating_add(1),
+        );
         let dense = !self.ranges.is_empty()
             && w > 0
             && h > 0
@@ -291,10 +295,17 @@ impl BroadPhase {
 }
 
 /// floor(x) as an integer, without a libm call: truncate, then step down below zero.
+/// Clamped to +-2^40 cells, so that differences and sums of cells never overflow (a body
+/// far beyond that lands in the edge cell; the narrow phase sorts it out).
 #[inline(always)]
 fn floor_i64(x: f32) -> i64 {
-    let i = x as i64;
-    if (i as f32) > x { i - 1 } else { i }
+    const LIMIT: i64 = 1 << 40;
+    let i = (x as i64).clamp(-LIMIT, LIMIT);
+    if (i as f32) > x {
+        (i - 1).max(-LIMIT)
+    } else {
+        i
+    }
 }
 
 #[cfg(test)]

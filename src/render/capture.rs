@@ -1,6 +1,7 @@
 //! Saving frames: PNG stills and animated GIFs.
 
 use super::RenderError;
+use crate::output::{AtomicFile, temp_path};
 use image::codecs::gif::{GifEncoder, Repeat};
 use image::{Delay, Frame, RgbaImage};
 use std::fs::File;
@@ -8,20 +9,24 @@ use std::io::BufWriter;
 use std::path::{Path, PathBuf};
 use std::sync::{Arc, Mutex};
 
-/// Writes `image` to `path` as a PNG (sRGB RGBA, 8 bits a channel).
+/// Writes `image` to `path` as a PNG (sRGB RGBA, 8 bits a channel), in full or not at
+/// all: through a temporary file renamed once complete (see [`crate::output`]).
 pub fn save_png(path: impl AsRef<Path>, image: &RgbaImage) -> Result<(), RenderError> {
     let path = path.as_ref();
-    let file = File::create(path).map_err(|source| RenderError::Io {
-        path: path.into(),
-        source,
-    })?;
-    let mut out = BufWriter::new(file);
-    image.write_to(&mut out, image::ImageFormat::Png)?;
-    std::io::Write::flush(&mut out).map_err(|source| RenderError::Io {
-        path: path.into(),
-        source,
-    })?;
-    Ok(())
+    let io = |e: crate::output::OutputError| RenderError::Io {
+        path: e.path,
+        source: e.source,
+    };
+    let mut out = AtomicFile::create(path).map_err(io)?;
+    let mut cursor = std::io::Cursor::new(Vec::new());
+    image
+        .write_to(&mut cursor, image::ImageFormat::Png)
+        .map_err(|e| RenderError::Io {
+            path: path.into(),
+            source: std::io::Error::other(e),
+        })?;
+    std::io::Write::write_all(&mut out, cursor.get_ref()).map_err(|e| io(out.error(e)))?;
+    out.commit().map_err(io)
 }
 
 /// Writes an animated, looping GIF frame by frame.
@@ -39,12 +44,17 @@ pub fn save_png(path: impl AsRef<Path>, image: &RgbaImage) -> Result<(), RenderE
 ///
 /// GIF stores delays in hundredths of a second and 256 colours a frame (quantised by
 /// the encoder), so it suits previews rather than measurements.
+///
+/// The file is written to a temporary name beside `path` and renamed to `path` by
+/// [`GifWriter::finish`] once the trailer is written; dropped unfinished (an error, an
+/// interrupt), the writer removes it, so no GIF without a trailer is left behind.
 pub struct GifWriter {
     encoder: Option<GifEncoder<TrackedWriter>>,
     /// The first write error, recorded by the writer (the GIF encoder writes its trailer
     /// and flushes on drop, where it cannot return errors).
     error: Arc<Mutex<Option<std::io::Error>>>,
     path: PathBuf,
+    temp: PathBuf,
     delay: Delay,
     size: Option<[u32; 2]>,
     frames: usize,
@@ -65,7 +75,8 @@ impl GifWriter {
         speed: i32,
     ) -> Result<Self, RenderError> {
         let path = path.as_ref().to_path_buf();
-        let file = File::create(&path).map_err(|source| RenderError::Io {
+        let temp = temp_path(&path);
+        let file = File::create(&temp).map_err(|source| RenderError::Io {
             path: path.clone(),
             source,
         })?;
@@ -75,7 +86,12 @@ impl GifWriter {
             error: error.clone(),
         };
         let mut encoder = GifEncoder::new_with_speed(writer, speed.clamp(1, 30));
-        encoder.set_repeat(Repeat::Infinite)?;
+        encoder
+            .set_repeat(Repeat::Infinite)
+            .map_err(|e| RenderError::Io {
+                path: path.clone(),
+                source: std::io::Error::other(e),
+            })?;
         let fps = if fps.is_finite() {
             fps.clamp(0.1, 100.0)
         } else {
@@ -86,6 +102,7 @@ impl GifWriter {
             encoder: Some(encoder),
             error,
             path,
+            temp,
             delay,
             size: None,
             frames: 0,
@@ -105,7 +122,12 @@ impl GifWriter {
             .encoder
             .as_mut()
             .ok_or(RenderError::Gpu("GIF writer already finished".into()))?;
-        encoder.encode_frame(Frame::from_parts(frame, 0, 0, self.delay))?;
+        encoder
+            .encode_frame(Frame::from_parts(frame, 0, 0, self.delay))
+            .map_err(|e| RenderError::Io {
+                path: self.path.clone(),
+                source: std::io::Error::other(e),
+            })?;
         self.frames += 1;
         Ok(())
     }
@@ -120,9 +142,13 @@ impl GifWriter {
         &self.path
     }
 
-    /// Writes the trailer and closes the file.
+    /// Writes the trailer, closes the file and gives it its final name.
     pub fn finish(mut self) -> Result<(), RenderError> {
-        self.close()
+        self.close()?;
+        std::fs::rename(&self.temp, &self.path).map_err(|source| RenderError::Io {
+            path: self.path.clone(),
+            source,
+        })
     }
 
     fn close(&mut self) -> Result<(), RenderError> {
@@ -179,7 +205,9 @@ impl Drop for TrackedWriter {
 
 impl Drop for GifWriter {
     fn drop(&mut self) {
-        // Best effort for a writer dropped without finish(); errors surface only there.
+        // Unfinished (or finish() failed before the rename): the GIF is incomplete, so
+        // its temporary file goes.
         let _ = self.close();
+        let _ = std::fs::remove_file(&self.temp);
     }
 }

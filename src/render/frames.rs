@@ -51,6 +51,13 @@ pub enum FramesError {
     /// Rendering or writing a frame failed.
     #[error(transparent)]
     Render(#[from] RenderError),
+    /// An interrupt (see [`crate::output::interrupted`]) stopped the job: the frames
+    /// in `written` are complete and kept; the GIF, unfinished, is not written.
+    #[error("interrupted after {} frame(s)", written.pngs.len())]
+    Interrupted {
+        /// What was complete when the job stopped.
+        written: FramesWritten,
+    },
     /// The world failed to step.
     #[error("step {step}: {source}")]
     Step {
@@ -94,13 +101,26 @@ pub fn render_frames(
     };
     let mut list = DrawList::new();
     let mut written = FramesWritten {
-        pngs: Vec::with_capacity(job.frames as usize),
+        // grown as frames are written: `frames` is the user's count, not a promise
+        pngs: Vec::new(),
         gif: job.gif.clone(),
         steps: 0,
     };
+    let stop = |written: &FramesWritten| FramesError::Interrupted {
+        written: FramesWritten {
+            gif: None,
+            ..written.clone()
+        },
+    };
     for k in 0..job.frames {
+        if crate::output::interrupted() {
+            return Err(stop(&written));
+        }
         if k > 0 {
             for _ in 0..job.every {
+                if crate::output::interrupted() {
+                    return Err(stop(&written));
+                }
                 world.step().map_err(|source| FramesError::Step {
                     step: written.steps,
                     source,

@@ -7,7 +7,7 @@ pub mod frames;
 mod gpu;
 
 pub use capture::{GifWriter, save_png};
-pub use frames::{FrameJob, FramesError, FramesWritten, render_frames};
+pub use frames::{FrameJob, FramesError, FramesWritten, frame_name, render_frames};
 #[cfg(feature = "app")]
 pub(crate) use gpu::premultiplied_pipeline;
 pub use gpu::{OFFSCREEN_FORMAT, Renderer, SAMPLE_COUNT, default_samples};

@@ -21,13 +21,15 @@ pub struct SceneError {
 
 impl SceneError {
     /// An error at a 1-based line and column of `file`.
+    /// Control characters in `message` (and in the location) are written as escapes,
+    /// so the error is always one line and cannot carry terminal escapes.
     pub fn at(file: &str, line: usize, column: usize, message: impl Into<String>) -> Self {
         Self {
             file: file.to_owned(),
             line: Some(line),
             column: Some(column),
-            message: message.into(),
-            location: format!("{file}:{line}:{column}"),
+            message: escape_controls(&message.into()),
+            location: format!("{}:{line}:{column}", escape_controls(file)),
         }
     }
 
@@ -37,8 +39,8 @@ impl SceneError {
             file: file.to_owned(),
             line: None,
             column: None,
-            message: message.into(),
-            location: file.to_owned(),
+            message: escape_controls(&message.into()),
+            location: escape_controls(file),
         }
     }
 
@@ -75,6 +77,23 @@ impl SceneError {
     }
 }
 
+/// `s` with every control character (newline, carriage return, escape, ...) written as
+/// its Rust escape (`\n`, `\r`, `\u{1b}`); other text unchanged.
+pub(crate) fn escape_controls(s: &str) -> String {
+    if !s.chars().any(char::is_control) {
+        return s.to_owned();
+    }
+    let mut out = String::with_capacity(s.len() + 8);
+    for c in s.chars() {
+        if c.is_control() {
+            out.extend(c.escape_default());
+        } else {
+            out.push(c);
+        }
+    }
+    out
+}
+
 /// The 1-based line and column (counted in characters) of byte `offset` in `text`.
 /// An offset past the end, or inside a multi-byte character, is clamped.
 pub(crate) fn line_col(text: &str, offset: usize) -> (usize, usize) {
@@ -104,6 +123,16 @@ mod tests {
         assert_eq!(line_col(text, 1000), (3, 1));
         // Inside the two-byte 'é': clamped back to its start.
         assert_eq!(line_col(text, 8), (2, 2));
+    }
+
+    #[test]
+    fn control_characters_are_escaped() {
+        let e = SceneError::at("a\nb.toml", 1, 2, "unknown field `x\ry`, \u{1b}[2J");
+        assert_eq!(
+            e.to_string(),
+            "a\\nb.toml:1:2: unknown field `x\\ry`, \\u{1b}[2J"
+        );
+        assert_eq!(e.to_string().lines().count(), 1);
     }
 
     #[test]

@@ -8,23 +8,70 @@
 use glam::Vec2;
 
 use super::format::*;
-use super::validate::{Bodies, Ctx, R};
+use super::validate::{Bodies, Ctx, Places, R, check_joint};
 use crate::defs::*;
 
-/// The most bodies one generator table may make; more is surely a typo (and would
-/// exhaust memory rather than fail cleanly).
+/// The most bodies one scene file may make, declared and generated together; more is
+/// surely a typo (and would exhaust memory, or take minutes to build, rather than fail
+/// cleanly).
 pub const MAX_GENERATED: u64 = 1_000_000;
 
-/// Refuses a generator table that would make more than [`MAX_GENERATED`] bodies.
-fn check_total(ctx: &Ctx, who: &str, total: u64, span: std::ops::Range<usize>) -> R<()> {
+/// Refuses a generator table that would take the file past [`MAX_GENERATED`] bodies.
+fn check_total(
+    ctx: &Ctx,
+    who: &str,
+    total: u64,
+    bodies: &Bodies,
+    span: std::ops::Range<usize>,
+) -> R<()> {
+    let before = bodies.defs.len() as u64;
     if total > MAX_GENERATED {
         Err(ctx.err(
             span,
-            format!("{who}: would make {total} bodies; at most {MAX_GENERATED} per generator"),
+            format!("{who}: would make {total} bodies; at most {MAX_GENERATED} in one file"),
+        ))
+    } else if before + total > MAX_GENERATED {
+        Err(ctx.err(
+            span,
+            format!(
+                "{who}: would make {total} bodies, {} in the file with the {before} before it; at most {MAX_GENERATED} in one file",
+                before + total
+            ),
         ))
     } else {
         Ok(())
     }
+}
+
+/// A generated position, refused when it leaves f32's range: at `step` (the spacing,
+/// box or link that multiplies the index) unless that term alone fits, else at `origin`.
+#[allow(clippy::too_many_arguments)]
+fn position(
+    ctx: &Ctx,
+    who: &str,
+    index: u64,
+    origin: Vec2,
+    offset: (f64, f64),
+    step: (&str, std::ops::Range<usize>),
+    origin_span: std::ops::Range<usize>,
+) -> R<Vec2> {
+    let (x, y) = (origin.x as f64 + offset.0, origin.y as f64 + offset.1);
+    let p = Vec2::new(x as f32, y as f32);
+    if p.is_finite() {
+        return Ok(p);
+    }
+    let step_fits = (offset.0 as f32).is_finite() && (offset.1 as f32).is_finite();
+    let (key, span) = if step_fits {
+        ("origin", origin_span)
+    } else {
+        step
+    };
+    Err(ctx.err(
+        span,
+        format!(
+            "{who}: body {index} would be at [{x:e}, {y:e}], beyond f32's range (|x| < 3.4e38 m); reduce `{key}`"
+        ),
+    ))
 }
 
 /// A dynamic rigid body with the given material.
@@ -55,7 +102,13 @@ pub(crate) fn pyramid(ctx: &Ctx, t: &S<FilePyramid>, k: usize, bodies: &mut Bodi
     let who = who.as_str();
     let p = t.get_ref();
     let base = ctx.count(who, "base", &p.base)?;
-    check_total(ctx, who, base as u64 * (base as u64 + 1) / 2, p.base.span())?;
+    check_total(
+        ctx,
+        who,
+        base as u64 * (base as u64 + 1) / 2,
+        bodies,
+        p.base.span(),
+    )?;
     let size = match &p.box_ {
         Some(b) => ctx.size(who, "box", b)?,
         None => Vec2::ONE,
@@ -71,24 +124,35 @@ pub(crate) fn pyramid(ctx: &Ctx, t: &S<FilePyramid>, k: usize, bodies: &mut Bodi
         p.color.as_ref(),
     )?;
     let (w, h, n) = (size.x as f64, size.y as f64, base as f64);
-    let (ox, oy) = (origin.x as f64, origin.y as f64);
     let shape = ShapeDef::Box {
         width: size.x,
         height: size.y,
     };
+    let box_span = p.box_.as_ref().map_or(t.span(), |b| b.span());
+    let origin_span = p.origin.as_ref().map_or(t.span(), |v| v.span());
+    let places = Places {
+        shape: box_span.clone(),
+        mass: p.density.as_ref().map_or(box_span.clone(), |v| v.span()),
+        position: box_span.clone(),
+        ..Places::all(t.span())
+    };
     let mut index = 0;
     for i in 0..base {
         let fi = i as f64;
-        let y = oy + (2.0 * fi + 1.0) * h / 2.0;
+        let y = (2.0 * fi + 1.0) * h / 2.0;
         for j in i..base {
-            let x = ox + (fi + 1.0) * w / 2.0 + w * (j - i) as f64 - w * n / 2.0;
-            let body = dynamic_body(
-                format!("{who}_{index}"),
-                shape.clone(),
-                Vec2::new(x as f32, y as f32),
-                &m,
-            );
-            bodies.push(ctx, body, t.span())?;
+            let x = (fi + 1.0) * w / 2.0 + w * (j - i) as f64 - w * n / 2.0;
+            let at = position(
+                ctx,
+                who,
+                index,
+                origin,
+                (x, y),
+                ("box", box_span.clone()),
+                origin_span.clone(),
+            )?;
+            let body = dynamic_body(format!("{who}_{index}"), shape.clone(), at, &m);
+            bodies.push(ctx, body, t.span(), &places)?;
             index += 1;
         }
     }
@@ -101,7 +165,7 @@ pub(crate) fn stack(ctx: &Ctx, t: &S<FileStack>, k: usize, bodies: &mut Bodies) 
     let who = who.as_str();
     let s = t.get_ref();
     let count = ctx.count(who, "count", &s.count)?;
-    check_total(ctx, who, count as u64, s.count.span())?;
+    check_total(ctx, who, count as u64, bodies, s.count.span())?;
     let size = match &s.box_ {
         Some(b) => ctx.size(who, "box", b)?,
         None => Vec2::ONE,
@@ -121,17 +185,35 @@ pub(crate) fn stack(ctx: &Ctx, t: &S<FileStack>, k: usize, bodies: &mut Bodies) 
         width: size.x,
         height: size.y,
     };
+    let box_span = s.box_.as_ref().map_or(t.span(), |b| b.span());
+    let origin_span = s.origin.as_ref().map_or(t.span(), |v| v.span());
+    let places = Places {
+        shape: box_span.clone(),
+        mass: s.density.as_ref().map_or(box_span.clone(), |v| v.span()),
+        position: box_span.clone(),
+        ..Places::all(t.span())
+    };
     for i in 0..count {
         let fi = i as f64;
-        let x = origin.x as f64 + fi * offset as f64;
-        let y = origin.y as f64 + (fi + 0.5) * size.y as f64;
-        let body = dynamic_body(
-            format!("{who}_{i}"),
-            shape.clone(),
-            Vec2::new(x as f32, y as f32),
-            &m,
-        );
-        bodies.push(ctx, body, t.span())?;
+        let x = fi * offset as f64;
+        let y = (fi + 0.5) * size.y as f64;
+        // the offset is to blame when x overflows, the box when y does
+        let step = if (x as f32).is_finite() {
+            ("box", box_span.clone())
+        } else {
+            ("offset", s.offset.as_ref().map_or(t.span(), |v| v.span()))
+        };
+        let at = position(
+            ctx,
+            who,
+            i as u64,
+            origin,
+            (x, y),
+            step,
+            origin_span.clone(),
+        )?;
+        let body = dynamic_body(format!("{who}_{i}"), shape.clone(), at, &m);
+        bodies.push(ctx, body, t.span(), &places)?;
     }
     Ok(())
 }
@@ -144,7 +226,13 @@ pub(crate) fn grid(ctx: &Ctx, t: &S<FileGrid>, k: usize, bodies: &mut Bodies) ->
     let g = t.get_ref();
     let rows = ctx.count(who, "rows", &g.rows)?;
     let columns = ctx.count(who, "columns", &g.columns)?;
-    check_total(ctx, who, rows as u64 * columns as u64, g.rows.span())?;
+    check_total(
+        ctx,
+        who,
+        rows as u64 * columns as u64,
+        bodies,
+        g.rows.span(),
+    )?;
     let spacing = ctx.vec2(who, "spacing", &g.spacing)?;
     let origin = ctx.opt_vec2(who, "origin", g.origin.as_ref(), Vec2::ZERO)?;
     let body_type = ctx.body_type(who, g.type_.as_ref())?;
@@ -160,22 +248,37 @@ pub(crate) fn grid(ctx: &Ctx, t: &S<FileGrid>, k: usize, bodies: &mut Bodies) ->
         g.restitution.as_ref(),
         g.color.as_ref(),
     )?;
+    let origin_span = g.origin.as_ref().map_or(t.span(), |v| v.span());
+    let places = Places {
+        shape: g.shape.span(),
+        mass: g
+            .mass
+            .as_ref()
+            .or(g.density.as_ref())
+            .map_or(g.shape.span(), |v| v.span()),
+        position: g.spacing.span(),
+        ..Places::all(t.span())
+    };
     for r in 0..rows {
         for c in 0..columns {
-            let x = origin.x as f64 + c as f64 * spacing.x as f64;
-            let y = origin.y as f64 + r as f64 * spacing.y as f64;
+            let x = c as f64 * spacing.x as f64;
+            let y = r as f64 * spacing.y as f64;
             let i = r as u64 * columns as u64 + c as u64;
+            let at = position(
+                ctx,
+                who,
+                i,
+                origin,
+                (x, y),
+                ("spacing", g.spacing.span()),
+                origin_span.clone(),
+            )?;
             let body = BodyDef {
                 body_type,
                 model,
-                ..dynamic_body(
-                    format!("{who}_{i}"),
-                    shape.clone(),
-                    Vec2::new(x as f32, y as f32),
-                    &m,
-                )
+                ..dynamic_body(format!("{who}_{i}"), shape.clone(), at, &m)
             };
-            bodies.push(ctx, body, t.span())?;
+            bodies.push(ctx, body, t.span(), &places)?;
         }
     }
     Ok(())
@@ -199,7 +302,7 @@ pub(crate) fn chain(
     let who = who.as_str();
     let c = t.get_ref();
     let links = ctx.count(who, "links", &c.links)?;
-    check_total(ctx, who, links as u64 + 2, c.links.span())?;
+    check_total(ctx, who, links as u64 + 2, bodies, c.links.span())?;
     let size = ctx.size(who, "link", &c.link)?;
     let anchor = ctx.vec2(who, "anchor", &c.anchor)?;
     let d = match &c.direction {
@@ -289,7 +392,25 @@ pub(crate) fn chain(
         color: m.color,
         ..BodyDef::default()
     };
-    let mut prev = bodies.push(ctx, anchor_body, t.span())?;
+    let link_span = c.link.span();
+    let places = Places {
+        shape: link_span.clone(),
+        mass: c.density.as_ref().map_or(link_span.clone(), |v| v.span()),
+        position: link_span.clone(),
+        ..Places::all(t.span())
+    };
+    // Link i is centred at anchor + d (i + 1/2) L: the last is the farthest.
+    let last = (links as f64 - 0.5) * len as f64;
+    position(
+        ctx,
+        who,
+        links as u64 - 1,
+        anchor,
+        (d.x as f64 * last, d.y as f64 * last),
+        ("link", link_span.clone()),
+        c.anchor.span(),
+    )?;
+    let mut prev = bodies.push(ctx, anchor_body, t.span(), &Places::all(c.anchor.span()))?;
     let mut prev_center = anchor;
     let shape = ShapeDef::Box {
         width: size.x,
@@ -301,8 +422,10 @@ pub(crate) fn chain(
             angle,
             ..dynamic_body(format!("{who}_{i}"), shape.clone(), center, &m)
         };
-        let index = bodies.push(ctx, body, t.span())?;
-        joints.push(joint(prev, index, prev_center, center, at(i as f32 * len)));
+        let index = bodies.push(ctx, body, t.span(), &places)?;
+        let j = joint(prev, index, prev_center, center, at(i as f32 * len));
+        check_joint(ctx, bodies, who, &j, link_span.clone())?;
+        joints.push(j);
         prev = index;
         prev_center = center;
     }
@@ -322,8 +445,20 @@ pub(crate) fn chain(
             angle,
             ..dynamic_body(format!("{who}_end"), shape, center, &em)
         };
-        let index = bodies.push(ctx, body, t.span())?;
-        joints.push(joint(prev, index, prev_center, center, tip));
+        let end_span = c.end.as_ref().map_or(t.span(), |e| e.span());
+        let f = c.end.as_ref().map(|e| e.get_ref());
+        let end_places = Places {
+            shape: f.map_or(end_span.clone(), |f| f.shape.span()),
+            mass: f
+                .and_then(|f| f.mass.as_ref().or(f.density.as_ref()))
+                .map_or(end_span.clone(), |v| v.span()),
+            position: link_span.clone(),
+            ..Places::all(end_span.clone())
+        };
+        let index = bodies.push(ctx, body, t.span(), &end_places)?;
+        let j = joint(prev, index, prev_center, center, tip);
+        check_joint(ctx, bodies, who, &j, end_span)?;
+        joints.push(j);
     }
     Ok(())
 }

@@ -37,6 +37,7 @@ use std::path::Path;
 pub use builtin::{builtin, builtin_description, builtin_names};
 pub use error::SceneError;
 pub use generators::MAX_GENERATED;
+pub use validate::{MAX_ITERATIONS, MAX_POLYGON_POINTS, MAX_SUBSTEPS};
 
 use crate::defs::{CameraDef, JointDef, WorldDef};
 use format::FileScene;
@@ -150,7 +151,10 @@ fn build(ctx: &Ctx, f: FileScene) -> R<Scene> {
     );
     makers.sort_by_key(|(start, _)| *start);
 
-    let mut bodies = Bodies::default();
+    let mut bodies = Bodies {
+        gravity: world.gravity,
+        ..Bodies::default()
+    };
     // Joints with the file position of the table that made them, to keep file order.
     let mut joints: Vec<(usize, JointDef)> = Vec::new();
     for (start, maker) in &makers {
@@ -166,7 +170,20 @@ fn build(ctx: &Ctx, f: FileScene) -> R<Scene> {
                     return Err(ctx.err(span, "body name must not be empty"));
                 }
                 let body = ctx.body(t.get_ref(), name)?;
-                bodies.push(ctx, body, span)?;
+                let b = t.get_ref();
+                let at = |v: Option<std::ops::Range<usize>>| v.unwrap_or(t.span());
+                let places = validate::Places {
+                    shape: b.shape.span(),
+                    mass: b
+                        .mass
+                        .as_ref()
+                        .or(b.density.as_ref())
+                        .map_or(b.shape.span(), |v| v.span()),
+                    position: at(b.position.as_ref().map(|v| v.span())),
+                    velocity: at(b.velocity.as_ref().map(|v| v.span())),
+                    angular_velocity: at(b.angular_velocity.as_ref().map(|v| v.span())),
+                };
+                bodies.push(ctx, body, span, &places)?;
             }
             Maker::Pyramid(k) => generators::pyramid(ctx, &f.pyramid[k], k, &mut bodies)?,
             Maker::Stack(k) => generators::stack(ctx, &f.stack[k], k, &mut bodies)?,

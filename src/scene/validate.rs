@@ -10,6 +10,19 @@ use glam::Vec2;
 use super::error::SceneError;
 use super::format::*;
 use crate::defs::*;
+use crate::shape::MAX_POLYGON_VERTICES;
+use crate::world::{BodyInput, BuildError, World};
+
+/// The most points a `polygon` may list (its hull may have at most
+/// [`MAX_POLYGON_VERTICES`] vertices).
+pub const MAX_POLYGON_POINTS: usize = 64;
+
+/// The bounds on iterations and substeps (defined with the other solver ranges).
+pub use crate::defs::{MAX_ITERATIONS, MAX_SUBSTEPS};
+
+/// The largest friction coefficient: two bodies' coefficients are mixed as sqrt(a b),
+/// and the product must stay finite in f32 (real ones are below 2).
+pub const MAX_FRICTION: f32 = 1e6;
 
 /// Results of this module.
 pub(crate) type R<T> = Result<T, SceneError>;
@@ -151,7 +164,7 @@ impl Ctx<'_> {
                 Err(self.err(
                     v.span(),
                     format!(
-                        "{who}: unknown {key} \"{s}\"; expected one of {}",
+                        "{who}: unknown {key} {s:?}; expected one of {}",
                         allowed.join(", ")
                     ),
                 ))
@@ -166,7 +179,7 @@ impl Ctx<'_> {
             self.err(
                 v.span(),
                 format!(
-                    "{who}: color must be \"#rrggbb\" or \"#rrggbbaa\" (hex digits), got \"{s}\""
+                    "{who}: color must be \"#rrggbb\" or \"#rrggbbaa\" (hex digits), got {s:?}"
                 ),
             )
         };
@@ -229,7 +242,16 @@ impl Ctx<'_> {
 
     /// A polygon: finite points, at least 3 distinct, a convex hull with area.
     fn polygon(&self, who: &str, p: &S<Vec<S<V2>>>) -> R<ShapeDef> {
-        let mut points = Vec::with_capacity(p.get_ref().len());
+        let given = p.get_ref().len();
+        if given > MAX_POLYGON_POINTS {
+            return Err(self.err(
+                p.span(),
+                format!(
+                    "{who}: polygon has {given} points; at most {MAX_POLYGON_POINTS} may be given (and its hull may have at most {MAX_POLYGON_VERTICES} vertices)"
+                ),
+            ));
+        }
+        let mut points = Vec::with_capacity(given);
         for q in p.get_ref() {
             points.push(self.vec2(who, "polygon point", q)?);
         }
@@ -258,7 +280,12 @@ impl Ctx<'_> {
                 format!("{who}: polygon has no area (its points are collinear)"),
             ));
         }
-        Ok(ShapeDef::Polygon { points })
+        let def = ShapeDef::Polygon { points };
+        // The engine's own hull (which welds points closer than 1e-4 m) must agree.
+        if let Err(e) = crate::shape::Shape::from_def(&def) {
+            return Err(self.err(p.span(), format!("{who}: {e}")));
+        }
+        Ok(def)
     }
 
     /// The material of a body: density or mass (> 0 on a dynamic body, finite on
@@ -303,7 +330,17 @@ impl Ctx<'_> {
         Ok(Material {
             density,
             mass,
-            friction: self.opt(friction, 0.6, |v| self.non_negative(who, "friction", v))?,
+            friction: self.opt(friction, 0.6, |v| {
+                let f = self.non_negative(who, "friction", v)?;
+                // the world mixes two bodies' friction as sqrt(a b): the product must fit f32
+                if f > MAX_FRICTION {
+                    return Err(self.err(
+                        v.span(),
+                        format!("{who}: friction must be at most {MAX_FRICTION:e}, got {f}"),
+                    ));
+                }
+                Ok(f)
+            })?,
             restitution: self.opt(restitution, 0.0, |v| self.unit(who, "restitution", v))?,
             color: color.map(|c| self.color(who, c)).transpose()?,
         })
@@ -365,7 +402,7 @@ impl Ctx<'_> {
 
     /// A `[[body]]` table, named `name`.
     pub fn body(&self, b: &FileBody, name: String) -> R<BodyDef> {
-        let who = format!("body \"{name}\"");
+        let who = format!("body {name:?}");
         let who = who.as_str();
         let body_type = self.body_type(who, b.type_.as_ref())?;
         let model = self.body_model(who, b.model.as_ref())?;
@@ -581,6 +618,41 @@ fn hull_area(points: &[Vec2]) -> (f32, f32) {
     ((twice.abs() / 2.0) as f32, ext.x.max(ext.y))
 }
 
+/// Where a body's values are in the file, to point at the one that makes a derived
+/// quantity (mass, inertia, centre of mass, energy) unusable. A value the table does
+/// not give points at what it is derived from, or at the table.
+#[derive(Clone, Debug)]
+pub(crate) struct Places {
+    pub shape: Range<usize>,
+    pub mass: Range<usize>,
+    pub position: Range<usize>,
+    pub velocity: Range<usize>,
+    pub angular_velocity: Range<usize>,
+}
+
+impl Places {
+    /// Every value at `span`.
+    pub fn all(span: Range<usize>) -> Places {
+        Places {
+            shape: span.clone(),
+            mass: span.clone(),
+            position: span.clone(),
+            velocity: span.clone(),
+            angular_velocity: span,
+        }
+    }
+
+    fn of(&self, input: BodyInput) -> Range<usize> {
+        match input {
+            BodyInput::Shape => self.shape.clone(),
+            BodyInput::Mass => self.mass.clone(),
+            BodyInput::Position => self.position.clone(),
+            BodyInput::Velocity => self.velocity.clone(),
+            BodyInput::AngularVelocity => self.angular_velocity.clone(),
+        }
+    }
+}
+
 /// The bodies made so far, in creation order, with where each was declared, and the
 /// names already taken.
 #[derive(Default)]
@@ -590,21 +662,41 @@ pub(crate) struct Bodies {
     pub index: HashMap<String, usize>,
     /// Where each body was declared (its name, or its generator's table).
     pub spans: Vec<Range<usize>>,
+    /// The world's gravity (for the potential energy check).
+    pub gravity: Option<Vec2>,
 }
 
 impl Bodies {
-    /// Add a body; refuses a name already taken.
-    pub fn push(&mut self, ctx: &Ctx, body: BodyDef, span: Range<usize>) -> R<usize> {
+    /// Add a body; refuses a name already taken, or a body whose derived quantities
+    /// (mass, inertia, centre of mass, energy) the world could not use, pointing at the
+    /// value in `places` that makes them.
+    pub fn push(
+        &mut self,
+        ctx: &Ctx,
+        body: BodyDef,
+        span: Range<usize>,
+        places: &Places,
+    ) -> R<usize> {
         if let Some(&first) = self.index.get(&body.name) {
             let (line, _) = super::error::line_col(ctx.text, self.spans[first].start);
             return Err(ctx.err(
                 span,
                 format!(
-                    "duplicate body name \"{}\" (first used at line {line})",
+                    "duplicate body name {:?} (first used at line {line})",
                     body.name
                 ),
             ));
         }
+        if self.defs.len() as u64 >= super::MAX_GENERATED {
+            return Err(ctx.err(
+                span,
+                format!(
+                    "too many bodies: at most {} in one file",
+                    super::MAX_GENERATED
+                ),
+            ));
+        }
+        check_body(ctx, &body, self.gravity, places)?;
         let i = self.defs.len();
         self.index.insert(body.name.clone(), i);
         self.defs.push(body);
@@ -614,12 +706,60 @@ impl Bodies {
 
     /// The index of the body named by `v`, or an error naming `who`.
     pub fn find(&self, ctx: &Ctx, who: &str, v: &S<String>) -> R<usize> {
-        self.index.get(v.get_ref()).copied().ok_or_else(|| {
-            ctx.err(
-                v.span(),
-                format!("{who}: no body named \"{}\"", v.get_ref()),
-            )
-        })
+        self.index
+            .get(v.get_ref())
+            .copied()
+            .ok_or_else(|| ctx.err(v.span(), format!("{who}: no body named {:?}", v.get_ref())))
+    }
+}
+
+/// Builds `body` as the world will ([`World::make_body`]) and turns a refusal into an
+/// error at the value that caused it.
+pub(crate) fn check_body(
+    ctx: &Ctx,
+    body: &BodyDef,
+    gravity: Option<Vec2>,
+    places: &Places,
+) -> R<()> {
+    match World::make_body(body, gravity) {
+        Ok(_) => Ok(()),
+        Err(e) => {
+            let span = match &e {
+                BuildError::Derived { input, .. } => places.of(*input),
+                BuildError::Shape { .. } | BuildError::ParticleShape(_) => places.shape.clone(),
+                BuildError::NotPositive { .. } => places.mass.clone(),
+                _ => places.position.clone(),
+            };
+            Err(ctx.err(span, e.to_string()))
+        }
+    }
+}
+
+/// Builds `joint` between the bodies it names as the world will, and refuses one whose
+/// derived values (length, anchor offsets) are not finite, at `span`.
+pub(crate) fn check_joint(
+    ctx: &Ctx,
+    bodies: &Bodies,
+    who: &str,
+    joint: &JointDef,
+    span: Range<usize>,
+) -> R<()> {
+    let make = |i: usize| World::make_body(&bodies.defs[i], bodies.gravity);
+    let (Ok(a), Ok(b)) = (make(joint.bodies[0]), make(joint.bodies[1])) else {
+        // both were checked when they were added
+        return Ok(());
+    };
+    let pair = JointDef {
+        bodies: [0, 1],
+        ..joint.clone()
+    };
+    let j = crate::joint::Joint::from_def(&pair, &[a, b]);
+    match crate::world::joint_not_finite(&j) {
+        None => Ok(()),
+        Some(what) => Err(ctx.err(
+            span,
+            format!("{who}: the joint's {what} is not finite (its bodies or anchors are too far apart for f32)"),
+        )),
     }
 }
 
@@ -650,7 +790,7 @@ pub(crate) fn joint(ctx: &Ctx, bodies: &Bodies, j: &FileJoint) -> R<JointDef> {
     )?;
     let kind_name = j.type_.get_ref().as_str();
     let [a, b] = &j.bodies.get_ref().0;
-    let who = format!("{kind_name} joint \"{}\"-\"{}\"", a.get_ref(), b.get_ref());
+    let who = format!("{kind_name} joint {:?}-{:?}", a.get_ref(), b.get_ref());
     let who = who.as_str();
     let ia = bodies.find(ctx, who, a)?;
     let ib = bodies.find(ctx, who, b)?;
@@ -658,7 +798,7 @@ pub(crate) fn joint(ctx: &Ctx, bodies: &Bodies, j: &FileJoint) -> R<JointDef> {
         return Err(ctx.err(
             j.bodies.span(),
             format!(
-                "{who}: a joint cannot join body \"{}\" to itself",
+                "{who}: a joint cannot join body {:?} to itself",
                 a.get_ref()
             ),
         ));
@@ -813,7 +953,7 @@ pub(crate) fn joint(ctx: &Ctx, bodies: &Bodies, j: &FileJoint) -> R<JointDef> {
         }
         None => DampingDef::default(),
     };
-    Ok(JointDef {
+    let def = JointDef {
         kind,
         bodies: [ia, ib],
         anchor,
@@ -828,5 +968,14 @@ pub(crate) fn joint(ctx: &Ctx, bodies: &Bodies, j: &FileJoint) -> R<JointDef> {
         })?,
         damping,
         collide_connected: j.collide_connected.as_ref().is_some_and(|v| *v.get_ref()),
-    })
+    };
+    // A length at creation comes from the anchors, or from the bodies' positions.
+    let span = j
+        .anchors
+        .as_ref()
+        .map(|v| v.span())
+        .or(j.anchor.as_ref().map(|v| v.span()))
+        .unwrap_or(j.bodies.span());
+    check_joint(ctx, bodies, who, &def, span)?;
+    Ok(def)
 }
