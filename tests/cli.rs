@@ -1068,7 +1068,7 @@ fn a_bad_solver_flag_is_blamed_on_the_flags_not_the_scene() {
     assert_eq!(out.status.code(), Some(2), "{err}");
     assert_eq!(
         err.trim_end(),
-        "error: command-line flags: solver: dt must be > 0, got 0"
+        "error: command-line flags: solver: dt must be in (0, 1] s, got 0"
     );
 }
 

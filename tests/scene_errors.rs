@@ -1433,13 +1433,16 @@ fn iterations_and_substeps_have_upper_bounds() {
         "name = \"t\"\n[solver]\niterations = 1000001\n",
         3,
         14,
-        &["iterations must be at most 10000"],
+        &[
+            "iterations must be an integer from 1 to 10000",
+            "got 1000001",
+        ],
     );
     check(
         "name = \"t\"\n[solver]\nsubsteps = 1001\n",
         3,
         12,
-        &["substeps must be at most 1000"],
+        &["substeps must be an integer from 1 to 1000", "got 1001"],
     );
     check(
         "name = \"t\"\n[solver]\niterations = 1e9\n",
@@ -1471,4 +1474,33 @@ fn friction_is_bounded_so_that_mixing_fits_f32() {
         &["pyramid0", "friction"],
     );
     assert!(load_str(&body("shape = { circle = 1 }\nfriction = 1e6"), "ok.toml").is_ok());
+}
+
+#[test]
+fn soft_step_is_the_old_spelling_of_kind_soft() {
+    let kind = |text: &str| load_str(text, "k.toml").unwrap().world.solver.kind;
+    assert_eq!(
+        kind("name = \"t\"\n[solver]\nsoft_step = true\n"),
+        Some(SolverKind::Soft)
+    );
+    assert_eq!(
+        kind("name = \"t\"\n[solver]\nsoft_step = false\n"),
+        Some(SolverKind::Pgs)
+    );
+    assert_eq!(
+        kind("name = \"t\"\n[solver]\nkind = \"soft\"\n"),
+        Some(SolverKind::Soft)
+    );
+    // no kind at all: the soft step is the default
+    assert_eq!(kind("name = \"t\"\n"), None);
+    assert_eq!(
+        sandbox2d::SolverOverrides::default().resolve().kind,
+        SolverKind::Soft
+    );
+    check(
+        "name = \"t\"\n[solver]\nkind = \"pgs\"\nsoft_step = true\n",
+        4,
+        13,
+        &["soft_step = true contradicts kind = \"pgs\""],
+    );
 }
