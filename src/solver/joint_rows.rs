@@ -670,3 +670,24 @@ pub fn xpbd_velocity_pass(
     }
     rows.damp(bodies, h);
 }
+
+#[cfg(test)]
+mod tests {
+    use crate::defs::SolverKind;
+    use crate::joint::slot;
+    use crate::step::testing::hanging_disc;
+
+    #[test]
+    fn a_hanging_disc_pulls_its_hinge_with_its_weight() {
+        // at rest the hinge's point row carries m g dt upwards (on b): 2 kg, g 10
+        let mut w = hanging_disc(SolverKind::Pgs);
+        for _ in 0..60 {
+            w.step().unwrap();
+        }
+        let j = &w.joints()[0];
+        let want = 2.0 * 10.0 * w.settings.dt;
+        let (x, y) = (j.impulses[slot::POINT_X], j.impulses[slot::POINT_Y]);
+        assert!(x.abs() < 1e-4 * want, "{x}");
+        assert!((y - want).abs() < 0.01 * want, "{y} vs {want}");
+    }
+}

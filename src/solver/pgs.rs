@@ -427,3 +427,26 @@ impl PgsSolver {
         }
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use crate::defs::SolverKind;
+    use crate::step::testing::{normal_sum, resting_box};
+
+    #[test]
+    fn a_resting_box_is_held_by_its_weight_each_step() {
+        // the MLCP at rest: the normal lambdas sum to m g dt
+        let mut w = resting_box(SolverKind::Pgs);
+        for _ in 0..120 {
+            w.step().unwrap();
+        }
+        let want = 10.0 * w.settings.dt;
+        let sum = normal_sum(&w);
+        assert!((sum - want).abs() < 0.01 * want, "{sum} vs {want}");
+        // and the two points share it evenly (the box is centred)
+        let mut l = Vec::new();
+        w.contact_lambdas(&mut l);
+        assert_eq!(l.len(), 4);
+        assert!((l[0] - l[2]).abs() < 0.05 * want, "{l:?}");
+    }
+}

@@ -776,3 +776,43 @@ impl SoftSolver {
         self.colors_used
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::Softness;
+    use crate::defs::SolverKind;
+    use crate::step::testing::{normal_sum, resting_box};
+
+    #[test]
+    fn softness_has_the_closed_form_of_an_implicit_spring() {
+        // a2 a3 + a3 = 1 for every setting; omega / a1 the bias rate; hertz 0 is rigid
+        let h = 1.0 / 240.0;
+        let s = Softness::new(30.0, 10.0, h);
+        let omega = std::f32::consts::TAU * 30.0;
+        let a1 = 2.0 * 10.0 + h * omega;
+        assert!((s.bias_rate - omega / a1).abs() < 1e-4);
+        assert!((s.mass_scale + s.impulse_scale - 1.0).abs() < 1e-6);
+        let r = Softness::new(0.0, 10.0, h);
+        assert_eq!(
+            (r.mass_scale, r.impulse_scale, r.bias_rate),
+            (1.0, 0.0, 0.0)
+        );
+    }
+
+    #[test]
+    fn a_resting_box_is_held_by_its_weight_each_substep() {
+        // at rest the contact carries m g h per substep: 1 kg, g 10, h = dt / 8
+        let mut w = resting_box(SolverKind::Soft);
+        for _ in 0..120 {
+            w.step().unwrap();
+        }
+        let h = w.settings.dt / w.settings.substeps as f32;
+        let sum = normal_sum(&w);
+        assert!(
+            (sum - 10.0 * h).abs() < 0.01 * 10.0 * h,
+            "{sum} vs {}",
+            10.0 * h
+        );
+        assert!(w.bodies[1].velocity.length() < 1e-3);
+    }
+}

@@ -632,3 +632,53 @@ fn solve_mouse(m: &mut PreparedMouse, bodies: &mut [SoftBody], inv_mass: &[(f32,
     b.w += ii * cross(rb, d);
     d.abs().max_element()
 }
+
+#[cfg(test)]
+mod tests {
+    use crate::defs::SolverKind;
+    use crate::joint::slot;
+    use crate::step::testing::hanging_disc;
+
+    #[test]
+    fn a_hanging_disc_pulls_its_hinge_with_its_weight_each_substep() {
+        // at rest the point row carries m g h per substep upwards: 2 kg, g 10
+        let mut w = hanging_disc(SolverKind::Soft);
+        for _ in 0..120 {
+            w.step().unwrap();
+        }
+        let j = &w.joints()[0];
+        let h = w.settings.dt / w.settings.substeps as f32;
+        let want = 2.0 * 10.0 * h;
+        let (x, y) = (j.impulses[slot::POINT_X], j.impulses[slot::POINT_Y]);
+        assert!(x.abs() < 1e-3 * want, "{x}");
+        assert!((y - want).abs() < 0.01 * want, "{y} vs {want}");
+        // and the joint holds: the soft row's sag is m g / (m omega^2) at most
+        let omega = std::f32::consts::TAU * w.settings.joint_hertz.min(0.25 / h);
+        assert!(
+            w.joint_error() <= 10.0 / (omega * omega),
+            "{}",
+            w.joint_error()
+        );
+    }
+
+    #[test]
+    fn a_compliant_distance_joint_stretches_by_its_compliance_times_the_load() {
+        // a spring of compliance alpha under a 2 kg load stretches alpha m g (Hooke)
+        let sc = crate::scene::load_str(
+            "name = \"spring\"\n[world]\ngravity = [0.0, -10.0]\n\
+             [[body]]\nname = \"top\"\ntype = \"static\"\nshape = { circle = 0.05 }\nposition = [0.0, 0.0]\n\
+             [[body]]\nname = \"bob\"\nshape = { circle = 0.1 }\nmass = 2.0\nposition = [0.0, -1.0]\n\
+             [[joint]]\ntype = \"distance\"\nbodies = [\"top\", \"bob\"]\ncompliance = 0.001\n\
+             damping = { linear = 5.0 }\n",
+            "spring.toml",
+        )
+        .unwrap();
+        let mut w = crate::World::from_def(&sc.world, crate::SolverSettings::soft()).unwrap();
+        for _ in 0..600 {
+            w.step().unwrap();
+        }
+        let stretch = -1.0 - w.bodies[1].position.y;
+        let want = 0.001 * 2.0 * 10.0;
+        assert!((stretch - want).abs() < 0.02 * want, "{stretch} vs {want}");
+    }
+}

@@ -216,3 +216,22 @@ impl XpbdContacts {
         }
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use crate::defs::SolverKind;
+    use crate::step::testing::{normal_sum, resting_box};
+
+    #[test]
+    fn a_resting_box_is_pushed_by_its_weight_over_the_step() {
+        // each substep's position multiplier is m g h^2; lambda / h summed over the
+        // substeps is the step's impulse m g dt
+        let mut w = resting_box(SolverKind::Xpbd);
+        for _ in 0..120 {
+            w.step().unwrap();
+        }
+        let want = 10.0 * w.settings.dt;
+        let sum = normal_sum(&w);
+        assert!((sum - want).abs() < 0.02 * want, "{sum} vs {want}");
+    }
+}

@@ -155,3 +155,44 @@ pub(crate) fn stored_lambdas(world: &World, out: &mut Vec<f32>) {
         }
     }
 }
+
+/// Small worlds for the solvers' unit tests.
+#[cfg(test)]
+pub(crate) mod testing {
+    use crate::defs::{SolverKind, SolverSettings};
+    use crate::world::World;
+
+    /// A 1 kg unit box (density 1) resting on a static ground, gravity 10, under `kind`
+    /// with its defaults.
+    pub fn resting_box(kind: SolverKind) -> World {
+        let sc = crate::scene::load_str(
+            "name = \"box\"\n[world]\ngravity = [0.0, -10.0]\n\
+             [[body]]\nname = \"ground\"\ntype = \"static\"\nshape = { box = [10.0, 1.0] }\nposition = [0.0, -0.5]\n\
+             [[body]]\nname = \"box\"\nshape = { box = [1.0, 1.0] }\nposition = [0.0, 0.5]\n",
+            "box.toml",
+        )
+        .unwrap();
+        World::from_def(&sc.world, SolverSettings::defaults(kind)).unwrap()
+    }
+
+    /// A 2 kg disc hanging at rest 1 m below a
+    /// static pivot on a hinge, gravity 10.
+    pub fn hanging_disc(kind: SolverKind) -> World {
+        let sc = crate::scene::load_str(
+            "name = \"hang\"\n[world]\ngravity = [0.0, -10.0]\n\
+             [[body]]\nname = \"pivot\"\ntype = \"static\"\nshape = { circle = 0.05 }\nposition = [0.0, 0.0]\n\
+             [[body]]\nname = \"disc\"\nshape = { circle = 0.1 }\nmass = 2.0\nposition = [0.0, -1.0]\n\
+             [[joint]]\ntype = \"hinge\"\nbodies = [\"pivot\", \"disc\"]\nanchor = [0.0, 0.0]\n",
+            "hang.toml",
+        )
+        .unwrap();
+        World::from_def(&sc.world, SolverSettings::defaults(kind)).unwrap()
+    }
+
+    /// The sum of the normal lambdas of the last solve (N s).
+    pub fn normal_sum(w: &World) -> f32 {
+        let mut l = Vec::new();
+        w.contact_lambdas(&mut l);
+        l.iter().step_by(2).sum()
+    }
+}
