@@ -179,7 +179,7 @@ fn stats(ui: &mut Ui, s: &Session, frame: FrameStats) {
             row("sim time", format!("{:.2} s", s.world.time()));
             row("ms / step", format!("{:.3} (mean {mean_ms:.3})", last.ms));
             row("contacts", last.contacts.to_string());
-            row("PGS iterations", last.iterations.to_string());
+            row("sweeps / step", last.iterations.to_string());
             row("residual", format!("{:.2e}", last.residual));
             row("penetration", format!("{:.4} m", last.penetration));
         });
