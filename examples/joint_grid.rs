@@ -10,10 +10,7 @@
 
 use std::time::Instant;
 
-use glam::Vec2;
-use sandbox2d::{
-    BodyDef, BodyType, JointDef, JointKind, ShapeDef, SolverKind, SolverSettings, World,
-};
+use sandbox2d::{SolverKind, SolverSettings, World};
 
 fn main() {
     let args: Vec<String> = std::env::args().skip(1).collect();
@@ -23,61 +20,8 @@ fn main() {
         .get(2)
         .and_then(|s| SolverKind::from_name(s))
         .unwrap_or_default();
-    let mut w = World::new(Some(Vec2::new(0.0, -10.0)), SolverSettings::defaults(kind));
-    let mut index = vec![vec![0usize; n]; n];
-    for (k, row) in index.iter_mut().enumerate() {
-        for (i, slot) in row.iter_mut().enumerate() {
-            let anchor = k == n - 1 && i + 3 >= n / 2 && i <= n / 2 + 3;
-            *slot = w
-                .add_body(&BodyDef {
-                    name: format!("b{k}_{i}"),
-                    body_type: if anchor {
-                        BodyType::Static
-                    } else {
-                        BodyType::Dynamic
-                    },
-                    shape: ShapeDef::Circle { radius: 0.4 },
-                    position: Vec2::new(i as f32, k as f32),
-                    ..Default::default()
-                })
-                .expect("body");
-        }
-    }
-    let hinge = |a: usize, b: usize, at: Vec2| JointDef {
-        kind: JointKind::Hinge,
-        bodies: [a, b],
-        anchor: Some(at),
-        anchors: None,
-        length: None,
-        axis: None,
-        limits: None,
-        motor: None,
-        servo: None,
-        compliance: 0.0,
-        damping: Default::default(),
-        collide_connected: false,
-    };
-    for k in 0..n {
-        for i in 0..n {
-            let here = Vec2::new(i as f32, k as f32);
-            if i > 0 {
-                w.add_joint(&hinge(
-                    index[k][i - 1],
-                    index[k][i],
-                    here - Vec2::new(0.5, 0.0),
-                ))
-                .expect("joint");
-            }
-            if k > 0 {
-                w.add_joint(&hinge(
-                    index[k - 1][i],
-                    index[k][i],
-                    here - Vec2::new(0.0, 0.5),
-                ))
-                .expect("joint");
-            }
-        }
-    }
+    let def = sandbox2d::bench::scenes::joint_grid(n);
+    let mut w = World::from_def(&def, SolverSettings::defaults(kind)).expect("builds");
     let (mut worst, mut at60) = (0.0f32, 0.0f32);
     let mut ms = Vec::with_capacity(steps);
     for s in 1..=steps {

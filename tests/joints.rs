@@ -472,67 +472,9 @@ fn heavy_balls_on_chains_hold_under_the_default_solver() {
     assert!(worst200 <= 0.05, "200:1: {worst200} m");
 }
 
-/// Box2D's joint grid layout: n x n circles of radius 0.4 at 1 m spacing, each hinged to
-/// its left and lower neighbours, 7 static anchors in the middle of the top row; the gap
-/// between neighbours keeps them from touching (no filters yet).
 fn joint_grid(n: usize, kind: SolverKind) -> World {
-    use sandbox2d::{BodyDef, BodyType, JointDef, JointKind, ShapeDef, SolverSettings};
-    let mut w = World::new(Some(Vec2::new(0.0, -10.0)), SolverSettings::defaults(kind));
-    let spacing = 1.0f32;
-    let mut index = vec![vec![0usize; n]; n];
-    for (k, row) in index.iter_mut().enumerate() {
-        for (i, slot) in row.iter_mut().enumerate() {
-            *slot = w
-                .add_body(&BodyDef {
-                    name: format!("b{k}_{i}"),
-                    body_type: if k == n - 1 && i + 3 >= n / 2 && i <= n / 2 + 3 {
-                        BodyType::Static
-                    } else {
-                        BodyType::Dynamic
-                    },
-                    shape: ShapeDef::Circle { radius: 0.4 },
-                    position: Vec2::new(i as f32 * spacing, k as f32 * spacing),
-                    ..Default::default()
-                })
-                .unwrap();
-        }
-    }
-    let hinge = |a: usize, b: usize, at: Vec2| JointDef {
-        kind: JointKind::Hinge,
-        bodies: [a, b],
-        anchor: Some(at),
-        anchors: None,
-        length: None,
-        axis: None,
-        limits: None,
-        motor: None,
-        servo: None,
-        compliance: 0.0,
-        damping: Default::default(),
-        collide_connected: false,
-    };
-    for k in 0..n {
-        for i in 0..n {
-            let here = Vec2::new(i as f32 * spacing, k as f32 * spacing);
-            if i > 0 {
-                w.add_joint(&hinge(
-                    index[k][i - 1],
-                    index[k][i],
-                    here - Vec2::new(0.5, 0.0),
-                ))
-                .unwrap();
-            }
-            if k > 0 {
-                w.add_joint(&hinge(
-                    index[k - 1][i],
-                    index[k][i],
-                    here - Vec2::new(0.0, 0.5),
-                ))
-                .unwrap();
-            }
-        }
-    }
-    w
+    let def = sandbox2d::bench::scenes::joint_grid(n);
+    World::from_def(&def, sandbox2d::SolverSettings::defaults(kind)).expect("builds")
 }
 
 #[test]

@@ -401,3 +401,64 @@ mod tests {
         }
     }
 }
+
+/// Box2D's joint grid benchmark layout: n x n circles of radius 0.4 at 1 m spacing
+/// (row k at y = k), each hinged to its left and lower neighbours (2 n (n - 1) hinges),
+/// 7 static anchors in the middle of the top row, gravity 10. Neighbours are 0.2 m
+/// apart, so they never touch (the layout needs no filters). Body `k * n + i` is row k,
+/// column i.
+pub fn joint_grid(n: usize) -> WorldDef {
+    use crate::defs::{BodyDef, BodyType, JointDef, JointKind, ShapeDef};
+    use glam::Vec2;
+    let mut def = WorldDef {
+        gravity: Some(Vec2::new(0.0, -10.0)),
+        ..Default::default()
+    };
+    for k in 0..n {
+        for i in 0..n {
+            let anchor = k + 1 == n && i + 3 >= n / 2 && i <= n / 2 + 3;
+            def.bodies.push(BodyDef {
+                name: format!("b{k}_{i}"),
+                body_type: if anchor {
+                    BodyType::Static
+                } else {
+                    BodyType::Dynamic
+                },
+                shape: ShapeDef::Circle { radius: 0.4 },
+                position: Vec2::new(i as f32, k as f32),
+                ..Default::default()
+            });
+        }
+    }
+    let hinge = |a: usize, b: usize, at: Vec2| JointDef {
+        kind: JointKind::Hinge,
+        bodies: [a, b],
+        anchor: Some(at),
+        anchors: None,
+        length: None,
+        axis: None,
+        limits: None,
+        motor: None,
+        servo: None,
+        compliance: 0.0,
+        damping: Default::default(),
+        collide_connected: false,
+    };
+    for k in 0..n {
+        for i in 0..n {
+            let here = Vec2::new(i as f32, k as f32);
+            if i > 0 {
+                def.joints
+                    .push(hinge(k * n + i - 1, k * n + i, here - Vec2::new(0.5, 0.0)));
+            }
+            if k > 0 {
+                def.joints.push(hinge(
+                    (k - 1) * n + i,
+                    k * n + i,
+                    here - Vec2::new(0.0, 0.5),
+                ));
+            }
+        }
+    }
+    def
+}
