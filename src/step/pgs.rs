@@ -7,7 +7,7 @@ use crate::defs::{BodyModel, BodyType, SolverKind};
 use crate::math::Rot;
 use crate::solver::joint_rows::JointRows;
 use crate::solver::pgs::{PgsSolver, SolveStats, SolverBody};
-use crate::world::{StepStats, World};
+use crate::world::{Speculative, StepStats, World};
 
 /// Classic projected Gauss-Seidel and its scratch.
 #[derive(Clone, Debug, Default)]
@@ -56,7 +56,7 @@ impl PgsStepper {
         clock: &mut StageClock,
     ) -> StepStats {
         let h = cx.h;
-        let penetration = world.collide(h, cx.margin, true, clock);
+        let penetration = world.collide(h, cx.margin, Speculative::MarginPlusMotion, clock);
         world.integrate_velocities(h);
         clock.lap(Stage::Forces);
         let s = world.settings;

@@ -10,7 +10,7 @@ use crate::defs::{BodyModel, BodyType, SolverKind};
 use crate::math::Rot;
 use crate::solver::soft::SoftSolver;
 use crate::solver::soft_joints::SoftJoints;
-use crate::world::{StepStats, World};
+use crate::world::{Speculative, StepStats, World};
 
 /// The soft step and its scratch.
 #[derive(Clone, Debug, Default)]
@@ -29,7 +29,7 @@ impl Stepper for SoftStepper {
         let (n, h) = (cx.substeps, cx.h);
         // points out to the distance each pair can close in the step (speculative
         // contacts): a fast body meets what it would pass through
-        let penetration = world.collide(cx.dt, cx.margin, true, clock);
+        let penetration = world.collide(cx.dt, cx.margin, Speculative::MarginOrMotion, clock);
         self.soft.prepare(&world.bodies, &world.contacts, &s, h);
         let joints = !world.joints.is_empty() || world.mouse.is_some();
         if joints {

@@ -9,7 +9,7 @@ use crate::math::{Rot, Vec2, cross};
 use crate::solver::joint_rows::{JointRows, xpbd_velocity_pass};
 use crate::solver::pgs::SolverBody;
 use crate::solver::xpbd::XpbdContacts;
-use crate::world::{StepStats, World};
+use crate::world::{Speculative, StepStats, World};
 
 /// Extended position-based dynamics and its scratch.
 #[derive(Clone, Debug, Default)]
@@ -32,7 +32,7 @@ impl Stepper for XpbdStepper {
     fn step(&mut self, world: &mut World, cx: &StepContext, clock: &mut StageClock) -> StepStats {
         let s = world.settings;
         let (n, h) = (cx.substeps, cx.h);
-        let mut deepest = world.collide(cx.dt, cx.margin, true, clock);
+        let mut deepest = world.collide(cx.dt, cx.margin, Speculative::MarginPlusMotion, clock);
         self.xpbd.prepare(&world.bodies, &world.contacts);
         self.lambdas.clear();
         self.lambdas.resize(world.joints.len(), [0.0; SLOTS]);
