@@ -318,15 +318,7 @@ fn install_interrupt_handler() {
 /// The message on one line: control characters (a newline, a carriage return, an
 /// escape) written as Rust escapes, so no input can split or spoof it.
 fn one_line(s: &str) -> String {
-    let mut out = String::with_capacity(s.len());
-    for c in s.chars() {
-        if c.is_control() {
-            out.extend(c.escape_default());
-        } else {
-            out.push(c);
-        }
-    }
-    out
+    scene::escape_controls(s)
 }
 
 /// A progress bar on stderr that appears only when stderr is a terminal and the work

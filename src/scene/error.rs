@@ -79,7 +79,7 @@ impl SceneError {
 
 /// `s` with every control character (newline, carriage return, escape, ...) written as
 /// its Rust escape (`\n`, `\r`, `\u{1b}`); other text unchanged.
-pub(crate) fn escape_controls(s: &str) -> String {
+pub fn escape_controls(s: &str) -> String {
     if !s.chars().any(char::is_control) {
         return s.to_owned();
     }

@@ -35,7 +35,7 @@ mod validate;
 use std::path::Path;
 
 pub use builtin::{builtin, builtin_description, builtin_names};
-pub use error::SceneError;
+pub use error::{SceneError, escape_controls};
 pub use generators::MAX_GENERATED;
 pub use validate::{MAX_ITERATIONS, MAX_POLYGON_POINTS, MAX_SUBSTEPS};
 
