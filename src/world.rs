@@ -20,8 +20,6 @@ mod measure;
 /// How far out a pair keeps contact points (speculative contacts).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub(crate) enum Speculative {
-    /// Up to the margin only.
-    Margin,
     /// Up to the margin plus the distance the two bodies can close in h (classic PGS,
     /// XPBD).
     MarginPlusMotion,
@@ -637,18 +635,15 @@ impl World {
         speculative: Speculative,
         clock: &mut StageClock,
     ) -> f32 {
-        let sweep = speculative != Speculative::Margin;
         self.aabbs.clear();
         self.dynamic.clear();
         self.reach.clear();
         for b in &self.bodies {
             let mut bb = b.shape.aabb(&b.transform());
-            if sweep {
-                // the most any point of the body moves in h: h (|v| + |w| r)
-                let r = 0.5 * (bb.max - bb.min).length();
-                self.reach
-                    .push(h * (b.velocity.length() + b.angular_velocity.abs() * r));
-            }
+            // the most any point of the body moves in h: h (|v| + |w| r)
+            let r = 0.5 * (bb.max - bb.min).length();
+            self.reach
+                .push(h * (b.velocity.length() + b.angular_velocity.abs() * r));
             // grow moving boxes by their motion this step so fast bodies find their pairs
             if b.body_type != BodyType::Static {
                 let d = b.velocity * h;
@@ -673,7 +668,6 @@ impl World {
         for &(a, b) in &self.broad.pairs {
             let (ba, bb) = (&self.bodies[a as usize], &self.bodies[b as usize]);
             let pair_margin = match speculative {
-                Speculative::Margin => margin,
                 Speculative::MarginPlusMotion => {
                     margin + self.reach[a as usize] + self.reach[b as usize]
                 }

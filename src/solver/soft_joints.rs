@@ -440,16 +440,7 @@ impl SoftJoints {
             let r = match j.kind {
                 JointKind::Hinge | JointKind::Weld => {
                     let ang = Jac::angle();
-                    let mut r = 0.0f32;
-                    if let Some(m) = j.motor {
-                        r = r.max(sw.motor(
-                            &mut pair,
-                            &ang,
-                            m.speed,
-                            m.max_force,
-                            &mut l[slot::MOTOR],
-                        ));
-                    }
+                    let mut r = motor_row(&sw, &mut pair, j, &ang, l);
                     if j.kind == JointKind::Hinge {
                         r = r.max(range(&sw, &mut pair, j, &ang, g.angle, true, l));
                     } else {
@@ -470,16 +461,7 @@ impl SoftJoints {
                 }
                 JointKind::Prismatic => {
                     let ax = Jac::linear(g.ra + g.d, g.rb, g.axis);
-                    let mut r = 0.0f32;
-                    if let Some(m) = j.motor {
-                        r = r.max(sw.motor(
-                            &mut pair,
-                            &ax,
-                            m.speed,
-                            m.max_force,
-                            &mut l[slot::MOTOR],
-                        ));
-                    }
+                    let mut r = motor_row(&sw, &mut pair, j, &ax, l);
                     r = r.max(range(&sw, &mut pair, j, &ax, g.axis.dot(g.d), false, l));
                     let perp = g.axis.perp();
                     let pr = Jac::linear(g.ra + g.d, g.rb, perp);
@@ -572,6 +554,14 @@ impl SoftJoints {
         for (p, j) in self.prepared.iter().zip(joints) {
             j.impulses = p.impulses;
         }
+    }
+}
+
+/// The joint's motor row along `row`, if it has a motor; returns |delta lambda|.
+fn motor_row(sw: &Sweep, pair: &mut Pair, j: &Joint, row: &Jac, l: &mut [f32; SLOTS]) -> f32 {
+    match j.motor {
+        Some(m) => sw.motor(pair, row, m.speed, m.max_force, &mut l[slot::MOTOR]),
+        None => 0.0,
     }
 }
 
