@@ -38,6 +38,8 @@ pub struct Body {
     pub friction: f32,
     pub restitution: f32,
     pub color: Option<Color>,
+    /// Which other bodies it may touch.
+    pub filter: crate::defs::Filter,
     /// Force (N) accumulated for the next step by [`crate::World::apply_force`]; cleared by the step.
     pub force: Vec2,
     /// Torque (N m) accumulated for the next step.

@@ -66,6 +66,44 @@ pub struct BodyDef {
     pub restitution: f32,
     /// Drawing colour; `None` lets the renderer choose.
     pub color: Option<Color>,
+    /// Which other bodies it may touch.
+    pub filter: Filter,
+}
+
+/// Collision filtering, Box2D's rule: two bodies of the same non-zero group always
+/// collide when the group is positive and never when it is negative; otherwise each
+/// body's category must be in the other's mask. A filtered pair never reaches the
+/// narrow phase. The default (category 1, every bit in the mask, group 0) touches
+/// everything.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Filter {
+    /// The category bits this body belongs to.
+    pub category: u32,
+    /// The categories it collides with.
+    pub mask: u32,
+    /// Same non-zero group: positive always collides, negative never.
+    pub group: i32,
+}
+
+impl Default for Filter {
+    fn default() -> Self {
+        Self {
+            category: 1,
+            mask: u32::MAX,
+            group: 0,
+        }
+    }
+}
+
+impl Filter {
+    /// Whether a body with this filter and one with `other` may touch.
+    #[inline]
+    pub fn collides(&self, other: &Filter) -> bool {
+        if self.group != 0 && self.group == other.group {
+            return self.group > 0;
+        }
+        self.category & other.mask != 0 && other.category & self.mask != 0
+    }
 }
 
 impl Default for BodyDef {
@@ -87,6 +125,7 @@ impl Default for BodyDef {
             friction: 0.6,
             restitution: 0.0,
             color: None,
+            filter: Filter::default(),
         }
     }
 }

@@ -439,6 +439,7 @@ impl World {
             friction: def.friction,
             restitution: def.restitution,
             color: def.color,
+            filter: def.filter,
             force: Vec2::ZERO,
             torque: 0.0,
             correction: Vec2::ZERO,
@@ -656,8 +657,13 @@ impl World {
             self.dynamic.push(b.is_dynamic());
         }
         let no_collide = &self.no_collide;
+        let bodies = &self.bodies;
         self.broad.find_pairs(&self.aabbs, &self.dynamic, |a, b| {
-            no_collide.is_empty() || no_collide.binary_search(&(a.min(b), a.max(b))).is_err()
+            bodies[a as usize]
+                .filter
+                .collides(&bodies[b as usize].filter)
+                && (no_collide.is_empty()
+                    || no_collide.binary_search(&(a.min(b), a.max(b))).is_err())
         });
         clock.lap(Stage::Broad);
 

@@ -426,6 +426,11 @@ pub fn joint_grid(n: usize) -> WorldDef {
                 },
                 shape: ShapeDef::Circle { radius: 0.4 },
                 position: Vec2::new(i as f32, k as f32),
+                // as in Box2D's layout: the circles never touch one another
+                filter: crate::defs::Filter {
+                    group: -1,
+                    ..Default::default()
+                },
                 ..Default::default()
             });
         }

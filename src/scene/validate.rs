@@ -433,6 +433,7 @@ impl Ctx<'_> {
             friction: m.friction,
             restitution: m.restitution,
             color: m.color,
+            filter: Default::default(),
         })
     }
 
