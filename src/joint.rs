@@ -450,6 +450,10 @@ pub(crate) fn angular_correction(
 /// Shifts a body by dx and turns it by dtheta, keeping its rotation in step.
 #[inline]
 pub(crate) fn move_body(b: &mut Body, dx: Vec2, dtheta: f32) {
+    // a static or kinematic body has zero inverse mass, but 0 x NaN is NaN: never touch it
+    if !b.is_dynamic() {
+        return;
+    }
     b.position += dx;
     b.correction += dx;
     b.correction_angle += dtheta;
