@@ -28,6 +28,9 @@ pub struct XpbdPoint {
     pub lambda_t: f32,
     /// Normal relative velocity before the substep's solve (m/s), for restitution.
     pub vn_before: f32,
+    /// The least gap this substep's projection asks for (m): 0, or for an overlap already
+    /// there at the substep's start, that overlap less the push-out speed times h.
+    pub floor: f32,
     /// Which manifold point of which contact it came from (for reporting lambdas).
     pub contact: u32,
     pub index: u8,
@@ -87,7 +90,13 @@ impl XpbdContacts {
 
     /// Records where the bodies are at the start of a substep (after the prediction the
     /// caller does next) and the normal velocities before the solve; resets lambdas.
-    pub fn begin_substep(&mut self, bodies: &[Body]) {
+    ///
+    /// An overlap present at the substep's start is pushed out at no more than
+    /// `max_push_speed` (m/s): the projection asks for gap >= min(0, gap_start + v h).
+    /// Removing a whole overlap in one projection turns it into speed (v += dx / h): three
+    /// boxes started 0.25 m inside one another left at 100 m/s; with the cap (3 m/s) they
+    /// are at rest within 1.5 s.
+    pub fn begin_substep(&mut self, bodies: &[Body], h: f32, max_push_speed: f32) {
         self.prev_rot.clear();
         self.prev_rot
             .extend(bodies.iter().map(|b| (b.position, b.rot)));
@@ -96,6 +105,7 @@ impl XpbdContacts {
             let (ba, bb) = (&bodies[p.a as usize], &bodies[p.b as usize]);
             p.vn_before =
                 (bb.velocity_at(bb.position + g.rb) - ba.velocity_at(ba.position + g.ra)).dot(g.n);
+            p.floor = (g.gap + max_push_speed * h).min(0.0);
             p.lambda_n = 0.0;
             p.lambda_t = 0.0;
         }
@@ -109,14 +119,14 @@ impl XpbdContacts {
         let mut deepest = 0.0f32;
         for p in &mut self.points {
             let g = geometry(p, bodies);
-            if g.gap >= 0.0 {
+            if g.gap >= p.floor {
                 continue;
             }
             deepest = deepest.max(-g.gap);
             let (a, b) = (p.a as usize, p.b as usize);
             let mut dl = 0.0;
             let now = [g.ra, g.rb, g.n];
-            linear_correction(bodies, a, b, now, now, g.gap, 0.0, &mut dl);
+            linear_correction(bodies, a, b, now, now, g.gap - p.floor, 0.0, &mut dl);
             p.lambda_n += dl.max(0.0);
             // static friction: the relative tangential motion of the points this substep
             let g = geometry(p, bodies);

@@ -43,7 +43,7 @@ impl Stepper for XpbdStepper {
         for _ in 0..n {
             world.integrate_velocities(h);
             clock.lap(Stage::Forces);
-            self.xpbd.begin_substep(&world.bodies);
+            self.xpbd.begin_substep(&world.bodies, h, s.max_push_speed);
             // predict: x += h v, theta += h w
             for b in &mut world.bodies {
                 if b.body_type == BodyType::Static {
