@@ -489,7 +489,8 @@ fn a_joint_grid_stays_finite_under_every_solver() {
         let mut w = joint_grid(30, kind);
         let mut worst = 0.0f32;
         for step in 1..=500 {
-            w.step().unwrap_or_else(|e| panic!("{kind:?} step {step}: {e}"));
+            w.step()
+                .unwrap_or_else(|e| panic!("{kind:?} step {step}: {e}"));
             worst = worst.max(w.joint_error());
         }
         eprintln!("{kind:?}: 30x30 joint grid, largest stretch {worst:.4} m over 500 steps");
