@@ -170,7 +170,7 @@ fn servo_holds_its_target_against_gravity() {
         let mut w = builtin("joints", kind);
         run(&mut w, 3.0);
         let arm = id(&w, "servo_arm");
-        let err = (w.bodies[arm].angle - 0.523599).abs();
+        let err = (w.bodies[arm].angle - std::f32::consts::FRAC_PI_6).abs();
         eprintln!("{kind:?}: servo error {err:.2e} rad");
         assert!(err <= 0.01, "{kind:?}: {err}");
     }
