@@ -145,6 +145,8 @@ fn convex_hull(points: &[Vec2]) -> Vec<Vec2> {
 }
 
 /// A collision shape in the body frame, centred so the body origin is the centre of mass.
+// Kept inline (Copy, no box): a polygon is the common case and the solvers read it hot.
+#[allow(clippy::large_enum_variant)]
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Shape {
     Circle { radius: f32 },

@@ -172,10 +172,10 @@ pub fn run(
         ]) {
             *acc += v as f64;
         }
-        if let Some(tr) = trace.as_mut() {
-            if k % tr.every.max(1) == 0 {
-                write_trace_rows(tr.out, world)?;
-            }
+        if let Some(tr) = trace.as_mut()
+            && k % tr.every.max(1) == 0
+        {
+            write_trace_rows(tr.out, world)?;
         }
         on_step(k);
     }

@@ -216,23 +216,23 @@ impl World {
         if a == b {
             return bad(format!("joins body {:?} to itself", self.bodies[a].name));
         }
-        if let Some([lo, hi]) = def.limits {
-            if !(lo <= hi) {
-                return bad(format!("limits min {lo} > max {hi}"));
-            }
+        if let Some([lo, hi]) = def.limits
+            && !(lo <= hi)
+        {
+            return bad(format!("limits min {lo} > max {hi}"));
         }
-        if let Some(ax) = def.axis {
-            if !ax.is_finite() || ax.length() <= 1e-6 {
-                return bad("prismatic axis must have a non-zero length".into());
-            }
+        if let Some(ax) = def.axis
+            && (!ax.is_finite() || ax.length() <= 1e-6)
+        {
+            return bad("prismatic axis must have a non-zero length".into());
         }
         if !(def.compliance >= 0.0) || !def.compliance.is_finite() {
             return bad(format!("compliance must be >= 0, got {}", def.compliance));
         }
-        if let Some(l) = def.length {
-            if !(l >= 0.0) || !l.is_finite() {
-                return bad(format!("length must be >= 0, got {l}"));
-            }
+        if let Some(l) = def.length
+            && (!(l >= 0.0) || !l.is_finite())
+        {
+            return bad(format!("length must be >= 0, got {l}"));
         }
         let finite = [def.anchor, def.axis]
             .iter()
@@ -398,8 +398,8 @@ impl World {
                     ),
                 ));
             }
-            if !particle
-                && !(md.inertia.is_finite() && md.inertia > 0.0 && (1.0 / md.inertia).is_finite())
+            if !(particle
+                || (md.inertia.is_finite() && md.inertia > 0.0 && (1.0 / md.inertia).is_finite()))
             {
                 return Err(derived(
                     blame,
@@ -507,11 +507,11 @@ impl World {
 
     /// Applies a force (N) at a world point for the next step only (the mouse's force emitter).
     pub fn apply_force(&mut self, body: BodyId, force: Vec2, world_point: Vec2) {
-        if let Some(b) = self.bodies.get_mut(body) {
-            if b.is_dynamic() {
-                b.force += force;
-                b.torque += cross(world_point - b.position, force);
-            }
+        if let Some(b) = self.bodies.get_mut(body)
+            && b.is_dynamic()
+        {
+            b.force += force;
+            b.torque += cross(world_point - b.position, force);
         }
     }
 

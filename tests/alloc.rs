@@ -32,11 +32,18 @@ static COUNTING: Counting = Counting;
 
 #[test]
 fn steady_steps_allocate_nothing() {
-    // every solver, on a pile, on joints (the pendulum) and with drag
-    for (kind, name) in SolverKind::ALL
-        .into_iter()
-        .flat_map(|k| [(k, "pyramid"), (k, "pendulum"), (k, "vacuum_vs_fluid")])
-    {
+    // every solver, on a pile, on joints (the pendulum's distance joint; the joints
+    // scene's limits, servo, motor, prismatic and weld; the car's motors on contacts)
+    // and with drag
+    for (kind, name) in SolverKind::ALL.into_iter().flat_map(|k| {
+        [
+            (k, "pyramid"),
+            (k, "pendulum"),
+            (k, "joints"),
+            (k, "car"),
+            (k, "vacuum_vs_fluid"),
+        ]
+    }) {
         let s = SolverSettings::defaults(kind);
         let built = ALLOCS.with(|a| a.get());
         let sc = scene::load(name).unwrap();

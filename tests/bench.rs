@@ -156,11 +156,30 @@ fn both_solvers_run_stacks_and_joints_and_a_build_failure_is_na() {
         steps: 5,
         ..NO_RESIDUAL
     };
-    let xpbd = bench::run_case(&sc, &Setting::xpbd(4), &budget);
-    assert!(matches!(xpbd, Outcome::Ran(_)), "{xpbd:?}");
+    // XPBD on the pyramid: 5 steps from rest, stable, no box deeper than the suite's
+    // overlap bound, and the tracked top box moved no further than a free fall of 5
+    // steps (1/2 g t^2 = 0.035 m).
+    let xpbd = measured(bench::run_case(&sc, &Setting::xpbd(4), &budget));
+    assert_eq!(xpbd.steps, 5);
+    assert!(xpbd.verdict.is_stable(), "{xpbd:?}");
+    assert!(
+        (0.0..0.05).contains(&xpbd.penetration_max),
+        "{}",
+        xpbd.penetration_max
+    );
+    let t = 5.0 / 60.0;
+    assert!(xpbd.drift <= 0.5 * 10.0 * t * t, "{}", xpbd.drift);
+    // PGS on the distance-joint pendulum: the joint holds and the energy is kept
     let pendulum = scene("pendulum");
-    let row = bench::run_case(&pendulum, &Setting::pgs(4, true, true), &budget);
-    assert!(matches!(row, Outcome::Ran(_)), "{row:?}");
+    let row = measured(bench::run_case(
+        &pendulum,
+        &Setting::pgs(4, true, true),
+        &budget,
+    ));
+    assert_eq!(row.steps, 5);
+    assert!(row.verdict.is_stable(), "{row:?}");
+    assert!(row.joint_error < 0.01, "{}", row.joint_error);
+    assert!(row.energy_drift.abs() < 0.01, "{}", row.energy_drift);
     let csv = bench::report::csv(&[bench::Row {
         scene: "pendulum".into(),
         setting: Setting::xpbd(4),

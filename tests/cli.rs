@@ -36,6 +36,7 @@ fn scenes_lists_every_builtin() {
 
 #[test]
 fn simulate_json_has_the_figures() {
+    let started = std::time::Instant::now();
     let out = sandbox2d()
         .args([
             "simulate",
@@ -61,9 +62,21 @@ fn simulate_json_has_the_figures() {
     assert_eq!(v["solver"]["kind"], "soft");
     assert_eq!(v["solver"]["iterations"], 7);
     assert_eq!(v["solver"]["warm_start"], false);
-    for key in ["median", "mean", "p95"] {
-        assert!(v["ms_per_step"][key].as_f64().unwrap() > 0.0);
-    }
+    // The step times are milliseconds of this run: ordered (median <= p95), and the 30
+    // steps' total no longer than the whole process took (a time in the wrong unit, or
+    // one not measured, fails one or the other).
+    let wall_ms = started.elapsed().as_secs_f64() * 1e3;
+    let ms = |key: &str| v["ms_per_step"][key].as_f64().unwrap();
+    assert!(
+        ms("median") > 0.0 && ms("median") <= ms("p95"),
+        "{}",
+        v["ms_per_step"]
+    );
+    assert!(
+        ms("mean") * 30.0 <= wall_ms,
+        "30 steps of {} ms in a process of {wall_ms} ms",
+        ms("mean")
+    );
     assert!(v["contacts"]["max"].as_u64().unwrap() >= 2);
     // the soft step: 8 substeps of 7 soft sweeps and 1 relax sweep, every step
     assert_eq!(v["solver"]["substeps"], 8);
@@ -151,6 +164,7 @@ fn bad_flags_are_refused_with_exit_2() {
 fn bench_writes_csv_markdown_and_plots_quietly() {
     let dir = tmp("bench-out");
     let _ = std::fs::remove_dir_all(&dir);
+    let started = std::time::Instant::now();
     let out = sandbox2d()
         .args(["bench", "--suite", "quick", "--filter", "stack"])
         .args(["--steps", "6", "--repeats", "1", "--out"])
@@ -199,13 +213,21 @@ fn bench_writes_csv_markdown_and_plots_quietly() {
     }
     let stable = header.iter().position(|c| *c == "stable").unwrap();
     let ms = header.iter().position(|c| *c == "ms_per_step").unwrap();
+    // Every row that ran was timed: 6 steps (5 timed) at its ms per step, all 36 rows
+    // together within the run's wall time (a time in the wrong unit fails that).
+    let wall_ms = started.elapsed().as_secs_f64() * 1e3;
+    let mut timed_ms = 0.0;
     for r in &rows {
         assert_eq!(r[0], "stack");
         assert!(["yes", "no"].contains(&r[stable]), "{r:?}");
-        if r[1] == "pgs" {
-            assert!(r[ms].parse::<f64>().unwrap() > 0.0, "{r:?}");
-        }
+        let t: f64 = r[ms].parse().unwrap_or_else(|_| panic!("{r:?}"));
+        assert!(t > 0.0 && t.is_finite(), "{r:?}");
+        timed_ms += 5.0 * t;
     }
+    assert!(
+        timed_ms <= wall_ms,
+        "rows timed {timed_ms} ms in a run of {wall_ms} ms"
+    );
     let md = std::fs::read_to_string(dir.join("results.md")).unwrap();
     assert!(md.contains("## stack") && md.contains("Not dominated"));
     let svg = std::fs::read_to_string(dir.join("stack.svg")).unwrap();

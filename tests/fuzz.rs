@@ -247,7 +247,7 @@ fn mutated_builtin_scenes_load_build_and_run_or_are_refused_with_a_place() {
                 Ok(sc) => {
                     loaded.set(loaded.get() + 1);
                     let flags = sandbox2d::SolverOverrides {
-                        kind: Some(sandbox2d::SolverKind::ALL[solver as usize % 3]),
+                        kind: Some(sandbox2d::SolverKind::ALL[solver % 3]),
                         ..Default::default()
                     };
                     let settings = sc.world.solver.merged(flags).resolve();

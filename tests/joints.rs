@@ -170,7 +170,7 @@ fn servo_holds_its_target_against_gravity() {
         let mut w = builtin("joints", kind);
         run(&mut w, 3.0);
         let arm = id(&w, "servo_arm");
-        let err = (w.bodies[arm].angle - 0.523599).abs();
+        let err = (w.bodies[arm].angle - std::f32::consts::FRAC_PI_6).abs();
         eprintln!("{kind:?}: servo error {err:.2e} rad");
         assert!(err <= 0.01, "{kind:?}: {err}");
     }
@@ -237,22 +237,49 @@ fn hanging_chain_stays_together_under_xpbd() {
 
 #[test]
 fn ball_and_chain_stays_bounded_under_every_solver() {
+    // 40 links of 0.5 m from a static anchor, a 31 kg ball at the end (500:1), released
+    // horizontal. Joints do no work, so the energy may not rise (1% of m g L of the ball
+    // for the arithmetic), and the ball can be no faster than a fall from its start
+    // height to the chain's full (stretched) reach below the anchor.
     for kind in SolverKind::ALL {
         let mut w = builtin("ball_and_chain", kind);
+        let ball = (0..w.bodies.len())
+            .max_by(|&a, &b| w.bodies[a].mass.total_cmp(&w.bodies[b].mass))
+            .unwrap();
+        let g = 10.0f32;
+        let m = w.bodies[ball].mass;
+        let anchor_y = 20.0f32;
+        let y0 = w.bodies[ball].position.y;
+        let reach = w.bodies[ball].position.distance(Vec2::new(0.0, anchor_y));
+        let e0 = w.energy();
+        let slack = 0.01 * (m * g * reach) as f64;
+        // Separation: the soft step and XPBD keep the chain tight (the soft step to Box2D
+        // v3's 0.10 m on its 200:1 chain, XPBD to the extremes suite's 0.05 m bound);
+        // classic PGS stretches under a 500:1 ratio (docs/stability.md: it fails the
+        // chain even at 1:1), held here to a quarter of the chain's 20 m.
+        let max_sep = match kind {
+            SolverKind::Soft => 0.10,
+            SolverKind::Xpbd => 0.05,
+            SolverKind::Pgs => 5.0,
+        };
         let mut worst = 0.0f32;
-        for _ in 0..600 {
+        for k in 0..600 {
             w.step().expect("no NaN");
             worst = worst.max(w.joint_error());
-            let fastest = w
-                .bodies
-                .iter()
-                .map(|b| b.velocity.length())
-                .fold(0.0, f32::max);
-            assert!(fastest < 100.0, "{kind:?}: a body at {fastest} m/s");
+            let e = w.energy();
+            assert!(e - e0 <= slack, "{kind:?} step {k}: energy {e0} -> {e}");
+            // the ball's centre is at most reach + 40 stretched joints below the anchor;
+            // the chain's fall (2.5 kg, 8% of the ball's mass) can add at most 8% to v^2
+            let drop = (y0 - (anchor_y - reach - 40.0 * max_sep)).max(0.0);
+            let v_max = (2.0 * g * drop).sqrt() * 1.1 + 0.1;
+            let v = w.bodies[ball].velocity.length();
+            assert!(
+                v <= v_max,
+                "{kind:?} step {k}: the ball at {v} m/s (> {v_max})"
+            );
         }
         eprintln!("{kind:?}: ball and chain, largest anchor separation {worst:.3} m over 10 s");
-        // the chain is 20 m long: bounded means it never stretches past twice that
-        assert!(worst < 20.0, "{kind:?}: {worst}");
+        assert!(worst <= max_sep, "{kind:?}: {worst} m > {max_sep} m");
     }
 }
 
@@ -293,6 +320,49 @@ fn newtons_cradle_passes_the_speed_on() {
     }
 }
 
+/// An energy scale that does not depend on where the scene sits (E itself is measured
+/// from y = 0, so a scene moved up 1 km would otherwise be allowed a rise 1 km of
+/// potential energy large): the start's kinetic energy plus what gravity can give the
+/// dynamic bodies over the scene's height span (lowest to highest point of any body).
+fn energy_scale(w: &World) -> f64 {
+    let g = w.gravity.map_or(0.0, |g| g.length()) as f64;
+    let (low, high) = w
+        .bodies
+        .iter()
+        .map(|b| b.shape.aabb(&b.transform()))
+        .fold((f32::INFINITY, f32::NEG_INFINITY), |(lo, hi), bb| {
+            (lo.min(bb.min.y), hi.max(bb.max.y))
+        });
+    let span = (high - low) as f64;
+    w.bodies
+        .iter()
+        .filter(|b| b.is_dynamic())
+        .map(|b| b.kinetic_energy() as f64 + b.mass as f64 * g * span)
+        .sum()
+}
+
+/// The most work the joints' drives can do in `seconds`: a velocity motor's power is at
+/// most its torque (force) limit times its target speed; a servo can at most lift its
+/// body's centre by twice its distance from the anchor.
+fn drive_work_bound(w: &World, seconds: f64) -> f64 {
+    let g = w.gravity.map_or(0.0, |g| g.length()) as f64;
+    w.joints()
+        .iter()
+        .map(|j| {
+            let motor = j
+                .motor
+                .map_or(0.0, |m| (m.max_force * m.speed).abs() as f64 * seconds);
+            let b = &w.bodies[j.b];
+            let servo = if j.servo.is_some() {
+                2.0 * b.mass as f64 * g * j.local_b.length() as f64
+            } else {
+                0.0
+            };
+            motor + servo
+        })
+        .sum()
+}
+
 #[test]
 fn every_builtin_scene_runs_ten_seconds_under_every_solver() {
     for &name in sandbox2d::scene::builtin_names() {
@@ -302,20 +372,24 @@ fn every_builtin_scene_runs_ten_seconds_under_every_solver() {
         for kind in SolverKind::ALL {
             let mut w = builtin(name, kind);
             let e0 = w.energy();
-            // energy scale: the start energy's size plus what gravity can give over the
-            // scene's height span
+            let scale = energy_scale(&w);
             let mut e_max = e0;
-            for _ in 0..600 {
+            let steps = 600;
+            for _ in 0..steps {
                 w.step().unwrap_or_else(|e| panic!("{name} {kind:?}: {e}"));
                 e_max = e_max.max(w.energy());
             }
-            let scale = e0.abs().max(1.0);
-            let motors = w.joints().iter().any(|j| j.motor.is_some());
-            let allowed = if motors { 2.0 } else { 0.1 };
-            eprintln!("{name} {kind:?}: E0 {e0:.2}, max {e_max:.2}");
+            // Without drives no joint or contact does work: E may not rise beyond a 10%
+            // numerical allowance of the scale; drives add at most the work they can do.
+            let seconds = steps as f64 * w.settings.dt as f64;
+            let allowed = 0.1 * scale + drive_work_bound(&w, seconds);
+            eprintln!(
+                "{name} {kind:?}: E0 {e0:.2}, max {e_max:.2} (rise {:.2}, allowed {allowed:.2})",
+                e_max - e0
+            );
             assert!(
-                e_max.is_finite() && e_max <= e0 + allowed * scale,
-                "{name} {kind:?}: energy {e0} -> max {e_max}"
+                e_max.is_finite() && e_max - e0 <= allowed,
+                "{name} {kind:?}: energy {e0} -> max {e_max}, allowed rise {allowed}"
             );
         }
     }
@@ -393,9 +467,18 @@ fn angular_damping_slows_the_relative_spin() {
         let mut w = wheel(kind, "damping = { angular = 2.0 }");
         run(&mut w, 1.0);
         let omega = w.bodies[1].angular_velocity;
-        // removing min(h c, 1) of it per (sub)step: omega ~ 3 exp(-c t), 3 e^-2 = 0.406
-        eprintln!("{kind:?}: damped spin after 1 s {omega:.4} (3 e^-2 = 0.406)");
-        assert!(omega > 0.35 && omega < 0.45, "{kind:?}: {omega}");
+        // Each (sub)step removes the fraction min(h c, 1) of the spin (the hinge sits at
+        // the centre of mass, so nothing else acts on it): after N (sub)steps of h,
+        // omega = 3 (1 - h c)^N, the step-by-step form of 3 exp(-c t) (0.3925 for PGS's
+        // 60 steps of 1/60 s, 0.4053 for XPBD's 1200 substeps; 3 e^-2 = 0.406).
+        let n = (1.0 / w.settings.dt).round() as i32 * w.settings.substeps.max(1) as i32;
+        let h = (w.settings.dt / w.settings.substeps.max(1) as f32) as f64;
+        let expected = 3.0 * (1.0 - (h * 2.0).min(1.0)).powi(n);
+        eprintln!("{kind:?}: damped spin after 1 s {omega:.5}, closed form {expected:.5}");
+        assert!(
+            (omega as f64 - expected).abs() <= 1e-3 * expected,
+            "{kind:?}: {omega} vs {expected}"
+        );
     }
 }
 

@@ -49,12 +49,37 @@ fn window_opens_under_xvfb_and_draws_the_scene() {
         .unwrap_or_else(|e| panic!("{}: {e}\n{stdout}\n{stderr}", shot.display()))
         .to_rgba8();
     assert_eq!(img.dimensions(), (1280, 720), "the window's size in pixels");
-    let mut colours: Vec<[u8; 4]> = img.pixels().map(|p| p.0).collect();
+    // The world area: right of the side panel (260 points wide at 1 pixel a point,
+    // on the left), so the panel's own widgets and text cannot make a blank world pass.
+    let world_x0 = 400;
+    let world: Vec<[u8; 4]> = img
+        .enumerate_pixels()
+        .filter(|(x, _, _)| *x >= world_x0)
+        .map(|(_, _, p)| p.0)
+        .collect();
+    let mut colours = world.clone();
     colours.sort_unstable();
     colours.dedup();
     assert!(
         colours.len() >= 8,
-        "only {} distinct colours: a blank frame?",
+        "only {} distinct colours right of x = {world_x0}: a blank world?",
         colours.len()
+    );
+    // The pyramid covers a good part of it: at least 5% of the world area's pixels are
+    // not the most common colour (the background).
+    let mut counts = std::collections::HashMap::new();
+    for p in &world {
+        *counts.entry(*p).or_insert(0usize) += 1;
+    }
+    let background = counts
+        .iter()
+        .max_by_key(|(_, n)| **n)
+        .map(|(c, _)| *c)
+        .unwrap();
+    let drawn = world.iter().filter(|p| **p != background).count();
+    assert!(
+        drawn * 20 >= world.len(),
+        "only {drawn} of {} world-area pixels differ from the background {background:?}",
+        world.len()
     );
 }

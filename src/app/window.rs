@@ -525,12 +525,12 @@ impl App {
 
     /// The drag spring and the emitter's ring, over the world.
     fn push_tools(&mut self) {
-        if let Some(d) = self.session.drag {
-            if let Some(b) = self.session.world.bodies.get(d.body) {
-                let p = b.position + b.rot.rotate(d.local_point);
-                self.list.push_line(p, d.target, 1.5, TOOL_COLOR);
-                self.list.push_line(p, p, 6.0, TOOL_COLOR);
-            }
+        if let Some(d) = self.session.drag
+            && let Some(b) = self.session.world.bodies.get(d.body)
+        {
+            let p = b.position + b.rot.rotate(d.local_point);
+            self.list.push_line(p, d.target, 1.5, TOOL_COLOR);
+            self.list.push_line(p, p, 6.0, TOOL_COLOR);
         }
         if let Some(e) = self.session.emitter {
             self.list
@@ -553,11 +553,8 @@ impl App {
         match (button, pressed) {
             (MouseButton::Left, true) if shift => self.session.spawn(SpawnKind::Circle, at),
             (MouseButton::Left, true) if ctrl => self.session.spawn(SpawnKind::Box, at),
-            (MouseButton::Left, true) => {
-                if !self.session.grab(at) {
-                    self.mouse.panning = true;
-                }
-            }
+            (MouseButton::Left, true) if !self.session.grab(at) => self.mouse.panning = true,
+            (MouseButton::Left, true) => {}
             (MouseButton::Left, false) => {
                 self.session.drag = None;
                 self.mouse.panning = false;

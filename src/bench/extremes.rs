@@ -18,6 +18,37 @@ use crate::world::World;
 pub const MAX_PENETRATION: f32 = 0.05;
 /// The PGS slop (m): a resting contact may sit this deep.
 const SLOP: f32 = 0.005;
+/// A value holds only when every measure clears its bound by this fraction, and fails
+/// only when one exceeds its bound by as much; within it either way the case is
+/// [`CaseResult::Marginal`]: a verdict a small change of arithmetic could flip.
+pub const MARGIN: f64 = 0.1;
+
+/// Where a measure stands against its bound: clear (<= (1 - MARGIN) bound), beyond
+/// (> (1 + MARGIN) bound, or NaN), or marginal between.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord)]
+enum Standing {
+    Clear,
+    Marginal,
+    Beyond,
+}
+
+fn standing_of(measured: f64, bound: f64) -> Standing {
+    if measured <= (1.0 - MARGIN) * bound {
+        Standing::Clear
+    } else if measured <= (1.0 + MARGIN) * bound {
+        Standing::Marginal
+    } else {
+        Standing::Beyond
+    }
+}
+
+/// The message of a marginal measure.
+fn marginal(what: &str, measured: f64, bound: f64) -> CaseResult {
+    CaseResult::Marginal(format!(
+        "marginal: {what} {measured:.3} m within {:.0}% of its bound {bound:.3} m",
+        MARGIN * 100.0
+    ))
+}
 
 /// One thing swept.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -227,15 +258,28 @@ pub fn settings(sweep: Sweep) -> Vec<ExSetting> {
 /// How one case came out.
 #[derive(Clone, Debug, PartialEq)]
 pub enum CaseResult {
-    /// Stable and accurate; what was measured.
+    /// Stable and accurate, every measure clear of its bound by [`MARGIN`]; what was
+    /// measured.
     Held(String),
-    /// Why not.
+    /// Within [`MARGIN`] of a bound (either side), none beyond: neither a hold nor a
+    /// failure can be claimed. Starts "marginal:".
+    Marginal(String),
+    /// Why not: starts "unstable:", "inaccurate:" or "tunnelled:".
     Failed(String),
 }
 
 impl CaseResult {
     pub fn held(&self) -> bool {
         matches!(self, CaseResult::Held(_))
+    }
+
+    /// The kind of a result that did not hold: the word before the first ':' of its
+    /// reason ("unstable", "inaccurate", "tunnelled", "marginal"); `None` when it held.
+    pub fn kind(&self) -> Option<&str> {
+        match self {
+            CaseResult::Held(_) => None,
+            CaseResult::Marginal(why) | CaseResult::Failed(why) => why.split(':').next(),
+        }
     }
 }
 
@@ -439,8 +483,8 @@ fn steps_for(world: &World, seconds: f64) -> u64 {
 }
 
 /// A stack-like run: the top body may move at most `tol` (m) (else it fell: unstable),
-/// and overlap stays below [`MAX_PENETRATION`] (else inaccurate); returns (top
-/// movement, deepest overlap).
+/// and overlap stays below [`MAX_PENETRATION`] (else inaccurate), each by [`MARGIN`]
+/// (else marginal); returns (top movement, deepest overlap).
 fn standing(world: &mut World, seconds: f64, tol: f32) -> Result<(f32, f32), CaseResult> {
     let top = top_index(world);
     let p0 = world.bodies[top].position;
@@ -450,13 +494,16 @@ fn standing(world: &mut World, seconds: f64, tol: f32) -> Result<(f32, f32), Cas
     drive(world, steps, |w, k| {
         let pen = w.stats().penetration;
         deepest = deepest.max(pen);
-        if pen > MAX_PENETRATION && first_deep.is_none() {
+        if standing_of(pen as f64, MAX_PENETRATION as f64) == Standing::Beyond
+            && first_deep.is_none()
+        {
             first_deep = Some(k);
         }
         Ok(())
     })?;
     let moved = (world.bodies[top].position - p0).length();
-    if !(moved <= tol) {
+    let top_standing = standing_of(moved as f64, tol as f64);
+    if top_standing == Standing::Beyond {
         return Err(CaseResult::Failed(format!(
             "unstable: top body moved {moved:.3} m (> {tol:.3} m)"
         )));
@@ -465,6 +512,12 @@ fn standing(world: &mut World, seconds: f64, tol: f32) -> Result<(f32, f32), Cas
         return Err(CaseResult::Failed(format!(
             "inaccurate: overlap {deepest:.3} m > {MAX_PENETRATION} m (from step {k}), top moved {moved:.3} m"
         )));
+    }
+    if top_standing == Standing::Marginal {
+        return Err(marginal("top body moved", moved as f64, tol as f64));
+    }
+    if standing_of(deepest as f64, MAX_PENETRATION as f64) == Standing::Marginal {
+        return Err(marginal("overlap", deepest as f64, MAX_PENETRATION as f64));
     }
     Ok((moved, deepest))
 }
@@ -481,7 +534,7 @@ fn run_case(sweep: Sweep, value: f64, world: &mut World) -> Result<String, CaseR
             drive(world, steps, |w, k| {
                 if let Some(e) = joint_error(w) {
                     worst = Some(worst.unwrap_or(0.0).max(e));
-                    if e > 0.05 {
+                    if standing_of(e as f64, 0.05) == Standing::Beyond {
                         return Err(format!(
                             "inaccurate: joint separation {e:.3} m > 0.05 m at step {k}"
                         ));
@@ -489,10 +542,13 @@ fn run_case(sweep: Sweep, value: f64, world: &mut World) -> Result<String, CaseR
                 }
                 Ok(())
             })?;
-            Ok(match worst {
-                Some(e) => format!("joint separation {e:.4} m"),
-                None => "finite (joint error not measured in this build)".into(),
-            })
+            match worst {
+                Some(e) if standing_of(e as f64, 0.05) == Standing::Marginal => {
+                    Err(marginal("joint separation", e as f64, 0.05))
+                }
+                Some(e) => Ok(format!("joint separation {e:.4} m")),
+                None => Ok("finite (joint error not measured in this build)".into()),
+            }
         }
         Sweep::TimeStep => {
             let (moved, pen) = standing(world, 3.0, 0.15)?;
@@ -513,10 +569,19 @@ fn run_case(sweep: Sweep, value: f64, world: &mut World) -> Result<String, CaseR
                 .iter()
                 .map(|b| b.velocity.length())
                 .fold(0.0f32, f32::max);
-            if !(fastest <= 0.05) {
-                return Err(CaseResult::Failed(format!(
-                    "unstable: not at rest, a box ends at {fastest:.3} m/s"
-                )));
+            match standing_of(fastest as f64, 0.05) {
+                Standing::Beyond => {
+                    return Err(CaseResult::Failed(format!(
+                        "unstable: not at rest, a box ends at {fastest:.3} m/s"
+                    )));
+                }
+                Standing::Marginal => {
+                    return Err(CaseResult::Marginal(format!(
+                        "marginal: a box ends at {fastest:.3} m/s, within {:.0}% of the 0.05 m/s bound",
+                        MARGIN * 100.0
+                    )));
+                }
+                Standing::Clear => {}
             }
             Ok(format!(
                 "top moved {moved:.4} m, overlap {pen:.4} m, fastest {fastest:.4} m/s"
@@ -526,8 +591,13 @@ fn run_case(sweep: Sweep, value: f64, world: &mut World) -> Result<String, CaseR
             let ball = world.body_index("ball").unwrap_or(1);
             let steps = steps_for(world, 1.0 / value + 0.5);
             let face = -0.01f32;
+            // the centre stops a radius (0.05 m) short of the face; it holds while it
+            // stays short of the face by more than MARGIN of a radius
+            let radius = 0.05f64;
+            let mut furthest = f32::NEG_INFINITY;
             drive(world, steps, |w, k| {
                 let x = w.bodies[ball].position.x;
+                furthest = furthest.max(x);
                 if x > face {
                     return Err(format!(
                         "tunnelled: its centre passed the wall's face at step {k} (x = {x:.3} m)"
@@ -535,6 +605,12 @@ fn run_case(sweep: Sweep, value: f64, world: &mut World) -> Result<String, CaseR
                 }
                 Ok(())
             })?;
+            if ((face - furthest) as f64) < MARGIN * radius {
+                return Err(CaseResult::Marginal(format!(
+                    "marginal: its centre came to {furthest:.4} m, within {:.0}% of a radius of the face",
+                    MARGIN * 100.0
+                )));
+            }
             Ok(format!(
                 "stopped at x = {:.4} m (face at -0.01)",
                 world.bodies[ball].position.x
@@ -555,10 +631,20 @@ fn run_case(sweep: Sweep, value: f64, world: &mut World) -> Result<String, CaseR
             let n = steps as f64;
             let exact = a * h * h * n * (n + 1.0) / 2.0;
             let tol = 0.02 + 0.05 * exact;
-            if !((slid - exact).abs() <= tol) {
-                return Err(CaseResult::Failed(format!(
-                    "inaccurate: slid {slid:.3} m, closed form {exact:.3} m (tolerance {tol:.3} m)"
-                )));
+            match standing_of((slid - exact).abs(), tol) {
+                Standing::Beyond => {
+                    return Err(CaseResult::Failed(format!(
+                        "inaccurate: slid {slid:.3} m, closed form {exact:.3} m (tolerance {tol:.3} m)"
+                    )));
+                }
+                Standing::Marginal => {
+                    return Err(marginal(
+                        &format!("slid {slid:.3} m, closed form {exact:.3} m: error"),
+                        (slid - exact).abs(),
+                        tol,
+                    ));
+                }
+                Standing::Clear => {}
             }
             Ok(format!("slid {slid:.4} m, closed form {exact:.4} m"))
         }
@@ -579,10 +665,20 @@ fn run_case(sweep: Sweep, value: f64, world: &mut World) -> Result<String, CaseR
                 Ok(())
             })?;
             let expect = value * value * DROP;
-            if !((peak - expect).abs() <= 0.1) {
-                return Err(CaseResult::Failed(format!(
-                    "inaccurate: bounced to {peak:.3} m, e^2 h = {expect:.3} m"
-                )));
+            match standing_of((peak - expect).abs(), 0.1) {
+                Standing::Beyond => {
+                    return Err(CaseResult::Failed(format!(
+                        "inaccurate: bounced to {peak:.3} m, e^2 h = {expect:.3} m"
+                    )));
+                }
+                Standing::Marginal => {
+                    return Err(marginal(
+                        &format!("bounced to {peak:.3} m, e^2 h = {expect:.3} m: error"),
+                        (peak - expect).abs(),
+                        0.1,
+                    ));
+                }
+                Standing::Clear => {}
             }
             Ok(format!("bounced to {peak:.4} m, e^2 h = {expect:.4} m"))
         }
@@ -598,15 +694,17 @@ pub struct SweepResult {
 }
 
 impl SweepResult {
-    /// (holds through, first failure with its reason) along the values, easy to hard.
-    /// `None` for holds-through when the first value fails; `None` for the failure when
-    /// every value held.
+    /// (holds through, first failure or marginal value with its reason) along the
+    /// values, easy to hard. `None` for holds-through when the first value does not
+    /// hold; `None` for the failure when every value held.
     pub fn headline(&self) -> (Option<f64>, Option<(f64, String)>) {
         let mut last = None;
         for (v, r) in &self.cases {
             match r {
                 CaseResult::Held(_) => last = Some(*v),
-                CaseResult::Failed(why) => return (last, Some((*v, why.clone()))),
+                CaseResult::Failed(why) | CaseResult::Marginal(why) => {
+                    return (last, Some((*v, why.clone())));
+                }
             }
         }
         (last, None)
@@ -660,7 +758,9 @@ pub fn markdown(results: &[SweepResult]) -> String {
         s,
         "# Stability at the extremes\n\nWritten by `sandbox2d bench --suite extremes`. Each sweep changes one thing, \
          from easy to hard; \"holds through\" is the last value of the leading run that held \
-         (stable and within the bound), \"fails at\" the next value and how it failed. \
+         (stable, and every measure within 90% of its bound), \"fails at\" the next value and how it \
+         failed: \"unstable\" or \"inaccurate\" past 110% of a bound, \"marginal\" within 10% \
+         of one either way (a verdict any change of arithmetic could flip, so neither is claimed). \
          PGS settings are the defaults (tolerance 1e-4, warm start, split impulse, dt 1/60, slop \
          0.005 m, beta 0.2) but for the sweeps they name; \"no split\" is Baumgarte in the \
          velocity rows. `tests/extremes.rs` \
@@ -703,6 +803,7 @@ pub fn markdown(results: &[SweepResult]) -> String {
             for r in &rs {
                 let cell = match r.cases.get(i).map(|c| &c.1) {
                     Some(CaseResult::Held(d)) => format!("held: {d}"),
+                    Some(CaseResult::Marginal(d)) => d.clone(),
                     Some(CaseResult::Failed(d)) => format!("**failed**: {d}"),
                     None => String::new(),
                 };
@@ -715,13 +816,15 @@ pub fn markdown(results: &[SweepResult]) -> String {
     s
 }
 
-/// One claim of the summary table: (sweep, setting label, holds through, fails at).
+/// One claim of the summary table: (sweep, setting label, holds through, fails at, how).
 #[derive(Clone, Debug, PartialEq)]
 pub struct Claim {
     pub sweep: Sweep,
     pub setting: ExSetting,
     pub holds_through: Option<f64>,
     pub fails_at: Option<f64>,
+    /// How it failed ("unstable: ...", "marginal: ..."), or "held at every value".
+    pub how: String,
 }
 
 /// Reads the claims of a stability.md summary table.
@@ -737,7 +840,7 @@ pub fn parse_claims(text: &str) -> Result<Vec<Claim>, String> {
             break;
         }
         let cells: Vec<&str> = line.trim_matches('|').split('|').map(str::trim).collect();
-        if cells.len() < 4 {
+        if cells.len() < 5 {
             return Err(format!("short row: {line}"));
         }
         let sweep = Sweep::from_name(cells[0]).ok_or_else(|| format!("unknown sweep: {line}"))?;
@@ -759,7 +862,70 @@ pub fn parse_claims(text: &str) -> Result<Vec<Claim>, String> {
             setting,
             holds_through: value(cells[2])?,
             fails_at: value(cells[3])?,
+            how: cells[4].to_string(),
         });
+    }
+    Ok(out)
+}
+
+/// One cell of a per-value table: its verdict, as [`CaseResult::kind`] names it
+/// (`None`: held), and its text.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Cell {
+    pub value: f64,
+    pub label: String,
+    pub kind: Option<String>,
+    pub text: String,
+}
+
+/// Reads the per-value table of `sweep` from a stability.md: every cell, row by row.
+pub fn parse_table(text: &str, sweep: Sweep) -> Result<Vec<Cell>, String> {
+    let heading = format!("## {}", sweep.name());
+    let mut lines = text
+        .lines()
+        .skip_while(|l| l.trim() != heading)
+        .skip(1)
+        .skip_while(|l| !l.trim_start().starts_with("| value |"));
+    let header = lines
+        .next()
+        .ok_or_else(|| format!("no table under {heading}"))?;
+    let labels: Vec<&str> = header
+        .trim()
+        .trim_matches('|')
+        .split('|')
+        .map(str::trim)
+        .skip(1)
+        .collect();
+    let mut out = Vec::new();
+    for line in lines.skip(1) {
+        let line = line.trim();
+        if !line.starts_with('|') {
+            break;
+        }
+        let cells: Vec<&str> = line.trim_matches('|').split('|').map(str::trim).collect();
+        let value = sweep
+            .parse_value(cells[0])
+            .ok_or_else(|| format!("bad value: {line}"))?;
+        if cells.len() != labels.len() + 1 {
+            return Err(format!("row of {} cells: {line}", cells.len()));
+        }
+        for (label, cell) in labels.iter().zip(&cells[1..]) {
+            let kind = if cell.starts_with("held: ") {
+                None
+            } else if let Some(rest) = cell.strip_prefix("**failed**: ") {
+                Some(rest.split(':').next().unwrap_or("").to_string())
+            } else if cell.starts_with("marginal: ") {
+                Some("marginal".to_string())
+            } else {
+                return Err(format!("cell without a verdict: {cell}"));
+            };
+            out.push(Cell {
+                value,
+                label: label.to_string(),
+                kind,
+                text: cell.to_string(),
+            });
+        }
     }
     Ok(out)
 }
@@ -796,5 +962,53 @@ mod tests {
         assert_eq!(claims.len(), 1);
         assert_eq!(claims[0].holds_through, Some(10.0));
         assert_eq!(claims[0].fails_at, Some(20.0));
+        assert_eq!(claims[0].how, "fell");
+    }
+
+    #[test]
+    fn a_measure_within_the_margin_of_its_bound_is_marginal() {
+        // the knife edges stability.md claimed before margins: 0.103 m against 0.100 m,
+        // 0.050 against 0.05
+        assert_eq!(standing_of(0.103, 0.1), Standing::Marginal);
+        assert_eq!(standing_of(0.050, 0.05), Standing::Marginal);
+        assert_eq!(standing_of(0.0459, 0.05), Standing::Marginal);
+        assert_eq!(standing_of(0.0449, 0.05), Standing::Clear);
+        assert_eq!(standing_of(0.111, 0.1), Standing::Beyond);
+        assert_eq!(standing_of(f64::NAN, 0.1), Standing::Beyond);
+        // a marginal value ends the leading run, and the tables name it
+        let r = SweepResult {
+            sweep: Sweep::MassRatio,
+            setting: settings(Sweep::MassRatio)[0],
+            cases: vec![
+                (1.0, CaseResult::Held("a".into())),
+                (10.0, marginal("top body moved", 0.103, 0.1)),
+                (100.0, CaseResult::Held("b".into())),
+                (1e3, CaseResult::Failed("unstable: fell".into())),
+                (1e4, CaseResult::Failed("inaccurate: deep".into())),
+            ],
+        };
+        let (held, fail) = r.headline();
+        assert_eq!(held, Some(1.0));
+        let (at, why) = fail.unwrap();
+        assert_eq!(at, 10.0);
+        assert!(why.starts_with("marginal: "), "{why}");
+        let md = markdown(std::slice::from_ref(&r));
+        let cells = parse_table(&md, Sweep::MassRatio).unwrap();
+        let kinds: Vec<Option<&str>> = cells.iter().map(|c| c.kind.as_deref()).collect();
+        assert_eq!(
+            kinds,
+            [
+                None,
+                Some("marginal"),
+                None,
+                Some("unstable"),
+                Some("inaccurate")
+            ]
+        );
+        assert_eq!(r.cases[1].1.kind(), Some("marginal"));
+        assert_eq!(
+            CaseResult::Failed("unstable: fell".into()).kind(),
+            Some("unstable")
+        );
     }
 }

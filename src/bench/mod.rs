@@ -376,6 +376,9 @@ fn median(v: &mut [f64]) -> f64 {
 }
 
 /// Builds a world for a scene description at a setting.
+// The error is the row's outcome itself, built once per scene and setting: its size
+// does not matter.
+#[allow(clippy::result_large_err)]
 pub fn build(def: &WorldDef, setting: &Setting) -> Result<World, Outcome> {
     let settings = setting.resolve(&def.solver);
     World::from_def(def, settings).map_err(|e| Outcome::Failed(e.to_string()))

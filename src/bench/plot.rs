@@ -21,10 +21,13 @@ fn color(f: Family) -> RGBColor {
 /// One point: (ms per step, error, stable, count).
 type Point = (f64, f64, bool, u32);
 
+/// Each family's points for a scene.
+type Series = Vec<(Family, Vec<Point>)>;
+
 /// The points of each family for a scene, errors below `floor` lifted to it (a log
 /// scale has no 0). `None` when no row of the scene ran.
-pub fn series(scene: &BenchScene, rows: &[Row]) -> Option<(Vec<(Family, Vec<Point>)>, f64)> {
-    let mut out: Vec<(Family, Vec<Point>)> = Vec::new();
+pub fn series(scene: &BenchScene, rows: &[Row]) -> Option<(Series, f64)> {
+    let mut out: Series = Vec::new();
     for fam in Family::ALL {
         let mut pts: Vec<Point> = rows
             .iter()

@@ -381,27 +381,6 @@ pub const MODEL_PAIRS: &[(&str, &str, &str)] = &[
     ),
 ];
 
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn every_bench_scene_loads_and_has_a_unique_name() {
-        let all = suite(Suite::Standard);
-        let mut names: Vec<&str> = all.iter().map(|s| s.name.as_str()).collect();
-        names.sort_unstable();
-        let n = names.len();
-        names.dedup();
-        assert_eq!(names.len(), n);
-        for s in &all {
-            assert!(!s.def.bodies.is_empty(), "{}", s.name);
-        }
-        for (a, b, _) in MODEL_PAIRS {
-            assert!(all.iter().any(|s| s.name == *a) && all.iter().any(|s| s.name == *b));
-        }
-    }
-}
-
 /// Box2D's joint grid benchmark layout: n x n circles of radius 0.4 at 1 m spacing
 /// (row k at y = k), each hinged to its left and lower neighbours (2 n (n - 1) hinges),
 /// 7 static anchors in the middle of the top row, gravity 10. Neighbours are 0.2 m
@@ -466,4 +445,25 @@ pub fn joint_grid(n: usize) -> WorldDef {
         }
     }
     def
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn every_bench_scene_loads_and_has_a_unique_name() {
+        let all = suite(Suite::Standard);
+        let mut names: Vec<&str> = all.iter().map(|s| s.name.as_str()).collect();
+        names.sort_unstable();
+        let n = names.len();
+        names.dedup();
+        assert_eq!(names.len(), n);
+        for s in &all {
+            assert!(!s.def.bodies.is_empty(), "{}", s.name);
+        }
+        for (a, b, _) in MODEL_PAIRS {
+            assert!(all.iter().any(|s| s.name == *a) && all.iter().any(|s| s.name == *b));
+        }
+    }
 }

@@ -134,13 +134,13 @@ pub fn fill_world_draw_list(list: &mut DrawList, world: &World, overlays: &Overl
             .iter()
             .map(|j| j.world_anchors(&world.bodies)),
     );
-    if let Some(m) = world.mouse() {
-        if let Some(b) = world.bodies.get(m.body) {
-            push_joint_lines(
-                list,
-                std::iter::once((b.position + b.rot.rotate(m.local), m.target)),
-            );
-        }
+    if let Some(m) = world.mouse()
+        && let Some(b) = world.bodies.get(m.body)
+    {
+        push_joint_lines(
+            list,
+            std::iter::once((b.position + b.rot.rotate(m.local), m.target)),
+        );
     }
     if overlays.aabbs {
         push_aabbs(list, world);

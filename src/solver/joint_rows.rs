@@ -668,11 +668,11 @@ pub fn xpbd_velocity_pass(
             r.joint = ji as u32;
             r.solve(bodies);
         }
-        if j.damping.linear > 0.0 {
-            if let Some(r) = axis_row {
-                rows.damping
-                    .push((equality(r, bodies, 0.0, 0.0, 0.0, h), j.damping.linear));
-            }
+        if j.damping.linear > 0.0
+            && let Some(r) = axis_row
+        {
+            rows.damping
+                .push((equality(r, bodies, 0.0, 0.0, 0.0, h), j.damping.linear));
         }
         if j.damping.angular > 0.0 && j.kind != JointKind::Distance {
             rows.damping.push((

@@ -349,6 +349,7 @@ impl PgsSolver {
                         let mut uv = PairVel::load_pseudo(&self.bodies, &self.impact, c.a, c.b);
                         let mut q = [0.0f32; 2];
                         for _ in 0..INNER {
+                            #[allow(clippy::needless_range_loop)] // i indexes q and c.points
                             for i in 0..count {
                                 if !gapped(i) {
                                     continue;

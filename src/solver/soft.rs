@@ -33,6 +33,47 @@ use crate::defs::SolverSettings;
 use crate::math::{Rot, Vec2, cross, cross_sv};
 use glam::Vec4;
 
+/// Test hooks, per thread (tests running side by side do not see each other's): which
+/// build of the sweeps runs, and whether lanes are packed. Not for use outside tests.
+#[doc(hidden)]
+pub mod testing {
+    use std::cell::Cell;
+
+    thread_local! {
+        pub(super) static FORCE_SSE: Cell<bool> = const { Cell::new(false) };
+        pub(super) static ONE_LANE: Cell<bool> = const { Cell::new(false) };
+    }
+
+    /// `true`: the sweeps and the warm start run their SSE build even on a CPU with AVX2.
+    pub fn force_sse(on: bool) {
+        FORCE_SSE.with(|c| c.set(on));
+    }
+
+    /// `true`: every contact gets a wide constraint of its own (lane 0, the rest empty),
+    /// as the overflow colour does: a one-by-one solve, colour by colour, in the order
+    /// the packed lanes take.
+    pub fn one_lane(on: bool) {
+        ONE_LANE.with(|c| c.set(on));
+    }
+
+    /// Whether this CPU runs the AVX2 build by default.
+    pub fn avx2_detected() -> bool {
+        #[cfg(target_arch = "x86_64")]
+        {
+            std::arch::is_x86_feature_detected!("avx2")
+        }
+        #[cfg(not(target_arch = "x86_64"))]
+        {
+            false
+        }
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    pub(super) fn use_avx2() -> bool {
+        avx2_detected() && !FORCE_SSE.with(Cell::get)
+    }
+}
+
 /// A body's state during the soft step: velocities and the motion since collide.
 #[derive(Clone, Copy, Debug)]
 #[repr(C, align(32))]
@@ -363,6 +404,7 @@ impl SoftSolver {
         self.body_colors.clear();
         self.body_colors.resize(nb, 0);
         self.colors.clear();
+        let one_lane = testing::ONE_LANE.with(std::cell::Cell::get);
         let mut counts = [0u32; OVERFLOW + 1];
         for c in contacts {
             let (a, b) = (c.a as usize, c.b as usize);
@@ -392,7 +434,7 @@ impl SoftSolver {
         let mut acc = 0u32;
         for (color, (nx, &n)) in next.iter_mut().zip(&counts).enumerate() {
             *nx = acc;
-            acc += if color == OVERFLOW {
+            acc += if color == OVERFLOW || one_lane {
                 4 * n
             } else {
                 n.div_ceil(4) * 4
@@ -427,7 +469,11 @@ impl SoftSolver {
         self.slot.clear();
         for (c, &color) in contacts.iter().zip(&self.colors) {
             let at = next[color as usize];
-            next[color as usize] += if color as usize == OVERFLOW { 4 } else { 1 };
+            next[color as usize] += if color as usize == OVERFLOW || one_lane {
+                4
+            } else {
+                1
+            };
             self.slot.push(at);
             let (wi, k) = ((at / 4) as usize, (at % 4) as usize);
             let (w, cold) = (&mut self.wide[wi], &mut self.cold[wi]);
@@ -528,7 +574,7 @@ impl SoftSolver {
     /// Applies the accumulated lambdas (the last substep's impulses).
     pub fn warm_start(&mut self) {
         #[cfg(target_arch = "x86_64")]
-        if std::arch::is_x86_feature_detected!("avx2") {
+        if testing::use_avx2() {
             // SAFETY: the CPU has AVX2.
             return unsafe { self.warm_start_avx2() };
         }
@@ -570,7 +616,7 @@ impl SoftSolver {
     /// rigid rows that only remove approach speed (relax). Returns max |delta lambda|.
     pub fn sweep<const BIAS: bool>(&mut self) -> f32 {
         #[cfg(target_arch = "x86_64")]
-        if std::arch::is_x86_feature_detected!("avx2") {
+        if testing::use_avx2() {
             // SAFETY: the CPU has AVX2.
             return unsafe { self.sweep_avx2::<BIAS>() };
         }
@@ -774,6 +820,12 @@ impl SoftSolver {
     /// Colours in use (the overflow group counts as one), for tests and figures.
     pub fn color_count(&self) -> usize {
         self.colors_used
+    }
+
+    /// Wide (four-lane) constraints in this step's layout (for tests).
+    #[doc(hidden)]
+    pub fn wide_count(&self) -> usize {
+        self.wide.len()
     }
 }
 

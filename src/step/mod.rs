@@ -1,6 +1,6 @@
 //! The solvers' common shape. Each [`SolverKind`] is one [`Stepper`]: it owns its
 //! scratch, and its `step` is the order of stages and nothing else, calling the shared
-//! stages on the world ([`World::collide`], [`World::integrate_velocities`]) and its own
+//! stages on the world (`World::collide`, `World::integrate_velocities`) and its own
 //! kernels in `crate::solver`. The world owns the state (bodies, joints, contacts).
 //!
 //! Adding a solver: a file here with a type that implements [`Stepper`], its kernels
