@@ -737,3 +737,177 @@ fn a_resting_stack_hits_the_contact_cache_every_time() {
         }
     }
 }
+
+/// A scene text under the given solver kind with the scene's own settings.
+fn scene_world(text: &str, kind: sandbox2d::SolverKind) -> World {
+    let sc = sandbox2d::scene::load_str(text, "test.toml").expect("parses");
+    let settings = sandbox2d::SolverOverrides {
+        kind: Some(kind),
+        ..sc.world.solver
+    }
+    .resolve();
+    World::from_def(&sc.world, settings).expect("builds")
+}
+
+/// The largest distance any body gets from where it started, over `seconds`.
+fn largest_displacement(w: &mut World, seconds: f32) -> f32 {
+    let start: Vec<Vec2> = w.bodies.iter().map(|b| b.position).collect();
+    let mut worst = 0.0f32;
+    for _ in 0..(seconds / w.settings.dt).round() as usize {
+        w.step().expect("finite");
+        for (b, s) in w.bodies.iter().zip(&start) {
+            worst = worst.max(b.position.distance(*s));
+        }
+    }
+    worst
+}
+
+fn stack_text(count: u32) -> String {
+    format!(
+        r#"name = "stack"
+[world]
+gravity = [0.0, -10.0]
+[[body]]
+name = "ground"
+type = "static"
+shape = {{ box = [40.0, 1.0] }}
+position = [0.0, -0.5]
+[[stack]]
+count = {count}
+"#
+    )
+}
+
+#[test]
+fn tall_stacks_stand_under_the_default_solver() {
+    // Issue 11's bar: 20 and 30 boxes of 1 m within 0.5 m for 10 s, 40 within 1 m (Box2D
+    // v3 holds 30: its top sinks 0.31 m). Measured with slop 0.001: 0.03, 0.05, 0.17 m.
+    // At the old slop (0.005 m of spring-free play per contact) the 40 swayed 1.16 m.
+    let kind = sandbox2d::SolverSettings::default().kind;
+    for (count, bound) in [(20, 0.5), (30, 0.5), (40, 1.0)] {
+        let mut w = scene_world(&stack_text(count), kind);
+        let worst = largest_displacement(&mut w, 10.0);
+        eprintln!("{kind:?}: stack of {count}, largest displacement {worst:.3} m");
+        assert!(worst <= bound, "stack of {count}: {worst} m > {bound} m");
+    }
+}
+
+#[test]
+fn the_builtin_stack_stands() {
+    // every box of the built-in 15-box stack stays within 0.1 m over 10 s (it used to lie
+    // on the ground by 7.5 s)
+    let sc = sandbox2d::scene::load("stack").expect("built-in");
+    let mut w = World::from_def(&sc.world, sc.world.solver.resolve()).expect("builds");
+    let worst = largest_displacement(&mut w, 10.0);
+    assert!(worst < 0.1, "built-in stack: {worst} m");
+}
+
+#[test]
+fn a_heavy_box_on_two_light_ones_stands_at_mass_ratio_100() {
+    // the heavy box (density 100) on a stack of two boxes of density 1 moves < 0.05 m over
+    // 10 s under the default solver (ratios of 1e3 and 1e4 are open: docs/stability.md)
+    let text = r#"name = "heavy on light"
+[world]
+gravity = [0.0, -10.0]
+[[body]]
+name = "ground"
+type = "static"
+shape = { box = [40.0, 1.0] }
+position = [0.0, -0.5]
+[[stack]]
+count = 2
+[[body]]
+name = "heavy"
+shape = { box = [1.0, 1.0] }
+position = [0.0, 2.5]
+density = 100.0
+"#;
+    let mut w = scene_world(text, sandbox2d::SolverSettings::default().kind);
+    let heavy = w.body_index("heavy").unwrap();
+    let y0 = w.bodies[heavy].position;
+    let worst = largest_displacement(&mut w, 10.0);
+    let moved = w.bodies[heavy].position.distance(y0);
+    assert!(moved < 0.05, "heavy box moved {moved} m");
+    assert!(worst < 0.05, "a box moved {worst} m");
+}
+
+#[test]
+fn boxes_started_inside_each_other_separate_and_come_to_rest() {
+    // three 1 m boxes, each started 0.25 m inside the one below: the overlap is pushed out
+    // at no more than the push-out speed, not turned into speed. Within 1.5 s every box is
+    // at rest (< 0.01 m/s) under the soft step and PGS; XPBD (which rocks on its own,
+    // docs/stability.md) at least never throws them: no box ever faster than 1.5 times
+    // the 3 m/s push-out (measured peaks: soft 3.6, PGS 0.02, XPBD 2.7 m/s; XPBD without
+    // its cap threw them at 115 m/s), and its worst speed at 1.5 s is reported.
+    let text = r#"name = "overlap"
+[world]
+gravity = [0.0, -10.0]
+[[body]]
+name = "ground"
+type = "static"
+shape = { box = [40.0, 1.0] }
+position = [0.0, -0.5]
+[[body]]
+name = "a"
+shape = { box = [1.0, 1.0] }
+position = [0.0, 0.5]
+[[body]]
+name = "b"
+shape = { box = [1.0, 1.0] }
+position = [0.0, 1.25]
+[[body]]
+name = "c"
+shape = { box = [1.0, 1.0] }
+position = [0.0, 2.0]
+"#;
+    for kind in sandbox2d::SolverKind::ALL {
+        let mut w = scene_world(text, kind);
+        let mut peak = 0.0f32;
+        for _ in 0..90 {
+            w.step().expect("finite");
+            for b in &w.bodies {
+                peak = peak.max(b.velocity.length());
+            }
+        }
+        let end = w
+            .bodies
+            .iter()
+            .map(|b| b.velocity.length())
+            .fold(0.0, f32::max);
+        let tops: Vec<f32> = w.bodies[1..].iter().map(|b| b.position.y).collect();
+        eprintln!("{kind:?}: peak speed {peak:.3} m/s, at 1.5 s {end:.4} m/s, centres {tops:?}");
+        // separated: each centre at least 1 m (less 2 cm) above the one below
+        assert!(tops[0] > 0.48 && tops[1] - tops[0] > 0.98 && tops[2] - tops[1] > 0.98);
+        assert!(
+            peak < 3.0 + 10.0 * w.settings.dt + 0.5,
+            "{kind:?}: thrown at {peak} m/s"
+        );
+        if kind != sandbox2d::SolverKind::Xpbd {
+            assert!(end < 0.01, "{kind:?}: still moving at {end} m/s");
+        }
+    }
+}
+
+#[test]
+fn a_fast_small_ball_stops_at_a_thin_wall_under_every_solver() {
+    // a 0.1 m ball at 300 m/s (5 m a step) against a 2 cm wall: it must not pass
+    let text = r#"name = "tunnel"
+[[body]]
+name = "wall"
+type = "static"
+shape = { box = [0.02, 1.0] }
+[[body]]
+name = "ball"
+shape = { circle = 0.05 }
+position = [-1.0, 0.0]
+velocity = [300.0, 0.0]
+"#;
+    for kind in sandbox2d::SolverKind::ALL {
+        let mut w = scene_world(text, kind);
+        for _ in 0..60 {
+            w.step().expect("finite");
+            let x = w.bodies[1].position.x;
+            assert!(x < 0.0, "{kind:?}: the ball passed the wall (x = {x})");
+        }
+    }
+}
