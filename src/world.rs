@@ -149,6 +149,9 @@ pub struct World {
     pub(crate) mouse: Option<MouseJoint>,
     /// Body pairs joined by a joint that must not collide, sorted.
     no_collide: Vec<(u32, u32)>,
+    /// Whether any body has a filter other than the default (else the broad phase skips
+    /// the check).
+    filtered: bool,
     /// The solver of `settings.kind` and its scratch (taken out while it steps).
     stepper: Option<Box<dyn Stepper>>,
     stats: StepStats,
@@ -174,6 +177,7 @@ impl World {
             joints: Vec::new(),
             mouse: None,
             no_collide: Vec::new(),
+            filtered: false,
             stepper: None,
             stats: StepStats::default(),
             step_count: 0,
@@ -311,6 +315,7 @@ impl World {
             return Err(BuildError::DuplicateName(def.name.clone()));
         }
         let body = World::make_body(def, self.gravity)?;
+        self.filtered |= body.filter != crate::defs::Filter::default();
         self.bodies.push(body);
         Ok(self.bodies.len() - 1)
     }
@@ -657,11 +662,12 @@ impl World {
             self.dynamic.push(b.is_dynamic());
         }
         let no_collide = &self.no_collide;
-        let bodies = &self.bodies;
+        let (bodies, filtered) = (&self.bodies, self.filtered);
         self.broad.find_pairs(&self.aabbs, &self.dynamic, |a, b| {
-            bodies[a as usize]
-                .filter
-                .collides(&bodies[b as usize].filter)
+            (!filtered
+                || bodies[a as usize]
+                    .filter
+                    .collides(&bodies[b as usize].filter))
                 && (no_collide.is_empty()
                     || no_collide.binary_search(&(a.min(b), a.max(b))).is_err())
         });
