@@ -911,3 +911,82 @@ velocity = [300.0, 0.0]
         }
     }
 }
+
+#[test]
+fn filtered_pairs_never_touch() {
+    // Box2D's rule: debris collides with the ground but not with other debris; two boxes
+    // of the same negative group never touch; the same positive group always does, even
+    // when the masks exclude each other. Each pair of boxes starts overlapping and falls
+    // onto the ground: a filtered pair never gets a contact and the boxes end on the
+    // ground side by side (both centres at y = 0.5), a colliding pair ends stacked.
+    let scene = |fa: &str, fb: &str| {
+        format!(
+            r#"name = "filters"
+[world]
+gravity = [0.0, -10.0]
+[[body]]
+name = "ground"
+type = "static"
+shape = {{ box = [20.0, 1.0] }}
+position = [0.0, -0.5]
+[[body]]
+name = "a"
+shape = {{ box = [1.0, 1.0] }}
+position = [0.0, 1.0]
+filter = {fa}
+[[body]]
+name = "b"
+shape = {{ box = [1.0, 1.0] }}
+position = [0.0, 1.5]
+filter = {fb}
+"#
+        )
+    };
+    let cases = [
+        (
+            r#"{ category = "debris", mask = ["default"] }"#,
+            r#"{ category = "debris", mask = ["default"] }"#,
+            false,
+        ),
+        ("{ group = -3 }", "{ group = -3 }", false),
+        (
+            r#"{ category = "x", mask = ["default"], group = 2 }"#,
+            r#"{ category = "y", mask = ["default"], group = 2 }"#,
+            true,
+        ),
+        ("{ group = -3 }", "{ group = -4 }", true),
+    ];
+    for (fa, fb, collide) in cases {
+        let text = scene(fa, fb);
+        let sc = sandbox2d::scene::load_str(&text, "filters.toml").expect("parses");
+        for kind in sandbox2d::SolverKind::ALL {
+            let settings = sandbox2d::SolverOverrides {
+                kind: Some(kind),
+                ..sc.world.solver
+            }
+            .resolve();
+            let mut w = World::from_def(&sc.world, settings).expect("builds");
+            let mut touched = false;
+            for _ in 0..180 {
+                w.step().expect("finite");
+                touched |= w.contacts().iter().any(|c| (c.a, c.b) == (1, 2));
+            }
+            let (ya, yb) = (w.bodies[1].position.y, w.bodies[2].position.y);
+            assert_eq!(
+                touched, collide,
+                "{kind:?} {fa} / {fb}: contact between a and b"
+            );
+            if collide {
+                assert!(
+                    (yb - ya - 1.0).abs() < 0.05,
+                    "{kind:?} {fa} / {fb}: {ya} {yb}"
+                );
+            } else {
+                assert!(
+                    (ya - 0.5).abs() < 0.02 && (yb - 0.5).abs() < 0.02,
+                    "{kind:?}: {ya} {yb}"
+                );
+            }
+        }
+    }
+}

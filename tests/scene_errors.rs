@@ -1504,3 +1504,48 @@ fn soft_step_is_the_old_spelling_of_kind_soft() {
         &["soft_step = true contradicts kind = \"pgs\""],
     );
 }
+
+#[test]
+fn filter_mask_naming_an_unknown_category() {
+    // line 4: filter = { mask = ["debris"] }; "debris" is at column 21
+    check(
+        &body("shape = { circle = 1.0 }\nfilter = { mask = [\"debris\"] }"),
+        4,
+        20,
+        &["unknown category", "\"debris\"", "default"],
+    );
+}
+
+#[test]
+fn filter_group_out_of_range() {
+    check(
+        &body("shape = { circle = 1.0 }\nfilter = { group = 3000000000 }"),
+        4,
+        20,
+        &["group", "3000000000"],
+    );
+}
+
+#[test]
+fn filter_unknown_key() {
+    check(
+        &body("shape = { circle = 1.0 }\nfilter = { categroy = \"a\" }"),
+        4,
+        12,
+        &["unknown field", "categroy"],
+    );
+}
+
+#[test]
+fn more_than_32_filter_categories() {
+    // "default" and 31 names fit; the 32nd name (the 33rd category) is refused where it
+    // is written
+    let mut text = String::from("name = \"t\"\n");
+    for k in 0..32 {
+        text.push_str(&format!(
+            "[[body]]\nname = \"b{k}\"\nshape = {{ circle = 1.0 }}\nfilter = {{ category = \"c{k}\" }}\n"
+        ));
+    }
+    // body k's filter line is 2 + 4 k + 3
+    check(&text, 2 + 4 * 31 + 3, 23, &["c31", "at most 32"]);
+}

@@ -128,6 +128,16 @@ pub(crate) struct FileBody {
     pub friction: Option<S<f32>>,
     pub restitution: Option<S<f32>>,
     pub color: Option<S<String>>,
+    pub filter: Option<S<FileFilter>>,
+}
+
+/// `filter = { category = "debris", mask = ["ground", "debris"], group = -1 }`.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(crate) struct FileFilter {
+    pub category: Option<S<String>>,
+    pub mask: Option<S<Vec<S<String>>>>,
+    pub group: Option<S<i64>>,
 }
 
 /// `[[force]]`.

@@ -41,7 +41,7 @@ pub use validate::{MAX_ITERATIONS, MAX_POLYGON_POINTS, MAX_SUBSTEPS};
 
 use crate::defs::{CameraDef, JointDef, WorldDef};
 use format::FileScene;
-use validate::{Bodies, Ctx, R};
+use validate::{Bodies, Ctx, MAX_CATEGORIES, R};
 
 /// A parsed and validated scene: a world to build and the camera to look at it with.
 #[derive(Clone, Debug, PartialEq)]
@@ -151,6 +151,31 @@ fn build(ctx: &Ctx, f: FileScene) -> R<Scene> {
     );
     makers.sort_by_key(|(start, _)| *start);
 
+    // Filter categories by name, in file order: "default" (every body without one) first.
+    let mut categories = vec!["default".to_string()];
+    for t in &f.body {
+        if let Some(c) = t
+            .get_ref()
+            .filter
+            .as_ref()
+            .and_then(|x| x.get_ref().category.as_ref())
+        {
+            if !categories.contains(c.get_ref()) {
+                if categories.len() == MAX_CATEGORIES {
+                    return Err(ctx.err(
+                        c.span(),
+                        format!(
+                            "filter category {:?}: a scene has at most {MAX_CATEGORIES} \
+                             category names (with \"default\")",
+                            c.get_ref()
+                        ),
+                    ));
+                }
+                categories.push(c.get_ref().clone());
+            }
+        }
+    }
+
     let mut bodies = Bodies {
         gravity: world.gravity,
         ..Bodies::default()
@@ -169,7 +194,7 @@ fn build(ctx: &Ctx, f: FileScene) -> R<Scene> {
                 if name.is_empty() {
                     return Err(ctx.err(span, "body name must not be empty"));
                 }
-                let body = ctx.body(t.get_ref(), name)?;
+                let body = ctx.body(t.get_ref(), name, &categories)?;
                 let b = t.get_ref();
                 let at = |v: Option<std::ops::Range<usize>>| v.unwrap_or(t.span());
                 let places = validate::Places {

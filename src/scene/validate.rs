@@ -24,6 +24,9 @@ pub use crate::defs::{MAX_ITERATIONS, MAX_SUBSTEPS};
 /// and the product must stay finite in f32 (real ones are below 2).
 pub const MAX_FRICTION: f32 = 1e6;
 
+/// Filter category names a scene may use, "default" included (one bit each of a u32).
+pub const MAX_CATEGORIES: usize = 32;
+
 /// Results of this module.
 pub(crate) type R<T> = Result<T, SceneError>;
 
@@ -400,8 +403,64 @@ impl Ctx<'_> {
         }
     }
 
-    /// A `[[body]]` table, named `name`.
-    pub fn body(&self, b: &FileBody, name: String) -> R<BodyDef> {
+    /// A body's `filter`: its category's bit (the scene's category names in order, the
+    /// implicit "default" first), the mask's bits (every category when absent) and the
+    /// group. A mask naming a category no body has is refused.
+    pub fn filter(&self, who: &str, f: Option<&S<FileFilter>>, categories: &[String]) -> R<Filter> {
+        let Some(f) = f else {
+            return Ok(Filter::default());
+        };
+        let bit = |name: &S<String>| -> R<u32> {
+            match categories.iter().position(|c| c == name.get_ref()) {
+                Some(i) => Ok(1u32 << i),
+                None => Err(self.err(
+                    name.span(),
+                    format!(
+                        "{who}: filter names an unknown category {:?} (known: {})",
+                        name.get_ref(),
+                        categories.join(", ")
+                    ),
+                )),
+            }
+        };
+        let f = f.get_ref();
+        let category = match &f.category {
+            Some(c) => bit(c)?,
+            None => Filter::default().category,
+        };
+        let mask = match &f.mask {
+            Some(list) => {
+                let mut m = 0u32;
+                for name in list.get_ref() {
+                    m |= bit(name)?;
+                }
+                m
+            }
+            None => u32::MAX,
+        };
+        let group = match &f.group {
+            Some(g) => i32::try_from(*g.get_ref()).map_err(|_| {
+                self.err(
+                    g.span(),
+                    format!(
+                        "{who}: filter group must be an integer from {} to {}, got {}",
+                        i32::MIN,
+                        i32::MAX,
+                        g.get_ref()
+                    ),
+                )
+            })?,
+            None => 0,
+        };
+        Ok(Filter {
+            category,
+            mask,
+            group,
+        })
+    }
+
+    /// A `[[body]]` table, named `name`; `categories` are the scene's filter categories.
+    pub fn body(&self, b: &FileBody, name: String, categories: &[String]) -> R<BodyDef> {
         let who = format!("body {name:?}");
         let who = who.as_str();
         let body_type = self.body_type(who, b.type_.as_ref())?;
@@ -433,7 +492,7 @@ impl Ctx<'_> {
             friction: m.friction,
             restitution: m.restitution,
             color: m.color,
-            filter: Default::default(),
+            filter: self.filter(who, b.filter.as_ref(), categories)?,
         })
     }
 
