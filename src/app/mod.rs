@@ -5,7 +5,8 @@
 //! Controls: left drag on a body pulls it with the mouse joint ([`input::drag_body`]); left
 //! drag on empty space pans; the wheel zooms about the cursor; the right button held
 //! pushes bodies away from the cursor; middle click or ctrl+click spawns a box,
-//! shift+click a circle; space pauses, S steps, R resets, H hides or shows the panel.
+//! shift+click a circle; space pauses, S steps, R resets, H hides or shows the panel; F
+//! fits the view to the bodies, C follows the body last grabbed, Esc and Q quit.
 //!
 //! [`run`] returns [`AppError::NoDisplay`] when there is no display to open a window
 //! on; the command line then renders frames headless instead.

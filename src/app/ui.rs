@@ -159,6 +159,7 @@ fn contents(ui: &mut Ui, s: &mut Session, frame: FrameStats, actions: &mut Panel
         ui.small("middle click / ctrl+click: spawn a box");
         ui.small("shift+click: spawn a circle");
         ui.small("space: pause, S: step, R: reset, H: hide this panel");
+        ui.small("F: fit the view, C: follow the grabbed body, Esc / Q: quit");
     });
 }
 

@@ -16,7 +16,7 @@ use super::panel_layer::PanelLayer;
 use super::session::{Emitter, Session};
 use super::ui::{self, FrameStats, PANEL_WIDTH};
 use super::{AppError, AppOptions, RunReport};
-use crate::draw::world::{fill_world_draw_list, scene_camera};
+use crate::draw::world::{fill_world_draw_list, scene_camera, world_bounds};
 use crate::draw::{Camera, DrawList};
 use crate::render::{Renderer, save_png};
 
@@ -69,6 +69,10 @@ pub(super) struct App {
     phase_ms: [f64; 5],
     /// The side panel is shown (H toggles it).
     panel_visible: bool,
+    /// The body last grabbed with the mouse (C makes the camera follow it).
+    selected: Option<usize>,
+    /// The camera keeps this body at the centre of the free area.
+    follow: Option<usize>,
     /// The panel must be drawn again (input over it, an egui animation, a resize).
     panel_dirty: bool,
     /// When the panel's figures are next refreshed, if not dirty before.
@@ -101,6 +105,8 @@ impl App {
             last_frame: None,
             last_advance: None,
             panel_visible,
+            selected: None,
+            follow: None,
             panel_dirty: true,
             panel_next: None,
             phase_ms: [0.0; 5],
@@ -186,6 +192,34 @@ impl App {
         // Shift the view left by half the panel so the scene sits in the free area.
         cam.center.x -= 0.5 * panel / cam.pixels_per_meter;
         self.camera = cam;
+    }
+
+    /// F: zooms and centres so every body fits the area beside the panel.
+    fn fit_view(&mut self) {
+        let Some((lo, hi)) = world_bounds(&self.session.world) else {
+            return;
+        };
+        let [w, h] = self.camera.size;
+        let panel = self.panel_px().min(w as f32 * 0.5);
+        let mut cam = self.camera;
+        cam.size = [(w as f32 - panel).max(1.0) as u32, h];
+        cam.fit(lo, hi, 0.05 * cam.size[0].min(h) as f32);
+        cam.size = [w, h];
+        cam.center.x -= 0.5 * panel / cam.pixels_per_meter;
+        self.camera = cam;
+    }
+
+    /// C: keeps the followed body at the centre of the area beside the panel.
+    fn follow_camera(&mut self) {
+        let Some(b) = self.follow.and_then(|i| self.session.world.bodies.get(i)) else {
+            self.follow = None;
+            return;
+        };
+        let [w, _] = self.camera.size;
+        let panel = self.panel_px().min(w as f32 * 0.5);
+        let mut c = b.position;
+        c.x -= 0.5 * panel / self.camera.pixels_per_meter;
+        self.camera.center = c;
     }
 
     fn create_gpu(&mut self, event_loop: &ActiveEventLoop) -> Result<(), AppError> {
@@ -311,6 +345,7 @@ impl App {
             self.session.paused
         );
 
+        self.follow_camera();
         fill_world_draw_list(&mut self.list, &self.session.world, &self.session.overlays);
         self.push_tools();
 
@@ -554,7 +589,7 @@ impl App {
             (MouseButton::Left, true) if shift => self.session.spawn(SpawnKind::Circle, at),
             (MouseButton::Left, true) if ctrl => self.session.spawn(SpawnKind::Box, at),
             (MouseButton::Left, true) if !self.session.grab(at) => self.mouse.panning = true,
-            (MouseButton::Left, true) => {}
+            (MouseButton::Left, true) => self.selected = self.session.drag.map(|d| d.body),
             (MouseButton::Left, false) => {
                 self.session.drag = None;
                 self.mouse.panning = false;
@@ -586,8 +621,21 @@ impl App {
         }
     }
 
-    fn key(&mut self, key: &Key) {
+    fn key(&mut self, key: &Key, event_loop: &ActiveEventLoop) {
         match key {
+            Key::Named(NamedKey::Escape) => event_loop.exit(),
+            Key::Character(c) if c.eq_ignore_ascii_case("q") => event_loop.exit(),
+            Key::Character(c) if c.eq_ignore_ascii_case("f") => {
+                self.follow = None;
+                self.fit_view();
+            }
+            Key::Character(c) if c.eq_ignore_ascii_case("c") => {
+                // toggles following the body last grabbed
+                self.follow = match self.follow {
+                    Some(_) => None,
+                    None => self.selected,
+                };
+            }
             Key::Named(NamedKey::Space) => self.session.paused = !self.session.paused,
             Key::Character(c) if c.eq_ignore_ascii_case("s") => {
                 self.session.paused = true;
@@ -595,6 +643,7 @@ impl App {
             }
             Key::Character(c) if c.eq_ignore_ascii_case("r") => {
                 self.session.reset();
+                (self.follow, self.selected) = (None, None);
                 self.reset_camera();
             }
             Key::Character(c) if c.eq_ignore_ascii_case("h") => {
@@ -686,7 +735,7 @@ impl ApplicationHandler for App {
             WindowEvent::KeyboardInput { event, .. }
                 if !egui_keys && event.state == ElementState::Pressed && !event.repeat =>
             {
-                self.key(&event.logical_key)
+                self.key(&event.logical_key, event_loop)
             }
             _ => {}
         }
