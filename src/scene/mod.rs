@@ -154,25 +154,21 @@ fn build(ctx: &Ctx, f: FileScene) -> R<Scene> {
     // Filter categories by name, in file order: "default" (every body without one) first.
     let mut categories = vec!["default".to_string()];
     for t in &f.body {
-        if let Some(c) = t
-            .get_ref()
-            .filter
-            .as_ref()
-            .and_then(|x| x.get_ref().category.as_ref())
+        let category = t.get_ref().filter.as_ref();
+        if let Some(c) = category.and_then(|x| x.get_ref().category.as_ref())
+            && !categories.contains(c.get_ref())
         {
-            if !categories.contains(c.get_ref()) {
-                if categories.len() == MAX_CATEGORIES {
-                    return Err(ctx.err(
-                        c.span(),
-                        format!(
-                            "filter category {:?}: a scene has at most {MAX_CATEGORIES} \
-                             category names (with \"default\")",
-                            c.get_ref()
-                        ),
-                    ));
-                }
-                categories.push(c.get_ref().clone());
+            if categories.len() == MAX_CATEGORIES {
+                return Err(ctx.err(
+                    c.span(),
+                    format!(
+                        "filter category {:?}: a scene has at most {MAX_CATEGORIES} \
+                         category names (with \"default\")",
+                        c.get_ref()
+                    ),
+                ));
             }
+            categories.push(c.get_ref().clone());
         }
     }
 
