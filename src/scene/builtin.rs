@@ -115,4 +115,18 @@ mod tests {
         sorted.sort_unstable();
         assert_eq!(sorted, names);
     }
+
+    #[test]
+    fn the_docs_table_lists_every_scene_with_its_description() {
+        let doc = include_str!("../../docs/scene-format.md");
+        let start = doc.find("## Built-in scenes").expect("section");
+        let section = &doc[start..];
+        let rows = section.lines().filter(|l| l.starts_with("| `")).count();
+        assert_eq!(rows, NAMES.len(), "one row per built-in scene");
+        for name in NAMES {
+            let d = builtin_description(name).expect("described");
+            let row = format!("| `{name}` | {d} |");
+            assert!(section.contains(&row), "docs/scene-format.md lacks {row}");
+        }
+    }
 }
