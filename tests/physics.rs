@@ -762,20 +762,15 @@ fn largest_displacement(w: &mut World, seconds: f32) -> f32 {
     worst
 }
 
-fn stack_text(count: u32) -> String {
-    format!(
-        r#"name = "stack"
-[world]
-gravity = [0.0, -10.0]
-[[body]]
-name = "ground"
-type = "static"
-shape = {{ box = [40.0, 1.0] }}
-position = [0.0, -0.5]
-[[stack]]
-count = {count}
-"#
-    )
+/// The extremes suite's scene for `sweep` at `value` under the default solver.
+fn extremes_world(sweep: sandbox2d::bench::extremes::Sweep, value: f64) -> World {
+    let def = sandbox2d::bench::extremes::world_def(sweep, value);
+    let settings = sandbox2d::SolverOverrides {
+        kind: Some(sandbox2d::SolverSettings::default().kind),
+        ..def.solver
+    }
+    .resolve();
+    World::from_def(&def, settings).expect("builds")
 }
 
 #[test]
@@ -785,7 +780,7 @@ fn tall_stacks_stand_under_the_default_solver() {
     // At the old slop (0.005 m of spring-free play per contact) the 40 swayed 1.16 m.
     let kind = sandbox2d::SolverSettings::default().kind;
     for (count, bound) in [(20, 0.5), (30, 0.5), (40, 1.0)] {
-        let mut w = scene_world(&stack_text(count), kind);
+        let mut w = extremes_world(sandbox2d::bench::extremes::Sweep::StackHeight, count as f64);
         let worst = largest_displacement(&mut w, 10.0);
         eprintln!("{kind:?}: stack of {count}, largest displacement {worst:.3} m");
         assert!(worst <= bound, "stack of {count}: {worst} m > {bound} m");
@@ -806,23 +801,8 @@ fn the_builtin_stack_stands() {
 fn a_heavy_box_on_two_light_ones_stands_at_mass_ratio_100() {
     // the heavy box (density 100) on a stack of two boxes of density 1 moves < 0.05 m over
     // 10 s under the default solver (ratios of 1e3 and 1e4 are open: docs/stability.md)
-    let text = r#"name = "heavy on light"
-[world]
-gravity = [0.0, -10.0]
-[[body]]
-name = "ground"
-type = "static"
-shape = { box = [40.0, 1.0] }
-position = [0.0, -0.5]
-[[stack]]
-count = 2
-[[body]]
-name = "heavy"
-shape = { box = [1.0, 1.0] }
-position = [0.0, 2.5]
-density = 100.0
-"#;
-    let mut w = scene_world(text, sandbox2d::SolverSettings::default().kind);
+    // (the extremes suite's mass_ratio scene: two 1 m boxes of density 1 and one on top)
+    let mut w = extremes_world(sandbox2d::bench::extremes::Sweep::MassRatio, 100.0);
     let heavy = w.body_index("heavy").unwrap();
     let y0 = w.bodies[heavy].position;
     let worst = largest_displacement(&mut w, 10.0);
