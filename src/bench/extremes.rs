@@ -50,6 +50,21 @@ fn marginal(what: &str, measured: f64, bound: f64) -> CaseResult {
     ))
 }
 
+/// Grades an error against its bound: `Err` with `failed()` beyond it, a marginal
+/// result naming `what()` within the margin, `Ok` when clear.
+fn grade(
+    measured: f64,
+    bound: f64,
+    failed: impl FnOnce() -> String,
+    what: impl FnOnce() -> String,
+) -> Result<(), CaseResult> {
+    match standing_of(measured, bound) {
+        Standing::Beyond => Err(CaseResult::Failed(failed())),
+        Standing::Marginal => Err(marginal(&what(), measured, bound)),
+        Standing::Clear => Ok(()),
+    }
+}
+
 /// One thing swept.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Sweep {
@@ -631,21 +646,16 @@ fn run_case(sweep: Sweep, value: f64, world: &mut World) -> Result<String, CaseR
             let n = steps as f64;
             let exact = a * h * h * n * (n + 1.0) / 2.0;
             let tol = 0.02 + 0.05 * exact;
-            match standing_of((slid - exact).abs(), tol) {
-                Standing::Beyond => {
-                    return Err(CaseResult::Failed(format!(
+            grade(
+                (slid - exact).abs(),
+                tol,
+                || {
+                    format!(
                         "inaccurate: slid {slid:.3} m, closed form {exact:.3} m (tolerance {tol:.3} m)"
-                    )));
-                }
-                Standing::Marginal => {
-                    return Err(marginal(
-                        &format!("slid {slid:.3} m, closed form {exact:.3} m: error"),
-                        (slid - exact).abs(),
-                        tol,
-                    ));
-                }
-                Standing::Clear => {}
-            }
+                    )
+                },
+                || format!("slid {slid:.3} m, closed form {exact:.3} m: error"),
+            )?;
             Ok(format!("slid {slid:.4} m, closed form {exact:.4} m"))
         }
         Sweep::Restitution => {
@@ -665,21 +675,12 @@ fn run_case(sweep: Sweep, value: f64, world: &mut World) -> Result<String, CaseR
                 Ok(())
             })?;
             let expect = value * value * DROP;
-            match standing_of((peak - expect).abs(), 0.1) {
-                Standing::Beyond => {
-                    return Err(CaseResult::Failed(format!(
-                        "inaccurate: bounced to {peak:.3} m, e^2 h = {expect:.3} m"
-                    )));
-                }
-                Standing::Marginal => {
-                    return Err(marginal(
-                        &format!("bounced to {peak:.3} m, e^2 h = {expect:.3} m: error"),
-                        (peak - expect).abs(),
-                        0.1,
-                    ));
-                }
-                Standing::Clear => {}
-            }
+            grade(
+                (peak - expect).abs(),
+                0.1,
+                || format!("inaccurate: bounced to {peak:.3} m, e^2 h = {expect:.3} m"),
+                || format!("bounced to {peak:.3} m, e^2 h = {expect:.3} m: error"),
+            )?;
             Ok(format!("bounced to {peak:.4} m, e^2 h = {expect:.4} m"))
         }
     }

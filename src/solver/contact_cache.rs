@@ -75,6 +75,7 @@ mod tests {
         old.points[1] = ContactPoint {
             id: 9,
             normal_impulse: 2.5,
+            tangent_impulse: 0.75,
             ..Default::default()
         };
         let mut new = Manifold {
@@ -84,8 +85,29 @@ mod tests {
         new.points[0].id = 9;
         new.points[1].id = 8; // a feature that did not touch before
         match_points(&old, &mut new);
-        assert_eq!(new.points[0].normal_impulse, 2.5);
-        assert_eq!(new.points[1].normal_impulse, 0.0);
+        // the friction lambda travels with the normal one; a new feature starts at zero
+        assert_eq!(
+            (new.points[0].normal_impulse, new.points[0].tangent_impulse),
+            (2.5, 0.75)
+        );
+        assert_eq!(
+            (new.points[1].normal_impulse, new.points[1].tangent_impulse),
+            (0.0, 0.0)
+        );
+        // and the other way round
+        let mut swapped = Manifold {
+            count: 1,
+            ..Default::default()
+        };
+        swapped.points[0].id = 7;
+        match_points(&old, &mut swapped);
+        assert_eq!(
+            (
+                swapped.points[0].normal_impulse,
+                swapped.points[0].tangent_impulse
+            ),
+            (1.5, -0.25)
+        );
     }
 
     #[test]
