@@ -47,6 +47,10 @@ enum Command {
     /// Measure what each solver setting costs and how right it is: results.csv,
     /// results.md and one plot per scene (or stability.md for --suite extremes) in --out.
     Bench(BenchArgs),
+    /// Pick the most accurate solver setting that fits a budget in ms per step: runs the
+    /// bench's grid on the scene, then a finer pass around the best, and prints the
+    /// pick, the cheapest setting nearly as good, and the Pareto front.
+    Tune(TuneArgs),
 }
 
 /// Debug overlays for `render`.
@@ -152,6 +156,51 @@ struct BenchArgs {
     /// Timed repeats instead of each scene's own count.
     #[arg(long, hide = true)]
     repeats: Option<u32>,
+}
+
+#[derive(Clone, Copy, ValueEnum)]
+enum MetricArg {
+    /// The worst of the measures that apply, each divided by the best any setting reached.
+    Worst,
+    /// Deepest overlap over the run.
+    Penetration,
+    /// How far the top body moved.
+    Drift,
+    /// Largest joint anchor separation.
+    #[value(name = "joint_error")]
+    JointError,
+    /// |energy drift| of a closed scene.
+    #[value(name = "energy_drift")]
+    EnergyDrift,
+    /// Distance from the converged MLCP of the same step (classic PGS only).
+    Residual,
+}
+
+#[derive(Args)]
+struct TuneArgs {
+    /// A scene file, or the name of a built-in scene (see `sandbox2d scenes`).
+    scene: String,
+    /// The most a step may cost: median milliseconds per step on this machine.
+    #[arg(long)]
+    budget_ms: f64,
+    /// The error to minimise.
+    #[arg(long, value_enum, default_value = "worst")]
+    metric: MetricArg,
+    /// Steps of every run.
+    #[arg(long, default_value_t = 300)]
+    steps: u64,
+    /// Timing rounds per setting (taken turn about over the settings in contention).
+    #[arg(long, default_value_t = 3)]
+    rounds: u32,
+    /// Folder for tune.md, tune.json, pareto.svg and solver.toml (created if missing).
+    #[arg(long)]
+    out: Option<PathBuf>,
+    /// Print one JSON object instead of the report.
+    #[arg(long)]
+    json: bool,
+    /// Put the pick into the scene file's [solver] table (comments and order kept).
+    #[arg(long)]
+    write: bool,
 }
 
 #[derive(Clone, Copy, ValueEnum)]
@@ -383,6 +432,7 @@ fn main() -> ExitCode {
         #[cfg(feature = "render")]
         Some(Command::Run(a)) => run(&a),
         Some(Command::Bench(a)) => bench(&a),
+        Some(Command::Tune(a)) => tune(&a),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
@@ -1073,5 +1123,143 @@ fn bench(a: &BenchArgs) -> Result<(), Failure> {
         plots.len(),
         rows.len()
     );
+    Ok(())
+}
+
+/// The most steps `tune` runs a setting for (each of some 40 settings runs them
+/// `--rounds` times).
+const MAX_TUNE_STEPS: u64 = 1_000_000;
+
+fn tune(a: &TuneArgs) -> Result<(), Failure> {
+    use sandbox2d::bench::tune::{self, TuneError, TuneMetric, TuneOptions};
+    if !(a.budget_ms.is_finite() && a.budget_ms > 0.0) {
+        return Err(Failure::input(format!(
+            "--budget-ms must be a positive number of milliseconds, got {}",
+            a.budget_ms
+        )));
+    }
+    if !(1..=MAX_TUNE_STEPS).contains(&a.steps) {
+        return Err(Failure::input(format!(
+            "--steps must be 1..={MAX_TUNE_STEPS}, got {}",
+            a.steps
+        )));
+    }
+    if !(1..=20).contains(&a.rounds) {
+        return Err(Failure::input(format!(
+            "--rounds must be 1..=20, got {}",
+            a.rounds
+        )));
+    }
+    let file = scene_file(&a.scene);
+    if a.write && file.is_none() {
+        return Err(Failure::input(format!(
+            "--write: \"{}\" is a built-in scene, not a file; copy assets/scenes/{}.toml and tune the copy",
+            a.scene, a.scene
+        )));
+    }
+    let metric = match a.metric {
+        MetricArg::Worst => TuneMetric::Worst,
+        MetricArg::Penetration => TuneMetric::Penetration,
+        MetricArg::Drift => TuneMetric::Drift,
+        MetricArg::JointError => TuneMetric::JointError,
+        MetricArg::EnergyDrift => TuneMetric::EnergyDrift,
+        MetricArg::Residual => TuneMetric::Residual,
+    };
+    let sc = scene::load(&a.scene).map_err(Failure::input)?;
+    if let Some(out) = &a.out {
+        writable_dir(out)?;
+    }
+    let options = TuneOptions {
+        budget_ms: a.budget_ms,
+        metric,
+        steps: a.steps,
+        rounds: a.rounds,
+    };
+    let bar = progress(
+        Some(sandbox2d::bench::settings_grid().len() as u64),
+        "{bar:40} {pos}/{len} runs {elapsed} {msg}",
+    );
+    GRACEFUL.store(true, Ordering::Relaxed);
+    let result = tune::tune(&a.scene, &sc.world, &options, |done, total, what| {
+        bar.set_length(total as u64);
+        bar.set_position(done as u64);
+        bar.set_message(what.to_string());
+    });
+    bar.finish_and_clear();
+    let report = match result {
+        Ok(r) => r,
+        Err(TuneError::Interrupted) => {
+            return Err(Failure::interrupted(format!(
+                "{}: interrupted; nothing was written",
+                sc.source
+            )));
+        }
+        Err(e @ TuneError::OverBudget { .. }) => {
+            return Err(Failure::input(format!(
+                "{}: {e} (budget {} ms/step)",
+                sc.source, a.budget_ms
+            )));
+        }
+        Err(e) => return Err(Failure::run(format!("{}: {e}", sc.source))),
+    };
+    let pick = report.pick.map(|p| report.tried[p].setting);
+    if let Some(out) = &a.out {
+        write_file(&out.join("tune.md"), &tune::markdown(&report))?;
+        write_file(
+            &out.join("tune.json"),
+            &format!("{:#}\n", tune::json(&report)),
+        )?;
+        write_file(
+            &out.join("pareto.svg"),
+            &tune::svg(&report).map_err(Failure::run)?,
+        )?;
+        if let Some(p) = &pick {
+            write_file(&out.join("solver.toml"), &tune::solver_table(p))?;
+        }
+    }
+    if a.json {
+        println!("{}", tune::json(&report));
+    } else {
+        print!("{}", tune::markdown(&report));
+        if let Some(out) = &a.out {
+            println!(
+                "\nwrote {}: tune.md, tune.json, pareto.svg, solver.toml",
+                out.display()
+            );
+        }
+    }
+    if let (true, Some(path), Some(p)) = (a.write, &file, &pick) {
+        let text = std::fs::read_to_string(path)
+            .map_err(|e| Failure::run(format!("{}: cannot read: {e}", path.display())))?;
+        let new = tune::write_setting(&text, p)
+            .map_err(|e| Failure::run(format!("{}: {e}", path.display())))?;
+        // the edited file must still load, and to the setting it was given
+        let check = scene::load_str(&new, &path.display().to_string()).map_err(|e| {
+            Failure::run(format!(
+                "{}: the edited scene does not load: {e}",
+                path.display()
+            ))
+        })?;
+        let got = check.world.solver.resolve();
+        let want = p.resolve(&sc.world.solver);
+        let same = got.kind == want.kind
+            && got.substeps == want.substeps
+            && got.iterations == want.iterations
+            && (want.kind != SolverKind::Pgs
+                || (got.warm_start == want.warm_start
+                    && got.split_impulse == want.split_impulse
+                    && got.tolerance == want.tolerance));
+        if !same {
+            return Err(Failure::run(format!(
+                "{}: the edited [solver] table does not give {}; the file was left as it was",
+                path.display(),
+                p.label()
+            )));
+        }
+        write_file(path, &new)?;
+        if !a.json {
+            println!("wrote the pick ({}) into {}", p.label(), path.display());
+        }
+    }
     Ok(())
 }

@@ -16,6 +16,7 @@ pub mod extremes;
 pub mod plot;
 pub mod report;
 pub mod scenes;
+pub mod tune;
 
 use std::time::Instant;
 

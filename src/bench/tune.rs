@@ -1,0 +1,1222 @@
+//! `sandbox2d tune`: for one scene and a budget in ms per step, the most accurate
+//! setting that fits.
+//!
+//! The search runs the bench's grid ([`super::settings_grid`]: classic PGS at 1..32
+//! sweeps in its four modes, XPBD at 1..32 substeps, the soft step at 1..32 substeps of
+//! 2 sweeps), then a finer pass around the best setting within the budget (the counts
+//! between its neighbours on the grid; for the soft step also 1 and 3 sweeps a
+//! substep). Each setting's accuracy comes from one run ([`super::run_case`]: the runs
+//! are deterministic); its cost is the median of that run's ms/step and of further timing
+//! rounds, taken turn about over every candidate still in contention so that the
+//! machine's noise falls on all of them alike.
+//!
+//! The error is one measure the user names, or by default the scene's *worst* measure
+//! normalised by the best value any stable setting reached: a score of 1 is as right as
+//! the best setting on every measure that applies, 2 is twice as wrong on one of them.
+//! Which measures apply is read from the scene and the runs (see [`Applies`]). A
+//! setting that goes unstable anywhere in the run is never picked; the report lists it
+//! with the reason.
+
+use crate::defs::{BodyType, SolverKind, WorldDef};
+use crate::math::Vec2;
+
+use super::{BenchScene, Budget, Measured, Metric, Outcome, Setting, Track, run_case};
+
+/// What `tune` minimises.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum TuneMetric {
+    /// The worst of the measures that apply, each divided by the best value any stable
+    /// setting reached.
+    Worst,
+    /// Deepest overlap over the run (m).
+    Penetration,
+    /// How far the top body moved from its start (m).
+    Drift,
+    /// Largest joint anchor separation over the run (m).
+    JointError,
+    /// |E_end - E_start| / |E_start| (energy measured above a floor one scene height
+    /// below the lowest body).
+    EnergyDrift,
+    /// Relative distance of the contact impulses from the same step's MLCP solved to
+    /// convergence (classic PGS with one substep only).
+    Residual,
+}
+
+impl TuneMetric {
+    /// Every metric, in the order the command line lists them.
+    pub const ALL: [TuneMetric; 6] = [
+        TuneMetric::Worst,
+        TuneMetric::Penetration,
+        TuneMetric::Drift,
+        TuneMetric::JointError,
+        TuneMetric::EnergyDrift,
+        TuneMetric::Residual,
+    ];
+
+    /// The name on the command line and in reports.
+    pub fn name(self) -> &'static str {
+        match self {
+            TuneMetric::Worst => "worst",
+            TuneMetric::Penetration => "penetration",
+            TuneMetric::Drift => "drift",
+            TuneMetric::JointError => "joint_error",
+            TuneMetric::EnergyDrift => "energy_drift",
+            TuneMetric::Residual => "residual",
+        }
+    }
+
+    /// The bench measure behind a single metric (`None` for [`TuneMetric::Worst`]).
+    pub fn measure(self) -> Option<Metric> {
+        match self {
+            TuneMetric::Worst => None,
+            TuneMetric::Penetration => Some(Metric::PenetrationMax),
+            TuneMetric::Drift => Some(Metric::Drift),
+            TuneMetric::JointError => Some(Metric::JointError),
+            TuneMetric::EnergyDrift => Some(Metric::EnergyDrift),
+            TuneMetric::Residual => Some(Metric::Residual),
+        }
+    }
+}
+
+/// The measures of the default ("worst") score, in report order.
+pub const WORST_MEASURES: [Metric; 4] = [
+    Metric::PenetrationMax,
+    Metric::Drift,
+    Metric::JointError,
+    Metric::EnergyDrift,
+];
+
+/// Below these a measure is as good as exact: a best value under the floor is lifted to
+/// it before dividing (so one setting at 1e-9 does not make every other one "infinitely"
+/// worse): 0.1 mm of overlap, 1 mm of drift, 0.1 mm of joint separation, 1e-4 of the
+/// energy, 1e-3 of residual.
+pub fn floor(m: Metric) -> f64 {
+    match m {
+        Metric::PenetrationMax | Metric::PenetrationMean => 1e-4,
+        Metric::Drift => 1e-3,
+        Metric::JointError => 1e-4,
+        Metric::EnergyDrift => 1e-4,
+        Metric::Residual => 1e-3,
+    }
+}
+
+/// Drift of the top body counts only in a scene that starts at rest and where some
+/// stable setting kept the top body within this distance (m): a scene meant to stand.
+pub const RESTING_DRIFT: f64 = 0.5;
+
+/// How the search runs.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct TuneOptions {
+    /// The most a step may cost (median ms/step).
+    pub budget_ms: f64,
+    pub metric: TuneMetric,
+    /// Steps of every run.
+    pub steps: u64,
+    /// Timing rounds (the accuracy run is the first).
+    pub rounds: u32,
+}
+
+/// Which pass proposed a setting.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Pass {
+    /// The bench's grid.
+    Coarse,
+    /// Around the best setting of the coarse pass.
+    Fine,
+}
+
+/// One setting as `tune` measured it.
+#[derive(Clone, Debug)]
+pub struct Tried {
+    pub setting: Setting,
+    pub pass: Pass,
+    /// The accuracy run (and its stability verdict), or why it could not run.
+    pub outcome: Outcome,
+    /// Each round's median ms/step.
+    pub samples: Vec<f64>,
+    /// Median of `samples`.
+    pub ms_per_step: f64,
+    /// The error `tune` minimises (smaller is better); `None` for a dropped setting.
+    pub score: Option<f64>,
+    /// Why the setting can never be picked (unstable, could not run, not measured).
+    pub dropped: Option<String>,
+}
+
+impl Tried {
+    /// The accuracy run's figures, when it ran.
+    pub fn measured(&self) -> Option<&Measured> {
+        match &self.outcome {
+            Outcome::Ran(m) => Some(m),
+            Outcome::Failed(_) => None,
+        }
+    }
+}
+
+/// The measures that apply to a scene, read from the scene and from its runs.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Applies {
+    /// Overlap: some run saw a contact.
+    pub penetration: bool,
+    /// Drift: the scene starts at rest and some stable setting kept the top body within
+    /// [`RESTING_DRIFT`].
+    pub drift: bool,
+    /// Joint error: the scene has joints.
+    pub joint_error: bool,
+    /// Energy: nothing in the scene adds or takes energy (no drag, forces, motors, joint
+    /// damping, kinematic bodies) and no run saw a contact.
+    pub energy_drift: bool,
+}
+
+impl Applies {
+    /// The measures of the default score.
+    pub fn measures(&self) -> Vec<Metric> {
+        WORST_MEASURES
+            .into_iter()
+            .filter(|m| match m {
+                Metric::PenetrationMax => self.penetration,
+                Metric::Drift => self.drift,
+                Metric::JointError => self.joint_error,
+                Metric::EnergyDrift => self.energy_drift,
+                _ => false,
+            })
+            .collect()
+    }
+}
+
+/// What `tune` found.
+#[derive(Clone, Debug)]
+pub struct TuneReport {
+    pub scene: String,
+    pub options: TuneOptions,
+    /// Every setting tried, coarse pass first.
+    pub tried: Vec<Tried>,
+    pub applies: Applies,
+    /// For the default score: each counted measure and the value it is divided by (the
+    /// best any stable setting reached, lifted to [`floor`]).
+    pub normalisers: Vec<(Metric, f64)>,
+    /// The most accurate setting within the budget (index into `tried`).
+    pub pick: Option<usize>,
+    /// The cheapest setting whose score is within 10% of the pick's.
+    pub cheapest_close: Option<usize>,
+    /// The settings no other beats on both cost and error, cheapest first.
+    pub pareto: Vec<usize>,
+}
+
+/// Why `tune` has no answer.
+#[derive(Clone, Debug, PartialEq)]
+pub enum TuneError {
+    /// Every setting went unstable or could not run.
+    NothingStable,
+    /// Even the cheapest stable setting costs more than the budget.
+    OverBudget { cheapest: String, ms: f64 },
+    /// Stopped by an interrupt before the search finished.
+    Interrupted,
+}
+
+impl std::fmt::Display for TuneError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            TuneError::NothingStable => write!(f, "no setting of the grid runs the scene stably"),
+            TuneError::OverBudget { cheapest, ms } => write!(
+                f,
+                "no setting fits the budget: the cheapest stable one, {cheapest}, takes {ms:.4} ms/step"
+            ),
+            TuneError::Interrupted => write!(f, "interrupted before the search finished"),
+        }
+    }
+}
+
+/// The scene as the bench runs it for `tune`: the top body tracked, energy always
+/// measured (whether it counts is decided from the runs), nothing required to stand.
+pub fn bench_scene(name: &str, def: &WorldDef, steps: u64) -> BenchScene {
+    BenchScene {
+        name: name.to_string(),
+        about: String::new(),
+        def: def.clone(),
+        track: Track::Top,
+        floor_y: energy_floor(def),
+        conservative: true,
+        standing: None,
+        energy_gain: 0.5,
+        primary: Metric::PenetrationMax,
+        metrics: WORST_MEASURES.to_vec(),
+        full_grid: true,
+        budget: Budget {
+            steps,
+            repeats: 1,
+            residual_samples: 0,
+            reference_iterations: 1000,
+        },
+    }
+}
+
+/// A floor for potential energy one scene height below the lowest body (so a pendulum
+/// released at its pivot's height starts with energy of the order of what it swings).
+fn energy_floor(def: &WorldDef) -> f32 {
+    let ys = || def.bodies.iter().map(|b| b.position.y);
+    let lo = ys().fold(f32::INFINITY, f32::min);
+    let hi = ys().fold(f32::NEG_INFINITY, f32::max);
+    if !lo.is_finite() {
+        return 0.0;
+    }
+    // a chain hanging from its anchor reaches down by its joints' lengths
+    let joints: f32 = def
+        .joints
+        .iter()
+        .map(|j| {
+            let [a, b] = j
+                .bodies
+                .map(|i| def.bodies.get(i).map_or(Vec2::ZERO, |b| b.position));
+            (a - b).length().max(j.length.unwrap_or(0.0))
+        })
+        .sum();
+    lo - (hi - lo).max(joints).max(1.0)
+}
+
+/// What [`score_all`] needs to know of the scene itself.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct SceneFlags {
+    /// Nothing in the scene adds or takes energy (no drag, forces, kinematic bodies,
+    /// motors, servos or joint damping).
+    pub closed: bool,
+    /// Every body starts at rest.
+    pub at_rest: bool,
+}
+
+impl SceneFlags {
+    pub fn of(def: &WorldDef) -> SceneFlags {
+        SceneFlags {
+            closed: closed_system(def),
+            at_rest: starts_at_rest(def),
+        }
+    }
+}
+
+/// Whether nothing in the scene itself adds or takes energy.
+fn closed_system(def: &WorldDef) -> bool {
+    def.drag.is_none()
+        && def.forces.is_empty()
+        && def
+            .bodies
+            .iter()
+            .all(|b| b.body_type != BodyType::Kinematic)
+        && def
+            .joints
+            .iter()
+            .all(|j| j.motor.is_none() && j.servo.is_none() && j.damping == Default::default())
+}
+
+fn starts_at_rest(def: &WorldDef) -> bool {
+    def.bodies
+        .iter()
+        .all(|b| b.velocity == Vec2::ZERO && b.angular_velocity == 0.0)
+}
+
+/// The neighbours of the best coarse setting that the grid skipped.
+pub fn fine_candidates(best: &Setting) -> Vec<Setting> {
+    let around = |n: u32| -> Vec<u32> {
+        let mut v = vec![(n * 3).div_ceil(4), n * 3 / 2];
+        v.retain(|&k| k >= 1 && k != n);
+        v.dedup();
+        v
+    };
+    match best.kind {
+        SolverKind::Pgs => around(best.iterations)
+            .into_iter()
+            .map(|n| Setting::pgs(n, best.warm_start, best.split_impulse))
+            .collect(),
+        SolverKind::Xpbd => around(best.substeps)
+            .into_iter()
+            .map(Setting::xpbd)
+            .collect(),
+        SolverKind::Soft => {
+            let mut v: Vec<Setting> = around(best.substeps)
+                .into_iter()
+                .map(|n| Setting::soft(n, best.iterations))
+                .collect();
+            for it in [best.iterations - 1, best.iterations + 1] {
+                if it >= 1 {
+                    v.push(Setting::soft(best.substeps, it));
+                }
+            }
+            v
+        }
+    }
+}
+
+fn median(v: &[f64]) -> f64 {
+    let mut s: Vec<f64> = v.iter().copied().filter(|x| x.is_finite()).collect();
+    if s.is_empty() {
+        return f64::NAN;
+    }
+    s.sort_by(f64::total_cmp);
+    let n = s.len();
+    if n % 2 == 1 {
+        s[n / 2]
+    } else {
+        0.5 * (s[n / 2 - 1] + s[n / 2])
+    }
+}
+
+/// Runs the search. `progress(done, total, what)` after each run (the total grows when
+/// the fine pass and the timing rounds are known). Stops between runs when
+/// [`crate::output::interrupted`] says so.
+pub fn tune(
+    name: &str,
+    def: &WorldDef,
+    options: &TuneOptions,
+    mut progress: impl FnMut(usize, usize, &str),
+) -> Result<TuneReport, TuneError> {
+    let scene = bench_scene(name, def, options.steps);
+    let flags = SceneFlags::of(def);
+    let accuracy_budget = Budget {
+        residual_samples: if options.metric == TuneMetric::Residual {
+            4.min((options.steps / 2) as u32)
+        } else {
+            0
+        },
+        ..scene.budget
+    };
+    let coarse = super::settings_grid();
+    let rounds = options.rounds.max(1) as usize;
+    let mut total = coarse.len() * rounds;
+    let mut done = 0usize;
+    let mut tried: Vec<Tried> = Vec::new();
+    let mut measure = |s: &Setting, pass: Pass, tried: &mut Vec<Tried>, total: usize| {
+        if crate::output::interrupted() {
+            return Err(TuneError::Interrupted);
+        }
+        let outcome = run_case(&scene, s, &accuracy_budget);
+        let ms = match &outcome {
+            Outcome::Ran(m) => m.ms_per_step,
+            Outcome::Failed(_) => f64::NAN,
+        };
+        tried.push(Tried {
+            setting: *s,
+            pass,
+            outcome,
+            samples: vec![ms],
+            ms_per_step: ms,
+            score: None,
+            dropped: None,
+        });
+        done += 1;
+        progress(done, total, &s.label());
+        Ok(())
+    };
+    for s in &coarse {
+        measure(s, Pass::Coarse, &mut tried, total)?;
+    }
+    // the fine pass: around the best coarse setting that fits (on its first timing)
+    score_all(&mut tried, options, flags);
+    if let Some(best) = best_within(&tried, options.budget_ms) {
+        let best = tried[best].setting;
+        let fine: Vec<Setting> = fine_candidates(&best)
+            .into_iter()
+            .filter(|s| !tried.iter().any(|t| t.setting == *s))
+            .collect();
+        total += fine.len() * rounds;
+        for s in &fine {
+            measure(s, Pass::Fine, &mut tried, total)?;
+        }
+    }
+    // timing rounds, turn about, over every stable setting that could still fit
+    let contenders: Vec<usize> = (0..tried.len())
+        .filter(|&i| {
+            tried[i].measured().is_some_and(|m| m.verdict.is_stable())
+                && tried[i].samples[0] <= 2.0 * options.budget_ms
+        })
+        .collect();
+    total = done + contenders.len() * (rounds - 1);
+    let timing = Budget {
+        residual_samples: 0,
+        ..scene.budget
+    };
+    for _ in 1..rounds {
+        for &i in &contenders {
+            if crate::output::interrupted() {
+                return Err(TuneError::Interrupted);
+            }
+            let s = tried[i].setting;
+            if let Outcome::Ran(m) = run_case(&scene, &s, &timing) {
+                tried[i].samples.push(m.ms_per_step);
+            }
+            done += 1;
+            progress(done, total, &s.label());
+        }
+    }
+    for t in &mut tried {
+        t.ms_per_step = median(&t.samples);
+    }
+    let (applies, normalisers) = score_all(&mut tried, options, flags);
+    let stable: Vec<usize> = (0..tried.len())
+        .filter(|&i| tried[i].score.is_some())
+        .collect();
+    if stable.is_empty() {
+        return Err(TuneError::NothingStable);
+    }
+    let pick = best_within(&tried, options.budget_ms);
+    let Some(pick) = pick else {
+        let cheapest = stable
+            .iter()
+            .copied()
+            .min_by(|&a, &b| tried[a].ms_per_step.total_cmp(&tried[b].ms_per_step))
+            .expect("not empty");
+        return Err(TuneError::OverBudget {
+            cheapest: tried[cheapest].setting.label(),
+            ms: tried[cheapest].ms_per_step,
+        });
+    };
+    let limit = tried[pick].score.unwrap_or(0.0) * 1.1;
+    let cheapest_close = stable
+        .iter()
+        .copied()
+        .filter(|&i| tried[i].score.is_some_and(|s| s <= limit))
+        .min_by(|&a, &b| {
+            tried[a]
+                .ms_per_step
+                .total_cmp(&tried[b].ms_per_step)
+                .then(a.cmp(&b))
+        });
+    let pareto = pareto_front(&tried);
+    Ok(TuneReport {
+        scene: name.to_string(),
+        options: *options,
+        tried,
+        applies,
+        normalisers,
+        pick: Some(pick),
+        cheapest_close,
+        pareto,
+    })
+}
+
+/// The most accurate stable setting whose cost fits (ties: the cheaper, then the
+/// earlier).
+fn best_within(tried: &[Tried], budget_ms: f64) -> Option<usize> {
+    (0..tried.len())
+        .filter(|&i| tried[i].score.is_some() && tried[i].ms_per_step <= budget_ms)
+        .min_by(|&a, &b| {
+            let (sa, sb) = (tried[a].score.unwrap_or(0.0), tried[b].score.unwrap_or(0.0));
+            sa.total_cmp(&sb)
+                .then(tried[a].ms_per_step.total_cmp(&tried[b].ms_per_step))
+                .then(a.cmp(&b))
+        })
+}
+
+/// The stable settings not beaten on both cost and score by another, cheapest first.
+pub fn pareto_front(tried: &[Tried]) -> Vec<usize> {
+    let mut idx: Vec<usize> = (0..tried.len())
+        .filter(|&i| tried[i].score.is_some() && tried[i].ms_per_step.is_finite())
+        .collect();
+    idx.sort_by(|&a, &b| {
+        tried[a]
+            .ms_per_step
+            .total_cmp(&tried[b].ms_per_step)
+            .then(
+                tried[a]
+                    .score
+                    .unwrap_or(0.0)
+                    .total_cmp(&tried[b].score.unwrap_or(0.0)),
+            )
+            .then(a.cmp(&b))
+    });
+    let mut front = Vec::new();
+    let mut best = f64::INFINITY;
+    for i in idx {
+        let s = tried[i].score.unwrap_or(0.0);
+        if s < best {
+            front.push(i);
+            best = s;
+        }
+    }
+    front
+}
+
+/// Decides which measures apply, and gives every setting its score or the reason it is
+/// dropped. Returns what applies and the normalisers of the default score.
+pub fn score_all(
+    tried: &mut [Tried],
+    options: &TuneOptions,
+    flags: SceneFlags,
+) -> (Applies, Vec<(Metric, f64)>) {
+    for t in tried.iter_mut() {
+        t.dropped = match &t.outcome {
+            Outcome::Failed(e) => Some(format!("could not run: {e}")),
+            Outcome::Ran(m) => match &m.verdict {
+                super::Verdict::Unstable(why) => Some(format!("unstable: {why}")),
+                super::Verdict::Stable => None,
+            },
+        };
+        t.score = None;
+    }
+    let ran = || tried.iter().filter_map(|t| t.measured());
+    let stable = || {
+        tried
+            .iter()
+            .filter(|t| t.dropped.is_none())
+            .filter_map(|t| t.measured())
+    };
+    let best = |m: Metric| {
+        stable()
+            .map(|x| x.metric(m))
+            .filter(|v| v.is_finite())
+            .fold(f64::INFINITY, f64::min)
+    };
+    let applies = Applies {
+        penetration: ran().any(|m| m.penetration_max > 0.0),
+        drift: false,
+        joint_error: ran().any(|m| m.joint_error.is_finite()),
+        energy_drift: false,
+    };
+    let energy_possible = !applies.penetration && ran().any(|m| m.energy_drift.is_finite());
+    let applies = Applies {
+        drift: flags.at_rest && best(Metric::Drift) <= RESTING_DRIFT,
+        energy_drift: energy_possible && flags.closed,
+        ..applies
+    };
+    let normalisers: Vec<(Metric, f64)> = applies
+        .measures()
+        .into_iter()
+        .map(|m| (m, best(m).max(floor(m))))
+        .collect();
+    for t in tried.iter_mut() {
+        if t.dropped.is_some() {
+            continue;
+        }
+        let Some(m) = t.measured() else { continue };
+        match options.metric.measure() {
+            Some(metric) => {
+                let v = m.metric(metric);
+                if v.is_finite() {
+                    t.score = Some(v);
+                } else {
+                    t.dropped = Some(format!("{} is not measured here", options.metric.name()));
+                }
+            }
+            None => {
+                let s = normalisers
+                    .iter()
+                    .map(|&(metric, n)| m.metric(metric) / n)
+                    .fold(0.0f64, |a, v| if v.is_nan() { a } else { a.max(v) });
+                t.score = Some(s);
+            }
+        }
+    }
+    (applies, normalisers)
+}
+
+/// A tick label with two or three significant digits.
+fn short_tick(v: f64) -> String {
+    if v >= 10.0 {
+        format!("{v:.0}")
+    } else if v >= 1.0 {
+        format!("{v:.1}")
+    } else if v >= 0.01 {
+        format!("{v:.2}")
+    } else {
+        format!("{v:.0e}")
+    }
+}
+
+/// A measure's value for a table cell ("-" where it does not apply).
+fn cell(m: &Measured, metric: Metric) -> String {
+    let v = m.metric(metric);
+    if !v.is_finite() {
+        return "-".into();
+    }
+    match metric {
+        Metric::PenetrationMax | Metric::PenetrationMean | Metric::JointError => {
+            format!("{:.2} mm", v * 1e3)
+        }
+        Metric::Drift => format!("{v:.3} m"),
+        Metric::EnergyDrift | Metric::Residual => format!("{v:.2e}"),
+    }
+}
+
+/// A score for a table cell: normalised scores with two decimals, single measures
+/// with three significant digits.
+fn score_text(report: &TuneReport, score: f64) -> String {
+    match report.options.metric {
+        TuneMetric::Worst => format!("{score:.2}"),
+        _ => format!("{score:.3e}"),
+    }
+}
+
+/// The `[solver]` table that reproduces a setting (the scene's other `[solver]` keys
+/// stay as they are).
+pub fn solver_table(s: &Setting) -> String {
+    let mut t = format!(
+        "[solver]\nkind = \"{}\"\nsubsteps = {}\niterations = {}\n",
+        s.kind.name(),
+        s.substeps,
+        s.iterations
+    );
+    if s.kind == SolverKind::Pgs {
+        t.push_str(&format!(
+            "warm_start = {}\nsplit_impulse = {}\ntolerance = 0.0\n",
+            s.warm_start, s.split_impulse
+        ));
+    }
+    t
+}
+
+/// The keys [`solver_table`] sets, as (key, value) pairs for an edit in place.
+fn solver_values(s: &Setting) -> Vec<(&'static str, toml_edit::Value)> {
+    let mut v: Vec<(&'static str, toml_edit::Value)> = vec![
+        ("kind", s.kind.name().into()),
+        ("substeps", i64::from(s.substeps).into()),
+        ("iterations", i64::from(s.iterations).into()),
+    ];
+    if s.kind == SolverKind::Pgs {
+        v.push(("warm_start", s.warm_start.into()));
+        v.push(("split_impulse", s.split_impulse.into()));
+        v.push(("tolerance", 0.0f64.into()));
+    }
+    v
+}
+
+/// The scene file's text with the setting written into its `[solver]` table (made if
+/// missing), every other line, comment and key order kept. `soft_step` (the old
+/// spelling of `kind`) is removed; PGS-only keys the winner does not set are left.
+pub fn write_setting(text: &str, s: &Setting) -> Result<String, String> {
+    let mut doc: toml_edit::DocumentMut = text.parse().map_err(|e: toml_edit::TomlError| {
+        e.to_string().lines().next().unwrap_or_default().to_string()
+    })?;
+    if !doc.contains_key("solver") {
+        doc.insert("solver", toml_edit::Item::Table(toml_edit::Table::new()));
+    }
+    let table = doc["solver"]
+        .as_table_like_mut()
+        .ok_or("[solver] is not a table")?;
+    table.remove("soft_step");
+    for (key, value) in solver_values(s) {
+        match table.get_mut(key) {
+            // keep the key's place and its comments
+            Some(item) if item.is_value() => {
+                let decor = item.as_value().map(|v| v.decor().clone());
+                let mut value = value;
+                if let Some(d) = decor {
+                    *value.decor_mut() = d;
+                }
+                *item = toml_edit::Item::Value(value);
+            }
+            _ => {
+                table.insert(key, toml_edit::Item::Value(value));
+            }
+        }
+    }
+    Ok(doc.to_string())
+}
+
+/// The note beside a row: pick, cheapest close, on the front.
+fn role(report: &TuneReport, i: usize) -> String {
+    let mut r = Vec::new();
+    if report.pick == Some(i) {
+        r.push("**pick**");
+    }
+    if report.cheapest_close == Some(i) && report.pick != Some(i) {
+        r.push("cheapest within 10%");
+    }
+    if report.pareto.contains(&i) {
+        r.push("front");
+    }
+    r.join(", ")
+}
+
+/// What the score means, in one line.
+pub fn metric_line(report: &TuneReport) -> String {
+    match report.options.metric {
+        TuneMetric::Worst if report.normalisers.is_empty() => {
+            "no error measure applies to this scene (no contact, joint, resting body or closed energy): every stable setting scores 0, so the cheapest wins".into()
+        }
+        TuneMetric::Worst => format!(
+            "score = the worst of {} (1 = as right as the best setting on every measure)",
+            report
+                .normalisers
+                .iter()
+                .map(|(m, n)| format!("{} / {}", m.name(), short_value(*m, *n)))
+                .collect::<Vec<_>>()
+                .join(", ")
+        ),
+        m => format!("score = {} (smaller is better)", m.name()),
+    }
+}
+
+fn short_value(m: Metric, v: f64) -> String {
+    match m {
+        Metric::PenetrationMax | Metric::PenetrationMean | Metric::JointError => {
+            format!("{:.2} mm", v * 1e3)
+        }
+        Metric::Drift => format!("{v:.3} m"),
+        _ => format!("{v:.1e}"),
+    }
+}
+
+/// The one-line summary of a pick: label, cost and score.
+fn summary(report: &TuneReport, i: usize) -> String {
+    let t = &report.tried[i];
+    format!(
+        "{} ({:.4} ms/step, score {})",
+        t.setting.label(),
+        t.ms_per_step,
+        t.score.map_or("-".into(), |s| score_text(report, s))
+    )
+}
+
+/// The report as Markdown: the picks, the `[solver]` table, the Pareto front, every
+/// setting tried and the dropped ones with their reasons.
+pub fn markdown(report: &TuneReport) -> String {
+    let o = &report.options;
+    let mut s = format!(
+        "# tune {}: budget {} ms/step, {} steps, metric {}\n\n{}.\n\n",
+        report.scene,
+        o.budget_ms,
+        o.steps,
+        o.metric.name(),
+        metric_line(report)
+    );
+    if let Some(p) = report.pick {
+        s.push_str(&format!(
+            "- most accurate within the budget: {}\n",
+            summary(report, p)
+        ));
+    }
+    if let Some(c) = report.cheapest_close {
+        s.push_str(&format!(
+            "- cheapest within 10% of that accuracy: {}\n",
+            summary(report, c)
+        ));
+    }
+    if let Some(p) = report.pick {
+        s.push_str(&format!(
+            "\nTo use the pick, put this in the scene (or run `tune --write`):\n\n```toml\n{}```\n",
+            solver_table(&report.tried[p].setting)
+        ));
+    }
+    let header = "| setting | ms/step | score | penetration | drift | joint error | energy drift | residual | |\n|---|---|---|---|---|---|---|---|---|\n";
+    let row = |i: usize| {
+        let t = &report.tried[i];
+        let m = t.measured();
+        let c = |metric| match m {
+            Some(m) if metric != Metric::EnergyDrift || report.applies.energy_drift => {
+                cell(m, metric)
+            }
+            _ => "-".into(),
+        };
+        format!(
+            "| {}{} | {:.4} | {} | {} | {} | {} | {} | {} | {} |\n",
+            t.setting.label(),
+            if t.pass == Pass::Fine { " (fine)" } else { "" },
+            t.ms_per_step,
+            t.score.map_or("-".into(), |v| score_text(report, v)),
+            c(Metric::PenetrationMax),
+            c(Metric::Drift),
+            c(Metric::JointError),
+            c(Metric::EnergyDrift),
+            c(Metric::Residual),
+            role(report, i)
+        )
+    };
+    s.push_str("\n## The Pareto front (no other setting is both cheaper and more accurate)\n\n");
+    s.push_str(header);
+    for &i in &report.pareto {
+        s.push_str(&row(i));
+    }
+    s.push_str("\n## Every setting tried\n\n");
+    s.push_str(header);
+    for i in 0..report.tried.len() {
+        if report.tried[i].dropped.is_none() {
+            s.push_str(&row(i));
+        }
+    }
+    let dropped: Vec<&Tried> = report
+        .tried
+        .iter()
+        .filter(|t| t.dropped.is_some())
+        .collect();
+    if !dropped.is_empty() {
+        s.push_str("\n## Dropped (never picked)\n\n");
+        for t in dropped {
+            s.push_str(&format!(
+                "- {}: {}\n",
+                t.setting.label(),
+                t.dropped.as_deref().unwrap_or_default()
+            ));
+        }
+    }
+    s
+}
+
+/// A setting as JSON.
+fn setting_json(s: &Setting) -> serde_json::Value {
+    serde_json::json!({
+        "label": s.label(),
+        "kind": s.kind.name(),
+        "substeps": s.substeps,
+        "iterations": s.iterations,
+        "warm_start": s.warm_start,
+        "split_impulse": s.split_impulse,
+    })
+}
+
+/// The report as one JSON object (NaN measures as null).
+pub fn json(report: &TuneReport) -> serde_json::Value {
+    let num = |v: f64| {
+        if v.is_finite() {
+            serde_json::json!(v)
+        } else {
+            serde_json::Value::Null
+        }
+    };
+    let tried: Vec<serde_json::Value> = report
+        .tried
+        .iter()
+        .enumerate()
+        .map(|(i, t)| {
+            let m = t.measured();
+            let f = |metric| m.map_or(serde_json::Value::Null, |m| num(m.metric(metric)));
+            serde_json::json!({
+                "setting": setting_json(&t.setting),
+                "pass": if t.pass == Pass::Fine { "fine" } else { "coarse" },
+                "ms_per_step": num(t.ms_per_step),
+                "timing_rounds": t.samples.len(),
+                "score": t.score.map_or(serde_json::Value::Null, num),
+                "penetration_max": f(Metric::PenetrationMax),
+                "drift": f(Metric::Drift),
+                "joint_error": f(Metric::JointError),
+                "energy_drift": f(Metric::EnergyDrift),
+                "residual": f(Metric::Residual),
+                "dropped": t.dropped,
+                "pareto": report.pareto.contains(&i),
+            })
+        })
+        .collect();
+    let at = |i: Option<usize>| {
+        i.map_or(serde_json::Value::Null, |i| {
+            let t = &report.tried[i];
+            serde_json::json!({
+                "setting": setting_json(&t.setting),
+                "ms_per_step": num(t.ms_per_step),
+                "score": t.score.map_or(serde_json::Value::Null, num),
+            })
+        })
+    };
+    serde_json::json!({
+        "scene": report.scene,
+        "budget_ms": report.options.budget_ms,
+        "steps": report.options.steps,
+        "rounds": report.options.rounds,
+        "metric": report.options.metric.name(),
+        "normalisers": report.normalisers.iter().map(|(m, n)| serde_json::json!({"measure": m.name(), "value": n})).collect::<Vec<_>>(),
+        "pick": at(report.pick),
+        "cheapest_within_10_percent": at(report.cheapest_close),
+        "solver_table": report.pick.map(|p| solver_table(&report.tried[p].setting)),
+        "tried": tried,
+    })
+}
+
+/// The Pareto plot: every stable setting's score against its cost (log scales), the
+/// front joined, the budget as a vertical line, the pick ringed.
+pub fn svg(report: &TuneReport) -> Result<String, String> {
+    use plotters::prelude::*;
+    let pts: Vec<(usize, f64, f64)> = report
+        .tried
+        .iter()
+        .enumerate()
+        .filter_map(|(i, t)| Some((i, t.ms_per_step, t.score?)))
+        .filter(|p| p.1.is_finite() && p.1 > 0.0)
+        .collect();
+    let min_pos = pts
+        .iter()
+        .map(|p| p.2)
+        .filter(|&v| v > 0.0)
+        .fold(f64::INFINITY, f64::min);
+    let floor = if min_pos.is_finite() {
+        min_pos / 10.0
+    } else {
+        1e-3
+    };
+    let y = |v: f64| v.max(floor);
+    let x0 = pts
+        .iter()
+        .map(|p| p.1)
+        .fold(f64::INFINITY, f64::min)
+        .min(report.options.budget_ms)
+        / 1.5;
+    let x1 = pts
+        .iter()
+        .map(|p| p.1)
+        .fold(0.0f64, f64::max)
+        .max(report.options.budget_ms)
+        * 1.5;
+    let y0 = pts.iter().map(|p| y(p.2)).fold(f64::INFINITY, f64::min) / 2.0;
+    let y1 = (pts.iter().map(|p| y(p.2)).fold(0.0f64, f64::max) * 2.0).max(y0 * 10.0);
+    let (x0, x1, y0, y1) = if pts.is_empty() {
+        (1e-3, 1.0, 1e-3, 1.0)
+    } else {
+        (x0.max(1e-6), x1, y0, y1)
+    };
+    let mut text = String::new();
+    {
+        let root = SVGBackend::with_string(&mut text, (820, 560)).into_drawing_area();
+        let e = |e: &dyn std::fmt::Display| e.to_string();
+        root.fill(&WHITE).map_err(|x| e(&x))?;
+        let mut chart = ChartBuilder::on(&root)
+            .caption(
+                format!(
+                    "tune {}: {} against cost, budget {} ms/step",
+                    report.scene,
+                    report.options.metric.name(),
+                    report.options.budget_ms
+                ),
+                ("sans-serif", 18),
+            )
+            .margin(12)
+            .x_label_area_size(45)
+            .y_label_area_size(80)
+            .build_cartesian_2d((x0..x1).log_scale(), (y0..y1).log_scale())
+            .map_err(|x| e(&x))?;
+        chart
+            .configure_mesh()
+            .x_desc("ms per step (median)")
+            .y_desc(format!("score ({})", report.options.metric.name()))
+            .x_labels(8)
+            .x_label_formatter(&|v| short_tick(*v))
+            .y_label_formatter(&|v| format!("{v:.1e}"))
+            .draw()
+            .map_err(|x| e(&x))?;
+        let grey = RGBColor(150, 150, 150);
+        chart
+            .draw_series(
+                pts.iter()
+                    .map(|p| Circle::new((p.1, y(p.2)), 3, grey.filled())),
+            )
+            .map_err(|x| e(&x))?;
+        let blue = RGBColor(31, 119, 180);
+        let front: Vec<(f64, f64)> = report
+            .pareto
+            .iter()
+            .filter_map(|&i| pts.iter().find(|p| p.0 == i))
+            .map(|p| (p.1, y(p.2)))
+            .collect();
+        chart
+            .draw_series(LineSeries::new(front.clone(), blue.stroke_width(2)))
+            .map_err(|x| e(&x))?
+            .label("Pareto front")
+            .legend(move |(x, yy)| PathElement::new(vec![(x, yy), (x + 20, yy)], blue));
+        chart
+            .draw_series(report.pareto.iter().filter_map(|&i| {
+                let p = pts.iter().find(|p| p.0 == i)?;
+                Some(
+                    EmptyElement::at((p.1, y(p.2)))
+                        + Circle::new((0, 0), 4, blue.filled())
+                        + Text::new(
+                            report.tried[i].setting.label(),
+                            (6, -12),
+                            ("sans-serif", 11),
+                        ),
+                )
+            }))
+            .map_err(|x| e(&x))?;
+        let red = RGBColor(214, 39, 40);
+        let b = report.options.budget_ms;
+        chart
+            .draw_series(LineSeries::new(vec![(b, y0), (b, y1)], red))
+            .map_err(|x| e(&x))?
+            .label("budget")
+            .legend(move |(x, yy)| PathElement::new(vec![(x, yy), (x + 20, yy)], red));
+        if let Some(p) = report.pick.and_then(|i| pts.iter().find(|p| p.0 == i)) {
+            chart
+                .draw_series(std::iter::once(Circle::new(
+                    (p.1, y(p.2)),
+                    8,
+                    red.stroke_width(2),
+                )))
+                .map_err(|x| e(&x))?
+                .label("pick")
+                .legend(move |(x, yy)| Circle::new((x + 10, yy), 5, red.stroke_width(2)));
+        }
+        chart
+            .configure_series_labels()
+            .position(SeriesLabelPosition::UpperRight)
+            .background_style(WHITE.mix(0.85))
+            .border_style(BLACK)
+            .draw()
+            .map_err(|x| e(&x))?;
+        root.present().map_err(|x| e(&x))?;
+    }
+    Ok(text)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::bench::Verdict;
+
+    fn measured(pen: f64, drift: f64, stable: bool) -> Measured {
+        Measured {
+            ms_per_step: 0.0,
+            stage_ms: [0.0; 5],
+            steps: 10,
+            penetration_max: pen,
+            penetration_mean: pen / 2.0,
+            drift,
+            joint_error: f64::NAN,
+            energy_drift: f64::NAN,
+            residual: f64::NAN,
+            verdict: if stable {
+                Verdict::Stable
+            } else {
+                Verdict::Unstable("energy grew".into())
+            },
+        }
+    }
+
+    fn tried(iterations: u32, ms: f64, m: Measured) -> Tried {
+        Tried {
+            setting: Setting::pgs(iterations, true, true),
+            pass: Pass::Coarse,
+            outcome: Outcome::Ran(m),
+            samples: vec![ms],
+            ms_per_step: ms,
+            score: None,
+            dropped: None,
+        }
+    }
+
+    const RESTING: SceneFlags = SceneFlags {
+        closed: false,
+        at_rest: true,
+    };
+
+    fn options(budget_ms: f64) -> TuneOptions {
+        TuneOptions {
+            budget_ms,
+            metric: TuneMetric::Worst,
+            steps: 10,
+            rounds: 1,
+        }
+    }
+
+    #[test]
+    fn the_worst_score_divides_each_measure_by_the_best_stable_value() {
+        let mut t = vec![
+            tried(1, 1.0, measured(0.010, 0.002, true)),
+            tried(2, 2.0, measured(0.002, 0.004, true)),
+            // the most accurate on both, but unstable: it sets no normaliser
+            tried(3, 0.5, measured(0.0001, 0.0001, false)),
+        ];
+        let (applies, norm) = score_all(&mut t, &options(10.0), RESTING);
+        assert!(applies.penetration && applies.drift);
+        assert!(!applies.joint_error && !applies.energy_drift);
+        assert_eq!(
+            norm,
+            vec![(Metric::PenetrationMax, 0.002), (Metric::Drift, 0.002)]
+        );
+        // 0.010 / 0.002 = 5 (penetration is its worst); 0.004 / 0.002 = 2 (drift)
+        assert!((t[0].score.unwrap() - 5.0).abs() < 1e-12);
+        assert!((t[1].score.unwrap() - 2.0).abs() < 1e-12);
+        assert!(t[2].score.is_none());
+        assert!(t[2].dropped.as_deref().unwrap().starts_with("unstable"));
+    }
+
+    #[test]
+    fn an_unstable_or_over_budget_setting_is_never_picked() {
+        let mut t = vec![
+            tried(1, 1.0, measured(0.010, 0.010, true)),
+            tried(2, 3.0, measured(0.001, 0.001, true)),
+            tried(3, 0.2, measured(0.0001, 0.0001, false)),
+        ];
+        score_all(&mut t, &options(2.0), RESTING);
+        // the unstable one is cheapest and most accurate; the second is over budget
+        assert_eq!(best_within(&t, 2.0), Some(0));
+        assert_eq!(best_within(&t, 5.0), Some(1));
+        assert_eq!(best_within(&t, 0.5), None);
+        assert_eq!(pareto_front(&t), vec![0, 1]);
+    }
+
+    #[test]
+    fn drift_counts_only_in_a_scene_meant_to_rest() {
+        // every setting lets the top body move metres: the scene is not a resting one
+        let mut t = vec![
+            tried(1, 1.0, measured(0.010, 3.0, true)),
+            tried(2, 2.0, measured(0.002, 2.0, true)),
+        ];
+        let (applies, norm) = score_all(&mut t, &options(10.0), RESTING);
+        assert!(!applies.drift);
+        assert_eq!(norm.len(), 1);
+        // a scene that starts moving never counts drift either
+        let mut t = vec![tried(1, 1.0, measured(0.010, 0.001, true))];
+        let moving = SceneFlags {
+            closed: false,
+            at_rest: false,
+        };
+        assert!(!score_all(&mut t, &options(10.0), moving).0.drift);
+    }
+
+    #[test]
+    fn a_named_metric_drops_the_settings_that_do_not_measure_it() {
+        let mut t = vec![tried(1, 1.0, measured(0.010, 0.010, true))];
+        let o = TuneOptions {
+            metric: TuneMetric::Residual,
+            ..options(10.0)
+        };
+        score_all(&mut t, &o, RESTING);
+        assert!(t[0].score.is_none());
+        assert!(t[0].dropped.as_deref().unwrap().contains("residual"));
+    }
+
+    #[test]
+    fn the_fine_pass_fills_between_the_grid_counts() {
+        let labels = |v: Vec<Setting>| v.iter().map(|s| s.label()).collect::<Vec<_>>();
+        assert_eq!(
+            labels(fine_candidates(&Setting::pgs(8, true, false))),
+            ["pgs 6 warm", "pgs 12 warm"]
+        );
+        assert_eq!(
+            labels(fine_candidates(&Setting::soft(4, 2))),
+            [
+                "soft 3 substeps x 2",
+                "soft 6 substeps x 2",
+                "soft 4 substeps x 1",
+                "soft 4 substeps x 3"
+            ]
+        );
+        assert_eq!(
+            labels(fine_candidates(&Setting::xpbd(1))),
+            ["xpbd 1 substep"][..0]
+        );
+        assert_eq!(
+            labels(fine_candidates(&Setting::xpbd(2))),
+            ["xpbd 3 substeps"]
+        );
+    }
+
+    #[test]
+    fn write_setting_keeps_comments_and_order_and_drops_the_old_spelling() {
+        let text = "# my scene\nname = \"s\"\n\n[solver]\n# the step\ndt = 0.01 # small\nsoft_step = true\niterations = 4 # keep this comment\n\n[[body]]\nname = \"b\"\n";
+        let out = write_setting(text, &Setting::pgs(16, true, false)).unwrap();
+        assert!(out.starts_with("# my scene\nname = \"s\"\n"));
+        assert!(out.contains("# the step\ndt = 0.01 # small\n"));
+        assert!(out.contains("iterations = 16 # keep this comment\n"));
+        assert!(!out.contains("soft_step"));
+        for line in [
+            "kind = \"pgs\"",
+            "substeps = 1",
+            "warm_start = true",
+            "split_impulse = false",
+            "tolerance = 0.0",
+        ] {
+            assert!(out.contains(line), "{line} missing from:\n{out}");
+        }
+        // [solver] stays before the bodies
+        assert!(out.find("[solver]").unwrap() < out.find("[[body]]").unwrap());
+        // and a file without [solver] gains one
+        let out = write_setting("name = \"s\"\n", &Setting::soft(4, 2)).unwrap();
+        assert!(
+            out.contains("[solver]\nkind = \"soft\"\nsubsteps = 4\niterations = 2\n"),
+            "{out}"
+        );
+    }
+}
