@@ -48,7 +48,7 @@ enum Command {
     /// results.md and one plot per scene (or stability.md for --suite extremes) in --out.
     Bench(BenchArgs),
     /// Pick the most accurate solver setting that fits a budget in ms per step: runs the
-    /// bench's grid on the scene, then a finer pass around the best, and prints the
+    /// bench's grid on the scene, then a finer pass around each solver's best, and prints the
     /// pick, the cheapest setting nearly as good, and the Pareto front.
     Tune(TuneArgs),
 }

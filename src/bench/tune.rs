@@ -3,9 +3,9 @@
 //!
 //! The search runs the bench's grid ([`super::settings_grid`]: classic PGS at 1..32
 //! sweeps in its four modes, XPBD at 1..32 substeps, the soft step at 1..32 substeps of
-//! 2 sweeps), then a finer pass around the best setting within the budget (the counts
-//! between its neighbours on the grid; for the soft step also 1 and 3 sweeps a
-//! substep). Each setting's accuracy comes from one run ([`super::run_case`]: the runs
+//! 2 sweeps), then a finer pass around each solver's best setting within the budget
+//! (the counts between its neighbours on the grid; for the soft step also 1 and 3
+//! sweeps a substep). Each setting's accuracy comes from one run ([`super::run_case`]: the runs
 //! are deterministic); its cost is the median of that run's ms/step and of further timing
 //! rounds, taken turn about over every candidate still in contention so that the
 //! machine's noise falls on all of them alike.
@@ -100,8 +100,9 @@ pub fn floor(m: Metric) -> f64 {
     }
 }
 
-/// Drift of the top body counts only in a scene that starts at rest and where some
-/// stable setting kept the top body within this distance (m): a scene meant to stand.
+/// Drift of the top body counts only in a scene without joints that starts at rest and
+/// where some stable setting kept the top body within this distance (m): a pile meant to
+/// stand (a ball pit's top ball falls metres under every setting).
 pub const RESTING_DRIFT: f64 = 0.5;
 
 /// How the search runs.
@@ -121,7 +122,7 @@ pub struct TuneOptions {
 pub enum Pass {
     /// The bench's grid.
     Coarse,
-    /// Around the best setting of the coarse pass.
+    /// Around each solver kind's best setting of the coarse pass.
     Fine,
 }
 
@@ -157,8 +158,8 @@ impl Tried {
 pub struct Applies {
     /// Overlap: some run saw a contact.
     pub penetration: bool,
-    /// Drift: the scene starts at rest and some stable setting kept the top body within
-    /// [`RESTING_DRIFT`].
+    /// Drift: the scene is a jointless pile that starts at rest, and some stable setting
+    /// kept its top body within [`RESTING_DRIFT`].
     pub drift: bool,
     /// Joint error: the scene has joints.
     pub joint_error: bool,
@@ -279,7 +280,9 @@ pub struct SceneFlags {
     /// Nothing in the scene adds or takes energy (no drag, forces, kinematic bodies,
     /// motors, servos or joint damping).
     pub closed: bool,
-    /// Every body starts at rest.
+    /// A pile meant to stand: every body starts at rest and no joint moves anything
+    /// (a chain or a pendulum swings from rest, so its top body's path is motion, not
+    /// error).
     pub at_rest: bool,
 }
 
@@ -287,7 +290,7 @@ impl SceneFlags {
     pub fn of(def: &WorldDef) -> SceneFlags {
         SceneFlags {
             closed: closed_system(def),
-            at_rest: starts_at_rest(def),
+            at_rest: def.joints.is_empty() && starts_at_rest(def),
         }
     }
 }
@@ -312,7 +315,7 @@ fn starts_at_rest(def: &WorldDef) -> bool {
         .all(|b| b.velocity == Vec2::ZERO && b.angular_velocity == 0.0)
 }
 
-/// The neighbours of the best coarse setting that the grid skipped.
+/// The neighbours of a coarse setting that the grid skipped.
 pub fn fine_candidates(best: &Setting) -> Vec<Setting> {
     let around = |n: u32| -> Vec<u32> {
         let mut v = vec![(n * 3).div_ceil(4), n * 3 / 2];
@@ -407,18 +410,28 @@ pub fn tune(
     for s in &coarse {
         measure(s, Pass::Coarse, &mut tried, total)?;
     }
-    // the fine pass: around the best coarse setting that fits (on its first timing)
+    // the fine pass: around each solver kind's best coarse setting that fits (on its
+    // first timing), so that a kind just behind on the grid can still win between its
+    // grid points
     score_all(&mut tried, options, flags);
-    if let Some(best) = best_within(&tried, options.budget_ms) {
-        let best = tried[best].setting;
-        let fine: Vec<Setting> = fine_candidates(&best)
-            .into_iter()
-            .filter(|s| !tried.iter().any(|t| t.setting == *s))
+    let mut fine: Vec<Setting> = Vec::new();
+    for kind in SolverKind::ALL {
+        let of_kind: Vec<Tried> = tried
+            .iter()
+            .filter(|t| t.setting.kind == kind)
+            .cloned()
             .collect();
-        total += fine.len() * rounds;
-        for s in &fine {
-            measure(s, Pass::Fine, &mut tried, total)?;
+        if let Some(best) = best_within(&of_kind, options.budget_ms) {
+            for s in fine_candidates(&of_kind[best].setting) {
+                if !tried.iter().any(|t| t.setting == s) && !fine.contains(&s) {
+                    fine.push(s);
+                }
+            }
         }
+    }
+    total += fine.len() * rounds;
+    for s in &fine {
+        measure(s, Pass::Fine, &mut tried, total)?;
     }
     // timing rounds, turn about, over every stable setting that could still fit
     let contenders: Vec<usize> = (0..tried.len())
