@@ -368,8 +368,11 @@ fn drive_work_bound(w: &World, seconds: f64) -> f64 {
 #[test]
 fn every_builtin_scene_runs_ten_seconds_under_every_solver() {
     for &name in sandbox2d::scene::builtin_names() {
-        if name == "large_pyramid" {
-            continue; // 5050 boxes: measured by the bench, too slow for a debug test
+        if name == "large_pyramid" || name == "joint_grid" {
+            // 5050 boxes, or 10,000 circles on 19,800 hinges: measured by the bench, too
+            // slow for a debug test (a 30 x 30 joint grid runs in
+            // a_joint_grid_stays_finite_under_every_solver)
+            continue;
         }
         for kind in SolverKind::ALL {
             let mut w = builtin(name, kind);

@@ -466,4 +466,25 @@ mod tests {
             assert!(all.iter().any(|s| s.name == *a) && all.iter().any(|s| s.name == *b));
         }
     }
+
+    #[test]
+    fn the_builtin_joint_grid_is_the_benchmark_layout() {
+        let scene = scene::load("joint_grid").unwrap().world;
+        let bench = joint_grid(100);
+        assert_eq!(scene.bodies.len(), 10_000);
+        assert_eq!(scene.joints.len(), 19_800);
+        assert_eq!(scene.gravity, bench.gravity);
+        for (a, b) in scene.bodies.iter().zip(&bench.bodies) {
+            assert_eq!(
+                (a.position, a.body_type, &a.shape, a.filter),
+                (b.position, b.body_type, &b.shape, b.filter),
+                "{} against {}",
+                a.name,
+                b.name
+            );
+        }
+        for (a, b) in scene.joints.iter().zip(&bench.joints) {
+            assert_eq!((a.kind, a.bodies, a.anchor), (b.kind, b.bodies, b.anchor));
+        }
+    }
 }

@@ -24,6 +24,10 @@ const SCENES: &[(&str, &str)] = &[
         "friction_ramp",
         include_str!("../../assets/scenes/friction_ramp.toml"),
     ),
+    (
+        "joint_grid",
+        include_str!("../../assets/scenes/joint_grid.toml"),
+    ),
     ("joints", include_str!("../../assets/scenes/joints.toml")),
     (
         "large_pyramid",
@@ -65,6 +69,7 @@ const NAMES: &[&str] = &[
     "chain",
     "double_pendulum",
     "friction_ramp",
+    "joint_grid",
     "joints",
     "large_pyramid",
     "multi_pendulum",

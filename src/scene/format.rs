@@ -204,6 +204,7 @@ pub(crate) struct FilePyramid {
     pub friction: Option<S<f32>>,
     pub restitution: Option<S<f32>>,
     pub color: Option<S<String>>,
+    pub filter: Option<S<FileFilter>>,
 }
 
 /// `[[stack]]`.
@@ -219,6 +220,7 @@ pub(crate) struct FileStack {
     pub friction: Option<S<f32>>,
     pub restitution: Option<S<f32>>,
     pub color: Option<S<String>>,
+    pub filter: Option<S<FileFilter>>,
 }
 
 /// `[[grid]]`.
@@ -238,6 +240,11 @@ pub(crate) struct FileGrid {
     pub friction: Option<S<f32>>,
     pub restitution: Option<S<f32>>,
     pub color: Option<S<String>>,
+    pub filter: Option<S<FileFilter>>,
+    /// `"hinge"`: each body hinged to its left and previous-row neighbours.
+    pub joints: Option<S<String>>,
+    /// `[[row, column], ...]`: cells made static (anchors).
+    pub static_cells: Option<S<Vec<S<Pair<i64>>>>>,
 }
 
 /// `end = { shape, density | mass, friction, restitution, color }` of a chain.
@@ -265,6 +272,7 @@ pub(crate) struct FileChain {
     pub friction: Option<S<f32>>,
     pub restitution: Option<S<f32>>,
     pub color: Option<S<String>>,
+    pub filter: Option<S<FileFilter>>,
     pub end: Option<S<FileChainEnd>>,
 }
 

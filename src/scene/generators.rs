@@ -97,7 +97,13 @@ fn dynamic_body(
 /// `[[pyramid]]`: row i = 0..base-1 has base-i boxes; box j = i..base-1 of row i is
 /// at x = origin.x + (i+1) w/2 + w (j-i) - w base/2, y = origin.y + (2i+1) h/2,
 /// row by row from the bottom, left to right (the benchmark's large pyramid).
-pub(crate) fn pyramid(ctx: &Ctx, t: &S<FilePyramid>, k: usize, bodies: &mut Bodies) -> R<()> {
+pub(crate) fn pyramid(
+    ctx: &Ctx,
+    t: &S<FilePyramid>,
+    k: usize,
+    categories: &[String],
+    bodies: &mut Bodies,
+) -> R<()> {
     let who = format!("pyramid{k}");
     let who = who.as_str();
     let p = t.get_ref();
@@ -123,6 +129,7 @@ pub(crate) fn pyramid(ctx: &Ctx, t: &S<FilePyramid>, k: usize, bodies: &mut Bodi
         p.restitution.as_ref(),
         p.color.as_ref(),
     )?;
+    let filter = ctx.filter(who, p.filter.as_ref(), categories)?;
     let (w, h, n) = (size.x as f64, size.y as f64, base as f64);
     let shape = ShapeDef::Box {
         width: size.x,
@@ -151,7 +158,10 @@ pub(crate) fn pyramid(ctx: &Ctx, t: &S<FilePyramid>, k: usize, bodies: &mut Bodi
                 ("box", box_span.clone()),
                 origin_span.clone(),
             )?;
-            let body = dynamic_body(format!("{who}_{index}"), shape.clone(), at, &m);
+            let body = BodyDef {
+                filter,
+                ..dynamic_body(format!("{who}_{index}"), shape.clone(), at, &m)
+            };
             bodies.push(ctx, body, t.span(), &places)?;
             index += 1;
         }
@@ -160,7 +170,13 @@ pub(crate) fn pyramid(ctx: &Ctx, t: &S<FilePyramid>, k: usize, bodies: &mut Bodi
 }
 
 /// `[[stack]]`: box k = 0..count-1 at (origin.x + k offset, origin.y + (k + 1/2) h).
-pub(crate) fn stack(ctx: &Ctx, t: &S<FileStack>, k: usize, bodies: &mut Bodies) -> R<()> {
+pub(crate) fn stack(
+    ctx: &Ctx,
+    t: &S<FileStack>,
+    k: usize,
+    categories: &[String],
+    bodies: &mut Bodies,
+) -> R<()> {
     let who = format!("stack{k}");
     let who = who.as_str();
     let s = t.get_ref();
@@ -181,6 +197,7 @@ pub(crate) fn stack(ctx: &Ctx, t: &S<FileStack>, k: usize, bodies: &mut Bodies) 
         s.restitution.as_ref(),
         s.color.as_ref(),
     )?;
+    let filter = ctx.filter(who, s.filter.as_ref(), categories)?;
     let shape = ShapeDef::Box {
         width: size.x,
         height: size.y,
@@ -212,7 +229,10 @@ pub(crate) fn stack(ctx: &Ctx, t: &S<FileStack>, k: usize, bodies: &mut Bodies) 
             step,
             origin_span.clone(),
         )?;
-        let body = dynamic_body(format!("{who}_{i}"), shape.clone(), at, &m);
+        let body = BodyDef {
+            filter,
+            ..dynamic_body(format!("{who}_{i}"), shape.clone(), at, &m)
+        };
         bodies.push(ctx, body, t.span(), &places)?;
     }
     Ok(())
@@ -220,7 +240,14 @@ pub(crate) fn stack(ctx: &Ctx, t: &S<FileStack>, k: usize, bodies: &mut Bodies) 
 
 /// `[[grid]]`: the body of row r, column c at origin + (c spacing.x, r spacing.y),
 /// row by row (r outer), index i = r columns + c.
-pub(crate) fn grid(ctx: &Ctx, t: &S<FileGrid>, k: usize, bodies: &mut Bodies) -> R<()> {
+pub(crate) fn grid(
+    ctx: &Ctx,
+    t: &S<FileGrid>,
+    k: usize,
+    categories: &[String],
+    bodies: &mut Bodies,
+    joints: &mut Vec<JointDef>,
+) -> R<()> {
     let who = format!("grid{k}");
     let who = who.as_str();
     let g = t.get_ref();
@@ -248,6 +275,27 @@ pub(crate) fn grid(ctx: &Ctx, t: &S<FileGrid>, k: usize, bodies: &mut Bodies) ->
         g.restitution.as_ref(),
         g.color.as_ref(),
     )?;
+    let filter = ctx.filter(who, g.filter.as_ref(), categories)?;
+    let hinged = match &g.joints {
+        Some(j) => ctx.choice(who, "joints", j, &[("hinge", true), ("none", false)])?,
+        None => false,
+    };
+    // the static cells, each checked against the grid's size where it is written
+    let mut fixed = std::collections::HashSet::new();
+    for cell in g.static_cells.iter().flat_map(|v| v.get_ref()) {
+        let [r, c] = cell.get_ref().0;
+        if !(0..rows as i64).contains(&r) || !(0..columns as i64).contains(&c) {
+            return Err(ctx.err(
+                cell.span(),
+                format!(
+                    "{who}: static_cells: [{r}, {c}] is outside the grid (rows 0..{}, columns 0..{})",
+                    rows - 1,
+                    columns - 1
+                ),
+            ));
+        }
+        fixed.insert((r as u32, c as u32));
+    }
     let origin_span = g.origin.as_ref().map_or(t.span(), |v| v.span());
     let places = Places {
         shape: g.shape.span(),
@@ -274,11 +322,48 @@ pub(crate) fn grid(ctx: &Ctx, t: &S<FileGrid>, k: usize, bodies: &mut Bodies) ->
                 origin_span.clone(),
             )?;
             let body = BodyDef {
-                body_type,
+                body_type: if fixed.contains(&(r, c)) {
+                    BodyType::Static
+                } else {
+                    body_type
+                },
                 model,
+                filter,
                 ..dynamic_body(format!("{who}_{i}"), shape.clone(), at, &m)
             };
-            bodies.push(ctx, body, t.span(), &places)?;
+            let index = bodies.push(ctx, body, t.span(), &places)?;
+            if !hinged {
+                continue;
+            }
+            // hinges to the left neighbour and to the one in the row before, each at
+            // the midpoint between the two centres
+            let mut join = |other: usize, other_at: Vec2| -> R<()> {
+                let j = JointDef {
+                    kind: JointKind::Hinge,
+                    bodies: [other, index],
+                    anchor: Some((other_at + at) / 2.0),
+                    anchors: None,
+                    length: None,
+                    axis: None,
+                    limits: None,
+                    motor: None,
+                    servo: None,
+                    compliance: 0.0,
+                    damping: DampingDef::default(),
+                    collide_connected: false,
+                };
+                check_joint(ctx, bodies, who, &j, t.span())?;
+                joints.push(j);
+                Ok(())
+            };
+            if c > 0 {
+                let left = index - 1;
+                join(left, bodies.defs[left].position)?;
+            }
+            if r > 0 {
+                let below = index - columns as usize;
+                join(below, bodies.defs[below].position)?;
+            }
         }
     }
     Ok(())
@@ -295,6 +380,7 @@ pub(crate) fn chain(
     ctx: &Ctx,
     t: &S<FileChain>,
     k: usize,
+    categories: &[String],
     bodies: &mut Bodies,
     joints: &mut Vec<JointDef>,
 ) -> R<()> {
@@ -342,6 +428,7 @@ pub(crate) fn chain(
         c.restitution.as_ref(),
         c.color.as_ref(),
     )?;
+    let filter = ctx.filter(who, c.filter.as_ref(), categories)?;
     let end = match &c.end {
         Some(e) => {
             let ew = format!("{who} end");
@@ -387,6 +474,7 @@ pub(crate) fn chain(
             radius: size.y / 2.0,
         },
         position: anchor,
+        filter,
         friction: m.friction,
         restitution: m.restitution,
         color: m.color,
@@ -420,6 +508,7 @@ pub(crate) fn chain(
         let center = at((i as f32 + 0.5) * len);
         let body = BodyDef {
             angle,
+            filter,
             ..dynamic_body(format!("{who}_{i}"), shape.clone(), center, &m)
         };
         let index = bodies.push(ctx, body, t.span(), &places)?;
@@ -443,6 +532,7 @@ pub(crate) fn chain(
         let center = tip + d * back;
         let body = BodyDef {
             angle,
+            filter,
             ..dynamic_body(format!("{who}_end"), shape, center, &em)
         };
         let end_span = c.end.as_ref().map_or(t.span(), |e| e.span());

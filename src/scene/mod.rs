@@ -153,8 +153,15 @@ fn build(ctx: &Ctx, f: FileScene) -> R<Scene> {
 
     // Filter categories by name, in file order: "default" (every body without one) first.
     let mut categories = vec!["default".to_string()];
-    for t in &f.body {
-        let category = t.get_ref().filter.as_ref();
+    let filter_of = |maker: &Maker| match *maker {
+        Maker::Body(k) => f.body[k].get_ref().filter.as_ref(),
+        Maker::Pyramid(k) => f.pyramid[k].get_ref().filter.as_ref(),
+        Maker::Stack(k) => f.stack[k].get_ref().filter.as_ref(),
+        Maker::Grid(k) => f.grid[k].get_ref().filter.as_ref(),
+        Maker::Chain(k) => f.chain[k].get_ref().filter.as_ref(),
+    };
+    for (_, maker) in &makers {
+        let category = filter_of(maker);
         if let Some(c) = category.and_then(|x| x.get_ref().category.as_ref())
             && !categories.contains(c.get_ref())
         {
@@ -206,12 +213,18 @@ fn build(ctx: &Ctx, f: FileScene) -> R<Scene> {
                 };
                 bodies.push(ctx, body, span, &places)?;
             }
-            Maker::Pyramid(k) => generators::pyramid(ctx, &f.pyramid[k], k, &mut bodies)?,
-            Maker::Stack(k) => generators::stack(ctx, &f.stack[k], k, &mut bodies)?,
-            Maker::Grid(k) => generators::grid(ctx, &f.grid[k], k, &mut bodies)?,
+            Maker::Pyramid(k) => {
+                generators::pyramid(ctx, &f.pyramid[k], k, &categories, &mut bodies)?
+            }
+            Maker::Stack(k) => generators::stack(ctx, &f.stack[k], k, &categories, &mut bodies)?,
+            Maker::Grid(k) => {
+                let mut made = Vec::new();
+                generators::grid(ctx, &f.grid[k], k, &categories, &mut bodies, &mut made)?;
+                joints.extend(made.into_iter().map(|j| (*start, j)));
+            }
             Maker::Chain(k) => {
                 let mut made = Vec::new();
-                generators::chain(ctx, &f.chain[k], k, &mut bodies, &mut made)?;
+                generators::chain(ctx, &f.chain[k], k, &categories, &mut bodies, &mut made)?;
                 joints.extend(made.into_iter().map(|j| (*start, j)));
             }
         }
