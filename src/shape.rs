@@ -229,6 +229,73 @@ impl Shape {
         }
     }
 
+    /// Whether the point `p`, in the shape's frame, lies inside the shape or on its
+    /// boundary.
+    pub fn contains_local(&self, p: Vec2) -> bool {
+        match self {
+            Shape::Circle { radius } => p.length_squared() <= radius * radius,
+            Shape::Polygon(poly) => poly
+                .verts()
+                .iter()
+                .zip(&poly.normals[..poly.count])
+                .all(|(v, n)| n.dot(p - *v) <= 0.0),
+        }
+    }
+
+    /// Where the segment `origin + t d`, t in [0, 1], first enters the shape, all in
+    /// the shape's frame: `(t, outward normal)`. A segment that starts inside (or on the
+    /// boundary heading in) reports nothing, as in Box2D: a ray finds the surfaces it
+    /// crosses from outside.
+    pub fn ray_cast_local(&self, origin: Vec2, d: Vec2) -> Option<(f32, Vec2)> {
+        match self {
+            Shape::Circle { radius } => {
+                // |o + t d|^2 = r^2: t^2 dd + 2 t (o.d) + (o.o - r^2) = 0, the smaller root
+                let dd = d.dot(d);
+                let c = origin.dot(origin) - radius * radius;
+                if dd <= 0.0 || c <= 0.0 {
+                    return None;
+                }
+                let b = origin.dot(d);
+                let disc = b * b - dd * c;
+                if b >= 0.0 || disc < 0.0 {
+                    return None;
+                }
+                // the smaller root without cancellation: c / (-b + sqrt(disc)) = t dd / dd
+                let t = c / (-b + disc.sqrt());
+                if !(0.0..=1.0).contains(&t) {
+                    return None;
+                }
+                let n = (origin + d * t).normalize_or_zero();
+                Some((t, n))
+            }
+            Shape::Polygon(poly) => {
+                // Cyrus-Beck: clip [0, 1] by each edge's half-plane n.(x - v) <= 0
+                let (mut lower, mut upper) = (0.0f32, 1.0f32);
+                let mut entered: Option<usize> = None;
+                for i in 0..poly.count {
+                    let n = poly.normals[i];
+                    let num = n.dot(poly.vertices[i] - origin);
+                    let den = n.dot(d);
+                    if den == 0.0 {
+                        if num < 0.0 {
+                            return None; // parallel and outside this edge
+                        }
+                    } else if den < 0.0 && num < lower * den {
+                        // entering through this edge, later than any before
+                        lower = num / den;
+                        entered = Some(i);
+                    } else if den > 0.0 && num < upper * den {
+                        upper = num / den;
+                    }
+                    if upper < lower {
+                        return None;
+                    }
+                }
+                entered.map(|i| (lower, poly.normals[i]))
+            }
+        }
+    }
+
     /// The bounding box of the shape placed by `xf`.
     #[inline]
     pub fn aabb(&self, xf: &Transform) -> Aabb {

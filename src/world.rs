@@ -16,6 +16,9 @@ use crate::solver::joint_rows::apply_drives;
 use crate::step::{Stage, StageClock, StepContext, Stepper, new_stepper};
 
 mod measure;
+mod query;
+
+pub use query::RayHit;
 
 /// How far out a pair keeps contact points (speculative contacts).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

@@ -7,7 +7,6 @@ use glam::Vec2;
 use crate::body::BodyId;
 use crate::defs::{BodyDef, BodyType, ShapeDef};
 use crate::joint::MouseJoint;
-use crate::shape::Shape;
 use crate::world::{BuildError, World};
 
 /// The drag spring's natural frequency (Hz).
@@ -105,15 +104,7 @@ pub fn body_at(world: &World, p: Vec2) -> Option<BodyId> {
 
 /// Whether the world point `p` lies inside the body's shape.
 pub fn contains(body: &crate::body::Body, p: Vec2) -> bool {
-    let local = body.transform().inv_apply(p);
-    match &body.shape {
-        Shape::Circle { radius } => local.length_squared() <= radius * radius,
-        Shape::Polygon(poly) => poly
-            .verts()
-            .iter()
-            .zip(&poly.normals[..poly.count])
-            .all(|(v, n)| n.dot(local - *v) <= 0.0),
-    }
+    body.shape.contains_local(body.transform().inv_apply(p))
 }
 
 /// What a click spawns.
