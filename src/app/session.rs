@@ -35,6 +35,13 @@ pub struct Sample {
     pub residual: f32,
     /// Deepest overlap (m).
     pub penetration: f32,
+    /// Largest joint anchor separation (m); 0 without joints.
+    pub joint_error: f32,
+    /// (E - E_start) / |E_start| since the scene was (re)loaded: the energy the step
+    /// added (drives, mouse and errors) or took (friction, damping, drag).
+    pub energy_drift: f64,
+    /// The step's stages (ms): forces, broad phase, narrow phase, solve, integrate.
+    pub stage_ms: [f32; 5],
 }
 
 /// A body held by the mouse.
@@ -84,6 +91,8 @@ pub struct Session {
     pub emitter: Option<Emitter>,
     /// Recent step figures, oldest first.
     pub history: VecDeque<Sample>,
+    /// The world's energy when the scene was loaded or reset (J).
+    pub energy_start: f64,
     accumulator: f64,
 }
 
@@ -93,6 +102,7 @@ impl Session {
         let settings = scene.world.solver.merged(cli_overrides).resolve();
         let world = World::from_def(&scene.world, settings)
             .map_err(|e| format!("{}: {e}", scene.source))?;
+        let energy_start = world.energy();
         Ok(Session {
             scene,
             cli_overrides,
@@ -105,6 +115,7 @@ impl Session {
             drag: None,
             emitter: None,
             history: VecDeque::new(),
+            energy_start,
             accumulator: 0.0,
         })
     }
@@ -114,6 +125,7 @@ impl Session {
         match World::from_def(&self.scene.world, self.settings) {
             Ok(w) => {
                 self.world = w;
+                self.energy_start = self.world.energy();
                 self.error = None;
             }
             Err(e) => {
@@ -136,6 +148,7 @@ impl Session {
         self.scene = sc;
         self.settings = settings;
         self.world = world;
+        self.energy_start = self.world.energy();
         self.error = None;
         self.drag = None;
         self.history.clear();
@@ -206,7 +219,18 @@ impl Session {
         match self.world.step() {
             Ok(()) => {
                 let ms = t0.elapsed().as_secs_f32() * 1e3;
-                let s = self.world.stats();
+                let s = *self.world.stats();
+                let joint_error = if self.world.joints().is_empty() {
+                    0.0
+                } else {
+                    self.world.joint_error()
+                };
+                let e0 = self.energy_start;
+                let energy_drift = if e0.abs() > 0.0 {
+                    (self.world.energy() - e0) / e0.abs()
+                } else {
+                    0.0
+                };
                 self.history.push_back(Sample {
                     t: self.world.time(),
                     ms,
@@ -214,6 +238,15 @@ impl Session {
                     iterations: s.iterations,
                     residual: s.residual,
                     penetration: s.penetration,
+                    joint_error,
+                    energy_drift,
+                    stage_ms: [
+                        s.ms_forces,
+                        s.ms_broad,
+                        s.ms_narrow,
+                        s.ms_solve,
+                        s.ms_integrate,
+                    ],
                 });
                 while self
                     .history
@@ -364,6 +397,27 @@ mod tests {
         assert_eq!(s.world.state_hash(), start);
         assert_eq!(s.world.settings.iterations, 3);
         assert!(s.history.is_empty());
+    }
+
+    #[test]
+    fn the_time_step_follows_the_panel_and_the_plots_record_the_step() {
+        let mut s = session();
+        s.settings.dt = 1.0 / 240.0;
+        s.apply_settings();
+        assert_eq!(s.world.settings.dt, 1.0 / 240.0);
+        let t0 = s.world.time();
+        assert!(s.step_once());
+        assert!((s.world.time() - t0 - 1.0 / 240.0).abs() < 1e-9);
+        // a dt the solver refuses leaves the running one and says why
+        s.settings.dt = 0.0;
+        s.apply_settings();
+        assert!(s.error.as_deref().unwrap().contains("dt"), "{:?}", s.error);
+        assert_eq!(s.world.settings.dt, 1.0 / 240.0);
+        // the sample has the stages the profiler draws and the energy since the start
+        let last = s.history.back().unwrap();
+        assert!(last.stage_ms.iter().all(|v| v.is_finite() && *v >= 0.0));
+        assert!(last.energy_drift.is_finite());
+        assert_eq!(last.joint_error, 0.0, "the session's scene has no joints");
     }
 
     #[test]

@@ -23,6 +23,21 @@ pub struct FrameStats {
     pub bodies: usize,
 }
 
+/// The time step slider's range (s): 1/1000 to 1/15.
+pub const MIN_DT: f32 = 0.001;
+pub const MAX_DT: f32 = 1.0 / 15.0;
+
+/// The scene's name as the panel shows it: a built-in scene's id (`ball_and_chain`, as
+/// `sandbox2d scenes` lists it and the command line takes it), or a file's name.
+pub fn scene_label(source: &str) -> String {
+    match source.strip_prefix("builtin:") {
+        Some(id) => id.to_string(),
+        None => std::path::Path::new(source)
+            .file_name()
+            .map_or_else(|| source.to_string(), |f| f.to_string_lossy().into_owned()),
+    }
+}
+
 /// Default panel width (points).
 pub const PANEL_WIDTH: f32 = 260.0;
 
@@ -42,22 +57,41 @@ pub fn panel(ui: &mut Ui, s: &mut Session, frame: FrameStats) -> PanelActions {
 
 fn contents(ui: &mut Ui, s: &mut Session, frame: FrameStats, actions: &mut PanelActions) {
     ui.heading("sandbox2d");
+    // the keys first, folded, so that they never fall off the bottom of a short window
+    egui::CollapsingHeader::new("controls")
+        .default_open(false)
+        .show(ui, |ui| {
+            ui.small("left drag on a body: pull it (spring)");
+            ui.small("left drag on empty space: pan");
+            ui.small("wheel: zoom about the cursor");
+            ui.small("right button held: push bodies away");
+            ui.small("middle click / ctrl+click: spawn a box");
+            ui.small("shift+click: spawn a circle");
+            ui.small("space: pause, S: step, R: reset, H: hide this panel");
+            ui.small("F: fit the view, C: follow the grabbed body, Esc / Q: quit");
+        });
 
-    // Scene picker.
-    let current = s.scene.name.clone();
+    // Scene picker: the names `sandbox2d scenes` lists and the command line takes, each
+    // with its description on hover.
+    let current = scene_label(&s.scene.source);
     let mut pick: Option<&str> = None;
-    egui::ComboBox::from_label("scene")
+    let picker = egui::ComboBox::from_label("scene")
         .selected_text(&current)
         .show_ui(ui, |ui| {
             for name in scene::builtin_names() {
-                if ui
-                    .selectable_label(s.scene.source == format!("builtin:{name}"), *name)
-                    .clicked()
-                {
+                let item = ui.selectable_label(current == *name, *name);
+                let item = match scene::builtin_description(name) {
+                    Some(d) => item.on_hover_text(d),
+                    None => item,
+                };
+                if item.clicked() {
                     pick = Some(name);
                 }
             }
         });
+    if let Some(d) = &s.scene.description {
+        picker.response.on_hover_text(d.as_str());
+    }
     if let Some(name) = pick {
         match s.load_scene(name) {
             Ok(()) => actions.reset_camera = true,
@@ -109,6 +143,12 @@ fn contents(ui: &mut Ui, s: &mut Session, frame: FrameStats, actions: &mut Panel
     };
     ui.add(egui::Slider::new(&mut st.iterations, 1..=it_max).text(it_label));
     ui.add(egui::Slider::new(&mut st.substeps, 1..=64).text("substeps"));
+    ui.add(
+        egui::Slider::new(&mut st.dt, MIN_DT..=MAX_DT)
+            .logarithmic(true)
+            .text("dt (s)")
+            .custom_formatter(|v, _| format!("{v:.4} (1/{:.0})", 1.0 / v)),
+    );
     if has("baumgarte") {
         ui.add(egui::Slider::new(&mut st.baumgarte, 0.0..=1.0).text("baumgarte"));
     }
@@ -149,18 +189,6 @@ fn contents(ui: &mut Ui, s: &mut Session, frame: FrameStats, actions: &mut Panel
 
     ui.separator();
     stats(ui, s, frame);
-
-    ui.separator();
-    ui.collapsing("controls", |ui| {
-        ui.small("left drag on a body: pull it (spring)");
-        ui.small("left drag on empty space: pan");
-        ui.small("wheel: zoom about the cursor");
-        ui.small("right button held: push bodies away");
-        ui.small("middle click / ctrl+click: spawn a box");
-        ui.small("shift+click: spawn a circle");
-        ui.small("space: pause, S: step, R: reset, H: hide this panel");
-        ui.small("F: fit the view, C: follow the grabbed body, Esc / Q: quit");
-    });
 }
 
 fn stats(ui: &mut Ui, s: &Session, frame: FrameStats) {
@@ -177,6 +205,7 @@ fn stats(ui: &mut Ui, s: &Session, frame: FrameStats) {
             };
             row("fps", format!("{:.0}", frame.fps));
             row("bodies", frame.bodies.to_string());
+            row("joints", s.world.joints().len().to_string());
             row("sim time", format!("{:.2} s", s.world.time()));
             row("ms / step", format!("{:.3} (mean {mean_ms:.3})", last.ms));
             row("contacts", last.contacts.to_string());
@@ -184,11 +213,26 @@ fn stats(ui: &mut Ui, s: &Session, frame: FrameStats) {
             row("residual", format!("{:.2e}", last.residual));
             row("penetration", format!("{:.4} m", last.penetration));
         });
+    profiler(ui, &last.stage_ms);
     plot(
         ui,
         "ms / step",
         s.history.iter().map(|x| x.ms),
         Color32::from_rgb(90, 200, 255),
+    );
+    if !s.world.joints().is_empty() {
+        plot(
+            ui,
+            "joint error (m)",
+            s.history.iter().map(|x| x.joint_error),
+            Color32::from_rgb(230, 200, 70),
+        );
+    }
+    plot(
+        ui,
+        "|energy drift| (relative)",
+        s.history.iter().map(|x| x.energy_drift.abs() as f32),
+        Color32::from_rgb(200, 120, 255),
     );
     plot(
         ui,
@@ -196,6 +240,49 @@ fn stats(ui: &mut Ui, s: &Session, frame: FrameStats) {
         s.history.iter().map(|x| x.penetration),
         Color32::from_rgb(255, 170, 80),
     );
+}
+
+/// The stages of a step and their colours, in pipeline order.
+pub const STAGES: [(&str, Color32); 5] = [
+    ("forces", Color32::from_rgb(150, 150, 150)),
+    ("broad", Color32::from_rgb(80, 160, 255)),
+    ("narrow", Color32::from_rgb(90, 210, 140)),
+    ("solve", Color32::from_rgb(255, 150, 70)),
+    ("integrate", Color32::from_rgb(210, 110, 230)),
+];
+
+/// Each stage's share of the bar's width (they sum to 1; all 0 before a step).
+pub fn stage_shares(stage_ms: &[f32; 5]) -> [f32; 5] {
+    let total: f32 = stage_ms.iter().map(|v| v.max(0.0)).sum();
+    if total <= 0.0 || !total.is_finite() {
+        return [0.0; 5];
+    }
+    stage_ms.map(|v| v.max(0.0) / total)
+}
+
+/// The last step's time split by stage: a stacked bar and, under it, each stage's ms.
+fn profiler(ui: &mut Ui, stage_ms: &[f32; 5]) {
+    let total: f32 = stage_ms.iter().sum();
+    ui.small(format!("last step by stage ({total:.3} ms)"));
+    let width = ui.available_width().max(120.0);
+    let (response, painter) = ui.allocate_painter(EVec2::new(width, 14.0), Sense::hover());
+    let rect = response.rect;
+    painter.rect_filled(rect, 2.0, Color32::from_gray(28));
+    let mut x = rect.left();
+    for ((_, color), share) in STAGES.iter().zip(stage_shares(stage_ms)) {
+        let w = rect.width() * share;
+        painter.rect_filled(
+            Rect::from_min_size(Pos2::new(x, rect.top()), EVec2::new(w, rect.height())),
+            0.0,
+            *color,
+        );
+        x += w;
+    }
+    ui.horizontal_wrapped(|ui| {
+        for ((name, color), ms) in STAGES.iter().zip(stage_ms) {
+            ui.colored_label(*color, format!("{name} {ms:.3}"));
+        }
+    });
 }
 
 /// A small line plot of `values` (oldest first) scaled from 0 to their maximum, under a
@@ -222,5 +309,41 @@ fn plot(ui: &mut Ui, label: &str, values: impl ExactSizeIterator<Item = f32>, co
             })
             .collect();
         painter.line(points, Stroke::new(1.5, color));
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_picker_names_a_scene_as_the_command_line_does() {
+        assert_eq!(scene_label("builtin:ball_and_chain"), "ball_and_chain");
+        assert_eq!(scene_label("/tmp/x/my scene.toml"), "my scene.toml");
+        assert_eq!(scene_label("scenes/a.toml"), "a.toml");
+        // every built-in scene loads under the name the picker shows
+        for name in scene::builtin_names() {
+            let sc = scene::load(name).unwrap();
+            assert_eq!(scene_label(&sc.source), *name);
+        }
+    }
+
+    #[test]
+    fn the_profiler_bar_splits_the_step_by_stage() {
+        let shares = stage_shares(&[0.0, 1.0, 1.0, 2.0, 0.0]);
+        assert_eq!(shares, [0.0, 0.25, 0.25, 0.5, 0.0]);
+        assert_eq!(stage_shares(&[0.0; 5]), [0.0; 5]);
+        // a stage that measured nothing sane takes no width
+        assert_eq!(
+            stage_shares(&[f32::NAN, 1.0, 0.0, 0.0, 0.0]),
+            [0.0, 1.0, 0.0, 0.0, 0.0]
+        );
+    }
+
+    #[test]
+    fn the_dt_slider_reaches_the_common_steps() {
+        for hz in [15.0f32, 30.0, 60.0, 120.0, 240.0, 1000.0] {
+            assert!((MIN_DT..=MAX_DT).contains(&(1.0 / hz)), "1/{hz}");
+        }
     }
 }
