@@ -504,6 +504,14 @@ fn build(name: &str, flags: &SolverFlags) -> Result<(Scene, World, SolverSetting
     let sc = sc?;
     let settings = sc.world.solver.merged(flags.overrides()).resolve();
     let fail = |e: sandbox2d::BuildError| Failure::input(format!("{}: {e}", sc.source));
+    if let Some((far, ulp)) = sandbox2d::world::far_from_origin(&sc.world) {
+        // said once, before the run: the run itself goes ahead
+        eprintln!(
+            "note: {}: a body starts {far:.3e} m from the origin, where positions step by {ulp:.1e} m (f32); contacts and joints lose precision beyond about {:.0e} m (docs/stability.md, the distance sweep)",
+            one_line(&sc.source),
+            sandbox2d::world::FAR_FROM_ORIGIN
+        );
+    }
     // the scene's own [solver] values were checked at load (with their place): what
     // fails here comes from a flag
     settings

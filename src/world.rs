@@ -18,6 +18,7 @@ use crate::step::{Stage, StageClock, StepContext, Stepper, new_stepper};
 mod measure;
 mod query;
 
+pub use measure::{FAR_FROM_ORIGIN, far_from_origin};
 pub use query::RayHit;
 
 /// How far out a pair keeps contact points (speculative contacts).

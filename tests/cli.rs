@@ -1129,3 +1129,38 @@ fn a_trace_that_is_a_folder_is_refused_before_the_run() {
     assert!(err.contains("--trace is a folder"), "{err}");
     assert!(out.stdout.is_empty(), "refused before the run");
 }
+
+#[test]
+fn a_scene_far_from_the_origin_gets_one_note_and_still_runs() {
+    let far = tmp("far.toml");
+    std::fs::write(
+        &far,
+        "name = \"far\"\n[world]\ngravity = [0.0, -10.0]\n[[body]]\nname = \"ball\"\nshape = { circle = 0.5 }\nposition = [0.0, 1e6]\n",
+    )
+    .unwrap();
+    let out = sandbox2d()
+        .arg("simulate")
+        .arg(&far)
+        .args(["--steps", "10"])
+        .output()
+        .unwrap();
+    assert!(out.status.success());
+    let err = String::from_utf8(out.stderr).unwrap();
+    assert_eq!(err.lines().count(), 1, "{err}");
+    // at 1e6 m an f32 position steps by 2^-4 m
+    assert!(
+        err.starts_with("note: ") && err.contains("1.000e6 m") && err.contains("6.2e-2 m"),
+        "{err}"
+    );
+    // a scene near the origin gets no note
+    let out = sandbox2d()
+        .args(["simulate", "pyramid", "--steps", "2"])
+        .output()
+        .unwrap();
+    assert!(out.status.success());
+    assert!(
+        out.stderr.is_empty(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+}

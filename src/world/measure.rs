@@ -14,3 +14,25 @@ impl World {
         }
     }
 }
+
+/// Beyond this distance from the origin (m) a position in f32 steps by about 1 mm
+/// (2^-10 m from 8192 m on), and stacks start to slide: the distance sweep of
+/// docs/stability.md holds to 3e4 m under the default solver and fails at 1e5 m.
+pub const FAR_FROM_ORIGIN: f32 = 1e4;
+
+/// The farthest a body of `def` starts from the origin (m) and the step of an f32
+/// position there (m), when that is beyond [`FAR_FROM_ORIGIN`].
+pub fn far_from_origin(def: &crate::defs::WorldDef) -> Option<(f32, f32)> {
+    let far = def
+        .bodies
+        .iter()
+        .map(|b| b.position.x.abs().max(b.position.y.abs()))
+        .fold(0.0f32, f32::max);
+    if far > FAR_FROM_ORIGIN && far.is_finite() {
+        // the gap between far and the next f32 up
+        let ulp = f32::from_bits(far.to_bits() + 1) - far;
+        Some((far, ulp))
+    } else {
+        None
+    }
+}
