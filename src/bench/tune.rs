@@ -8,7 +8,8 @@
 //! sweeps a substep). Each setting's accuracy comes from one run ([`super::run_case`]: the runs
 //! are deterministic); its cost is the median of that run's ms/step and of further timing
 //! rounds, taken turn about over every candidate still in contention so that the
-//! machine's noise falls on all of them alike.
+//! machine's noise falls on all of them alike; a candidate within [`EDGE`] of the
+//! budget gets as many rounds again.
 //!
 //! The error is one measure the user names, or by default the scene's *worst* measure
 //! normalised by the best value any stable setting reached: a score of 1 is as right as
@@ -104,6 +105,10 @@ pub fn floor(m: Metric) -> f64 {
 /// where some stable setting kept the top body within this distance (m): a pile meant to
 /// stand (a ball pit's top ball falls metres under every setting).
 pub const RESTING_DRIFT: f64 = 0.5;
+
+/// A setting whose median cost lies within this fraction of the budget (either side)
+/// is timed for as many rounds again before the pick.
+pub const EDGE: f64 = 0.25;
 
 /// How the search runs.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -440,24 +445,42 @@ pub fn tune(
                 && tried[i].samples[0] <= 2.0 * options.budget_ms
         })
         .collect();
-    total = done + contenders.len() * (rounds - 1);
     let timing = Budget {
         residual_samples: 0,
         ..scene.budget
     };
-    for _ in 1..rounds {
-        for &i in &contenders {
-            if crate::output::interrupted() {
-                return Err(TuneError::Interrupted);
+    // `n` more rounds over `list`, turn about
+    let mut time_rounds =
+        |list: &[usize], n: usize, tried: &mut Vec<Tried>, done: &mut usize, total: usize| {
+            for _ in 0..n {
+                for &i in list {
+                    if crate::output::interrupted() {
+                        return Err(TuneError::Interrupted);
+                    }
+                    let s = tried[i].setting;
+                    if let Outcome::Ran(m) = run_case(&scene, &s, &timing) {
+                        tried[i].samples.push(m.ms_per_step);
+                    }
+                    *done += 1;
+                    progress(*done, total, &s.label());
+                }
             }
-            let s = tried[i].setting;
-            if let Outcome::Ran(m) = run_case(&scene, &s, &timing) {
-                tried[i].samples.push(m.ms_per_step);
-            }
-            done += 1;
-            progress(done, total, &s.label());
-        }
+            Ok(())
+        };
+    total = done + contenders.len() * (rounds - 1);
+    time_rounds(&contenders, rounds - 1, &mut tried, &mut done, total)?;
+    for t in &mut tried {
+        t.ms_per_step = median(&t.samples);
     }
+    // the settings whose cost is within EDGE of the budget decide the pick by a noisy
+    // margin: they get as many rounds again
+    let edge: Vec<usize> = contenders
+        .iter()
+        .copied()
+        .filter(|&i| (tried[i].ms_per_step / options.budget_ms - 1.0).abs() <= EDGE)
+        .collect();
+    total += edge.len() * rounds;
+    time_rounds(&edge, rounds, &mut tried, &mut done, total)?;
     for t in &mut tried {
         t.ms_per_step = median(&t.samples);
     }
