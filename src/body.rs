@@ -40,6 +40,8 @@ pub struct Body {
     pub color: Option<Color>,
     /// Which other bodies it may touch.
     pub filter: crate::defs::Filter,
+    /// Overlaps are reported, never resolved.
+    pub sensor: bool,
     /// Force (N) accumulated for the next step by [`crate::World::apply_force`]; cleared by the step.
     pub force: Vec2,
     /// Torque (N m) accumulated for the next step.

@@ -68,6 +68,9 @@ pub struct BodyDef {
     pub color: Option<Color>,
     /// Which other bodies it may touch.
     pub filter: Filter,
+    /// A sensor: its overlaps with other (non-static, non-sensor) bodies are reported as
+    /// events ([`crate::World::events`]) and never resolved.
+    pub sensor: bool,
 }
 
 /// Collision filtering, Box2D's rule: two bodies of the same non-zero group always
@@ -126,6 +129,7 @@ impl Default for BodyDef {
             restitution: 0.0,
             color: None,
             filter: Filter::default(),
+            sensor: false,
         }
     }
 }

@@ -42,4 +42,4 @@ pub use body::{Body, BodyId};
 pub use defs::*;
 pub use draw::{Camera, DrawList};
 pub use joint::{Joint, JointId, MouseJoint};
-pub use world::{BuildError, RayHit, StepError, StepStats, World};
+pub use world::{BuildError, ContactEvent, EventKind, RayHit, StepError, StepStats, World};

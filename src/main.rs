@@ -315,6 +315,10 @@ struct SimulateArgs {
     /// Trace every K-th step.
     #[arg(long, default_value_t = 1)]
     trace_every: u64,
+    /// Write contact and sensor events to this CSV file: step,kind,a,b,impulse (kind:
+    /// begin, end, sensor_begin, sensor_end; a and b body names; impulse of a begin, N s).
+    #[arg(long, value_name = "FILE.csv")]
+    events: Option<PathBuf>,
     #[command(flatten)]
     solver: SolverFlags,
 }
@@ -568,12 +572,22 @@ fn simulate(a: &SimulateArgs) -> Result<(), Failure> {
     if a.trace_every == 0 {
         return Err(Failure::input("--trace-every must be at least 1"));
     }
-    if let Some(trace) = &a.trace {
+    {
         let file = scene_file(&a.scene);
         let inputs: Vec<(&str, &Path)> = file.iter().map(|f| ("scene file", f.as_path())).collect();
-        check_distinct(&[("--trace", trace)], &inputs)?;
+        let mut outputs: Vec<(&str, &Path)> = Vec::new();
+        if let Some(t) = &a.trace {
+            outputs.push(("--trace", t));
+        }
+        if let Some(e) = &a.events {
+            outputs.push(("--events", e));
+        }
+        check_distinct(&outputs, &inputs)?;
     }
     let (sc, mut world, settings) = build(&a.scene, &a.solver)?;
+    if a.events.is_some() {
+        world.record_events = true;
+    }
     // from here an interrupt stops the run cleanly (before the trace exists, so that no
     // interrupt can leave its temporary file behind)
     GRACEFUL.store(true, Ordering::Relaxed);
@@ -583,13 +597,39 @@ fn simulate(a: &SimulateArgs) -> Result<(), Failure> {
         None => None,
     };
     let bar = progress(Some(a.steps), "{bar:40} {pos}/{len} steps {elapsed}");
+    let mut events_file = match &a.events {
+        Some(p) => {
+            let mut f = AtomicFile::create(p).map_err(Failure::input)?;
+            writeln!(f, "step,kind,a,b,impulse")
+                .map_err(|e| Failure::run(format!("{}: cannot write: {e}", p.display())))?;
+            Some(f)
+        }
+        None => None,
+    };
+    let mut event_counts = [0u64; 4];
+    let mut events_error: Option<std::io::Error> = None;
     let trace = trace_file.as_mut().map(|f| Trace {
         out: f as &mut dyn Write,
         every: a.trace_every,
     });
-    let result = sim::run(&mut world, a.steps, trace, |k| {
+    let result = sim::run(&mut world, a.steps, trace, |k, w| {
         if k % 16 == 0 {
             bar.set_position(k);
+        }
+        for e in w.events() {
+            event_counts[e.kind as usize] += 1;
+            if let (Some(f), None) = (events_file.as_mut(), &events_error)
+                && let Err(err) = writeln!(
+                    f,
+                    "{k},{},{},{},{}",
+                    e.kind.name(),
+                    sim::csv_field(&w.bodies[e.a].name),
+                    sim::csv_field(&w.bodies[e.b].name),
+                    e.impulse
+                )
+            {
+                events_error = Some(err);
+            }
         }
     });
     bar.finish_and_clear();
@@ -611,6 +651,12 @@ fn simulate(a: &SimulateArgs) -> Result<(), Failure> {
         }
     };
     if let Some(f) = trace_file {
+        f.commit().map_err(Failure::run)?;
+    }
+    if let (Some(e), Some(p)) = (events_error, &a.events) {
+        return Err(Failure::run(format!("{}: cannot write: {e}", p.display())));
+    }
+    if let Some(f) = events_file {
         f.commit().map_err(Failure::run)?;
     }
     let figures = [
@@ -666,6 +712,11 @@ fn simulate(a: &SimulateArgs) -> Result<(), Failure> {
                 "solver": summary.stage_ms[3], "integrate": summary.stage_ms[4],
             },
             "state_hash": hash,
+            // counted when recorded (--events, or a scene with a sensor); else null
+            "events": world.record_events.then(|| serde_json::json!({
+                "begin": event_counts[0], "end": event_counts[1],
+                "sensor_begin": event_counts[2], "sensor_end": event_counts[3],
+            })),
         });
         println!("{v}");
     } else {

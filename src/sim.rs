@@ -63,7 +63,8 @@ pub struct Trace<'a> {
     pub every: u64,
 }
 
-fn csv_field(s: &str) -> String {
+/// A CSV field: quoted (with doubled quotes) when it holds a comma, a quote or a newline.
+pub fn csv_field(s: &str) -> String {
     if s.contains([',', '"', '\n']) {
         format!("\"{}\"", s.replace('"', "\"\""))
     } else {
@@ -108,12 +109,13 @@ pub enum RunError {
     Interrupted { step: u64 },
 }
 
-/// Steps `world` `steps` times, timing each step, and sums up the figures.
+/// Steps `world` `steps` times, timing each step, and sums up the figures;
+/// `on_step(k, world)` after step k.
 pub fn run(
     world: &mut World,
     steps: u64,
     mut trace: Option<Trace<'_>>,
-    mut on_step: impl FnMut(u64),
+    mut on_step: impl FnMut(u64, &World),
 ) -> Result<RunSummary, RunError> {
     let mut s = RunSummary {
         energy_start: world.energy(),
@@ -177,7 +179,7 @@ pub fn run(
         {
             write_trace_rows(tr.out, world)?;
         }
-        on_step(k);
+        on_step(k, world);
     }
     let n = steps.max(1) as f64;
     s.steps = steps;

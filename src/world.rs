@@ -15,9 +15,11 @@ use crate::solver::contact_cache::{CacheCursor, Contact, match_points};
 use crate::solver::joint_rows::apply_drives;
 use crate::step::{Stage, StageClock, StepContext, Stepper, new_stepper};
 
+mod events;
 mod measure;
 mod query;
 
+pub use events::{ContactEvent, EventKind};
 pub use measure::{FAR_FROM_ORIGIN, far_from_origin};
 pub use query::RayHit;
 
@@ -156,6 +158,17 @@ pub struct World {
     /// Whether any body has a filter other than the default (else the broad phase skips
     /// the check).
     filtered: bool,
+    /// Whether any body is a sensor (else the narrow phase skips the check).
+    has_sensors: bool,
+    /// Record contact and sensor events each step ([`World::events`]); off unless asked
+    /// for or a sensor exists, so a world that needs no events pays nothing for them.
+    pub record_events: bool,
+    /// The last step's events.
+    events: Vec<ContactEvent>,
+    /// Pairs touching (a contact point with separation <= 0) after the last step, sorted.
+    touching: Vec<(u32, u32)>,
+    /// Sensor pairs overlapping after the last step, sorted.
+    sensed: Vec<(u32, u32)>,
     /// The solver of `settings.kind` and its scratch (taken out while it steps).
     stepper: Option<Box<dyn Stepper>>,
     stats: StepStats,
@@ -182,6 +195,11 @@ impl World {
             mouse: None,
             no_collide: Vec::new(),
             filtered: false,
+            has_sensors: false,
+            record_events: false,
+            events: Vec::new(),
+            touching: Vec::new(),
+            sensed: Vec::new(),
             stepper: None,
             stats: StepStats::default(),
             step_count: 0,
@@ -320,6 +338,11 @@ impl World {
         }
         let body = World::make_body(def, self.gravity)?;
         self.filtered |= body.filter != crate::defs::Filter::default();
+        if body.sensor {
+            // a sensor is there to be heard: its scene records events
+            self.has_sensors = true;
+            self.record_events = true;
+        }
         self.bodies.push(body);
         Ok(self.bodies.len() - 1)
     }
@@ -449,6 +472,7 @@ impl World {
             restitution: def.restitution,
             color: def.color,
             filter: def.filter,
+            sensor: def.sensor,
             force: Vec2::ZERO,
             torque: 0.0,
             correction: Vec2::ZERO,
@@ -567,6 +591,9 @@ impl World {
             b.force = Vec2::ZERO;
             b.torque = 0.0;
         }
+        if self.record_events {
+            self.update_events();
+        }
         self.step_count += 1;
         self.time += self.settings.dt as f64;
         self.check_finite()
@@ -648,7 +675,12 @@ impl World {
         self.aabbs.clear();
         self.dynamic.clear();
         self.reach.clear();
+        // the flags are read off the bodies each step, so bodies pushed straight into
+        // `bodies` (the CLI's build, tools) count as well as those added one by one
+        let (mut filtered, mut sensors) = (false, false);
         for b in &self.bodies {
+            filtered |= b.filter != crate::defs::Filter::default();
+            sensors |= b.sensor;
             let mut bb = b.shape.aabb(&b.transform());
             // the most any point of the body moves in h: h (|v| + |w| r)
             let r = 0.5 * (bb.max - bb.min).length();
@@ -665,6 +697,10 @@ impl World {
             self.aabbs.push(bb.fattened(0.5 * margin));
             self.dynamic.push(b.is_dynamic());
         }
+        self.filtered = filtered;
+        self.has_sensors = sensors;
+        // a sensor is there to be heard
+        self.record_events |= sensors;
         let no_collide = &self.no_collide;
         let (bodies, filtered) = (&self.bodies, self.filtered);
         self.broad.find_pairs(&self.aabbs, &self.dynamic, |a, b| {
@@ -683,6 +719,10 @@ impl World {
         let mut deepest = 0.0f32;
         for &(a, b) in &self.broad.pairs {
             let (ba, bb) = (&self.bodies[a as usize], &self.bodies[b as usize]);
+            if self.has_sensors && (ba.sensor || bb.sensor) {
+                // heard (World::events), never resolved
+                continue;
+            }
             let pair_margin = match speculative {
                 Speculative::MarginPlusMotion => {
                     margin + self.reach[a as usize] + self.reach[b as usize]

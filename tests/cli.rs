@@ -1164,3 +1164,59 @@ fn a_scene_far_from_the_origin_gets_one_note_and_still_runs() {
         String::from_utf8_lossy(&out.stderr)
     );
 }
+
+#[test]
+fn simulate_writes_events_and_counts_them() {
+    let scene = tmp("gate.toml");
+    std::fs::write(
+        &scene,
+        "name = \"gate\"\n[world]\ngravity = [0.0, -10.0]\n\
+         [[body]]\nname = \"ball\"\nshape = { circle = 0.25 }\nposition = [0.0, 3.0]\nrestitution = 0.5\n\
+         [[body]]\nname = \"gate, the\"\ntype = \"static\"\nshape = { box = [2.0, 0.5] }\nposition = [0.0, 1.5]\nsensor = true\n\
+         [[body]]\nname = \"ground\"\ntype = \"static\"\nshape = { box = [10.0, 1.0] }\nposition = [0.0, -0.5]\n",
+    )
+    .unwrap();
+    let events = tmp("events.csv");
+    let out = sandbox2d()
+        .arg("simulate")
+        .arg(&scene)
+        .args(["--steps", "120", "--json", "--events"])
+        .arg(&events)
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let csv = std::fs::read_to_string(&events).unwrap();
+    let mut lines = csv.lines();
+    assert_eq!(lines.next(), Some("step,kind,a,b,impulse"));
+    let rows: Vec<&str> = lines.collect();
+    let count = |kind: &str| {
+        rows.iter()
+            .filter(|r| r.split(',').nth(1) == Some(kind))
+            .count()
+    };
+    // the ball passes through the gate once and lands on the ground
+    assert_eq!(count("sensor_begin"), 1, "{csv}");
+    assert_eq!(count("sensor_end"), 1, "{csv}");
+    assert!(count("begin") >= 1, "{csv}");
+    // a name with a comma is quoted
+    assert!(csv.contains("ball,\"gate, the\""), "{csv}");
+    for kind in ["begin", "end", "sensor_begin", "sensor_end"] {
+        assert_eq!(
+            v["events"][kind].as_u64(),
+            Some(count(kind) as u64),
+            "{kind}"
+        );
+    }
+    // without --events and without a sensor, nothing is recorded
+    let out = sandbox2d()
+        .args(["simulate", "pyramid", "--steps", "2", "--json"])
+        .output()
+        .unwrap();
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert!(v["events"].is_null());
+}

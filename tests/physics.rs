@@ -426,7 +426,7 @@ fn warm_starting_needs_fewer_iterations_on_the_stack() {
         s.warm_start = warm;
         s.iterations = 50;
         let mut w = world_of("stack", s);
-        let summary = sandbox2d::sim::run(&mut w, 300, None, |_| {}).unwrap();
+        let summary = sandbox2d::sim::run(&mut w, 300, None, |_, _| {}).unwrap();
         (summary.iterations_mean, summary.residual_mean)
     };
     let (it_on, res_on) = run(true);

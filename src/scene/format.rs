@@ -129,6 +129,7 @@ pub(crate) struct FileBody {
     pub restitution: Option<S<f32>>,
     pub color: Option<S<String>>,
     pub filter: Option<S<FileFilter>>,
+    pub sensor: Option<S<bool>>,
 }
 
 /// `filter = { category = "debris", mask = ["ground", "debris"], group = -1 }`.

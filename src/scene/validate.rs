@@ -493,6 +493,7 @@ impl Ctx<'_> {
             restitution: m.restitution,
             color: m.color,
             filter: self.filter(who, b.filter.as_ref(), categories)?,
+            sensor: b.sensor.as_ref().is_some_and(|v| *v.get_ref()),
         })
     }
 

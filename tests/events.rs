@@ -1,0 +1,182 @@
+//! Contact and sensor events: a sensor hears each overlap begin and end exactly once and
+//! never touches what passes through it; a bouncing ball's contacts begin and end with
+//! each bounce, the begin carrying the impact's impulse; nothing is recorded unless asked.
+
+use glam::Vec2;
+use sandbox2d::{BodyDef, BodyType, EventKind, ShapeDef, SolverKind, SolverSettings, World};
+
+const G: f32 = 10.0;
+
+fn ball(y: f32) -> BodyDef {
+    BodyDef {
+        name: "ball".into(),
+        shape: ShapeDef::Circle { radius: 0.25 },
+        position: Vec2::new(0.0, y),
+        ..BodyDef::default()
+    }
+}
+
+fn gate() -> BodyDef {
+    // a 2 m x 1 m static sensor whose top is at y = 0.5 and bottom at y = -0.5
+    BodyDef {
+        name: "gate".into(),
+        body_type: BodyType::Static,
+        shape: ShapeDef::Box {
+            width: 2.0,
+            height: 1.0,
+        },
+        sensor: true,
+        ..BodyDef::default()
+    }
+}
+
+#[test]
+fn a_sensor_hears_each_overlap_once_and_never_touches_the_body() {
+    for kind in SolverKind::ALL {
+        let settings = SolverSettings::defaults(kind);
+        let mut with = World::new(Some(Vec2::new(0.0, -G)), settings);
+        with.add_body(&ball(3.0)).unwrap();
+        with.add_body(&gate()).unwrap();
+        assert!(with.record_events, "a sensor turns the events on");
+        let mut without = World::new(Some(Vec2::new(0.0, -G)), settings);
+        without.add_body(&ball(3.0)).unwrap();
+        let (mut begins, mut ends) = (Vec::new(), Vec::new());
+        let mut prev_y = with.bodies[0].position.y;
+        for k in 1..=120 {
+            with.step().unwrap();
+            without.step().unwrap();
+            // the ball falls as if the gate were not there, bit for bit
+            assert_eq!(
+                with.bodies[0].position, without.bodies[0].position,
+                "{kind:?} step {k}"
+            );
+            let y = with.bodies[0].position.y;
+            for e in with.events() {
+                assert_eq!((e.a, e.b), (0, 1));
+                match e.kind {
+                    EventKind::SensorBegin => {
+                        // the ball's bottom crossed the gate's top in this step
+                        assert!(
+                            y - 0.25 <= 0.5 && prev_y - 0.25 > 0.5,
+                            "{kind:?}: begin at y {y}"
+                        );
+                        begins.push(k);
+                    }
+                    EventKind::SensorEnd => {
+                        // its top left the gate's bottom in this step
+                        assert!(
+                            y + 0.25 < -0.5 && prev_y + 0.25 >= -0.5,
+                            "{kind:?}: end at y {y}"
+                        );
+                        ends.push(k);
+                    }
+                    other => panic!("{kind:?}: a sensor pair made a {other:?} event"),
+                }
+            }
+            prev_y = y;
+        }
+        assert_eq!((begins.len(), ends.len()), (1, 1), "{kind:?}");
+        assert!(
+            with.contacts().is_empty(),
+            "a sensor pair is never a contact"
+        );
+    }
+}
+
+#[test]
+fn a_bouncing_ball_begins_and_ends_a_contact_with_each_bounce() {
+    let settings = SolverSettings::default();
+    let mut w = World::new(Some(Vec2::new(0.0, -G)), settings);
+    let h = 2.0f32;
+    w.add_body(&BodyDef {
+        restitution: 0.5,
+        ..ball(h + 0.25)
+    })
+    .unwrap();
+    w.add_body(&BodyDef {
+        name: "ground".into(),
+        body_type: BodyType::Static,
+        shape: ShapeDef::Box {
+            width: 10.0,
+            height: 1.0,
+        },
+        position: Vec2::new(0.0, -0.5),
+        restitution: 0.5,
+        ..BodyDef::default()
+    })
+    .unwrap();
+    assert!(w.events().is_empty());
+    w.record_events = true;
+    let m = w.bodies[0].mass;
+    let mut log = Vec::new();
+    for k in 1..=240 {
+        w.step().unwrap();
+        for e in w.events() {
+            assert_eq!((e.a, e.b), (0, 1));
+            log.push((k, e.kind, e.impulse));
+        }
+    }
+    let kinds: Vec<EventKind> = log.iter().map(|e| e.1).collect();
+    // begin, end, begin, end, ... : never two of a kind in a row
+    assert!(kinds.len() >= 3, "{log:?}");
+    assert_eq!(kinds[0], EventKind::Begin);
+    assert!(kinds.windows(2).all(|p| p[0] != p[1]), "{log:?}");
+    // the first impact: the ball arrives at sqrt(2 g h) and leaves at about e times that,
+    // so the whole bounce's impulse is m v (1 + e); the begin carries the share of the
+    // step the touch began in: positive, and at most the whole
+    let v = (2.0 * G * h).sqrt();
+    let begins: Vec<f32> = log
+        .iter()
+        .filter(|e| e.1 == EventKind::Begin)
+        .map(|e| e.2)
+        .collect();
+    assert!(
+        begins[0] > 0.0 && begins[0] <= 1.1 * m * v * 1.5,
+        "impulse {}, m v (1 + e) = {}",
+        begins[0],
+        m * v * 1.5
+    );
+    // each bounce arrives slower (by e), and so does its impulse
+    assert!(begins.windows(2).all(|p| p[1] < p[0]), "{begins:?}");
+}
+
+#[test]
+fn a_filtered_pair_never_touches_and_never_makes_an_event() {
+    let mut w = World::new(Some(Vec2::new(0.0, -G)), SolverSettings::default());
+    w.record_events = true;
+    let ghost = sandbox2d::Filter {
+        group: -1,
+        ..Default::default()
+    };
+    w.add_body(&BodyDef {
+        filter: ghost,
+        ..ball(1.0)
+    })
+    .unwrap();
+    w.add_body(&BodyDef {
+        name: "floor".into(),
+        body_type: BodyType::Static,
+        shape: ShapeDef::Box {
+            width: 10.0,
+            height: 1.0,
+        },
+        position: Vec2::new(0.0, -0.5),
+        filter: ghost,
+        ..BodyDef::default()
+    })
+    .unwrap();
+    for _ in 0..60 {
+        w.step().unwrap();
+        assert!(w.events().is_empty());
+        assert!(w.contacts().is_empty());
+    }
+    // it fell through the floor as in free fall: y = 1 - g t^2 / 2 (semi-implicit Euler
+    // is ahead by g t dt / 2)
+    let t = 1.0f32;
+    let y = w.bodies[0].position.y;
+    let exact = 1.0 - 0.5 * G * t * t;
+    assert!(
+        (y - exact).abs() <= 0.5 * G * t / 60.0 + 1e-3,
+        "y {y}, free fall {exact}"
+    );
+}
