@@ -753,6 +753,7 @@ fn every_builtin_parses_and_has_a_description() {
         "pyramid",
         "ragdoll",
         "rope",
+        "sensor_gate",
         "stack",
         "vacuum_vs_fluid",
     ];

@@ -52,6 +52,10 @@ const SCENES: &[(&str, &str)] = &[
     ("pyramid", include_str!("../../assets/scenes/pyramid.toml")),
     ("ragdoll", include_str!("../../assets/scenes/ragdoll.toml")),
     ("rope", include_str!("../../assets/scenes/rope.toml")),
+    (
+        "sensor_gate",
+        include_str!("../../assets/scenes/sensor_gate.toml"),
+    ),
     ("stack", include_str!("../../assets/scenes/stack.toml")),
     (
         "vacuum_vs_fluid",
@@ -79,6 +83,7 @@ const NAMES: &[&str] = &[
     "pyramid",
     "ragdoll",
     "rope",
+    "sensor_gate",
     "stack",
     "vacuum_vs_fluid",
 ];
