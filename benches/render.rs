@@ -1,4 +1,4 @@
-//! Render + read-back of a 1280x720 frame of a 210-box pyramid, off-screen.
+//! Render + read-back of a 1280x720 frame of a 210-box and a 5050-box pyramid, off-screen.
 //!
 //! `cargo bench --bench render`. Honours WGPU_BACKEND (e.g. `gl`, `vulkan`); without an
 //! adapter it prints why and measures nothing.
@@ -30,35 +30,41 @@ fn render_frame(c: &mut Criterion) {
     if let Some(info) = renderer.adapter_info() {
         eprintln!("adapter: {} ({:?})", info.name, info.backend);
     }
-    let list = scenes::bench_scene();
-    let camera = Camera::new(Vec2::new(0.0, 12.0), 26.0, [1280, 720]);
     let samples = renderer.sample_count();
-    c.bench_function(
-        &format!("render_readback_1280x720_210_boxes_default_{samples}x"),
-        |b| {
-            b.iter(|| {
-                renderer
-                    .render_to_image(black_box(&list), black_box(&camera))
-                    .expect("render")
-            })
-        },
-    );
-    // The same frame with the other sample count (4x MSAA against single-sampled).
-    let other = if samples == 1 { 4 } else { 1 };
     let backends = wgpu::Backends::from_env().unwrap_or(wgpu::Backends::all());
-    let Ok(mut renderer) = Renderer::new_headless_with_samples(backends, other) else {
-        return;
-    };
-    c.bench_function(
-        &format!("render_readback_1280x720_210_boxes_{other}x"),
-        |b| {
-            b.iter(|| {
-                renderer
-                    .render_to_image(black_box(&list), black_box(&camera))
-                    .expect("render")
-            })
-        },
-    );
+    // The same frames with the other sample count (4x MSAA against single-sampled).
+    let other = if samples == 1 { 4 } else { 1 };
+    let mut other_renderer = Renderer::new_headless_with_samples(backends, other).ok();
+    // 20 rows: 210 boxes framed as the base-20 pyramid is; 100 rows: 5050 boxes (the
+    // large pyramid's count), boxes about 6 px wide as the window fits that pyramid.
+    for (rows, camera) in [
+        (20, Camera::new(Vec2::new(0.0, 12.0), 26.0, [1280, 720])),
+        (100, Camera::new(Vec2::new(0.0, 50.0), 6.5, [1280, 720])),
+    ] {
+        let list = scenes::bench_scene_rows(rows);
+        let boxes = rows * (rows + 1) / 2;
+        c.bench_function(
+            &format!("render_readback_1280x720_{boxes}_boxes_default_{samples}x"),
+            |b| {
+                b.iter(|| {
+                    renderer
+                        .render_to_image(black_box(&list), black_box(&camera))
+                        .expect("render")
+                })
+            },
+        );
+        if let Some(r) = other_renderer.as_mut() {
+            c.bench_function(
+                &format!("render_readback_1280x720_{boxes}_boxes_{other}x"),
+                |b| {
+                    b.iter(|| {
+                        r.render_to_image(black_box(&list), black_box(&camera))
+                            .expect("render")
+                    })
+                },
+            );
+        }
+    }
 }
 
 criterion_group! {
