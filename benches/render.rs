@@ -3,12 +3,14 @@
 //! `cargo bench --bench render`. Honours WGPU_BACKEND (e.g. `gl`, `vulkan`); without an
 //! adapter it prints why and measures nothing.
 //!
-//! Measured (llvmpipe via GL, 2 CPU cores shared with other builds, load average about
-//! 2, release): single-sampled (the default on a CPU rasteriser) median 7.9 ms a frame;
-//! 4x MSAA median 32.0 ms (8.4 ms and 34.2 ms at load average 4.5). Earlier, 4x MSAA on a quiet machine in `--profile dev`: median
-//! 19.7 ms. On llvmpipe most of a 4x frame is clearing and resolving the samples; the
-//! single-sampled frame matches it within 1/255 a channel, since every shape's edge is
-//! antialiased by its distance field (polygons by their outlines).
+//! Measured (llvmpipe via GL, 2 CPU cores shared with other builds, load average 3.5 to
+//! 3.8, release), medians, before issue 16 -> after (boxes as one instanced SDF quad
+//! each): 210 boxes single-sampled (the default on a CPU rasteriser) 8.5 -> 5.8 ms, 4x
+//! MSAA 34.3 -> 24.2 ms; 5050 boxes single-sampled 42.7 -> 13.2 ms, 4x MSAA 144.6 ->
+//! 66.8 ms. Earlier, at load average about 2: 210 boxes 7.9 ms single-sampled, 32.0 ms
+//! at 4x. On llvmpipe most of a 4x frame is clearing and resolving the samples; every
+//! shape's edge is antialiased by its distance field (polygons other than boxes by their
+//! outlines), so the single-sampled frame differs little.
 
 #[path = "../tests/common/scenes.rs"]
 mod scenes;
