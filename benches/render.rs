@@ -1,14 +1,16 @@
-//! Render + read-back of a 1280x720 frame of a 210-box pyramid, off-screen.
+//! Render + read-back of a 1280x720 frame of a 210-box and a 5050-box pyramid, off-screen.
 //!
 //! `cargo bench --bench render`. Honours WGPU_BACKEND (e.g. `gl`, `vulkan`); without an
 //! adapter it prints why and measures nothing.
 //!
-//! Measured (llvmpipe via GL, 2 CPU cores shared with other builds, load average about
-//! 2, release): single-sampled (the default on a CPU rasteriser) median 7.9 ms a frame;
-//! 4x MSAA median 32.0 ms (8.4 ms and 34.2 ms at load average 4.5). Earlier, 4x MSAA on a quiet machine in `--profile dev`: median
-//! 19.7 ms. On llvmpipe most of a 4x frame is clearing and resolving the samples; the
-//! single-sampled frame matches it within 1/255 a channel, since every shape's edge is
-//! antialiased by its distance field (polygons by their outlines).
+//! Measured (llvmpipe via GL, 2 CPU cores shared with other builds, load average 3.5 to
+//! 3.8, release), medians, before issue 16 -> after (boxes as one instanced SDF quad
+//! each): 210 boxes single-sampled (the default on a CPU rasteriser) 8.5 -> 5.8 ms, 4x
+//! MSAA 34.3 -> 24.2 ms; 5050 boxes single-sampled 42.7 -> 13.2 ms, 4x MSAA 144.6 ->
+//! 66.8 ms. Earlier, at load average about 2: 210 boxes 7.9 ms single-sampled, 32.0 ms
+//! at 4x. On llvmpipe most of a 4x frame is clearing and resolving the samples; every
+//! shape's edge is antialiased by its distance field (polygons other than boxes by their
+//! outlines), so the single-sampled frame differs little.
 
 #[path = "../tests/common/scenes.rs"]
 mod scenes;
@@ -30,35 +32,41 @@ fn render_frame(c: &mut Criterion) {
     if let Some(info) = renderer.adapter_info() {
         eprintln!("adapter: {} ({:?})", info.name, info.backend);
     }
-    let list = scenes::bench_scene();
-    let camera = Camera::new(Vec2::new(0.0, 12.0), 26.0, [1280, 720]);
     let samples = renderer.sample_count();
-    c.bench_function(
-        &format!("render_readback_1280x720_210_boxes_default_{samples}x"),
-        |b| {
-            b.iter(|| {
-                renderer
-                    .render_to_image(black_box(&list), black_box(&camera))
-                    .expect("render")
-            })
-        },
-    );
-    // The same frame with the other sample count (4x MSAA against single-sampled).
-    let other = if samples == 1 { 4 } else { 1 };
     let backends = wgpu::Backends::from_env().unwrap_or(wgpu::Backends::all());
-    let Ok(mut renderer) = Renderer::new_headless_with_samples(backends, other) else {
-        return;
-    };
-    c.bench_function(
-        &format!("render_readback_1280x720_210_boxes_{other}x"),
-        |b| {
-            b.iter(|| {
-                renderer
-                    .render_to_image(black_box(&list), black_box(&camera))
-                    .expect("render")
-            })
-        },
-    );
+    // The same frames with the other sample count (4x MSAA against single-sampled).
+    let other = if samples == 1 { 4 } else { 1 };
+    let mut other_renderer = Renderer::new_headless_with_samples(backends, other).ok();
+    // 20 rows: 210 boxes framed as the base-20 pyramid is; 100 rows: 5050 boxes (the
+    // large pyramid's count), boxes about 6 px wide as the window fits that pyramid.
+    for (rows, camera) in [
+        (20, Camera::new(Vec2::new(0.0, 12.0), 26.0, [1280, 720])),
+        (100, Camera::new(Vec2::new(0.0, 50.0), 6.5, [1280, 720])),
+    ] {
+        let list = scenes::bench_scene_rows(rows);
+        let boxes = rows * (rows + 1) / 2;
+        c.bench_function(
+            &format!("render_readback_1280x720_{boxes}_boxes_default_{samples}x"),
+            |b| {
+                b.iter(|| {
+                    renderer
+                        .render_to_image(black_box(&list), black_box(&camera))
+                        .expect("render")
+                })
+            },
+        );
+        if let Some(r) = other_renderer.as_mut() {
+            c.bench_function(
+                &format!("render_readback_1280x720_{boxes}_boxes_{other}x"),
+                |b| {
+                    b.iter(|| {
+                        r.render_to_image(black_box(&list), black_box(&camera))
+                            .expect("render")
+                    })
+                },
+            );
+        }
+    }
 }
 
 criterion_group! {

@@ -198,12 +198,45 @@ pub struct Circle {
 /// A filled convex polygon with an outline, in world space.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Polygon {
-    /// Vertices (m), counter-clockwise, convex. Fewer than 3 draws only the outline.
-    pub points: Vec<Vec2>,
+    /// Where its vertices lie in [`DrawList::polygon_points`] (see
+    /// [`DrawList::points_of`]): counter-clockwise, convex, in metres. Fewer than 3 draw
+    /// only the outline.
+    pub points: std::ops::Range<usize>,
     /// Interior colour.
     pub fill: Color,
     /// Outline colour; alpha 0 for none.
     pub outline: Color,
+}
+
+/// A filled rectangle with an outline, in world space: a box body, drawn as one
+/// instance (see [`DrawList::push_box`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Rect {
+    /// Centre (m).
+    pub center: Vec2,
+    /// Half the width and half the height (m), along the rectangle's own axes.
+    pub half_size: Vec2,
+    /// `(cos, sin)` of the angle of the rectangle's width axis, counter-clockwise from +x.
+    pub rot: Vec2,
+    /// Interior colour.
+    pub fill: Color,
+    /// Outline colour; alpha 0 for none.
+    pub outline: Color,
+}
+
+impl Rect {
+    /// The four corners (m), counter-clockwise from the one at `(-w/2, -h/2)` in the
+    /// rectangle's frame.
+    pub fn corners(&self) -> [Vec2; 4] {
+        let h = self.half_size;
+        [
+            Vec2::new(-h.x, -h.y),
+            Vec2::new(h.x, -h.y),
+            Vec2::new(h.x, h.y),
+            Vec2::new(-h.x, h.y),
+        ]
+        .map(|c| self.center + self.rot.rotate(c))
+    }
 }
 
 /// A segment drawn with a constant width in pixels (independent of zoom), round caps.
@@ -222,14 +255,20 @@ pub struct Line {
 /// Everything one frame shows, in world space: plain data the engine fills from its
 /// world and a renderer draws.
 ///
-/// Draw order: the background, then polygon fills, polygon outlines, circles, and
-/// lines last (joints over bodies). Within a kind, later items draw over earlier ones.
+/// Draw order: the background, then rectangles (each with its outline), polygon fills,
+/// polygon outlines, circles, and lines last (joints over bodies). Within a kind, later
+/// items draw over earlier ones.
 #[derive(Clone, Debug, PartialEq)]
 pub struct DrawList {
+    /// Filled rectangles (box bodies).
+    pub boxes: Vec<Rect>,
     /// Filled circles.
     pub circles: Vec<Circle>,
     /// Filled convex polygons.
     pub polygons: Vec<Polygon>,
+    /// The vertices of every polygon, one after another (one buffer, reused frame to
+    /// frame, rather than one allocation per polygon).
+    pub polygon_points: Vec<Vec2>,
     /// Segments (joints, springs, debug vectors).
     pub lines: Vec<Line>,
     /// The colour the frame is cleared to.
@@ -253,8 +292,10 @@ impl DrawList {
     /// An empty list with the default background and outline width.
     pub fn new() -> Self {
         Self {
+            boxes: Vec::new(),
             circles: Vec::new(),
             polygons: Vec::new(),
+            polygon_points: Vec::new(),
             lines: Vec::new(),
             background: Self::DEFAULT_BACKGROUND,
             outline_width_px: Self::DEFAULT_OUTLINE_WIDTH_PX,
@@ -263,14 +304,19 @@ impl DrawList {
 
     /// Empties the lists, keeping their allocations, the background and outline width.
     pub fn clear(&mut self) {
+        self.boxes.clear();
         self.circles.clear();
         self.polygons.clear();
+        self.polygon_points.clear();
         self.lines.clear();
     }
 
     /// True when there is nothing to draw but the background.
     pub fn is_empty(&self) -> bool {
-        self.circles.is_empty() && self.polygons.is_empty() && self.lines.is_empty()
+        self.boxes.is_empty()
+            && self.circles.is_empty()
+            && self.polygons.is_empty()
+            && self.lines.is_empty()
     }
 
     /// Adds a circle; `angle: Some(a)` draws a radius line at angle `a`.
@@ -298,15 +344,22 @@ impl DrawList {
         fill: Color,
         outline: Color,
     ) {
+        let start = self.polygon_points.len();
+        self.polygon_points.extend(points);
         self.polygons.push(Polygon {
-            points: points.into_iter().collect(),
+            points: start..self.polygon_points.len(),
             fill,
             outline,
         });
     }
 
+    /// The vertices of `polygon`, one of this list's.
+    pub fn points_of(&self, polygon: &Polygon) -> &[Vec2] {
+        &self.polygon_points[polygon.points.clone()]
+    }
+
     /// Adds a box of full size `width` x `height` (m) centred on `center`, rotated by
-    /// `angle` radians counter-clockwise.
+    /// `angle` radians counter-clockwise (a [`Rect`]).
     pub fn push_box(
         &mut self,
         center: Vec2,
@@ -316,15 +369,13 @@ impl DrawList {
         fill: Color,
         outline: Color,
     ) {
-        let rot = Vec2::from_angle(angle);
-        let h = Vec2::new(width, height) * 0.5;
-        let corners = [
-            Vec2::new(-h.x, -h.y),
-            Vec2::new(h.x, -h.y),
-            Vec2::new(h.x, h.y),
-            Vec2::new(-h.x, h.y),
-        ];
-        self.push_polygon(corners.map(|c| center + rot.rotate(c)), fill, outline);
+        self.boxes.push(Rect {
+            center,
+            half_size: Vec2::new(width, height) * 0.5,
+            rot: Vec2::from_angle(angle),
+            fill,
+            outline,
+        });
     }
 
     /// Adds a segment `width_px` pixels wide.
@@ -342,15 +393,19 @@ impl DrawList {
     pub fn bounds(&self) -> Option<(Vec2, Vec2)> {
         let mut lo = Vec2::splat(f32::INFINITY);
         let mut hi = Vec2::splat(f32::NEG_INFINITY);
+        for r in &self.boxes {
+            for q in r.corners() {
+                lo = lo.min(q);
+                hi = hi.max(q);
+            }
+        }
         for c in &self.circles {
             lo = lo.min(c.center - Vec2::splat(c.radius));
             hi = hi.max(c.center + Vec2::splat(c.radius));
         }
-        for p in &self.polygons {
-            for &q in &p.points {
-                lo = lo.min(q);
-                hi = hi.max(q);
-            }
+        for &q in &self.polygon_points {
+            lo = lo.min(q);
+            hi = hi.max(q);
         }
         for l in &self.lines {
             lo = lo.min(l.a).min(l.b);
@@ -484,7 +539,10 @@ mod tests {
         d.push_box(Vec2::new(0.0, 0.5), 2.0, 1.0, 0.0, [255; 4], [0, 0, 0, 255]);
         d.push_circle(Vec2::new(3.0, 1.0), 0.5, Some(0.0), [255; 4], [0; 4]);
         d.push_line(Vec2::new(-2.0, 0.0), Vec2::ZERO, 2.0, [255; 4]);
-        assert_eq!(d.polygons[0].points.len(), 4);
+        d.push_polygon([Vec2::ZERO, Vec2::X, Vec2::Y], [255; 4], [0; 4]);
+        assert_eq!(d.points_of(&d.polygons[0]), &[Vec2::ZERO, Vec2::X, Vec2::Y]);
+        assert_eq!(d.boxes.len(), 1);
+        assert!(close(d.boxes[0].corners()[2], Vec2::new(1.0, 1.0), 1e-6));
         let (lo, hi) = d.bounds().unwrap();
         assert!(close(lo, Vec2::new(-2.0, 0.0), 1e-6) && close(hi, Vec2::new(3.5, 1.5), 1e-6));
         d.clear();

@@ -64,9 +64,10 @@ pub(super) struct App {
     frames: u64,
     first_frame: Option<Instant>,
     last_frame: Option<Instant>,
-    /// Summed wall time (ms) of each part of a frame: simulation and draw list, egui,
-    /// acquiring the surface texture, encoding and submitting, presenting.
-    phase_ms: [f64; 5],
+    /// Summed wall time (ms) of each part of a frame: the draw list, egui, acquiring
+    /// the surface texture, encoding and submitting, the simulation (while the frame is
+    /// rasterised), presenting.
+    phase_ms: [f64; 6],
     /// The side panel is shown (H toggles it).
     panel_visible: bool,
     /// The body last grabbed with the mouse (C makes the camera follow it).
@@ -77,7 +78,7 @@ pub(super) struct App {
     panel_dirty: bool,
     /// When the panel's figures are next refreshed, if not dirty before.
     panel_next: Option<Instant>,
-    /// When the last frame started (the simulation's clock).
+    /// When the simulation last advanced (its clock).
     last_advance: Option<Instant>,
     /// Presentation times of the frames of the last second, for the panel's fps.
     recent: std::collections::VecDeque<Instant>,
@@ -109,7 +110,7 @@ impl App {
             follow: None,
             panel_dirty: true,
             panel_next: None,
-            phase_ms: [0.0; 5],
+            phase_ms: [0.0; 6],
             recent: Default::default(),
             frame_ms: Vec::new(),
             screenshot: None,
@@ -130,10 +131,11 @@ impl App {
             _ => 0.0,
         };
         let n = self.frames.max(1) as f64;
-        let [sim, ui, acquire, submit, present] = self.phase_ms.map(|v| v / n);
+        let [list, ui, acquire, submit, sim, present] = self.phase_ms.map(|v| v / n);
         log::info!(
-            "mean ms a frame: simulation and draw list {sim:.2}, panel {ui:.2}, acquire \
-             {acquire:.2}, encode and submit {submit:.2}, present {present:.2}"
+            "mean ms a frame: draw list {list:.2}, panel {ui:.2}, acquire {acquire:.2}, \
+             encode and submit {submit:.2}, simulation (overlapping the rasteriser) \
+             {sim:.2}, present {present:.2}"
         );
         let mut sorted = self.frame_ms.clone();
         sorted.sort_by(f32::total_cmp);
@@ -328,23 +330,15 @@ impl App {
         self.camera.size = [width, height];
     }
 
-    /// Steps the world, draws it and the panel, presents; takes the screenshot and
-    /// stops after `--frames`.
+    /// Draws the world and the panel, steps the world while the frame is rasterised,
+    /// presents; takes the screenshot and stops after `--frames`.
+    ///
+    /// The order overlaps the two big costs: the draw list is filled from the world as
+    /// it is, the frame is encoded and submitted (a CPU rasteriser such as llvmpipe
+    /// starts on it in its own threads), then the simulation steps on this thread
+    /// towards the next frame, and only then does `present` wait for the rasteriser.
     fn frame(&mut self, event_loop: &ActiveEventLoop) {
         let now = Instant::now();
-        // Wall time from the start of the last frame to the start of this one.
-        let real_dt = self
-            .last_advance
-            .replace(now)
-            .map(|t| (now - t).as_secs_f64())
-            .unwrap_or(0.0);
-        let steps = self.session.advance(real_dt);
-        log::debug!(
-            "frame {}: real dt {real_dt:.4} s, {steps} step(s), paused {}",
-            self.frames,
-            self.session.paused
-        );
-
         self.follow_camera();
         fill_world_draw_list(&mut self.list, &self.session.world, &self.session.overlays);
         self.push_tools();
@@ -357,7 +351,7 @@ impl App {
             fps,
             bodies: self.session.world.bodies.len(),
         };
-        let t_sim = Instant::now();
+        let t_list = Instant::now();
         let size = [g.config.width, g.config.height];
         let visible = self.panel_visible;
         let due = visible
@@ -473,6 +467,20 @@ impl App {
         g.queue
             .submit(extra.into_iter().chain(std::iter::once(encoder.finish())));
         let t_submit = Instant::now();
+        // The simulation's steps for the next frame, while this one is rasterised. Wall
+        // time from the last advance to this one (a skipped frame's time carries over).
+        let real_dt = self
+            .last_advance
+            .replace(t_submit)
+            .map(|t| (t_submit - t).as_secs_f64())
+            .unwrap_or(0.0);
+        let steps = self.session.advance(real_dt);
+        log::debug!(
+            "frame {}: real dt {real_dt:.4} s, {steps} step(s), paused {}",
+            self.frames,
+            self.session.paused
+        );
+        let t_sim = Instant::now();
         if let Some(c) = capture {
             match c.read(&g.device) {
                 Ok(img) => self.screenshot = Some(img),
@@ -486,11 +494,12 @@ impl App {
         g.queue.present(texture);
         let t_present = Instant::now();
         for (acc, d) in self.phase_ms.iter_mut().zip([
-            t_sim - now,
-            t_ui - t_sim,
+            t_list - now,
+            t_ui - t_list,
             t_acquire - t_ui,
             t_submit - t_acquire,
-            t_present - t_submit,
+            t_sim - t_submit,
+            t_present - t_sim,
         ]) {
             *acc += d.as_secs_f64() * 1e3;
         }

@@ -9,7 +9,7 @@ use glam::Vec2;
 
 use crate::body::Body;
 use crate::defs::{BodyModel, BodyType, CameraDef, Color};
-use crate::draw::{Camera, DrawList};
+use crate::draw::{Camera, DrawList, Rect};
 use crate::shape::Shape;
 use crate::world::World;
 
@@ -164,10 +164,34 @@ pub fn push_body(list: &mut DrawList, index: usize, body: &Body) {
             let angle = (body.model != BodyModel::Particle).then_some(body.angle);
             list.push_circle(body.position, *radius, angle, fill, outline);
         }
-        Shape::Polygon(poly) => {
-            list.push_polygon(poly.verts().iter().map(|&v| xf.apply(v)), fill, outline);
-        }
+        Shape::Polygon(poly) => match rect_of(poly.verts()) {
+            Some((center, half_size, axis)) => list.boxes.push(Rect {
+                center: xf.apply(center),
+                half_size,
+                rot: xf.q.rotate(axis),
+                fill,
+                outline,
+            }),
+            None => {
+                list.push_polygon(poly.verts().iter().map(|&v| xf.apply(v)), fill, outline);
+            }
+        },
     }
+}
+
+/// When counter-clockwise `verts` form a rectangle: its centre, its half width and
+/// half height, and the unit direction of its first edge (the width axis), all in the
+/// vertices' frame. `None` for any other polygon.
+pub fn rect_of(verts: &[Vec2]) -> Option<(Vec2, Vec2, Vec2)> {
+    let [a, b, c, d] = *verts else {
+        return None;
+    };
+    let (ab, bc) = (b - a, c - b);
+    let (w, h) = (ab.length(), bc.length());
+    let tol = 1e-4 * w.max(h);
+    // A parallelogram (the diagonals share their midpoint) with a right angle at b.
+    let square = ((a + c) - (b + d)).length() <= tol && ab.dot(bc).abs() <= tol * w.max(h);
+    (square && w > 0.0 && h > 0.0).then(|| ((a + c) * 0.5, Vec2::new(w, h) * 0.5, ab / w))
 }
 
 /// Adds each body's bounding box as four lines.
@@ -217,17 +241,13 @@ pub fn auto_contact_scale(world: &World) -> Option<f32> {
     if !(max_lambda > 0.0) || world.bodies.is_empty() {
         return None;
     }
-    let moving: Vec<f32> = world
+    // (summed in place: the draw list is filled every frame without allocating)
+    let (sum, count) = world
         .bodies
         .iter()
         .filter(|b| b.body_type != BodyType::Static)
-        .map(|b| b.shape.radius())
-        .collect();
-    let mean = if moving.is_empty() {
-        1.0
-    } else {
-        moving.iter().sum::<f32>() / moving.len() as f32
-    };
+        .fold((0.0f32, 0usize), |(s, n), b| (s + b.shape.radius(), n + 1));
+    let mean = if count == 0 { 1.0 } else { sum / count as f32 };
     Some(Overlays::AUTO_CONTACT_BODIES * mean / max_lambda)
 }
 
@@ -372,20 +392,44 @@ mod tests {
     fn bodies_become_shapes_in_their_colours() {
         let w = world();
         let list = world_draw_list(&w, &Overlays::NONE);
-        assert_eq!(list.polygons.len(), 2);
+        // Boxes are rectangles, drawn as instances; no general polygons here.
+        assert_eq!(list.boxes.len(), 2);
+        assert!(list.polygons.is_empty());
         assert_eq!(list.circles.len(), 2);
         assert!(list.lines.is_empty());
         // The ground is static grey; the box keeps its scene colour.
-        assert_eq!(list.polygons[0].fill, colors::STATIC);
-        assert_eq!(list.polygons[1].fill, [1, 2, 3, 255]);
-        assert_eq!(list.polygons[1].outline, outline_for([1, 2, 3, 255]));
+        assert_eq!(list.boxes[0].fill, colors::STATIC);
+        assert_eq!(list.boxes[0].half_size, Vec2::new(100.0, 0.5));
+        assert_eq!(list.boxes[1].fill, [1, 2, 3, 255]);
+        assert_eq!(list.boxes[1].outline, outline_for([1, 2, 3, 255]));
         // The rotated box's corners are where the transform puts them.
         let corner = Vec2::new(0.0, 0.5) + Vec2::from_angle(0.3).rotate(Vec2::new(-0.5, -0.5));
-        assert!((list.polygons[1].points[0] - corner).length() < 1e-5);
+        assert!((list.boxes[1].corners()[0] - corner).length() < 1e-5);
         // The rigid wheel shows its rotation; the particle does not.
         assert_eq!(list.circles[0].angle, Some(0.7));
         assert_eq!(list.circles[1].angle, None);
         assert_eq!(list.circles[1].radius, 0.25);
+    }
+
+    #[test]
+    fn rectangles_are_recognised_and_other_polygons_are_not() {
+        let r = Vec2::from_angle(0.4);
+        let off = Vec2::new(0.3, -0.2);
+        let rect = [(-1.0, -0.25), (1.0, -0.25), (1.0, 0.25), (-1.0, 0.25)]
+            .map(|(x, y)| off + r.rotate(Vec2::new(x, y)));
+        let (c, h, axis) = rect_of(&rect).unwrap();
+        assert!((c - off).length() < 1e-6 && (h - Vec2::new(1.0, 0.25)).length() < 1e-6);
+        assert!((axis - r).length() < 1e-6);
+        // A parallelogram, a kite, a triangle and a pentagon are not rectangles.
+        let sheared = [(-1.0, 0.0), (1.0, 0.0), (1.5, 1.0), (-0.5, 1.0)].map(Vec2::from);
+        let kite = [(0.0, -1.0), (1.0, 0.0), (0.0, 2.0), (-1.0, 0.0)].map(Vec2::from);
+        assert_eq!(rect_of(&sheared), None);
+        assert_eq!(rect_of(&kite), None);
+        assert_eq!(rect_of(&rect[..3]), None);
+        let pentagon: Vec<Vec2> = (0..5)
+            .map(|i| Vec2::from_angle(i as f32 * 1.2566))
+            .collect();
+        assert_eq!(rect_of(&pentagon), None);
     }
 
     #[test]
@@ -403,7 +447,7 @@ mod tests {
             },
         );
         assert_eq!(aabbs.lines.len(), 4 * w.bodies.len());
-        assert_eq!(aabbs.polygons, none.polygons);
+        assert_eq!(aabbs.boxes, none.boxes);
 
         let vel = world_draw_list(
             &w,

@@ -112,10 +112,14 @@ pub fn render_frames(
             ..written.clone()
         },
     };
+    // Wall time (s) of the steps, of the draw list and render (with the read-back), and
+    // of encoding and writing the PNGs and GIF, for the log.
+    let (mut t_step, mut t_render, mut t_write) = (0.0f64, 0.0f64, 0.0f64);
     for k in 0..job.frames {
         if crate::output::interrupted() {
             return Err(stop(&written));
         }
+        let t0 = std::time::Instant::now();
         if k > 0 {
             for _ in 0..job.every {
                 if crate::output::interrupted() {
@@ -128,23 +132,34 @@ pub fn render_frames(
                 written.steps += 1;
             }
         }
+        let t1 = std::time::Instant::now();
         fill_world_draw_list(&mut list, world, &job.overlays);
         let image = renderer.render_to_image(&list, camera)?;
+        let t2 = std::time::Instant::now();
         let path = job.out_dir.join(frame_name(k));
         save_png(&path, &image)?;
         written.pngs.push(path);
         if let Some(g) = gif.as_mut() {
             g.push(image)?;
         }
+        t_step += (t1 - t0).as_secs_f64();
+        t_render += (t2 - t1).as_secs_f64();
+        t_write += t2.elapsed().as_secs_f64();
         on_frame(k);
     }
     if let Some(g) = gif {
         g.finish()?;
     }
+    let n = written.pngs.len().max(1) as f64;
     log::info!(
-        "wrote {} frames to {}",
+        "wrote {} frames to {}; ms a frame: steps {:.2}, draw list and render with \
+         read-back {:.2} ({:.1} frames a second), PNG and GIF {:.2}",
         written.pngs.len(),
-        job.out_dir.display()
+        job.out_dir.display(),
+        t_step / n * 1e3,
+        t_render / n * 1e3,
+        n / t_render.max(1e-9),
+        t_write / n * 1e3
     );
     Ok(written)
 }

@@ -62,6 +62,17 @@ struct CircleInstance {
     outline: [u8; 4],
 }
 
+/// One rectangle; mirrors `BoxIn` in `shaders/box.wgsl`.
+#[repr(C)]
+#[derive(Clone, Copy, Pod, Zeroable)]
+struct BoxInstance {
+    center: [f32; 2],
+    half_size: [f32; 2],
+    rot: [f32; 2],
+    fill: [u8; 4],
+    outline: [u8; 4],
+}
+
 /// One segment; mirrors `LineIn` in `shaders/line.wgsl`.
 #[repr(C)]
 #[derive(Clone, Copy, Pod, Zeroable)]
@@ -147,12 +158,15 @@ pub struct Renderer {
     adapter_info: Option<wgpu::AdapterInfo>,
     globals: wgpu::Buffer,
     globals_bind_group: wgpu::BindGroup,
+    box_pipeline: wgpu::RenderPipeline,
     circle_pipeline: wgpu::RenderPipeline,
     line_pipeline: wgpu::RenderPipeline,
     polygon_pipeline: wgpu::RenderPipeline,
+    box_buffer: GrowBuffer,
     circle_buffer: GrowBuffer,
     line_buffer: GrowBuffer,
     polygon_buffer: GrowBuffer,
+    box_data: Vec<BoxInstance>,
     circle_data: Vec<CircleInstance>,
     line_data: Vec<LineInstance>,
     polygon_data: Vec<PolygonVertex>,
@@ -283,6 +297,9 @@ impl Renderer {
             immediate_size: 0,
         });
 
+        let box_attributes = wgpu::vertex_attr_array![
+            0 => Float32x2, 1 => Float32x2, 2 => Float32x2, 3 => Unorm8x4, 4 => Unorm8x4
+        ];
         let circle_attributes = wgpu::vertex_attr_array![
             0 => Float32x2, 1 => Float32, 2 => Float32, 3 => Float32, 4 => Unorm8x4, 5 => Unorm8x4
         ];
@@ -290,6 +307,19 @@ impl Renderer {
             wgpu::vertex_attr_array![0 => Float32x2, 1 => Float32x2, 2 => Float32, 3 => Unorm8x4];
         let polygon_attributes = wgpu::vertex_attr_array![0 => Float32x2, 1 => Unorm8x4];
 
+        let box_pipeline = create_pipeline(
+            &device,
+            &layout,
+            format,
+            samples,
+            "box",
+            include_str!("shaders/box.wgsl"),
+            wgpu::VertexBufferLayout {
+                array_stride: std::mem::size_of::<BoxInstance>() as u64,
+                step_mode: wgpu::VertexStepMode::Instance,
+                attributes: &box_attributes,
+            },
+        );
         let circle_pipeline = create_pipeline(
             &device,
             &layout,
@@ -331,6 +361,7 @@ impl Renderer {
         );
 
         Self {
+            box_buffer: GrowBuffer::new(&device, "sandbox2d boxes", 4096),
             circle_buffer: GrowBuffer::new(&device, "sandbox2d circles", 4096),
             line_buffer: GrowBuffer::new(&device, "sandbox2d lines", 4096),
             polygon_buffer: GrowBuffer::new(&device, "sandbox2d polygons", 4096),
@@ -340,9 +371,11 @@ impl Renderer {
             adapter_info: None,
             globals,
             globals_bind_group,
+            box_pipeline,
             circle_pipeline,
             line_pipeline,
             polygon_pipeline,
+            box_data: Vec::new(),
             circle_data: Vec::new(),
             line_data: Vec::new(),
             polygon_data: Vec::new(),
@@ -429,25 +462,31 @@ impl Renderer {
         let line_stride = std::mem::size_of::<LineInstance>() as u64;
         let outline_lines = self.outline_line_count(list) as u32;
         let user_lines = list.lines.len() as u32;
-        // 1. polygon fills
+        // 1. rectangles, each with its outline
+        if !self.box_data.is_empty() {
+            pass.set_pipeline(&self.box_pipeline);
+            pass.set_vertex_buffer(0, self.box_buffer.buffer.slice(..));
+            pass.draw(0..6, 0..self.box_data.len() as u32);
+        }
+        // 2. polygon fills
         if !self.polygon_data.is_empty() {
             pass.set_pipeline(&self.polygon_pipeline);
             pass.set_vertex_buffer(0, self.polygon_buffer.buffer.slice(..));
             pass.draw(0..self.polygon_data.len() as u32, 0..1);
         }
-        // 2. polygon outlines (the first lines in the line buffer)
+        // 3. polygon outlines (the first lines in the line buffer)
         if outline_lines > 0 {
             pass.set_pipeline(&self.line_pipeline);
             pass.set_vertex_buffer(0, self.line_buffer.buffer.slice(..));
             pass.draw(0..6, 0..outline_lines);
         }
-        // 3. circles
+        // 4. circles
         if !self.circle_data.is_empty() {
             pass.set_pipeline(&self.circle_pipeline);
             pass.set_vertex_buffer(0, self.circle_buffer.buffer.slice(..));
             pass.draw(0..6, 0..self.circle_data.len() as u32);
         }
-        // 4. the list's lines, over everything. A buffer offset rather than a first
+        // 5. the list's lines, over everything. A buffer offset rather than a first
         // instance, which GLES lacks.
         if user_lines > 0 {
             pass.set_pipeline(&self.line_pipeline);
@@ -574,6 +613,15 @@ impl Renderer {
         self.queue
             .write_buffer(&self.globals, 0, bytemuck::bytes_of(&globals));
 
+        self.box_data.clear();
+        self.box_data.extend(list.boxes.iter().map(|r| BoxInstance {
+            center: r.center.to_array(),
+            half_size: r.half_size.to_array(),
+            rot: r.rot.to_array(),
+            fill: r.fill,
+            outline: r.outline,
+        }));
+
         self.circle_data.clear();
         self.circle_data
             .extend(list.circles.iter().map(|c| CircleInstance {
@@ -588,27 +636,28 @@ impl Renderer {
         self.polygon_data.clear();
         self.line_data.clear();
         let outline_px = list.outline_width_px;
-        for p in &list.polygons {
+        for poly in &list.polygons {
+            let p = list.points_of(poly);
+            let (fill, outline) = (poly.fill, poly.outline);
             // Fan triangulation of a convex polygon: (p0, p_i, p_i+1).
-            if p.points.len() >= 3 && p.fill[3] > 0 {
+            if p.len() >= 3 && fill[3] > 0 {
                 let v = |q: Vec2| PolygonVertex {
                     position: q.to_array(),
-                    color: p.fill,
+                    color: fill,
                 };
-                for i in 1..p.points.len() - 1 {
-                    self.polygon_data
-                        .extend([v(p.points[0]), v(p.points[i]), v(p.points[i + 1])]);
+                for i in 1..p.len() - 1 {
+                    self.polygon_data.extend([v(p[0]), v(p[i]), v(p[i + 1])]);
                 }
             }
-            if p.outline[3] > 0 && outline_px > 0.0 && p.points.len() >= 2 {
-                let n = p.points.len();
+            if outline[3] > 0 && outline_px > 0.0 && p.len() >= 2 {
+                let n = p.len();
                 let edges = if n == 2 { 1 } else { n };
                 for i in 0..edges {
                     self.line_data.push(LineInstance {
-                        a: p.points[i].to_array(),
-                        b: p.points[(i + 1) % n].to_array(),
+                        a: p[i].to_array(),
+                        b: p[(i + 1) % n].to_array(),
                         width_px: outline_px,
-                        color: p.outline,
+                        color: outline,
                     });
                 }
             }
@@ -621,6 +670,11 @@ impl Renderer {
                 color: l.color,
             }));
 
+        self.box_buffer.upload(
+            &self.device,
+            &self.queue,
+            bytemuck::cast_slice(&self.box_data),
+        );
         self.circle_buffer.upload(
             &self.device,
             &self.queue,

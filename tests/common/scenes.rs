@@ -115,8 +115,14 @@ pub fn small_scene() -> DrawList {
 
 /// The benchmark scene: a 20-row (210-box) pyramid, a few balls and joints.
 pub fn bench_scene() -> DrawList {
+    bench_scene_rows(20)
+}
+
+/// The benchmark scene with a pyramid of `rows` rows (100 rows: 5050 boxes, the large
+/// pyramid's count), the same balls and joints above a 20-row pyramid's top.
+pub fn bench_scene_rows(rows: usize) -> DrawList {
     let mut list = DrawList::new();
-    pyramid(&mut list, 20);
+    pyramid(&mut list, rows);
     for i in 0..12 {
         let x = -14.0 + i as f32 * 2.5;
         list.push_circle(

@@ -50,11 +50,12 @@ fn fs_main(in: CircleOut) -> @location(0) vec4<f32> {
     if coverage <= 0.0 {
         discard;
     }
-    let w = min(g.outline_px, r);
+    // Level of detail: no outline nor radius line on a circle narrower than LOD_PX.
+    let w = select(min(g.outline_px, r), 0.0, 2.0 * r < LOD_PX);
     // 1 in the outline band [r - w, r], 0 inside it.
-    let band = clamp(d - (r - w) + 0.5, 0.0, 1.0);
+    let band = select(clamp(d - (r - w) + 0.5, 0.0, 1.0), 0.0, w <= 0.0);
     var color = over(in.outline * band, in.fill);
-    if dot(in.spoke, in.spoke) > 0.0 {
+    if dot(in.spoke, in.spoke) > 0.0 && w > 0.0 {
         let ds = segment_distance(in.pixel, in.center_px, in.center_px + in.spoke);
         let spoke = clamp(0.5 * w - ds + 0.5, 0.0, 1.0) * min(w, 1.0);
         color = over(in.outline * spoke, color);

@@ -1,5 +1,5 @@
 // Shared by every pipeline: the camera uniform, the screen transform and colour helpers.
-// Prepended to circle.wgsl, line.wgsl and polygon.wgsl at pipeline creation.
+// Prepended to box.wgsl, circle.wgsl, line.wgsl and polygon.wgsl at pipeline creation.
 
 struct Globals {
     // World point at the image centre (m).
@@ -20,6 +20,10 @@ struct Globals {
 };
 
 @group(0) @binding(0) var<uniform> g: Globals;
+
+// Level of detail: a box or circle narrower than this many pixels is drawn as a plain
+// fill, without its outline (which would otherwise cover most of it).
+const LOD_PX: f32 = 4.0;
 
 // X = [[s, 0, px], [0, -s, py], [0, 0, 1]], written relative to the centre for precision.
 fn to_screen(w: vec2<f32>) -> vec2<f32> {

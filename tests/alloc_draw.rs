@@ -1,0 +1,62 @@
+//! A steady frame's draw list allocates nothing: `fill_world_draw_list` reuses the
+//! list's buffers (counted by a global allocator; this file holds one test so no other
+//! test allocates on the same counter).
+
+use std::alloc::{GlobalAlloc, Layout, System};
+use std::cell::Cell;
+
+use sandbox2d::draw::{DrawList, Overlays, fill_world_draw_list};
+use sandbox2d::{SolverSettings, World, scene};
+
+struct Counting;
+
+thread_local! {
+    static ALLOCS: Cell<usize> = const { Cell::new(0) };
+}
+
+// SAFETY: forwards to the system allocator; only counts, per thread.
+unsafe impl GlobalAlloc for Counting {
+    unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
+        ALLOCS.with(|a| a.set(a.get() + 1));
+        unsafe { System.alloc(layout) }
+    }
+    unsafe fn dealloc(&self, ptr: *mut u8, layout: Layout) {
+        unsafe { System.dealloc(ptr, layout) }
+    }
+    unsafe fn realloc(&self, ptr: *mut u8, layout: Layout, new_size: usize) -> *mut u8 {
+        ALLOCS.with(|a| a.set(a.get() + 1));
+        unsafe { System.realloc(ptr, layout, new_size) }
+    }
+}
+
+#[global_allocator]
+static COUNTING: Counting = Counting;
+
+#[test]
+fn steady_frames_fill_the_draw_list_without_allocating() {
+    // boxes (pyramid), hinges and polygons that are not boxes (ragdoll, car), circles
+    // and particles (particles), with and without every overlay
+    for name in ["pyramid", "ragdoll", "car", "particles", "joints"] {
+        for overlays in [Overlays::NONE, Overlays::ALL] {
+            let sc = scene::load(name).unwrap();
+            let mut w = World::from_def(&sc.world, SolverSettings::default()).unwrap();
+            let mut list = DrawList::new();
+            // warm up: the list's buffers grow to the scene's size
+            for _ in 0..60 {
+                w.step().unwrap();
+                fill_world_draw_list(&mut list, &w, &overlays);
+            }
+            let mut allocs = 0;
+            let mut drawn = 0;
+            for _ in 0..30 {
+                w.step().unwrap();
+                let before = ALLOCS.with(|a| a.get());
+                fill_world_draw_list(&mut list, &w, &overlays);
+                allocs += ALLOCS.with(|a| a.get()) - before;
+                drawn += list.boxes.len() + list.polygons.len() + list.circles.len();
+            }
+            assert_eq!(drawn, 30 * w.bodies.len(), "{name}: every body drawn");
+            assert_eq!(allocs, 0, "{name} with {overlays:?}: allocations");
+        }
+    }
+}
