@@ -481,6 +481,7 @@ fn default_command() -> Result<(), Failure> {
         json: false,
         trace: None,
         trace_every: 1,
+        events: None,
         solver: SolverFlags::default(),
     })
 }
