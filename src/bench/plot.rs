@@ -154,7 +154,7 @@ pub fn svg(scene: &BenchScene, rows: &[Row]) -> Result<Option<String>, String> {
 }
 
 /// A tick label with two or three significant digits.
-fn short(v: f64) -> String {
+pub(crate) fn short(v: f64) -> String {
     if v >= 10.0 {
         format!("{v:.0}")
     } else if v >= 1.0 {

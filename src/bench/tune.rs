@@ -642,19 +642,6 @@ pub fn score_all(
     (applies, normalisers)
 }
 
-/// A tick label with two or three significant digits.
-fn short_tick(v: f64) -> String {
-    if v >= 10.0 {
-        format!("{v:.0}")
-    } else if v >= 1.0 {
-        format!("{v:.1}")
-    } else if v >= 0.01 {
-        format!("{v:.2}")
-    } else {
-        format!("{v:.0e}")
-    }
-}
-
 /// A measure's value for a table cell ("-" where it does not apply).
 fn cell(m: &Measured, metric: Metric) -> String {
     let v = m.metric(metric);
@@ -1018,7 +1005,7 @@ pub fn svg(report: &TuneReport) -> Result<String, String> {
             .x_desc("ms per step (median)")
             .y_desc(format!("score ({})", report.options.metric.name()))
             .x_labels(8)
-            .x_label_formatter(&|v| short_tick(*v))
+            .x_label_formatter(&|v| super::plot::short(*v))
             .y_label_formatter(&|v| format!("{v:.1e}"))
             .draw()
             .map_err(|x| e(&x))?;
