@@ -568,4 +568,9 @@ pub struct WorldDef {
     pub bodies: Vec<BodyDef>,
     pub forces: Vec<ForceDef>,
     pub joints: Vec<JointDef>,
+    /// Where the scene's (0, 0) is in the file's coordinates (m). Every position here
+    /// (bodies, anchors, points, the camera) is relative to it, so a scene placed far
+    /// from 0 keeps f32's precision near its bodies; (0, 0) for a scene within
+    /// [`crate::scene::ORIGIN_SHIFT_BEYOND`] of 0. Outputs (traces) add it back.
+    pub origin: glam::DVec2,
 }

@@ -512,7 +512,7 @@ fn build(name: &str, flags: &SolverFlags) -> Result<(Scene, World, SolverSetting
     if let Some((far, ulp)) = sandbox2d::world::far_from_origin(&sc.world) {
         // said once, before the run: the run itself goes ahead
         eprintln!(
-            "note: {}: a body starts {far:.3e} m from the origin, where positions step by {ulp:.1e} m (f32); contacts and joints lose precision beyond about {:.0e} m (docs/stability.md, the distance sweep)",
+            "note: {}: a body starts {far:.3e} m from the scene's origin, where positions step by {ulp:.1e} m (f32); contacts and joints lose precision beyond about {:.0e} m from it (a scene far from 0 is simulated relative to its own centre: its size counts, not its place; docs/stability.md)",
             one_line(&sc.source),
             sandbox2d::world::FAR_FROM_ORIGIN
         );
@@ -526,6 +526,7 @@ fn build(name: &str, flags: &SolverFlags) -> Result<(Scene, World, SolverSetting
     let def = &sc.world;
     let mut world = World::new(def.gravity, settings);
     world.drag = def.drag;
+    world.origin = def.origin;
     let bar = progress(
         Some(def.bodies.len() as u64),
         "{bar:40} {pos}/{len} bodies built {elapsed}",

@@ -81,17 +81,21 @@ pub fn write_trace_header(out: &mut dyn Write) -> std::io::Result<()> {
 pub fn write_trace_rows(out: &mut dyn Write, world: &World) -> std::io::Result<()> {
     let step = world.step_count();
     let t = world.time();
+    let shifted = world.origin != glam::DVec2::ZERO;
     for (i, b) in world.bodies.iter().enumerate() {
+        write!(out, "{step},{t},{i},{},", csv_field(&b.name))?;
+        // positions in the file's coordinates: the world's origin added back in f64
+        // (an f32 is printed as itself when there is none)
+        if shifted {
+            let p = world.world_position(i);
+            write!(out, "{},{}", p.x, p.y)?;
+        } else {
+            write!(out, "{},{}", b.position.x, b.position.y)?;
+        }
         writeln!(
             out,
-            "{step},{t},{i},{},{},{},{},{},{},{}",
-            csv_field(&b.name),
-            b.position.x,
-            b.position.y,
-            b.angle,
-            b.velocity.x,
-            b.velocity.y,
-            b.angular_velocity
+            ",{},{},{},{}",
+            b.angle, b.velocity.x, b.velocity.y, b.angular_velocity
         )?;
     }
     Ok(())

@@ -174,6 +174,9 @@ pub struct World {
     stats: StepStats,
     step_count: u64,
     time: f64,
+    /// Where this world's (0, 0) is (m): positions in it are relative to this
+    /// ([`WorldDef::origin`]); [`World::world_position`] adds it back.
+    pub origin: glam::DVec2,
 }
 
 impl World {
@@ -204,6 +207,7 @@ impl World {
             stats: StepStats::default(),
             step_count: 0,
             time: 0.0,
+            origin: glam::DVec2::ZERO,
         }
     }
 
@@ -212,6 +216,7 @@ impl World {
         settings.check().map_err(BuildError::Settings)?;
         let mut w = World::new(def.gravity, settings);
         w.drag = def.drag;
+        w.origin = def.origin;
         for b in &def.bodies {
             w.add_body(b)?;
         }
@@ -758,6 +763,12 @@ impl World {
         }
         clock.lap(Stage::Narrow);
         deepest
+    }
+
+    /// A body's position in the scene file's coordinates, [`World::origin`] added back
+    /// in f64.
+    pub fn world_position(&self, body: BodyId) -> glam::DVec2 {
+        self.origin + self.bodies[body].position.as_dvec2()
     }
 
     /// Kinetic plus gravitational potential energy of the dynamic bodies (J), with the

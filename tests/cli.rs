@@ -1135,7 +1135,7 @@ fn a_scene_far_from_the_origin_gets_one_note_and_still_runs() {
     let far = tmp("far.toml");
     std::fs::write(
         &far,
-        "name = \"far\"\n[world]\ngravity = [0.0, -10.0]\n[[body]]\nname = \"ball\"\nshape = { circle = 0.5 }\nposition = [0.0, 1e6]\n",
+        "name = \"far\"\n[world]\ngravity = [0.0, -10.0]\n[[body]]\nname = \"ball\"\nshape = { circle = 0.5 }\nposition = [0.0, 1e6]\n[[body]]\nname = \"pad\"\ntype = \"static\"\nshape = { box = [1.0, 1.0] }\nposition = [0.0, 0.0]\n",
     )
     .unwrap();
     let out = sandbox2d()
@@ -1147,10 +1147,29 @@ fn a_scene_far_from_the_origin_gets_one_note_and_still_runs() {
     assert!(out.status.success());
     let err = String::from_utf8(out.stderr).unwrap();
     assert_eq!(err.lines().count(), 1, "{err}");
-    // at 1e6 m an f32 position steps by 2^-4 m
+    // the scene spans 1e6 m: its origin is the midpoint, 5e5 m from either body, where
+    // an f32 position steps by 2^-5 m
     assert!(
-        err.starts_with("note: ") && err.contains("1.000e6 m") && err.contains("6.2e-2 m"),
+        err.starts_with("note: ") && err.contains("5.000e5 m") && err.contains("3.1e-2 m"),
         "{err}"
+    );
+    // the ball alone, 1e6 m out, is simulated relative to its own place: no note
+    std::fs::write(
+        &far,
+        "name = \"far\"\n[world]\ngravity = [0.0, -10.0]\n[[body]]\nname = \"ball\"\nshape = { circle = 0.5 }\nposition = [0.0, 1e6]\n",
+    )
+    .unwrap();
+    let out = sandbox2d()
+        .arg("simulate")
+        .arg(&far)
+        .args(["--steps", "10"])
+        .output()
+        .unwrap();
+    assert!(out.status.success());
+    assert!(
+        out.stderr.is_empty(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
     );
     // a scene near the origin gets no note
     let out = sandbox2d()

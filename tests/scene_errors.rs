@@ -1368,7 +1368,9 @@ fn infinite_energy_is_refused_at_the_velocity_that_makes_it() {
         &["kinetic energy is not finite"],
     );
     check(
-        "name = \"t\"\n[world]\ngravity = [0, -1e30]\n[[body]]\nshape = { circle = 1 }\nposition = [0, 1e10]\n",
+        // a static pad 2e10 m below keeps the scene's origin (its centre) at 0, so the
+        // ball's potential energy, measured from there, is m g 1e10
+        "name = \"t\"\n[world]\ngravity = [0, -1e30]\n[[body]]\nshape = { circle = 1 }\nposition = [0, 1e10]\n[[body]]\ntype = \"static\"\nshape = { circle = 1 }\nposition = [0, -1e10]\n",
         6,
         12,
         &["potential energy is not finite"],

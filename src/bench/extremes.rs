@@ -74,19 +74,21 @@ pub enum Sweep {
     Tunneling,
     StackHeight,
     Distance,
+    Span,
     Iterations,
     Friction,
     Restitution,
 }
 
 impl Sweep {
-    pub const ALL: [Sweep; 9] = [
+    pub const ALL: [Sweep; 10] = [
         Sweep::MassRatio,
         Sweep::MassRatioChain,
         Sweep::TimeStep,
         Sweep::Tunneling,
         Sweep::StackHeight,
         Sweep::Distance,
+        Sweep::Span,
         Sweep::Iterations,
         Sweep::Friction,
         Sweep::Restitution,
@@ -101,6 +103,7 @@ impl Sweep {
             Sweep::Tunneling => "tunneling",
             Sweep::StackHeight => "stack_height",
             Sweep::Distance => "distance",
+            Sweep::Span => "span",
             Sweep::Iterations => "iterations",
             Sweep::Friction => "friction",
             Sweep::Restitution => "restitution",
@@ -130,7 +133,10 @@ impl Sweep {
                 "a stack of n boxes of 1 m for 4 s: holds while the top box moves < 0.1 m + n slops and overlap < 0.05 m"
             }
             Sweep::Distance => {
-                "a stack of 5 boxes moved by (d, d) from the origin, 3 s: holds while the top moves < 0.125 m, overlap < 0.05 m and every box ends slower than 0.05 m/s"
+                "a stack of 5 boxes moved by (d, d) from the origin, 3 s: holds while the top moves < 0.125 m, overlap < 0.05 m and every box ends slower than 0.05 m/s. Beyond 1e3 m the scene is simulated relative to its own centre (whole metres, `WorldDef::origin`), so from 1e4 m on its numbers are those at 0"
+            }
+            Sweep::Span => {
+                "the stack of `distance` at 0 and a static 1 m box at (2d, 2d - 10): beyond 1e3 m the scene's centre is about (d, d), so the stack works in f32 about (d, d) from it, 3 s, same bounds as `distance`. What limits a scene is its size, not its place"
             }
             Sweep::Iterations => {
                 "the pyramid of base 20 for 5 s at n iterations (PGS: sweeps per step, tolerance 1e-4; XPBD: iterations per substep, 20 substeps): holds while the top box moves < 0.2 m and overlap < 0.05 m"
@@ -152,7 +158,8 @@ impl Sweep {
             Sweep::TimeStep => vec![1000.0, 480.0, 240.0, 120.0, 60.0, 30.0, 15.0],
             Sweep::Tunneling => vec![1.0, 3.0, 10.0, 30.0, 100.0, 300.0],
             Sweep::StackHeight => vec![5.0, 10.0, 20.0, 30.0, 40.0, 50.0],
-            Sweep::Distance => vec![0.0, 1e2, 1e3, 1e4, 3e4, 1e5],
+            Sweep::Distance => vec![0.0, 1e2, 1e3, 1e4, 3e4, 1e5, 1e6, 1e7],
+            Sweep::Span => vec![0.0, 1e2, 1e3, 1e4, 3e4, 1e5],
             Sweep::Iterations => vec![1000.0, 300.0, 100.0, 30.0, 10.0, 5.0, 3.0, 2.0, 1.0],
             Sweep::Friction => vec![0.0, 0.2, 0.4, 0.45, 0.5, 0.6, 1.0, 2.0],
             Sweep::Restitution => vec![0.0, 0.25, 0.5, 0.75, 0.9, 1.0],
@@ -164,7 +171,7 @@ impl Sweep {
         match self {
             Sweep::TimeStep => format!("1/{v} s"),
             Sweep::Tunneling => format!("{v} m/s"),
-            Sweep::Distance => format!("{v:e} m"),
+            Sweep::Distance | Sweep::Span => format!("{v:e} m"),
             Sweep::MassRatio | Sweep::MassRatioChain => format!("{v:e}"),
             _ => format!("{v}"),
         }
@@ -390,6 +397,15 @@ velocity = [{value}, 0.0]
         ),
         Sweep::StackHeight => load(&stack_text(value as u32, 0.0), "extremes:stack_height"),
         Sweep::Distance => load(&stack_text(5, value), "extremes:distance"),
+        Sweep::Span => load(
+            &format!(
+                "{}[[body]]\nname = \"marker\"\ntype = \"static\"\nshape = {{ box = [1.0, 1.0] }}\nposition = [{m}, {n}]\n",
+                stack_text(5, 0.0),
+                m = 2.0 * value,
+                n = 2.0 * value - 10.0
+            ),
+            "extremes:span",
+        ),
         Sweep::Iterations => match scene::load("pyramid") {
             Ok(s) => s.world,
             Err(e) => panic!("built-in pyramid: {e}"),
@@ -577,7 +593,7 @@ fn run_case(sweep: Sweep, value: f64, world: &mut World) -> Result<String, CaseR
             let (moved, pen) = standing(world, 5.0, 0.2)?;
             Ok(format!("top moved {moved:.4} m, overlap {pen:.4} m"))
         }
-        Sweep::Distance => {
+        Sweep::Distance | Sweep::Span => {
             let (moved, pen) = standing(world, 3.0, 0.1 + 5.0 * SLOP)?;
             let fastest = world
                 .bodies

@@ -8,8 +8,11 @@ use toml::Spanned;
 
 /// A value and where it is in the text.
 pub(crate) type S<T> = Spanned<T>;
-/// `[x, y]`.
+/// `[x, y]`: a size, a velocity, a direction.
 pub(crate) type V2 = Pair<f32>;
+/// `[x, y]`: a point in the world, read as f64 so that a scene far from 0 keeps its
+/// precision until the scene's origin is taken off (`validate::Ctx::point`).
+pub(crate) type P2 = Pair<f64>;
 
 /// A TOML array of exactly two elements. (serde's `[T; 2]` silently ignores extra
 /// elements with toml, so the length is checked here.)
@@ -95,7 +98,7 @@ pub(crate) struct FileSolver {
 #[derive(Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub(crate) struct FileCamera {
-    pub center: Option<S<V2>>,
+    pub center: Option<S<P2>>,
     pub pixels_per_meter: Option<S<f32>>,
     pub size: Option<S<Pair<u32>>>,
 }
@@ -119,7 +122,7 @@ pub(crate) struct FileBody {
     pub type_: Option<S<String>>,
     pub model: Option<S<String>>,
     pub shape: S<FileShape>,
-    pub position: Option<S<V2>>,
+    pub position: Option<S<P2>>,
     pub angle: Option<S<f32>>,
     pub velocity: Option<S<V2>>,
     pub angular_velocity: Option<S<f32>>,
@@ -147,7 +150,7 @@ pub(crate) struct FileFilter {
 pub(crate) struct FileForce {
     pub body: S<String>,
     pub force: S<V2>,
-    pub point: Option<S<V2>>,
+    pub point: Option<S<P2>>,
 }
 
 /// `motor = { speed, max_torque | max_force }`.
@@ -181,8 +184,8 @@ pub(crate) struct FileJoint {
     #[serde(rename = "type")]
     pub type_: S<String>,
     pub bodies: S<Pair<S<String>>>,
-    pub anchor: Option<S<V2>>,
-    pub anchors: Option<S<Pair<S<V2>>>>,
+    pub anchor: Option<S<P2>>,
+    pub anchors: Option<S<Pair<S<P2>>>>,
     pub length: Option<S<f32>>,
     pub axis: Option<S<V2>>,
     pub limits: Option<S<V2>>,
@@ -200,7 +203,7 @@ pub(crate) struct FilePyramid {
     pub base: S<u32>,
     #[serde(rename = "box")]
     pub box_: Option<S<V2>>,
-    pub origin: Option<S<V2>>,
+    pub origin: Option<S<P2>>,
     pub density: Option<S<f32>>,
     pub friction: Option<S<f32>>,
     pub restitution: Option<S<f32>>,
@@ -215,7 +218,7 @@ pub(crate) struct FileStack {
     pub count: S<u32>,
     #[serde(rename = "box")]
     pub box_: Option<S<V2>>,
-    pub origin: Option<S<V2>>,
+    pub origin: Option<S<P2>>,
     pub offset: Option<S<f32>>,
     pub density: Option<S<f32>>,
     pub friction: Option<S<f32>>,
@@ -231,7 +234,7 @@ pub(crate) struct FileGrid {
     pub rows: S<u32>,
     pub columns: S<u32>,
     pub spacing: S<V2>,
-    pub origin: Option<S<V2>>,
+    pub origin: Option<S<P2>>,
     pub shape: S<FileShape>,
     #[serde(rename = "type")]
     pub type_: Option<S<String>>,
@@ -266,7 +269,7 @@ pub(crate) struct FileChainEnd {
 pub(crate) struct FileChain {
     pub links: S<u32>,
     pub link: S<V2>,
-    pub anchor: S<V2>,
+    pub anchor: S<P2>,
     pub direction: Option<S<V2>>,
     pub joint: Option<S<String>>,
     pub density: Option<S<f32>>,

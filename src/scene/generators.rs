@@ -119,7 +119,7 @@ pub(crate) fn pyramid(
         Some(b) => ctx.size(who, "box", b)?,
         None => Vec2::ONE,
     };
-    let origin = ctx.opt_vec2(who, "origin", p.origin.as_ref(), Vec2::ZERO)?;
+    let origin = ctx.opt_point(who, "origin", p.origin.as_ref(), Vec2::ZERO)?;
     let m = ctx.material(
         who,
         true,
@@ -186,7 +186,7 @@ pub(crate) fn stack(
         Some(b) => ctx.size(who, "box", b)?,
         None => Vec2::ONE,
     };
-    let origin = ctx.opt_vec2(who, "origin", s.origin.as_ref(), Vec2::ZERO)?;
+    let origin = ctx.opt_point(who, "origin", s.origin.as_ref(), Vec2::ZERO)?;
     let offset = ctx.opt(s.offset.as_ref(), 0.0, |v| ctx.finite(who, "offset", v))?;
     let m = ctx.material(
         who,
@@ -261,7 +261,7 @@ pub(crate) fn grid(
         g.rows.span(),
     )?;
     let spacing = ctx.vec2(who, "spacing", &g.spacing)?;
-    let origin = ctx.opt_vec2(who, "origin", g.origin.as_ref(), Vec2::ZERO)?;
+    let origin = ctx.opt_point(who, "origin", g.origin.as_ref(), Vec2::ZERO)?;
     let body_type = ctx.body_type(who, g.type_.as_ref())?;
     let model = ctx.body_model(who, g.model.as_ref())?;
     let shape = ctx.shape(who, &g.shape)?;
@@ -390,7 +390,7 @@ pub(crate) fn chain(
     let links = ctx.count(who, "links", &c.links)?;
     check_total(ctx, who, links as u64 + 2, bodies, c.links.span())?;
     let size = ctx.size(who, "link", &c.link)?;
-    let anchor = ctx.vec2(who, "anchor", &c.anchor)?;
+    let anchor = ctx.point(who, "anchor", &c.anchor)?;
     let d = match &c.direction {
         Some(v) => {
             let d = ctx.vec2(who, "direction", v)?;

@@ -81,12 +81,59 @@ pub fn load(name_or_path: &str) -> Result<Scene, SceneError> {
 /// Parses and validates a scene from its text. `source` names it in messages and
 /// becomes [`Scene::source`].
 pub fn load_str(text: &str, source: &str) -> Result<Scene, SceneError> {
-    let ctx = Ctx { file: source, text };
+    let ctx = Ctx {
+        file: source,
+        text,
+        origin: [0.0; 2],
+    };
     let file: FileScene = toml::from_str(text).map_err(|e| {
         let span = e.span().unwrap_or(0..0);
         ctx.err(span, e.message().trim_end().to_owned())
     })?;
+    let ctx = Ctx {
+        origin: scene_origin(&file),
+        ..ctx
+    };
     build(&ctx, file)
+}
+
+/// A scene whose placed points (body positions, generator origins, chain anchors) reach
+/// beyond this (m) on either axis is simulated relative to an origin of its own.
+pub const ORIGIN_SHIFT_BEYOND: f64 = 1000.0;
+
+/// The scene's origin ([`WorldDef::origin`]): (0, 0), or for a scene placed beyond
+/// [`ORIGIN_SHIFT_BEYOND`] the centre of its placed points' bounding box, rounded to
+/// whole metres (so a scene moved by whole metres keeps the same f32 numbers).
+fn scene_origin(f: &FileScene) -> [f64; 2] {
+    let points = f
+        .body
+        .iter()
+        .filter_map(|b| b.get_ref().position.as_ref())
+        .chain(f.pyramid.iter().filter_map(|g| g.get_ref().origin.as_ref()))
+        .chain(f.stack.iter().filter_map(|g| g.get_ref().origin.as_ref()))
+        .chain(f.grid.iter().filter_map(|g| g.get_ref().origin.as_ref()))
+        .chain(f.chain.iter().map(|g| &g.get_ref().anchor))
+        .map(|p| p.get_ref().0)
+        .filter(|p| p.iter().all(|x| x.is_finite()));
+    let (mut lo, mut hi) = ([f64::MAX; 2], [f64::MIN; 2]);
+    let mut far = false;
+    for p in points {
+        for k in 0..2 {
+            lo[k] = lo[k].min(p[k]);
+            hi[k] = hi[k].max(p[k]);
+            far |= p[k].abs() > ORIGIN_SHIFT_BEYOND;
+        }
+    }
+    if !far {
+        return [0.0; 2];
+    }
+    // the midpoint, rounded; a span too wide for f64 leaves the origin at 0
+    let mid = [0, 1].map(|k| (0.5 * lo[k] + 0.5 * hi[k]).round());
+    if mid.iter().all(|x| x.is_finite()) {
+        mid
+    } else {
+        [0.0; 2]
+    }
 }
 
 /// One table that makes bodies, by its position in the file.
@@ -104,7 +151,10 @@ fn build(ctx: &Ctx, f: FileScene) -> R<Scene> {
     if name.is_empty() {
         return Err(ctx.err(f.name.span(), "name must not be empty"));
     }
-    let mut world = WorldDef::default();
+    let mut world = WorldDef {
+        origin: glam::DVec2::from(ctx.origin),
+        ..WorldDef::default()
+    };
     if let Some(w) = &f.world {
         (world.gravity, world.drag) = ctx.world(w.get_ref())?;
     }

@@ -34,6 +34,9 @@ pub(crate) type R<T> = Result<T, SceneError>;
 pub(crate) struct Ctx<'a> {
     pub file: &'a str,
     pub text: &'a str,
+    /// The scene's origin (m): taken off every point before it becomes f32
+    /// ([`crate::defs::WorldDef::origin`]).
+    pub origin: [f64; 2],
 }
 
 /// `[x, y]` as messages write it.
@@ -127,6 +130,40 @@ impl Ctx<'_> {
                 ),
             ))
         }
+    }
+
+    /// A point in the world, relative to the scene's origin: finite, and within f32's
+    /// range once the origin is taken off.
+    pub fn point(&self, who: &str, key: &str, v: &S<P2>) -> R<Vec2> {
+        let a = v.get_ref().0;
+        let local = Vec2::new(
+            (a[0] - self.origin[0]) as f32,
+            (a[1] - self.origin[1]) as f32,
+        );
+        if a.iter().all(|x| x.is_finite()) && local.is_finite() {
+            Ok(local)
+        } else {
+            Err(self.err(
+                v.span(),
+                format!(
+                    "{who}: {key} must have finite components, got [{}, {}]",
+                    a[0], a[1]
+                ),
+            ))
+        }
+    }
+
+    /// A world point given in f32 (a default), relative to the scene's origin.
+    pub fn local(&self, p: Vec2) -> Vec2 {
+        Vec2::new(
+            (p.x as f64 - self.origin[0]) as f32,
+            (p.y as f64 - self.origin[1]) as f32,
+        )
+    }
+
+    /// An optional point, or `default` (a world point, made relative here).
+    pub fn opt_point(&self, who: &str, key: &str, v: Option<&S<P2>>, default: Vec2) -> R<Vec2> {
+        v.map_or(Ok(self.local(default)), |v| self.point(who, key, v))
     }
 
     /// An optional vector, or `default`.
@@ -481,7 +518,7 @@ impl Ctx<'_> {
             body_type,
             model,
             shape,
-            position: self.opt_vec2(who, "position", b.position.as_ref(), Vec2::ZERO)?,
+            position: self.opt_point(who, "position", b.position.as_ref(), Vec2::ZERO)?,
             angle: self.opt(b.angle.as_ref(), 0.0, |v| self.finite(who, "angle", v))?,
             velocity: self.opt_vec2(who, "velocity", b.velocity.as_ref(), Vec2::ZERO)?,
             angular_velocity: self.opt(b.angular_velocity.as_ref(), 0.0, |v| {
@@ -620,7 +657,7 @@ impl Ctx<'_> {
             }
         };
         Ok(CameraDef {
-            center: self.opt_vec2(who, "center", c.center.as_ref(), d.center)?,
+            center: self.opt_point(who, "center", c.center.as_ref(), d.center)?,
             pixels_per_meter: self.opt(c.pixels_per_meter.as_ref(), d.pixels_per_meter, |v| {
                 self.positive(who, "pixels_per_meter", v)
             })?,
@@ -830,7 +867,7 @@ pub(crate) fn force(ctx: &Ctx, bodies: &Bodies, f: &FileForce) -> R<ForceDef> {
     Ok(ForceDef {
         body: bodies.find(ctx, who, &f.body)?,
         force: ctx.vec2(who, "force", &f.force)?,
-        point: ctx.opt_vec2(who, "point", f.point.as_ref(), Vec2::ZERO)?,
+        point: ctx.opt_point(who, "point", f.point.as_ref(), Vec2::ZERO)?,
     })
 }
 
@@ -915,12 +952,12 @@ pub(crate) fn joint(ctx: &Ctx, bodies: &Bodies, j: &FileJoint) -> R<JointDef> {
     let anchor = j
         .anchor
         .as_ref()
-        .map(|v| ctx.vec2(who, "anchor", v))
+        .map(|v| ctx.point(who, "anchor", v))
         .transpose()?;
     let anchors = match &j.anchors {
         Some(v) => {
             let [p, q] = &v.get_ref().0;
-            Some([ctx.vec2(who, "anchors", p)?, ctx.vec2(who, "anchors", q)?])
+            Some([ctx.point(who, "anchors", p)?, ctx.point(who, "anchors", q)?])
         }
         None => None,
     };

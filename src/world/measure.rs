@@ -15,12 +15,13 @@ impl World {
     }
 }
 
-/// Beyond this distance from the origin (m) a position in f32 steps by about 1 mm
-/// (2^-10 m from 8192 m on), and stacks start to slide: the distance sweep of
-/// docs/stability.md holds to 3e4 m under the default solver and fails at 1e5 m.
+/// Beyond this distance from the world's origin (m) a position in f32 steps by about
+/// 1 mm (2^-10 m from 8192 m on), and stacks start to slide. A scene placed far from
+/// 0 is simulated relative to its own centre ([`crate::defs::WorldDef::origin`]), so
+/// this is about a scene's size: a body this far from the scene's centre.
 pub const FAR_FROM_ORIGIN: f32 = 1e4;
 
-/// The farthest a body of `def` starts from the origin (m) and the step of an f32
+/// The farthest a body of `def` starts from the world's origin (m) and the step of an f32
 /// position there (m), when that is beyond [`FAR_FROM_ORIGIN`].
 pub fn far_from_origin(def: &crate::defs::WorldDef) -> Option<(f32, f32)> {
     let far = def
