@@ -3,6 +3,8 @@
 //! never stopped; damaged or foreign state files are refused, through the library and
 //! through `simulate --save-state / --load-state`.
 
+use std::process::Command;
+
 use sandbox2d::math::Vec2;
 use sandbox2d::{SolverKind, SolverSettings, StateError, World, WorldState};
 
@@ -242,4 +244,173 @@ fn bad_states_are_refused() {
     ] {
         assert!(!e.to_string().contains('\n'), "{e}");
     }
+}
+
+// ---- the command line ----
+
+fn sandbox2d() -> Command {
+    Command::new(env!("CARGO_BIN_EXE_sandbox2d"))
+}
+
+fn tmp(name: &str) -> std::path::PathBuf {
+    let dir = std::env::temp_dir().join(format!("sandbox2d-state-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    dir.join(name)
+}
+
+fn simulate(args: &[&str]) -> std::process::Output {
+    sandbox2d().arg("simulate").args(args).output().unwrap()
+}
+
+fn hash_of(out: &std::process::Output) -> String {
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    v["state_hash"].as_str().unwrap().to_string()
+}
+
+#[test]
+fn cli_save_then_load_continues_the_run() {
+    for solver in ["soft", "pgs", "xpbd"] {
+        let f = tmp(&format!("pyramid-{solver}.json"));
+        let f = f.to_str().unwrap();
+        let first = simulate(&[
+            "pyramid",
+            "--solver",
+            solver,
+            "--steps",
+            "100",
+            "--save-state",
+            f,
+        ]);
+        assert!(
+            first.status.success(),
+            "{}",
+            String::from_utf8_lossy(&first.stderr)
+        );
+        let dir = std::path::Path::new(f).parent().unwrap();
+        let leftovers: Vec<_> = std::fs::read_dir(dir)
+            .unwrap()
+            .filter_map(|e| e.ok())
+            .filter(|e| e.file_name().to_string_lossy().ends_with(".tmp"))
+            .collect();
+        assert!(leftovers.is_empty(), "temporary files left: {leftovers:?}");
+        let resumed = simulate(&[
+            "pyramid",
+            "--solver",
+            solver,
+            "--steps",
+            "50",
+            "--load-state",
+            f,
+            "--json",
+        ]);
+        let straight = simulate(&["pyramid", "--solver", solver, "--steps", "150", "--json"]);
+        assert_eq!(hash_of(&resumed), hash_of(&straight), "{solver}");
+        assert!(
+            resumed.stderr.is_empty(),
+            "{}",
+            String::from_utf8_lossy(&resumed.stderr)
+        );
+        // and on from the same file, overwriting it: 100 + 25 + 25
+        let again = simulate(&[
+            "pyramid",
+            "--solver",
+            solver,
+            "--steps",
+            "25",
+            "--load-state",
+            f,
+            "--save-state",
+            f,
+        ]);
+        assert!(
+            again.status.success(),
+            "{}",
+            String::from_utf8_lossy(&again.stderr)
+        );
+        let last = simulate(&[
+            "pyramid",
+            "--solver",
+            solver,
+            "--steps",
+            "25",
+            "--load-state",
+            f,
+            "--json",
+        ]);
+        assert_eq!(
+            hash_of(&last),
+            hash_of(&straight),
+            "{solver}: in three parts"
+        );
+    }
+}
+
+/// Exit 2 and one line on stderr that names the file.
+fn assert_refused(out: &std::process::Output, file: &str, what: &str) {
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{what}: {err}");
+    assert_eq!(err.trim_end().lines().count(), 1, "{what}: {err}");
+    assert!(err.contains(file), "{what}: {err}");
+    assert!(!err.contains("panicked"), "{what}: {err}");
+}
+
+#[test]
+fn cli_refuses_bad_state_files() {
+    let good = tmp("ragdoll.json");
+    let good_s = good.to_str().unwrap();
+    let out = simulate(&["ragdoll", "--steps", "20", "--save-state", good_s]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let bytes = std::fs::read(&good).unwrap();
+
+    let cases: Vec<(&str, Vec<u8>)> = vec![
+        ("garbage", b"\x00\x01 not json at all".to_vec()),
+        ("empty", Vec::new()),
+        ("truncated", bytes[..bytes.len() * 2 / 3].to_vec()),
+        (
+            "version",
+            String::from_utf8(bytes.clone())
+                .unwrap()
+                .replacen("\"version\":1", "\"version\":42", 1)
+                .into_bytes(),
+        ),
+    ];
+    for (what, content) in cases {
+        let f = tmp(&format!("bad-{what}.json"));
+        std::fs::write(&f, content).unwrap();
+        let out = simulate(&[
+            "ragdoll",
+            "--steps",
+            "5",
+            "--load-state",
+            f.to_str().unwrap(),
+        ]);
+        assert_refused(&out, f.to_str().unwrap(), what);
+    }
+    // a state of the ragdoll loaded into the car
+    let out = simulate(&["car", "--steps", "5", "--load-state", good_s]);
+    assert_refused(&out, good_s, "another scene");
+    assert!(String::from_utf8_lossy(&out.stderr).contains("different scene"));
+    // a file that is not there
+    let missing = tmp("missing.json");
+    let out = simulate(&["ragdoll", "--load-state", missing.to_str().unwrap()]);
+    assert_refused(&out, missing.to_str().unwrap(), "missing");
+    // a state that cannot be written: refused before the run
+    let nowhere = tmp("no/such/folder/s.json");
+    let out = simulate(&[
+        "ragdoll",
+        "--steps",
+        "5",
+        "--save-state",
+        nowhere.to_str().unwrap(),
+    ]);
+    assert_refused(&out, nowhere.to_str().unwrap(), "no folder");
 }
