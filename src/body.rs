@@ -8,7 +8,7 @@ use crate::shape::Shape;
 pub type BodyId = usize;
 
 /// A body of the world. Its frame's origin is the centre of mass.
-#[derive(Clone, Debug)]
+#[derive(Clone, Debug, serde::Serialize, serde::Deserialize)]
 pub struct Body {
     /// Unique name.
     pub name: String,

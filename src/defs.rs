@@ -5,7 +5,7 @@
 use glam::Vec2;
 
 /// How a body moves.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default, serde::Serialize, serde::Deserialize)]
 pub enum BodyType {
     /// Never moves; infinite mass.
     Static,
@@ -17,7 +17,7 @@ pub enum BodyType {
 }
 
 /// Which degrees of freedom a body has.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default, serde::Serialize, serde::Deserialize)]
 pub enum BodyModel {
     /// Position, angle, linear and angular velocity.
     #[default]
@@ -78,7 +78,7 @@ pub struct BodyDef {
 /// body's category must be in the other's mask. A filtered pair never reaches the
 /// narrow phase. The default (category 1, every bit in the mask, group 0) touches
 /// everything.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 pub struct Filter {
     /// The category bits this body belongs to.
     pub category: u32,
@@ -146,7 +146,7 @@ pub struct ForceDef {
 }
 
 /// The kinds of joint.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 pub enum JointKind {
     Distance,
     Hinge,
@@ -155,7 +155,7 @@ pub enum JointKind {
 }
 
 /// A motor: drive the joint's speed, with a bounded force or torque.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct MotorDef {
     /// rad/s (hinge) or m/s (prismatic).
     pub speed: f32,
@@ -164,14 +164,14 @@ pub struct MotorDef {
 }
 
 /// A servo: drive the joint's angle (or offset) to a target.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct ServoDef {
     /// rad (hinge) or m (prismatic).
     pub target: f32,
 }
 
 /// Velocity-level damping of a joint's relative motion.
-#[derive(Clone, Copy, Debug, PartialEq, Default)]
+#[derive(Clone, Copy, Debug, PartialEq, Default, serde::Serialize, serde::Deserialize)]
 pub struct DampingDef {
     pub linear: f32,
     pub angular: f32,
@@ -202,7 +202,7 @@ pub struct JointDef {
 }
 
 /// Fluid drag. Each term that is zero costs nothing.
-#[derive(Clone, Copy, Debug, PartialEq, Default)]
+#[derive(Clone, Copy, Debug, PartialEq, Default, serde::Serialize, serde::Deserialize)]
 pub struct DragDef {
     /// F = -linear * v
     pub linear: f32,
@@ -214,7 +214,7 @@ pub struct DragDef {
 }
 
 /// Which solver steps the world. Each kind is one [`crate::step::Stepper`].
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default, serde::Serialize, serde::Deserialize)]
 pub enum SolverKind {
     /// The soft step (the default): one collide per step, substeps that reuse its
     /// manifolds, soft contact and joint rows in the biased sweeps and rigid rows in a
@@ -262,7 +262,7 @@ impl SolverKind {
 /// window loses nothing) but ignored. Ranges are checked in one place,
 /// [`SolverSettings::check`], which the scene loader, the command line, the panel and
 /// [`crate::World::from_def`] all use.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct SolverSettings {
     pub kind: SolverKind,
     /// Step (s).

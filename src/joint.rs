@@ -15,7 +15,7 @@ use crate::math::{Rot, Vec2, cross};
 pub type JointId = usize;
 
 /// A joint between bodies `a` and `b`.
-#[derive(Clone, Debug)]
+#[derive(Clone, Debug, serde::Serialize, serde::Deserialize)]
 pub struct Joint {
     pub kind: JointKind,
     pub a: usize,
@@ -60,7 +60,7 @@ pub(crate) mod slot {
 }
 
 /// Drags one body's point towards a world target with a damped spring (the window's mouse).
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct MouseJoint {
     pub body: usize,
     /// The grabbed point, in the body's frame from its centre of mass (m).

@@ -42,4 +42,7 @@ pub use body::{Body, BodyId};
 pub use defs::*;
 pub use draw::{Camera, DrawList};
 pub use joint::{Joint, JointId, MouseJoint};
-pub use world::{BuildError, ContactEvent, EventKind, RayHit, StepError, StepStats, World};
+pub use world::{
+    BuildError, ContactEvent, EventKind, RayHit, StateError, StepError, StepStats, World,
+    WorldState,
+};

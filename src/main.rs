@@ -11,7 +11,7 @@ use clap::{Args, Parser, Subcommand, ValueEnum};
 use sandbox2d::output::{self, AtomicFile};
 use sandbox2d::scene::{self, Scene};
 use sandbox2d::sim::{self, Trace};
-use sandbox2d::{SolverKind, SolverOverrides, SolverSettings, World};
+use sandbox2d::{SolverKind, SolverOverrides, SolverSettings, World, WorldState};
 
 /// Log levels unless RUST_LOG says otherwise: warnings, minus two harmless ones that
 /// would clutter every run (egui's note that it prefers a non-sRGB surface, which we
@@ -319,6 +319,14 @@ struct SimulateArgs {
     /// begin, end, sensor_begin, sensor_end; a and b body names; impulse of a begin, N s).
     #[arg(long, value_name = "FILE.csv")]
     events: Option<PathBuf>,
+    /// Write the world's state after the last step to this file (JSON, written whole or
+    /// not at all), to go on from later with --load-state.
+    #[arg(long, value_name = "FILE")]
+    save_state: Option<PathBuf>,
+    /// Start from a state written by --save-state from the same scene, and run --steps
+    /// more steps; the run continues bit-identically when the solver flags are the same.
+    #[arg(long, value_name = "FILE")]
+    load_state: Option<PathBuf>,
     #[command(flatten)]
     solver: SolverFlags,
 }
@@ -482,6 +490,8 @@ fn default_command() -> Result<(), Failure> {
         trace: None,
         trace_every: 1,
         events: None,
+        save_state: None,
+        load_state: None,
         solver: SolverFlags::default(),
     })
 }
@@ -576,7 +586,8 @@ fn simulate(a: &SimulateArgs) -> Result<(), Failure> {
     }
     {
         let file = scene_file(&a.scene);
-        let inputs: Vec<(&str, &Path)> = file.iter().map(|f| ("scene file", f.as_path())).collect();
+        let mut inputs: Vec<(&str, &Path)> =
+            file.iter().map(|f| ("scene file", f.as_path())).collect();
         let mut outputs: Vec<(&str, &Path)> = Vec::new();
         if let Some(t) = &a.trace {
             outputs.push(("--trace", t));
@@ -584,9 +595,24 @@ fn simulate(a: &SimulateArgs) -> Result<(), Failure> {
         if let Some(e) = &a.events {
             outputs.push(("--events", e));
         }
+        if let Some(p) = &a.save_state {
+            outputs.push(("--save-state", p));
+        }
+        // the state is read before the run, so --save-state may name the same file
+        if let Some(p) = &a.load_state
+            && !a
+                .save_state
+                .as_deref()
+                .is_some_and(|q| output::same_file(p, q))
+        {
+            inputs.push(("--load-state", p));
+        }
         check_distinct(&outputs, &inputs)?;
     }
     let (sc, mut world, settings) = build(&a.scene, &a.solver)?;
+    if let Some(p) = &a.load_state {
+        load_state(p, &sc, &mut world, &settings)?;
+    }
     if a.events.is_some() {
         world.record_events = true;
     }
@@ -606,6 +632,11 @@ fn simulate(a: &SimulateArgs) -> Result<(), Failure> {
                 .map_err(|e| Failure::run(format!("{}: cannot write: {e}", p.display())))?;
             Some(f)
         }
+        None => None,
+    };
+    // created now, so a path that cannot be written is refused before the run
+    let mut state_file = match &a.save_state {
+        Some(p) => Some(AtomicFile::create(p).map_err(Failure::input)?),
         None => None,
     };
     let mut event_counts = [0u64; 4];
@@ -659,6 +690,14 @@ fn simulate(a: &SimulateArgs) -> Result<(), Failure> {
         return Err(Failure::run(format!("{}: cannot write: {e}", p.display())));
     }
     if let Some(f) = events_file {
+        f.commit().map_err(Failure::run)?;
+    }
+    if let Some(mut f) = state_file.take() {
+        let bytes = world
+            .snapshot()
+            .to_json()
+            .map_err(|e| Failure::run(format!("{}: {e}", f.path().display())))?;
+        f.write_all(&bytes).map_err(|e| Failure::run(f.error(e)))?;
         f.commit().map_err(Failure::run)?;
     }
     let figures = [
@@ -784,6 +823,48 @@ fn simulate(a: &SimulateArgs) -> Result<(), Failure> {
         }
         println!("state hash   {hash}");
     }
+    Ok(())
+}
+
+/// `simulate --load-state`: reads a saved state, checks that it was saved from this
+/// scene, and puts it into `world` (built from the scene). The run keeps its own solver
+/// settings (the scene's with this command line's flags); a note says when they differ
+/// from the ones the state was saved with, as the run then does not continue the same.
+fn load_state(
+    path: &Path,
+    sc: &Scene,
+    world: &mut World,
+    settings: &SolverSettings,
+) -> Result<(), Failure> {
+    let name = one_line(&path.display().to_string());
+    let bytes = std::fs::read(path)
+        .map_err(|e| Failure::input(format!("{name}: cannot read the state: {e}")))?;
+    let bad = |e: sandbox2d::StateError| Failure::input(one_line(&format!("{name}: {e}")));
+    let state = WorldState::from_json(&bytes).map_err(bad)?;
+    state.check_scene(world, false).map_err(|e| {
+        Failure::input(one_line(&format!(
+            "{name}: {e} (the scene is {})",
+            sc.source
+        )))
+    })?;
+    world.restore(&state).map_err(bad)?;
+    if state.settings != *settings {
+        let brief = |s: &SolverSettings| {
+            format!(
+                "{} dt={} substeps={} iterations={}",
+                s.kind.name(),
+                s.dt,
+                s.substeps,
+                s.iterations
+            )
+        };
+        eprintln!(
+            "note: {name} was saved with other solver settings ({}) than this run's ({}): the run goes on with this run's and will not continue bit-identically",
+            brief(&state.settings),
+            brief(settings)
+        );
+    }
+    world.settings = *settings;
     Ok(())
 }
 

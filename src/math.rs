@@ -4,7 +4,7 @@
 pub use glam::Vec2;
 
 /// A rotation stored as its cosine and sine, so rotating a vector costs four multiplies.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 #[repr(C)]
 pub struct Rot {
     pub c: f32,

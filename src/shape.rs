@@ -12,11 +12,50 @@ const WELD_DISTANCE: f32 = 1e-4;
 
 /// A convex polygon, counter-clockwise, with its outward edge normals.
 /// Edge i runs from vertex i to vertex i + 1.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(into = "PolygonRepr", try_from = "PolygonRepr")]
 pub struct Polygon {
     pub vertices: [Vec2; MAX_POLYGON_VERTICES],
     pub normals: [Vec2; MAX_POLYGON_VERTICES],
     pub count: usize,
+}
+
+/// A polygon as a saved state holds it: only the vertices and normals in use.
+#[derive(serde::Serialize, serde::Deserialize)]
+struct PolygonRepr {
+    vertices: Vec<Vec2>,
+    normals: Vec<Vec2>,
+}
+
+impl From<Polygon> for PolygonRepr {
+    fn from(p: Polygon) -> Self {
+        PolygonRepr {
+            vertices: p.verts().to_vec(),
+            normals: p.normals[..p.count].to_vec(),
+        }
+    }
+}
+
+impl TryFrom<PolygonRepr> for Polygon {
+    type Error = String;
+
+    fn try_from(r: PolygonRepr) -> Result<Self, String> {
+        let n = r.vertices.len();
+        if !(3..=MAX_POLYGON_VERTICES).contains(&n) || r.normals.len() != n {
+            return Err(format!(
+                "a polygon needs 3 to {MAX_POLYGON_VERTICES} vertices and as many normals, got {n} and {}",
+                r.normals.len()
+            ));
+        }
+        let mut p = Polygon {
+            vertices: [Vec2::ZERO; MAX_POLYGON_VERTICES],
+            normals: [Vec2::ZERO; MAX_POLYGON_VERTICES],
+            count: n,
+        };
+        p.vertices[..n].copy_from_slice(&r.vertices);
+        p.normals[..n].copy_from_slice(&r.normals);
+        Ok(p)
+    }
 }
 
 impl Polygon {
@@ -147,7 +186,7 @@ fn convex_hull(points: &[Vec2]) -> Vec<Vec2> {
 /// A collision shape in the body frame, centred so the body origin is the centre of mass.
 // Kept inline (Copy, no box): a polygon is the common case and the solvers read it hot.
 #[allow(clippy::large_enum_variant)]
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub enum Shape {
     Circle { radius: f32 },
     Polygon(Polygon),

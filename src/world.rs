@@ -18,10 +18,12 @@ use crate::step::{Stage, StageClock, StepContext, Stepper, new_stepper};
 mod events;
 mod measure;
 mod query;
+mod state;
 
 pub use events::{ContactEvent, EventKind};
 pub use measure::{FAR_FROM_ORIGIN, far_from_origin};
 pub use query::RayHit;
+pub use state::{STATE_FORMAT, STATE_VERSION, StateError, WorldState};
 
 /// How far out a pair keeps contact points (speculative contacts).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -124,7 +126,7 @@ pub struct StepStats {
 }
 
 /// A constant force at a body point.
-#[derive(Clone, Copy, Debug)]
+#[derive(Clone, Copy, Debug, serde::Serialize, serde::Deserialize)]
 struct PointForce {
     body: usize,
     force: Vec2,

@@ -3,6 +3,8 @@
 //! window here.
 
 use std::collections::VecDeque;
+use std::io::Write;
+use std::path::Path;
 use std::time::Instant;
 
 use glam::Vec2;
@@ -11,12 +13,15 @@ use super::input::{self, SpawnKind};
 use crate::body::BodyId;
 use crate::defs::{SolverOverrides, SolverSettings};
 use crate::draw::world::Overlays;
+use crate::output::AtomicFile;
 use crate::scene::{self, Scene};
-use crate::world::World;
+use crate::world::{World, WorldState};
 
 /// At most this many steps per frame catch up with real time (the rest is dropped, so
 /// a slow frame slows the simulation rather than snowballing).
 pub const MAX_STEPS_PER_FRAME: u32 = 4;
+/// Where ctrl+S writes the world's state and ctrl+L reads it: the working folder.
+pub const STATE_FILE: &str = "sandbox2d_state.json";
 /// Seconds of step figures kept for the panel's plot.
 pub const HISTORY_SECONDS: f64 = 5.0;
 
@@ -81,6 +86,8 @@ pub struct Session {
     pub paused: bool,
     /// The last error (a failed step, refused settings); shown in the panel.
     pub error: Option<String>,
+    /// The last save or reload of the state (ctrl+S, ctrl+L), as done; shown in the panel.
+    pub note: Option<String>,
     /// Simulated seconds per real second.
     pub time_scale: f32,
     /// Debug overlays.
@@ -110,6 +117,7 @@ impl Session {
             settings,
             paused: false,
             error: None,
+            note: None,
             time_scale: 1.0,
             overlays: Overlays::NONE,
             drag: None,
@@ -154,6 +162,62 @@ impl Session {
         self.history.clear();
         self.accumulator = 0.0;
         Ok(())
+    }
+
+    /// ctrl+S: writes the world's state to `path` (JSON, written whole or not at all).
+    pub fn save_state(&mut self, path: &Path) {
+        let written = self
+            .world
+            .snapshot()
+            .to_json()
+            .map_err(|e| e.to_string())
+            .and_then(|bytes| {
+                let mut f = AtomicFile::create(path).map_err(|e| e.to_string())?;
+                f.write_all(&bytes).map_err(|e| f.error(e).to_string())?;
+                f.commit().map_err(|e| e.to_string())
+            });
+        match written {
+            Ok(()) => {
+                self.note = Some(format!(
+                    "saved step {} to {}",
+                    self.world.step_count(),
+                    path.display()
+                ));
+                self.error = None;
+            }
+            Err(e) => self.error = Some(format!("save: {e}")),
+        }
+    }
+
+    /// ctrl+L: puts back a state saved from this scene (bodies spawned since the scene
+    /// loaded may be in it), with the settings it was saved with. On failure the world
+    /// is kept and the panel says why.
+    pub fn load_state(&mut self, path: &Path) {
+        let loaded = std::fs::read(path)
+            .map_err(|e| format!("cannot read: {e}"))
+            .and_then(|bytes| WorldState::from_json(&bytes).map_err(|e| e.to_string()))
+            .and_then(|state| {
+                let scene =
+                    World::from_def(&self.scene.world, self.settings).map_err(|e| e.to_string())?;
+                state.check_scene(&scene, true).map_err(|e| e.to_string())?;
+                self.world.restore(&state).map_err(|e| e.to_string())
+            });
+        match loaded {
+            Ok(()) => {
+                self.settings = self.world.settings;
+                self.energy_start = self.world.energy();
+                self.drag = None;
+                self.history.clear();
+                self.accumulator = 0.0;
+                self.error = None;
+                self.note = Some(format!(
+                    "reloaded step {} from {}",
+                    self.world.step_count(),
+                    path.display()
+                ));
+            }
+            Err(e) => self.error = Some(format!("{}: {e}", path.display())),
+        }
     }
 
     /// Switches the solver: the new kind starts from its own defaults under what the
@@ -433,5 +497,44 @@ mod tests {
         s.spawn(SpawnKind::Circle, Vec2::new(22.0, 20.0));
         assert_eq!(s.world.bodies.len(), n + 2);
         assert!(s.error.is_none());
+    }
+
+    #[test]
+    fn save_and_reload_the_state_with_spawned_bodies() {
+        let dir = std::env::temp_dir().join(format!("sandbox2d-session-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let path = dir.join("state.json");
+        let mut s = session();
+        s.spawn(SpawnKind::Circle, Vec2::new(0.3, 20.0));
+        for _ in 0..10 {
+            assert!(s.step_once());
+        }
+        s.save_state(&path);
+        assert!(s.error.is_none(), "{:?}", s.error);
+        let (hash, steps, n) = (
+            s.world.state_hash(),
+            s.world.step_count(),
+            s.world.bodies.len(),
+        );
+        for _ in 0..5 {
+            assert!(s.step_once());
+        }
+        s.reset();
+        assert_ne!(s.world.bodies.len(), n);
+        s.load_state(&path);
+        assert!(s.error.is_none(), "{:?}", s.error);
+        assert!(s.note.as_deref().unwrap().contains("reloaded step 10"));
+        assert_eq!((s.world.state_hash(), s.world.step_count()), (hash, steps));
+        assert_eq!(s.settings, s.world.settings);
+        // another scene's state is refused and the world kept
+        s.load_scene("pyramid").unwrap();
+        s.load_state(&path);
+        assert!(
+            s.error.as_deref().unwrap().contains("different scene"),
+            "{:?}",
+            s.error
+        );
+        assert_eq!(s.world.step_count(), 0);
+        let _ = std::fs::remove_dir_all(&dir);
     }
 }

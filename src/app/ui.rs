@@ -69,6 +69,7 @@ fn contents(ui: &mut Ui, s: &mut Session, frame: FrameStats, actions: &mut Panel
             ui.small("shift+click: spawn a circle");
             ui.small("space: pause, S: step, R: reset, H: hide this panel");
             ui.small("F: fit the view, C: follow the grabbed body, Esc / Q: quit");
+            ui.small("ctrl+S: save the state to sandbox2d_state.json, ctrl+L: reload it");
         });
 
     // Scene picker: the names `sandbox2d scenes` lists and the command line takes, each
@@ -115,6 +116,9 @@ fn contents(ui: &mut Ui, s: &mut Session, frame: FrameStats, actions: &mut Panel
     });
     if let Some(err) = &s.error {
         ui.colored_label(Color32::from_rgb(255, 110, 100), format!("error: {err}"));
+    }
+    if let Some(note) = &s.note {
+        ui.small(note.as_str());
     }
 
     ui.separator();

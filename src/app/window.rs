@@ -631,7 +631,18 @@ impl App {
     }
 
     fn key(&mut self, key: &Key, event_loop: &ActiveEventLoop) {
+        let ctrl = self.mouse.modifiers.control_key();
+        let state_file = std::path::Path::new(super::session::STATE_FILE);
         match key {
+            Key::Character(c) if ctrl && c.eq_ignore_ascii_case("s") => {
+                self.session.save_state(state_file);
+                self.panel_dirty = true;
+            }
+            Key::Character(c) if ctrl && c.eq_ignore_ascii_case("l") => {
+                self.session.load_state(state_file);
+                (self.follow, self.selected) = (None, None);
+                self.panel_dirty = true;
+            }
             Key::Named(NamedKey::Escape) => event_loop.exit(),
             Key::Character(c) if c.eq_ignore_ascii_case("q") => event_loop.exit(),
             Key::Character(c) if c.eq_ignore_ascii_case("f") => {

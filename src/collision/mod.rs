@@ -11,7 +11,7 @@ use crate::math::Vec2;
 pub type FeatureId = u32;
 
 /// One point of contact between two bodies.
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct ContactPoint {
     /// World position of the point (midway between the two surfaces).
     pub point: Vec2,
@@ -30,7 +30,7 @@ pub struct ContactPoint {
 }
 
 /// Up to two contact points sharing one normal.
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct Manifold {
     /// Unit normal pointing from body A to body B, world frame.
     pub normal: Vec2,

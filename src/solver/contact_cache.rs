@@ -7,7 +7,7 @@
 use crate::collision::Manifold;
 
 /// A touching pair of bodies and its manifold. `a < b`; the normal points from a to b.
-#[derive(Clone, Copy, Debug, Default)]
+#[derive(Clone, Copy, Debug, Default, serde::Serialize, serde::Deserialize)]
 pub struct Contact {
     pub a: u32,
     pub b: u32,
