@@ -64,6 +64,9 @@ pub struct WorldState {
     pub mouse: Option<MouseJoint>,
     /// Whether events are recorded.
     pub record_events: bool,
+    /// Where the world's (0, 0) is ([`World::origin`]); (0, 0) when absent.
+    #[serde(default)]
+    pub origin: glam::DVec2,
     forces: Vec<PointForce>,
     no_collide: Vec<(u32, u32)>,
     touching: Vec<(u32, u32)>,
@@ -283,6 +286,7 @@ impl World {
             contacts: self.contacts.clone(),
             mouse: self.mouse,
             record_events: self.record_events,
+            origin: self.origin,
             forces: self.forces.clone(),
             no_collide: self.no_collide.clone(),
             touching: self.touching.clone(),
@@ -300,6 +304,7 @@ impl World {
         self.gravity = s.gravity;
         self.drag = s.drag;
         self.settings = s.settings;
+        self.origin = s.origin;
         self.forces = s.forces.clone();
         self.broad = BroadPhase::default();
         self.aabbs.clear();
