@@ -201,6 +201,39 @@ pub struct JointDef {
     pub collide_connected: bool,
 }
 
+impl JointDef {
+    /// A rigid hinge between bodies `a` and `b` at the world point `at`: no limits,
+    /// motor, servo or damping; the two bodies do not collide.
+    pub fn hinge(a: usize, b: usize, at: Vec2) -> JointDef {
+        JointDef {
+            kind: JointKind::Hinge,
+            bodies: [a, b],
+            anchor: Some(at),
+            anchors: None,
+            length: None,
+            axis: None,
+            limits: None,
+            motor: None,
+            servo: None,
+            compliance: 0.0,
+            damping: DampingDef::default(),
+            collide_connected: false,
+        }
+    }
+
+    /// A rigid distance joint between the world points `pa` on `a` and `pb` on `b`,
+    /// of their distance at creation.
+    pub fn distance(a: usize, b: usize, pa: Vec2, pb: Vec2) -> JointDef {
+        JointDef {
+            kind: JointKind::Distance,
+            anchor: None,
+            anchors: Some([pa, pb]),
+            length: Some(pa.distance(pb)),
+            ..JointDef::hinge(a, b, pa)
+        }
+    }
+}
+
 /// Fluid drag. Each term that is zero costs nothing.
 #[derive(Clone, Copy, Debug, PartialEq, Default, serde::Serialize, serde::Deserialize)]
 pub struct DragDef {

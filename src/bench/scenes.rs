@@ -387,7 +387,7 @@ pub const MODEL_PAIRS: &[(&str, &str, &str)] = &[
 /// apart, so they never touch (the layout needs no filters). Body `k * n + i` is row k,
 /// column i.
 pub fn joint_grid(n: usize) -> WorldDef {
-    use crate::defs::{BodyDef, BodyType, JointDef, JointKind, ShapeDef};
+    use crate::defs::{BodyDef, BodyType, JointDef, ShapeDef};
     use glam::Vec2;
     let mut def = WorldDef {
         gravity: Some(Vec2::new(0.0, -10.0)),
@@ -414,20 +414,7 @@ pub fn joint_grid(n: usize) -> WorldDef {
             });
         }
     }
-    let hinge = |a: usize, b: usize, at: Vec2| JointDef {
-        kind: JointKind::Hinge,
-        bodies: [a, b],
-        anchor: Some(at),
-        anchors: None,
-        length: None,
-        axis: None,
-        limits: None,
-        motor: None,
-        servo: None,
-        compliance: 0.0,
-        damping: Default::default(),
-        collide_connected: false,
-    };
+    let hinge = JointDef::hinge;
     for k in 0..n {
         for i in 0..n {
             let here = Vec2::new(i as f32, k as f32);

@@ -338,20 +338,7 @@ pub(crate) fn grid(
             // hinges to the left neighbour and to the one in the row before, each at
             // the midpoint between the two centres
             let mut join = |other: usize, other_at: Vec2| -> R<()> {
-                let j = JointDef {
-                    kind: JointKind::Hinge,
-                    bodies: [other, index],
-                    anchor: Some((other_at + at) / 2.0),
-                    anchors: None,
-                    length: None,
-                    axis: None,
-                    limits: None,
-                    motor: None,
-                    servo: None,
-                    compliance: 0.0,
-                    damping: DampingDef::default(),
-                    collide_connected: false,
-                };
+                let j = JointDef::hinge(other, index, (other_at + at) / 2.0);
                 check_joint(ctx, bodies, who, &j, t.span())?;
                 joints.push(j);
                 Ok(())
@@ -452,19 +439,9 @@ pub(crate) fn chain(
     let len = size.x;
     let angle = d.y.atan2(d.x);
     let at = |s: f32| anchor + d * s;
-    let joint = |a: usize, b: usize, pa: Vec2, pb: Vec2, hinge_at: Vec2| JointDef {
-        kind,
-        bodies: [a, b],
-        anchor: (kind == JointKind::Hinge).then_some(hinge_at),
-        anchors: (kind == JointKind::Distance).then_some([pa, pb]),
-        length: (kind == JointKind::Distance).then_some(pa.distance(pb)),
-        axis: None,
-        limits: None,
-        motor: None,
-        servo: None,
-        compliance: 0.0,
-        damping: DampingDef::default(),
-        collide_connected: false,
+    let joint = |a: usize, b: usize, pa: Vec2, pb: Vec2, hinge_at: Vec2| match kind {
+        JointKind::Distance => JointDef::distance(a, b, pa, pb),
+        _ => JointDef::hinge(a, b, hinge_at),
     };
 
     let anchor_body = BodyDef {
