@@ -112,10 +112,6 @@ struct RunArgs {
     /// Start with the side panel hidden (H shows it).
     #[arg(long)]
     no_panel: bool,
-    /// Side by side: one pane per --compare (2 to 4), each the scene with these solver
-    /// flags over the others, stepped in lock step.
-    #[arg(long, value_name = "SETTINGS", allow_hyphen_values = true)]
-    compare: Vec<String>,
     #[command(flatten)]
     solver: SolverFlags,
 }
@@ -548,7 +544,6 @@ fn default_command() -> Result<(), Failure> {
         frames: None,
         screenshot: None,
         no_panel: false,
-        compare: Vec::new(),
         solver: SolverFlags::default(),
     })
 }
