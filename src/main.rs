@@ -1564,3 +1564,39 @@ fn tune(a: &TuneArgs) -> Result<(), Failure> {
     }
     Ok(())
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn compare_values_parse_by_the_solver_flags_parser() {
+        let values = ["--solver pgs  --iterations 4".to_owned(), String::new()];
+        let flags = parse_compare(&values).map_err(|f| f.message).unwrap();
+        assert!(matches!(flags[0].solver, Some(SolverArg::Pgs)));
+        assert_eq!(flags[0].iterations, Some(4));
+        assert!(flags[1].solver.is_none());
+        let base = SolverFlags {
+            iterations: Some(9),
+            dt: Some(0.01),
+            ..Default::default()
+        };
+        let merged = flags[0].over(&base);
+        assert_eq!((merged.iterations, merged.dt), (Some(4), Some(0.01)));
+        for (bad, names) in [
+            (vec!["--solver nope", ""], "nope"),
+            (vec!["--substeps 0", ""], "--substeps"),
+            (vec!["--help", ""], "--help"),
+            (vec![""], "2 to 4"),
+        ] {
+            let values: Vec<String> = bad.iter().map(|s| s.to_string()).collect();
+            let Err(f) = parse_compare(&values) else {
+                panic!("{bad:?} accepted")
+            };
+            assert_eq!(f.code, 2);
+            assert!(f.message.starts_with("--compare"), "{}", f.message);
+            assert!(f.message.contains(names), "{}", f.message);
+            assert!(!f.message.contains('\n'), "{}", f.message);
+        }
+    }
+}
