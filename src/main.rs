@@ -88,6 +88,11 @@ struct RenderArgs {
     /// Debug overlays, comma-separated.
     #[arg(long, value_enum, value_delimiter = ',')]
     overlays: Vec<OverlayArg>,
+    /// Side by side: one pane per --compare (2 to 4), each the scene with these solver
+    /// flags over the others, e.g. --compare "--solver pgs --iterations 4" --compare
+    /// "--solver soft"; the panes share --size's width.
+    #[arg(long, value_name = "SETTINGS", allow_hyphen_values = true)]
+    compare: Vec<String>,
     #[command(flatten)]
     solver: SolverFlags,
 }
@@ -297,6 +302,73 @@ impl SolverFlags {
             joint_damping_ratio: self.joint_damping_ratio,
         }
     }
+}
+
+impl SolverFlags {
+    /// These flags where given, else `base`'s.
+    #[cfg_attr(not(feature = "render"), allow(dead_code))]
+    fn over(&self, base: &SolverFlags) -> SolverFlags {
+        SolverFlags {
+            solver: self.solver.or(base.solver),
+            dt: self.dt.or(base.dt),
+            iterations: self.iterations.or(base.iterations),
+            substeps: self.substeps.or(base.substeps),
+            tolerance: self.tolerance.or(base.tolerance),
+            warm_start: self.warm_start.or(base.warm_start),
+            split_impulse: self.split_impulse.or(base.split_impulse),
+            baumgarte: self.baumgarte.or(base.baumgarte),
+            slop: self.slop.or(base.slop),
+            contact_hertz: self.contact_hertz.or(base.contact_hertz),
+            contact_damping_ratio: self.contact_damping_ratio.or(base.contact_damping_ratio),
+            max_push_speed: self.max_push_speed.or(base.max_push_speed),
+            joint_hertz: self.joint_hertz.or(base.joint_hertz),
+            joint_damping_ratio: self.joint_damping_ratio.or(base.joint_damping_ratio),
+        }
+    }
+}
+
+/// One `--compare` value parsed by the solver flags' own parser.
+#[derive(Parser)]
+#[command(name = "--compare", no_binary_name = true, disable_help_flag = true)]
+struct CompareArgs {
+    #[command(flatten)]
+    flags: SolverFlags,
+}
+
+/// Parses the `--compare` values: 2 to 4 of them, each solver flags (as on the command
+/// line, split at whitespace). An error is one line naming the value and what is wrong.
+#[cfg_attr(not(feature = "render"), allow(dead_code))]
+fn parse_compare(values: &[String]) -> Result<Vec<SolverFlags>, Failure> {
+    use sandbox2d::compare::{MAX_PANES, MIN_PANES};
+    if !(MIN_PANES..=MAX_PANES).contains(&values.len()) {
+        return Err(Failure::input(format!(
+            "--compare: give it {MIN_PANES} to {MAX_PANES} times (one pane each), got {}",
+            values.len()
+        )));
+    }
+    values
+        .iter()
+        .map(|v| {
+            let bad = |why: &str| Failure::input(format!("--compare {:?}: {why}", one_line(v)));
+            let words = sandbox2d::compare::split_words(v);
+            let args = CompareArgs::try_parse_from(&words).map_err(|e| {
+                // clap's first line, and its list of possible values when it gives one
+                let text = e.to_string();
+                let mut why = text
+                    .lines()
+                    .next()
+                    .unwrap_or("")
+                    .trim_start_matches("error: ")
+                    .to_owned();
+                if let Some(values) = text.lines().find(|l| l.contains("[possible values")) {
+                    why = format!("{why} {}", values.trim());
+                }
+                bad(&why)
+            })?;
+            check_flags(&args.flags).map_err(|f| bad(&f.message))?;
+            Ok(args.flags)
+        })
+        .collect()
 }
 
 #[derive(Args)]
@@ -987,6 +1059,9 @@ fn render(a: &RenderArgs) -> Result<(), Failure> {
             )));
         }
     }
+    if !a.compare.is_empty() {
+        return render_compare(a);
+    }
     let (sc, mut world, _) = build(&a.scene, &a.solver)?;
     std::fs::create_dir_all(&a.out).map_err(|e| {
         Failure::input(format!(
@@ -1009,6 +1084,90 @@ fn render(a: &RenderArgs) -> Result<(), Failure> {
     };
     let written = render_job(&sc, &mut world, a.size.unwrap_or(sc.camera.size), &job)?;
     print_written(&written, &a.out);
+    Ok(())
+}
+
+/// The panes of `--compare`: the scene built once per value, its flags over the
+/// command line's, labelled with the value (whitespace tidied).
+#[cfg(feature = "render")]
+fn compare_panes(
+    scene: &str,
+    values: &[String],
+    base: &SolverFlags,
+) -> Result<(Scene, Vec<sandbox2d::compare::Pane>), Failure> {
+    let flags = parse_compare(values)?;
+    let mut panes = Vec::with_capacity(flags.len());
+    let mut first = None;
+    for (v, f) in values.iter().zip(&flags) {
+        let (sc, world, _) = build(scene, &f.over(base))?;
+        let label = sandbox2d::compare::split_words(v).join(" ");
+        let label = if label.is_empty() {
+            "(the scene's settings)".to_owned()
+        } else {
+            label
+        };
+        panes.push(sandbox2d::compare::Pane::new(label, world));
+        first.get_or_insert(sc);
+    }
+    let sc = first.ok_or_else(|| Failure::input("--compare: no pane"))?;
+    Ok((sc, panes))
+}
+
+/// `render --compare`: the panes side by side, each `--size`'s width / panes wide.
+#[cfg(feature = "render")]
+fn render_compare(a: &RenderArgs) -> Result<(), Failure> {
+    let (sc, mut panes) = compare_panes(&a.scene, &a.compare, &a.solver)?;
+    std::fs::create_dir_all(&a.out).map_err(|e| {
+        Failure::input(format!(
+            "{}: cannot create the folder: {e}",
+            a.out.display()
+        ))
+    })?;
+    let overlays = sandbox2d::draw::Overlays {
+        contacts: a.overlays.contains(&OverlayArg::Contacts),
+        aabbs: a.overlays.contains(&OverlayArg::Aabbs),
+        velocities: a.overlays.contains(&OverlayArg::Velocities),
+        ..sandbox2d::draw::Overlays::NONE
+    };
+    let job = sandbox2d::render::FrameJob {
+        frames: a.frames,
+        every: a.every,
+        out_dir: a.out.clone(),
+        gif: a.gif.clone(),
+        overlays,
+    };
+    let size = a.size.unwrap_or(sc.camera.size);
+    let pane_w = sandbox2d::render::compare::pane_width(size[0], panes.len());
+    let camera =
+        sandbox2d::draw::world::scene_camera(&sc.camera, [pane_w, size[1]], &panes[0].world);
+    let mut renderer = sandbox2d::render::Renderer::new_headless().map_err(Failure::run)?;
+    let bar = progress(
+        Some(job.frames as u64),
+        "{bar:40} {pos}/{len} frames {elapsed}",
+    );
+    GRACEFUL.store(true, Ordering::Relaxed);
+    let written = sandbox2d::render::compare::render_compare_frames(
+        &mut panes,
+        &camera,
+        &mut renderer,
+        &job,
+        |k| bar.set_position(k as u64 + 1),
+    );
+    bar.finish_and_clear();
+    let written = written.map_err(|e| match e {
+        e @ sandbox2d::render::FramesError::PaneStep { .. } => {
+            Failure::run(format!("{}: {e}", sc.source))
+        }
+        e => frames_failure(e),
+    })?;
+    print_written(&written, &a.out);
+    for p in &panes {
+        println!(
+            "{:<32} mean {:.3} ms/step",
+            p.label,
+            p.mean_ms().unwrap_or(0.0)
+        );
+    }
     Ok(())
 }
 
@@ -1404,4 +1563,40 @@ fn tune(a: &TuneArgs) -> Result<(), Failure> {
         }
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn compare_values_parse_by_the_solver_flags_parser() {
+        let values = ["--solver pgs  --iterations 4".to_owned(), String::new()];
+        let flags = parse_compare(&values).map_err(|f| f.message).unwrap();
+        assert!(matches!(flags[0].solver, Some(SolverArg::Pgs)));
+        assert_eq!(flags[0].iterations, Some(4));
+        assert!(flags[1].solver.is_none());
+        let base = SolverFlags {
+            iterations: Some(9),
+            dt: Some(0.01),
+            ..Default::default()
+        };
+        let merged = flags[0].over(&base);
+        assert_eq!((merged.iterations, merged.dt), (Some(4), Some(0.01)));
+        for (bad, names) in [
+            (vec!["--solver nope", ""], "nope"),
+            (vec!["--substeps 0", ""], "--substeps"),
+            (vec!["--help", ""], "--help"),
+            (vec![""], "2 to 4"),
+        ] {
+            let values: Vec<String> = bad.iter().map(|s| s.to_string()).collect();
+            let Err(f) = parse_compare(&values) else {
+                panic!("{bad:?} accepted")
+            };
+            assert_eq!(f.code, 2);
+            assert!(f.message.starts_with("--compare"), "{}", f.message);
+            assert!(f.message.contains(names), "{}", f.message);
+            assert!(!f.message.contains('\n'), "{}", f.message);
+        }
+    }
 }

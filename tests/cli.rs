@@ -1239,3 +1239,98 @@ fn simulate_writes_events_and_counts_them() {
     let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
     assert!(v["events"].is_null());
 }
+
+/// `--compare` values that are not solver flags, and too few or too many panes, are
+/// refused before anything is written: exit 2, one line naming --compare and the value.
+#[cfg(feature = "render")]
+#[test]
+fn render_refuses_bad_compare_with_one_line_and_exit_2() {
+    let dir = fresh_dir("render-bad-compare");
+    let d = dir.join("frames").display().to_string();
+    let cases: Vec<(Vec<&str>, &str)> = vec![
+        (
+            vec!["--compare", "--solver nope", "--compare", "--solver soft"],
+            "nope",
+        ),
+        (
+            vec!["--compare", "--bogus 3", "--compare", "--solver soft"],
+            "--bogus",
+        ),
+        (
+            vec!["--compare", "--iterations 0", "--compare", ""],
+            "--iterations",
+        ),
+        (vec!["--compare", "--dt", "--compare", ""], "--dt"),
+        (vec!["--compare", "pgs", "--compare", ""], "pgs"),
+        (vec!["--compare", "--solver pgs"], "2 to 4"),
+        (
+            vec![
+                "--compare",
+                "",
+                "--compare",
+                "",
+                "--compare",
+                "",
+                "--compare",
+                "",
+                "--compare",
+                "",
+            ],
+            "2 to 4",
+        ),
+    ];
+    for (compare, names) in cases {
+        let mut args = vec!["render", "pyramid", "--frames", "2", "--out", &d];
+        args.extend(compare);
+        let out = sandbox2d()
+            .args(&args)
+            .env_remove("DISPLAY")
+            .env_remove("WAYLAND_DISPLAY")
+            .output()
+            .unwrap();
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(2), "{args:?}: {err}");
+        assert!(err.starts_with("error: --compare"), "{args:?}: {err}");
+        assert!(err.contains(names), "{args:?}: {err}");
+        assert_eq!(err.lines().count(), 1, "{args:?}: one line: {err}");
+    }
+    assert!(
+        !dir.join("frames").exists(),
+        "nothing written for bad input"
+    );
+}
+
+/// `render --compare` writes frames of the panes side by side, the width shared.
+#[cfg(feature = "render")]
+#[test]
+fn render_compare_writes_side_by_side_frames() {
+    let dir = fresh_dir("render-compare");
+    let frames = dir.join("frames");
+    let gif = dir.join("c.gif");
+    let out = sandbox2d()
+        .args(["render", "pyramid", "--frames", "3", "--every", "2"])
+        .args(["--size", "641x200", "--out"])
+        .arg(&frames)
+        .arg("--gif")
+        .arg(&gif)
+        .args(["--compare", "--solver pgs --iterations 4"])
+        .args(["--compare", "--solver soft", "--dt", "0.01"])
+        .output()
+        .unwrap();
+    if skipped_for_no_adapter(&out) {
+        return;
+    }
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        out.status.success(),
+        "{stdout}{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    for k in 0..3 {
+        let p = frames.join(format!("frame_{k:04}.png"));
+        let img = image::open(&p).unwrap().to_rgba8();
+        assert_eq!(img.dimensions(), (640, 200), "2 panes of 320");
+    }
+    assert!(gif.exists());
+    assert!(stdout.contains("--solver pgs --iterations 4"), "{stdout}");
+}

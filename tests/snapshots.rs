@@ -503,3 +503,88 @@ fn png_and_gif_files_round_trip() {
         first
     );
 }
+
+/// `render --compare`'s frame: the pyramid in 2 panes (PGS with 4 sweeps, the soft
+/// step) after 20 steps in lock step, each labelled with its settings and figures in the
+/// bitmap font, a divider between them. The ms per step, a wall time, is pinned to
+/// 0.25 so the golden image holds; the other figures are the run's own.
+#[test]
+fn compare_two_panes() {
+    use sandbox2d::compare::{Pane, figure_lines};
+    use sandbox2d::render::compare::{PaneView, pane_width, render_panes};
+    use sandbox2d::{SolverKind, SolverOverrides};
+    let sc = sandbox2d::scene::load("pyramid").expect("the built-in pyramid");
+    let settings = [
+        (
+            "--solver pgs --iterations 4",
+            SolverOverrides {
+                kind: Some(SolverKind::Pgs),
+                iterations: Some(4),
+                ..Default::default()
+            },
+        ),
+        (
+            "--solver soft",
+            SolverOverrides {
+                kind: Some(SolverKind::Soft),
+                ..Default::default()
+            },
+        ),
+    ];
+    let mut panes: Vec<Pane> = settings
+        .iter()
+        .map(|(label, o)| {
+            let settings = sc.world.solver.merged(*o).resolve();
+            Pane::new(
+                *label,
+                sandbox2d::World::from_def(&sc.world, settings).expect("builds"),
+            )
+        })
+        .collect();
+    for _ in 0..20 {
+        for p in &mut panes {
+            p.step().expect("steps");
+        }
+    }
+    let size = [640u32, 300];
+    let pane_w = pane_width(size[0], panes.len());
+    let camera =
+        sandbox2d::draw::world::scene_camera(&sc.camera, [pane_w, size[1]], &panes[0].world);
+    let views: Vec<PaneView> = panes
+        .iter()
+        .map(|p| {
+            let mut f = p.figures();
+            f.ms_per_step = Some(0.25);
+            let mut lines = vec![p.label.clone()];
+            lines.extend(figure_lines(&f));
+            PaneView {
+                world: &p.world,
+                lines,
+            }
+        })
+        .collect();
+    let Some(mut r) = renderer() else {
+        return;
+    };
+    let mut list = DrawList::new();
+    let img = render_panes(
+        &mut r,
+        &mut list,
+        &views,
+        &camera,
+        &sandbox2d::draw::world::Overlays::NONE,
+    )
+    .expect("render_panes");
+    drop(r);
+    assert_eq!(img.dimensions(), (640, 300));
+    // the labels: light text at each pane's top-left, the divider at the boundary
+    for x0 in [0u32, pane_w] {
+        let lit = (x0 + 2..x0 + 150)
+            .flat_map(|x| (2..26).map(move |y| (x, y)))
+            .filter(|&(x, y)| img.get_pixel(x, y).0[0] > 200)
+            .count();
+        assert!(lit > 150, "pane at x={x0}: {lit} label pixels");
+    }
+    assert!(img.get_pixel(pane_w, 150).0[0] > 150, "the divider");
+    assert_snapshot("compare_pyramid_2_panes", &img);
+}

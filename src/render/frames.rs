@@ -58,6 +58,16 @@ pub enum FramesError {
         /// What was complete when the job stopped.
         written: FramesWritten,
     },
+    /// A pane of a comparison failed to step.
+    #[error("pane \"{pane}\": step {step}: {source}")]
+    PaneStep {
+        /// The pane's settings.
+        pane: String,
+        /// Steps taken before the failure.
+        step: u64,
+        /// The cause.
+        source: StepError,
+    },
     /// The world failed to step.
     #[error("step {step}: {source}")]
     Step {

@@ -3,6 +3,8 @@
 //! [`Renderer::draw`], into any texture view such as a window's surface.
 
 pub mod capture;
+pub mod compare;
+pub mod font;
 pub mod frames;
 mod gpu;
 
