@@ -16,7 +16,7 @@ use super::panel_layer::PanelLayer;
 use super::session::{Emitter, Session};
 use super::ui::{self, FrameStats, PANEL_WIDTH};
 use super::{AppError, AppOptions, RunReport};
-use crate::draw::world::{fill_world_draw_list, scene_camera, world_bounds};
+use crate::draw::world::{Overlays, fill_world_draw_list, scene_camera, world_bounds};
 use crate::draw::{Camera, DrawList};
 use crate::render::{Renderer, save_png};
 
@@ -340,7 +340,11 @@ impl App {
     fn frame(&mut self, event_loop: &ActiveEventLoop) {
         let now = Instant::now();
         self.follow_camera();
-        fill_world_draw_list(&mut self.list, &self.session.world, &self.session.overlays);
+        let overlays = Overlays {
+            pixels_per_meter: Some(self.camera.pixels_per_meter),
+            ..self.session.overlays
+        };
+        fill_world_draw_list(&mut self.list, &self.session.world, &overlays);
         self.push_tools();
 
         let Some(g) = self.gpu.as_mut() else { return };

@@ -28,6 +28,10 @@ pub struct Overlays {
     pub contact_scale: Option<f32>,
     /// A velocity v is drawn `|v| * velocity_scale` metres long (seconds).
     pub velocity_scale: f32,
+    /// The camera's scale (pixels per metre) when the caller knows it: joint and
+    /// contact marks then shrink with the zoom ([`mark_sizes_px`]) so that, zoomed out,
+    /// they never hide the bodies they sit on. `None`: their fixed pixel sizes.
+    pub pixels_per_meter: Option<f32>,
 }
 
 impl Default for Overlays {
@@ -44,6 +48,7 @@ impl Overlays {
         velocities: false,
         contact_scale: None,
         velocity_scale: 0.1,
+        pixels_per_meter: None,
     };
     /// Every overlay.
     pub const ALL: Overlays = Overlays {
@@ -52,6 +57,7 @@ impl Overlays {
         velocities: true,
         contact_scale: None,
         velocity_scale: 0.1,
+        pixels_per_meter: None,
     };
     /// With `contact_scale: None`, the largest normal impulse of the frame is drawn this
     /// many mean body radii long.
@@ -92,6 +98,26 @@ pub const JOINT_WIDTH_PX: f32 = 2.0;
 /// Diameter in pixels of the dots at joint anchors and contact points.
 pub const DOT_PX: f32 = 5.0;
 
+/// At most this many metres across a joint or contact dot is drawn in the world.
+pub const DOT_MAX_M: f32 = 0.25;
+/// At most this many metres wide a joint line is drawn in the world.
+pub const JOINT_WIDTH_MAX_M: f32 = 0.08;
+
+/// (dot diameter, joint line width) in pixels at a camera scale of `ppm` pixels per
+/// metre: [`DOT_PX`] and [`JOINT_WIDTH_PX`], shrunk once the zoom would make them
+/// larger than [`DOT_MAX_M`] and [`JOINT_WIDTH_MAX_M`] in the world (never below 1 px).
+/// Zoomed out on Box2D's joint grid (19,800 hinges, 6.5 px per metre) fixed 5 px dots
+/// covered the 0.8 m circles; here they are 1.6 px.
+pub fn mark_sizes_px(ppm: Option<f32>) -> (f32, f32) {
+    match ppm {
+        Some(s) if s.is_finite() && s > 0.0 => (
+            DOT_PX.min(DOT_MAX_M * s).max(1.0),
+            JOINT_WIDTH_PX.min(JOINT_WIDTH_MAX_M * s).max(1.0),
+        ),
+        _ => (DOT_PX, JOINT_WIDTH_PX),
+    }
+}
+
 /// The fill colour a body is drawn with: its scene colour, else the static or kinematic
 /// colour, else a palette colour picked by its index.
 pub fn body_fill(index: usize, body: &Body) -> Color {
@@ -127,16 +153,20 @@ pub fn fill_world_draw_list(list: &mut DrawList, world: &World, overlays: &Overl
     }
     // joints: a line between the two anchors (a thread, a rope link) and a dot at each
     // (where a hinge or weld holds); the mouse joint from the grabbed point to its target
-    push_joint_lines(
+    let (dot, width) = mark_sizes_px(overlays.pixels_per_meter);
+    push_joint_lines_sized(
         list,
         world
             .joints()
             .iter()
             .map(|j| j.world_anchors(&world.bodies)),
+        dot,
+        width,
     );
     if let Some(m) = world.mouse()
         && let Some(b) = world.bodies.get(m.body)
     {
+        // the mouse joint is the user's hand: always full size
         push_joint_lines(
             list,
             std::iter::once((b.position + b.rot.rotate(m.local), m.target)),
@@ -149,7 +179,7 @@ pub fn fill_world_draw_list(list: &mut DrawList, world: &World, overlays: &Overl
         push_velocities(list, world, overlays.velocity_scale);
     }
     if overlays.contacts {
-        push_contacts(list, world, overlays.contact_scale);
+        push_contacts(list, world, overlays.contact_scale, dot);
     }
 }
 
@@ -254,7 +284,7 @@ pub fn auto_contact_scale(world: &World) -> Option<f32> {
 /// Adds each contact point as a dot and its normal as a line from the point, pointing
 /// from body A to body B, `lambda * scale` metres long (lambda: the point's normal
 /// impulse, N s). `scale: None` picks [`auto_contact_scale`].
-pub fn push_contacts(list: &mut DrawList, world: &World, scale: Option<f32>) {
+pub fn push_contacts(list: &mut DrawList, world: &World, scale: Option<f32>, dot_px: f32) {
     let scale = scale.or_else(|| auto_contact_scale(world)).unwrap_or(0.0);
     for c in world.contacts() {
         let n = c.manifold.normal;
@@ -263,19 +293,57 @@ pub fn push_contacts(list: &mut DrawList, world: &World, scale: Option<f32>) {
             if len > 0.0 && len.is_finite() {
                 list.push_line(p.point, p.point + n * len, 2.0, colors::CONTACT_NORMAL);
             }
-            // A zero-length segment draws a round dot DOT_PX wide.
-            list.push_line(p.point, p.point, DOT_PX, colors::CONTACT_POINT);
+            // A zero-length segment draws a round dot `dot_px` wide.
+            list.push_line(p.point, p.point, dot_px, colors::CONTACT_POINT);
         }
+    }
+}
+
+#[cfg(test)]
+mod mark_tests {
+    use super::*;
+
+    #[test]
+    fn marks_keep_their_pixel_size_until_the_zoom_makes_them_too_big_in_the_world() {
+        // 40 px a metre: 5 px is 0.125 m, under the cap
+        assert_eq!(mark_sizes_px(Some(40.0)), (DOT_PX, JOINT_WIDTH_PX));
+        assert_eq!(mark_sizes_px(None), (DOT_PX, JOINT_WIDTH_PX));
+        // 6.5 px a metre (the joint grid fitted to 1280 px): capped in metres
+        let (dot, width) = mark_sizes_px(Some(6.5));
+        assert!(
+            (dot - DOT_MAX_M * 6.5).abs() < 1e-6 && dot < DOT_PX,
+            "{dot}"
+        );
+        assert_eq!(width, 1.0, "0.52 px is floored to a pixel");
+        // 16 px a metre: dots 4 px (0.25 m), lines 1.28 px (0.08 m)
+        let (dot, width) = mark_sizes_px(Some(16.0));
+        assert!(
+            (dot - 4.0).abs() < 1e-6 && (width - 1.28).abs() < 1e-6,
+            "{dot} {width}"
+        );
+        // never below a pixel, and a bad scale falls back to the fixed sizes
+        assert_eq!(mark_sizes_px(Some(0.01)), (1.0, 1.0));
+        assert_eq!(mark_sizes_px(Some(f32::NAN)), (DOT_PX, JOINT_WIDTH_PX));
     }
 }
 
 /// Adds a joint line per pair of world anchors `(on body A, on body B)`, with a dot at
 /// each anchor.
 pub fn push_joint_lines(list: &mut DrawList, anchors: impl Iterator<Item = (Vec2, Vec2)>) {
+    push_joint_lines_sized(list, anchors, DOT_PX, JOINT_WIDTH_PX);
+}
+
+/// [`push_joint_lines`] with dots `dot_px` across and lines `width_px` wide.
+pub fn push_joint_lines_sized(
+    list: &mut DrawList,
+    anchors: impl Iterator<Item = (Vec2, Vec2)>,
+    dot_px: f32,
+    width_px: f32,
+) {
     for (a, b) in anchors {
-        list.push_line(a, b, JOINT_WIDTH_PX, colors::JOINT);
-        list.push_line(a, a, DOT_PX, colors::JOINT);
-        list.push_line(b, b, DOT_PX, colors::JOINT);
+        list.push_line(a, b, width_px, colors::JOINT);
+        list.push_line(a, a, dot_px, colors::JOINT);
+        list.push_line(b, b, dot_px, colors::JOINT);
     }
 }
 
@@ -473,6 +541,21 @@ mod tests {
         );
         let dots = contacts.lines.iter().filter(|l| l.a == l.b).count();
         assert_eq!(dots, points);
+
+        // zoomed out to 4 px a metre, a contact dot is at most DOT_MAX_M across in the
+        // world (1 px), not DOT_PX (1.25 m, wider than the 1 m boxes it marks)
+        let far = world_draw_list(
+            &w,
+            &Overlays {
+                contacts: true,
+                contact_scale: Some(2.0),
+                pixels_per_meter: Some(4.0),
+                ..Overlays::NONE
+            },
+        );
+        for l in far.lines.iter().filter(|l| l.a == l.b) {
+            assert!(l.width_px <= DOT_MAX_M * 4.0 + 1e-6, "{}", l.width_px);
+        }
         // A normal line is lambda * scale long, along the manifold normal.
         let c = &w.contacts()[0];
         let p = c.manifold.points()[0];

@@ -76,7 +76,11 @@ pub fn render_panes(
     let [pw, ph] = camera.size;
     let mut frame = RgbaImage::new(pw * panes.len() as u32, ph);
     for (i, pane) in panes.iter().enumerate() {
-        fill_world_draw_list(list, pane.world, overlays);
+        let overlays = Overlays {
+            pixels_per_meter: Some(camera.pixels_per_meter),
+            ..*overlays
+        };
+        fill_world_draw_list(list, pane.world, &overlays);
         let mut img = renderer.render_to_image(list, camera)?;
         draw_label(&mut img, &pane.lines);
         let x0 = i as u32 * pw;

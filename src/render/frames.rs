@@ -143,7 +143,11 @@ pub fn render_frames(
             }
         }
         let t1 = std::time::Instant::now();
-        fill_world_draw_list(&mut list, world, &job.overlays);
+        let overlays = Overlays {
+            pixels_per_meter: Some(camera.pixels_per_meter),
+            ..job.overlays
+        };
+        fill_world_draw_list(&mut list, world, &overlays);
         let image = renderer.render_to_image(&list, camera)?;
         let t2 = std::time::Instant::now();
         let path = job.out_dir.join(frame_name(k));
