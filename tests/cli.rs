@@ -2,15 +2,8 @@
 
 use std::process::Command;
 
-fn sandbox2d() -> Command {
-    Command::new(env!("CARGO_BIN_EXE_sandbox2d"))
-}
-
-fn tmp(name: &str) -> std::path::PathBuf {
-    let dir = std::env::temp_dir().join(format!("sandbox2d-cli-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    dir.join(name)
-}
+mod common;
+use common::cli::{sandbox2d, tmp};
 
 #[test]
 fn scenes_lists_every_builtin() {

@@ -3,8 +3,6 @@
 //! never stopped; damaged or foreign state files are refused, through the library and
 //! through `simulate --save-state / --load-state`.
 
-use std::process::Command;
-
 use sandbox2d::math::Vec2;
 use sandbox2d::{SolverKind, SolverSettings, StateError, World, WorldState};
 
@@ -248,15 +246,8 @@ fn bad_states_are_refused() {
 
 // ---- the command line ----
 
-fn sandbox2d() -> Command {
-    Command::new(env!("CARGO_BIN_EXE_sandbox2d"))
-}
-
-fn tmp(name: &str) -> std::path::PathBuf {
-    let dir = std::env::temp_dir().join(format!("sandbox2d-state-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    dir.join(name)
-}
+mod common;
+use common::cli::{sandbox2d, tmp};
 
 fn simulate(args: &[&str]) -> std::process::Output {
     sandbox2d().arg("simulate").args(args).output().unwrap()

@@ -1,20 +1,11 @@
 //! `sandbox2d tune`: its pick checked against a full run of the bench's grid, its
 //! refusals, and `--write`.
 
-use std::process::Command;
-
 use sandbox2d::bench::tune::{self, TuneMetric, TuneOptions};
 use sandbox2d::bench::{Budget, Outcome, run_case, settings_grid};
 
-fn sandbox2d() -> Command {
-    Command::new(env!("CARGO_BIN_EXE_sandbox2d"))
-}
-
-fn tmp(name: &str) -> std::path::PathBuf {
-    let dir = std::env::temp_dir().join(format!("sandbox2d-tune-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    dir.join(name)
-}
+mod common;
+use common::cli::{sandbox2d, tmp};
 
 /// Runs `tune` with a budget every setting fits, then the whole grid on its own, and
 /// checks that no stable grid setting is more accurate than the pick, by the pick's own
