@@ -296,21 +296,76 @@ impl BroadPhase {
 
 /// floor(x) as an integer, without a libm call: truncate, then step down below zero.
 /// Clamped to +-2^40 cells, so that differences and sums of cells never overflow (a body
-/// far beyond that lands in the edge cell; the narrow phase sorts it out).
+/// far beyond that lands in the edge cell; the narrow phase sorts it out); NaN is cell 0.
+///
+/// Clamped as a float first, so the conversion needs none of `as`'s saturation fix-ups:
+/// this runs four times a body a step, and the saturating form cost about 40
+/// instructions a call (0.8 M a step on the large pyramid, 2% of the step).
 #[inline(always)]
 fn floor_i64(x: f32) -> i64 {
-    const LIMIT: i64 = 1 << 40;
-    let i = (x as i64).clamp(-LIMIT, LIMIT);
-    if (i as f32) > x {
-        (i - 1).max(-LIMIT)
+    const LIMIT: f32 = (1u64 << 40) as f32;
+    let x = if x.is_nan() {
+        0.0
     } else {
-        i
-    }
+        x.clamp(-LIMIT, LIMIT)
+    };
+    // SAFETY: x is finite and within +-2^40, which i64 holds exactly
+    let i = unsafe { x.to_int_unchecked::<i64>() };
+    i - ((i as f32) > x) as i64
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn floor_i64_is_the_clamped_floor() {
+        const LIMIT: f64 = (1u64 << 40) as f64;
+        let reference = |x: f32| -> i64 {
+            if x.is_nan() {
+                0
+            } else {
+                (x as f64).floor().clamp(-LIMIT, LIMIT) as i64
+            }
+        };
+        let mut cases = vec![
+            0.0f32,
+            -0.0,
+            0.5,
+            -0.5,
+            1.0,
+            -1.0,
+            1.5,
+            -1.5,
+            2.999_999_8,
+            -2.999_999_8,
+            1e10,
+            -1e10,
+            1.1e12,
+            -1.1e12,
+            1e30,
+            -1e30,
+            f32::MAX,
+            f32::MIN,
+            f32::INFINITY,
+            f32::NEG_INFINITY,
+            f32::NAN,
+            f32::MIN_POSITIVE,
+            -f32::MIN_POSITIVE,
+            8_388_607.5,
+            -8_388_607.5,
+            16_777_217.0,
+        ];
+        // and a spread of bit patterns
+        let mut bits = 0x1234_5678u32;
+        for _ in 0..100_000 {
+            bits = bits.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
+            cases.push(f32::from_bits(bits));
+        }
+        for x in cases {
+            assert_eq!(floor_i64(x), reference(x), "floor of {x:e}");
+        }
+    }
 
     fn aabb(x0: f32, y0: f32, x1: f32, y1: f32) -> Aabb {
         Aabb {
