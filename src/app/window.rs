@@ -395,6 +395,7 @@ impl App {
             pixels_per_meter: Some(self.camera.pixels_per_meter),
             ..self.session.overlays
         };
+        let offsets: Vec<Vec2> = (0..self.panes()).map(|k| self.pane_offset(k)).collect();
         if let Some(c) = self.compare.take() {
             // Compare: each pane's list moved into place, then the tools in each pane
             // and a divider between panes (a body may spill over it).
@@ -403,8 +404,7 @@ impl App {
                 std::iter::once(&self.session.world).chain(c.others.iter().map(|o| &o.world));
             for (k, world) in worlds.enumerate() {
                 fill_world_draw_list(&mut self.pane_list, world, &overlays);
-                let off = self.pane_offset(k);
-                self.list.append_translated(&self.pane_list, off);
+                self.list.append_translated(&self.pane_list, offsets[k]);
             }
             self.list.background = self.pane_list.background;
             self.list.outline_width_px = self.pane_list.outline_width_px;
