@@ -302,6 +302,31 @@ impl DrawList {
         }
     }
 
+    /// Appends `other`'s items moved by `offset` (m): a compare pane drawn beside
+    /// another in one list (the background and outline width are kept).
+    pub fn append_translated(&mut self, other: &DrawList, offset: Vec2) {
+        let base = self.polygon_points.len();
+        self.boxes.extend(other.boxes.iter().map(|r| Rect {
+            center: r.center + offset,
+            ..*r
+        }));
+        self.circles.extend(other.circles.iter().map(|c| Circle {
+            center: c.center + offset,
+            ..*c
+        }));
+        self.polygon_points
+            .extend(other.polygon_points.iter().map(|p| *p + offset));
+        self.polygons.extend(other.polygons.iter().map(|p| Polygon {
+            points: p.points.start + base..p.points.end + base,
+            ..p.clone()
+        }));
+        self.lines.extend(other.lines.iter().map(|l| Line {
+            a: l.a + offset,
+            b: l.b + offset,
+            ..*l
+        }));
+    }
+
     /// Empties the lists, keeping their allocations, the background and outline width.
     pub fn clear(&mut self) {
         self.boxes.clear();

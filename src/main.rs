@@ -112,6 +112,10 @@ struct RunArgs {
     /// Start with the side panel hidden (H shows it).
     #[arg(long)]
     no_panel: bool,
+    /// Side by side: one pane per --compare (2 to 4), each the scene with these solver
+    /// flags over the others, stepped in lock step; the mouse acts on every pane.
+    #[arg(long, value_name = "SETTINGS", allow_hyphen_values = true)]
+    compare: Vec<String>,
     #[command(flatten)]
     solver: SolverFlags,
 }
@@ -544,6 +548,7 @@ fn default_command() -> Result<(), Failure> {
         frames: None,
         screenshot: None,
         no_panel: false,
+        compare: Vec::new(),
         solver: SolverFlags::default(),
     })
 }
@@ -1182,6 +1187,22 @@ fn run(a: &RunArgs) -> Result<(), Failure> {
         check_distinct(&[("--screenshot", shot)], &[("scene file", &file)])?;
     }
     let (sc, _, _) = build(&a.scene, &a.solver)?;
+    // --compare: each pane's flags over the command line's, checked before any window
+    let mut panes = Vec::new();
+    if !a.compare.is_empty() {
+        let flags = parse_compare(&a.compare)?;
+        for (v, f) in a.compare.iter().zip(&flags) {
+            let f = f.over(&a.solver);
+            build(&a.scene, &f)?;
+            let label = sandbox2d::compare::split_words(v).join(" ");
+            let label = if label.is_empty() {
+                "(the scene's settings)".to_owned()
+            } else {
+                label
+            };
+            panes.push((label, f.overrides()));
+        }
+    }
     #[cfg(feature = "app")]
     {
         use sandbox2d::app::{AppError, AppOptions};
@@ -1190,7 +1211,15 @@ fn run(a: &RunArgs) -> Result<(), Failure> {
             screenshot: a.screenshot.clone(),
             show_panel: !a.no_panel,
         };
-        match sandbox2d::app::run(sc.clone(), a.solver.overrides(), opts) {
+        for (i, (label, _)) in panes.iter().enumerate() {
+            println!("pane {}: {label}", i + 1);
+        }
+        let shown = if panes.is_empty() {
+            sandbox2d::app::run(sc.clone(), a.solver.overrides(), opts)
+        } else {
+            sandbox2d::app::run_compare(sc.clone(), panes.clone(), opts)
+        };
+        match shown {
             Ok(report) => {
                 println!(
                     "sandbox2d: {} frames in {:.2} s: {:.1} fps (frame time median {:.1} ms, p95 {:.1} ms) on {}",

@@ -1233,6 +1233,38 @@ fn simulate_writes_events_and_counts_them() {
     assert!(v["events"].is_null());
 }
 
+/// `run --compare` checks its values as `render --compare` does, before any window
+/// opens: 1 or 5 panes, or a value that is not solver flags, exit 2 with one line.
+#[cfg(feature = "render")]
+#[test]
+fn run_refuses_bad_compare_with_one_line_and_exit_2() {
+    let five: Vec<&str> = ["--compare", ""].repeat(5);
+    let cases: Vec<(Vec<&str>, &str)> = vec![
+        (vec!["--compare", "--solver pgs"], "2 to 4"),
+        (five, "2 to 4"),
+        (
+            vec!["--compare", "--solver nope", "--compare", "--solver soft"],
+            "nope",
+        ),
+    ];
+    for (compare, names) in cases {
+        let mut args = vec!["run", "pyramid", "--frames", "2"];
+        args.extend(compare);
+        let out = sandbox2d()
+            .args(&args)
+            .env_remove("DISPLAY")
+            .env_remove("WAYLAND_DISPLAY")
+            .output()
+            .unwrap();
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(2), "{args:?}: {err}");
+        assert!(err.starts_with("error: --compare"), "{args:?}: {err}");
+        assert!(err.contains(names), "{args:?}: {err}");
+        assert_eq!(err.lines().count(), 1, "{args:?}: one line: {err}");
+        assert!(out.stdout.is_empty(), "{args:?}: nothing shown or written");
+    }
+}
+
 /// `--compare` values that are not solver flags, and too few or too many panes, are
 /// refused before anything is written: exit 2, one line naming --compare and the value.
 #[cfg(feature = "render")]

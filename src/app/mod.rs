@@ -99,6 +99,36 @@ pub fn run(
     window::App::new(opts, session).run(event_loop)
 }
 
+/// `run --compare`: opens the window on `panes` side by side, each `(label, flags)` the
+/// scene with those solver flags (already merged with the command line's), stepped in
+/// lock step; the mouse acts on every pane at the same world point.
+pub fn run_compare(
+    scene: Scene,
+    panes: Vec<(String, SolverOverrides)>,
+    opts: AppOptions,
+) -> Result<RunReport, AppError> {
+    let mut sessions = Vec::with_capacity(panes.len());
+    let mut labels = Vec::with_capacity(panes.len());
+    for (label, o) in panes {
+        sessions.push(Session::new(scene.clone(), o).map_err(AppError::Build)?);
+        labels.push(label);
+    }
+    if sessions.is_empty() {
+        return Err(AppError::Build("--compare: no pane".into()));
+    }
+    let first = sessions.remove(0);
+    let event_loop = winit::event_loop::EventLoop::new().map_err(|e| {
+        AppError::NoDisplay(format!("cannot open a window: {}", tidy(&e.to_string())))
+    })?;
+    let compare = session::Compare {
+        labels,
+        others: sessions,
+    };
+    window::App::new(opts, first)
+        .with_compare(compare)
+        .run(event_loop)
+}
+
 /// winit's message without the source location it prefixes ("os error at FILE:LINE: ").
 fn tidy(message: &str) -> String {
     message

@@ -373,6 +373,64 @@ impl Session {
     }
 }
 
+/// `run --compare`: the panes after the first, each its own session on the same scene
+/// with its own solver flags. The first pane is the window's [`Session`]; these follow
+/// it: they step as many times as it does, and a grab, spawn, drag, emitter or reset
+/// is applied to each at the same world point.
+pub struct Compare {
+    /// Every pane's label (its `--compare` value), the first pane's included.
+    pub labels: Vec<String>,
+    /// The panes after the first.
+    pub others: Vec<Session>,
+}
+
+impl Compare {
+    /// All panes (the first one's included).
+    pub fn panes(&self) -> usize {
+        self.others.len() + 1
+    }
+
+    /// Steps each other pane `steps` times (the steps the first pane's
+    /// [`Session::advance`] or [`Session::step_once`] took), with the first pane's drag
+    /// target and emitter.
+    pub fn follow(&mut self, first: &Session, steps: u32) {
+        for o in &mut self.others {
+            match (first.drag, o.drag.as_mut()) {
+                (None, _) => o.drag = None,
+                (Some(d), Some(od)) => od.target = d.target,
+                (Some(_), None) => {}
+            }
+            o.emitter = first.emitter;
+            for _ in 0..steps {
+                if !o.step_once() {
+                    break;
+                }
+            }
+        }
+    }
+
+    /// Grabs the body under `world_point` in each other pane.
+    pub fn grab(&mut self, world_point: Vec2) {
+        for o in &mut self.others {
+            o.grab(world_point);
+        }
+    }
+
+    /// Spawns a body at `at` in each other pane.
+    pub fn spawn(&mut self, kind: SpawnKind, at: Vec2) {
+        for o in &mut self.others {
+            o.spawn(kind, at);
+        }
+    }
+
+    /// Resets each other pane.
+    pub fn reset(&mut self) {
+        for o in &mut self.others {
+            o.reset();
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -387,6 +445,64 @@ mod tests {
             },
         )
         .unwrap()
+    }
+
+    #[test]
+    fn a_compare_session_steps_every_pane_in_lock_step_and_mirrors_the_mouse() {
+        let pane = |kind| {
+            let o = SolverOverrides {
+                kind: Some(kind),
+                ..Default::default()
+            };
+            Session::new(scene::load("stack").unwrap(), o).unwrap()
+        };
+        let mut first = pane(SolverKind::Soft);
+        let mut cmp = Compare {
+            labels: vec!["soft".into(), "pgs".into(), "xpbd".into()],
+            others: vec![pane(SolverKind::Pgs), pane(SolverKind::Xpbd)],
+        };
+        assert_eq!(cmp.panes(), 3);
+        let dt = first.world.settings.dt as f64;
+        let steps = first.advance(dt * 3.5);
+        assert_eq!(steps, 3);
+        cmp.follow(&first, steps);
+        for o in &cmp.others {
+            assert_eq!(o.world.step_count(), first.world.step_count());
+        }
+        // grab the top box at its centre in every pane, drag it, step together
+        let (top, at) = first
+            .world
+            .bodies
+            .iter()
+            .enumerate()
+            .filter(|(_, b)| b.is_dynamic())
+            .map(|(i, b)| (i, b.position))
+            .max_by(|a, b| a.1.y.total_cmp(&b.1.y))
+            .unwrap();
+        assert!(first.grab(at));
+        cmp.grab(at);
+        first.drag.as_mut().unwrap().target = at + Vec2::new(1.0, 0.0);
+        assert!(first.step_once());
+        cmp.follow(&first, 1);
+        for o in &cmp.others {
+            let d = o.drag.expect("grabbed in every pane");
+            assert_eq!(d.body, top);
+            assert_eq!(d.target, at + Vec2::new(1.0, 0.0));
+            assert_eq!(o.world.step_count(), first.world.step_count());
+        }
+        first.drag = None;
+        cmp.follow(&first, 0);
+        assert!(cmp.others.iter().all(|o| o.drag.is_none()));
+        // a spawn lands in every pane
+        let n = first.world.bodies.len();
+        first.spawn(SpawnKind::Box, Vec2::new(0.0, 20.0));
+        cmp.spawn(SpawnKind::Box, Vec2::new(0.0, 20.0));
+        for o in &cmp.others {
+            assert_eq!(o.world.bodies.len(), n + 1);
+        }
+        first.reset();
+        cmp.reset();
+        assert!(cmp.others.iter().all(|o| o.world.step_count() == 0));
     }
 
     #[test]

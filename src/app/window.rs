@@ -13,7 +13,7 @@ use winit::window::{Window, WindowId};
 
 use super::input::SpawnKind;
 use super::panel_layer::PanelLayer;
-use super::session::{Emitter, Session};
+use super::session::{Compare, Emitter, Session};
 use super::ui::{self, FrameStats, PANEL_WIDTH};
 use super::{AppError, AppOptions, RunReport};
 use crate::draw::world::{Overlays, fill_world_draw_list, scene_camera, world_bounds};
@@ -24,6 +24,8 @@ use crate::render::{Renderer, save_png};
 const EMITTER_RADIUS_PX: f32 = 110.0;
 /// Colour of the drag spring and the emitter's ring.
 const TOOL_COLOR: [u8; 4] = [255, 255, 255, 200];
+/// The line between `--compare` panes.
+const DIVIDER_COLOR: [u8; 4] = [200, 200, 210, 255];
 /// How often the panel is redrawn when nothing touches it (its live figures and plots).
 const PANEL_REFRESH: std::time::Duration = std::time::Duration::from_millis(250);
 
@@ -88,6 +90,10 @@ pub(super) struct App {
     screenshot: Option<image::RgbaImage>,
     /// The screenshot was written.
     screenshot_done: bool,
+    /// `run --compare`: the panes after the first, drawn to its right.
+    compare: Option<Compare>,
+    /// One pane's draw list, before it is moved into place in `list`.
+    pane_list: DrawList,
 }
 
 impl App {
@@ -98,6 +104,8 @@ impl App {
             session,
             camera: Camera::default(),
             list: DrawList::new(),
+            compare: None,
+            pane_list: DrawList::new(),
             gpu: None,
             mouse: Mouse::default(),
             fatal: None,
@@ -184,8 +192,51 @@ impl App {
         PANEL_WIDTH * scale
     }
 
+    /// `run --compare`: shows `compare`'s panes to the right of the first.
+    pub(super) fn with_compare(mut self, compare: Compare) -> App {
+        self.compare = Some(compare);
+        self
+    }
+
+    /// The window's title: the scene, and with `--compare` the panes' labels left to
+    /// right.
+    fn title(&self) -> String {
+        match &self.compare {
+            Some(c) => format!(
+                "sandbox2d - {} - {}",
+                self.session.scene.name,
+                c.labels.join(" | ")
+            ),
+            None => format!("sandbox2d - {}", self.session.scene.name),
+        }
+    }
+
+    /// The panes side by side (1 without `--compare`).
+    fn panes(&self) -> usize {
+        self.compare.as_ref().map_or(1, Compare::panes)
+    }
+
+    /// Where pane `k` is drawn: its world moved right by `k` panes' width (m) under
+    /// the window's one camera.
+    fn pane_offset(&self, k: usize) -> Vec2 {
+        let pw = (self.camera.size[0] / self.panes() as u32).max(1) as f32;
+        Vec2::new(k as f32 * pw / self.camera.pixels_per_meter, 0.0)
+    }
+
     /// The scene's camera for the window, framing the area right of the panel.
     fn reset_camera(&mut self) {
+        let n = self.panes();
+        if n > 1 {
+            // Compare: the scene framed in the first pane, the window's camera moved
+            // right so the panes sit side by side (the panel, if shown, lies over them).
+            let [w, h] = self.camera.size;
+            let pw = (w / n as u32).max(1);
+            let mut cam = scene_camera(&self.session.scene.camera, [pw, h], &self.session.world);
+            cam.size = [w, h];
+            cam.center.x += 0.5 * (n - 1) as f32 * pw as f32 / cam.pixels_per_meter;
+            self.camera = cam;
+            return;
+        }
         let [w, h] = self.camera.size;
         let panel = self.panel_px().min(w as f32 * 0.5);
         let free = [(w as f32 - panel).max(1.0) as u32, h];
@@ -226,7 +277,7 @@ impl App {
 
     fn create_gpu(&mut self, event_loop: &ActiveEventLoop) -> Result<(), AppError> {
         let attrs = Window::default_attributes()
-            .with_title(format!("sandbox2d - {}", self.session.scene.name))
+            .with_title(self.title())
             .with_inner_size(winit::dpi::LogicalSize::new(1280.0, 720.0));
         let window = Arc::new(
             event_loop
@@ -344,8 +395,46 @@ impl App {
             pixels_per_meter: Some(self.camera.pixels_per_meter),
             ..self.session.overlays
         };
-        fill_world_draw_list(&mut self.list, &self.session.world, &overlays);
-        self.push_tools();
+        let offsets: Vec<Vec2> = (0..self.panes()).map(|k| self.pane_offset(k)).collect();
+        if let Some(c) = self.compare.take() {
+            // Compare: each pane's list moved into place, then the tools in each pane
+            // and a divider between panes (a body may spill over it).
+            self.list.clear();
+            let worlds =
+                std::iter::once(&self.session.world).chain(c.others.iter().map(|o| &o.world));
+            for (k, world) in worlds.enumerate() {
+                fill_world_draw_list(&mut self.pane_list, world, &overlays);
+                self.list.append_translated(&self.pane_list, offsets[k]);
+            }
+            self.list.background = self.pane_list.background;
+            self.list.outline_width_px = self.pane_list.outline_width_px;
+            self.compare = Some(c);
+            for k in 0..self.panes() {
+                self.pane_list.clear();
+                std::mem::swap(&mut self.list, &mut self.pane_list);
+                self.push_tools();
+                std::mem::swap(&mut self.list, &mut self.pane_list);
+                let off = self.pane_offset(k);
+                self.list.append_translated(&self.pane_list, off);
+            }
+            let [w, h] = self.camera.size;
+            let ppm = self.camera.pixels_per_meter;
+            let left = self.camera.center.x - 0.5 * w as f32 / ppm;
+            let half_h = h as f32 / ppm;
+            for k in 1..self.panes() {
+                let x = left + self.pane_offset(k).x;
+                let cy = self.camera.center.y;
+                self.list.push_line(
+                    Vec2::new(x, cy - half_h),
+                    Vec2::new(x, cy + half_h),
+                    2.0,
+                    DIVIDER_COLOR,
+                );
+            }
+        } else {
+            fill_world_draw_list(&mut self.list, &self.session.world, &overlays);
+            self.push_tools();
+        }
 
         let Some(g) = self.gpu.as_mut() else { return };
         // The panel: egui runs only when it is due (see PanelLayer); otherwise last
@@ -479,6 +568,9 @@ impl App {
             .map(|t| (t_submit - t).as_secs_f64())
             .unwrap_or(0.0);
         let steps = self.session.advance(real_dt);
+        if let Some(c) = self.compare.as_mut() {
+            c.follow(&self.session, steps);
+        }
         log::debug!(
             "frame {}: real dt {real_dt:.4} s, {steps} step(s), paused {}",
             self.frames,
@@ -586,8 +678,25 @@ impl App {
         }
     }
 
+    /// The world point under the cursor; with `--compare`, in the pane it is over (the
+    /// same point in every pane's world).
     fn cursor_world(&self) -> Vec2 {
-        self.camera.screen_to_world(self.mouse.cursor)
+        let at = self.camera.screen_to_world(self.mouse.cursor);
+        let n = self.panes();
+        if n == 1 {
+            return at;
+        }
+        let pw = (self.camera.size[0] / n as u32).max(1) as f32;
+        let k = ((self.mouse.cursor.x / pw).floor().max(0.0) as usize).min(n - 1);
+        at - self.pane_offset(k)
+    }
+
+    /// Spawns a body at `at` in every pane.
+    fn spawn(&mut self, kind: SpawnKind, at: Vec2) {
+        self.session.spawn(kind, at);
+        if let Some(c) = self.compare.as_mut() {
+            c.spawn(kind, at);
+        }
     }
 
     fn mouse_button(&mut self, state: ElementState, button: MouseButton, egui_wants: bool) {
@@ -599,15 +708,20 @@ impl App {
         let shift = self.mouse.modifiers.shift_key();
         let ctrl = self.mouse.modifiers.control_key();
         match (button, pressed) {
-            (MouseButton::Left, true) if shift => self.session.spawn(SpawnKind::Circle, at),
-            (MouseButton::Left, true) if ctrl => self.session.spawn(SpawnKind::Box, at),
+            (MouseButton::Left, true) if shift => self.spawn(SpawnKind::Circle, at),
+            (MouseButton::Left, true) if ctrl => self.spawn(SpawnKind::Box, at),
             (MouseButton::Left, true) if !self.session.grab(at) => self.mouse.panning = true,
-            (MouseButton::Left, true) => self.selected = self.session.drag.map(|d| d.body),
+            (MouseButton::Left, true) => {
+                if let Some(c) = self.compare.as_mut() {
+                    c.grab(at);
+                }
+                self.selected = self.session.drag.map(|d| d.body);
+            }
             (MouseButton::Left, false) => {
                 self.session.drag = None;
                 self.mouse.panning = false;
             }
-            (MouseButton::Middle, true) => self.session.spawn(SpawnKind::Box, at),
+            (MouseButton::Middle, true) => self.spawn(SpawnKind::Box, at),
             (MouseButton::Right, true) => {
                 self.session.emitter = Some(Emitter {
                     center: at,
@@ -663,10 +777,16 @@ impl App {
             Key::Named(NamedKey::Space) => self.session.paused = !self.session.paused,
             Key::Character(c) if c.eq_ignore_ascii_case("s") => {
                 self.session.paused = true;
-                self.session.step_once();
+                let stepped = u32::from(self.session.step_once());
+                if let Some(c) = self.compare.as_mut() {
+                    c.follow(&self.session, stepped);
+                }
             }
             Key::Character(c) if c.eq_ignore_ascii_case("r") => {
                 self.session.reset();
+                if let Some(c) = self.compare.as_mut() {
+                    c.reset();
+                }
                 (self.follow, self.selected) = (None, None);
                 self.reset_camera();
             }
