@@ -1068,6 +1068,15 @@ fn render(a: &RenderArgs) -> Result<(), Failure> {
         return render_compare(a);
     }
     let (sc, mut world, _) = build(&a.scene, &a.solver)?;
+    let job = frame_job(a)?;
+    let written = render_job(&sc, &mut world, a.size.unwrap_or(sc.camera.size), &job)?;
+    print_written(&written, &a.out);
+    Ok(())
+}
+
+/// `render`'s output folder, created, and the frames, overlays and GIF it asks for.
+#[cfg(feature = "render")]
+fn frame_job(a: &RenderArgs) -> Result<sandbox2d::render::FrameJob, Failure> {
     std::fs::create_dir_all(&a.out).map_err(|e| {
         Failure::input(format!(
             "{}: cannot create the folder: {e}",
@@ -1080,16 +1089,13 @@ fn render(a: &RenderArgs) -> Result<(), Failure> {
         velocities: a.overlays.contains(&OverlayArg::Velocities),
         ..sandbox2d::draw::Overlays::NONE
     };
-    let job = sandbox2d::render::FrameJob {
+    Ok(sandbox2d::render::FrameJob {
         frames: a.frames,
         every: a.every,
         out_dir: a.out.clone(),
         gif: a.gif.clone(),
         overlays,
-    };
-    let written = render_job(&sc, &mut world, a.size.unwrap_or(sc.camera.size), &job)?;
-    print_written(&written, &a.out);
-    Ok(())
+    })
 }
 
 /// The panes of `--compare`: the scene built once per value, its flags over the
@@ -1122,25 +1128,7 @@ fn compare_panes(
 #[cfg(feature = "render")]
 fn render_compare(a: &RenderArgs) -> Result<(), Failure> {
     let (sc, mut panes) = compare_panes(&a.scene, &a.compare, &a.solver)?;
-    std::fs::create_dir_all(&a.out).map_err(|e| {
-        Failure::input(format!(
-            "{}: cannot create the folder: {e}",
-            a.out.display()
-        ))
-    })?;
-    let overlays = sandbox2d::draw::Overlays {
-        contacts: a.overlays.contains(&OverlayArg::Contacts),
-        aabbs: a.overlays.contains(&OverlayArg::Aabbs),
-        velocities: a.overlays.contains(&OverlayArg::Velocities),
-        ..sandbox2d::draw::Overlays::NONE
-    };
-    let job = sandbox2d::render::FrameJob {
-        frames: a.frames,
-        every: a.every,
-        out_dir: a.out.clone(),
-        gif: a.gif.clone(),
-        overlays,
-    };
+    let job = frame_job(a)?;
     let size = a.size.unwrap_or(sc.camera.size);
     let pane_w = sandbox2d::render::compare::pane_width(size[0], panes.len());
     let camera =
