@@ -9,48 +9,51 @@ pub type BodyId = usize;
 
 /// A body of the world. Its frame's origin is the centre of mass.
 #[derive(Clone, Debug, serde::Serialize, serde::Deserialize)]
+// In this order in memory: the fields every step reads first, the shape (large: up
+// to 16 vertices inline), then what only set-up, drawing and output read.
+#[repr(C)]
 pub struct Body {
-    /// Unique name.
-    pub name: String,
-    pub body_type: BodyType,
-    pub model: BodyModel,
-    /// The shape, centred on the centre of mass.
-    pub shape: Shape,
-    /// Where the scene's shape origin lies in the body frame (minus the centroid of the
-    /// shape as described); zero for circles, boxes and centred polygons.
-    pub origin_offset: Vec2,
     /// World position of the centre of mass (m).
     pub position: Vec2,
-    /// Radians, counter-clockwise; always 0 for a particle.
-    pub angle: f32,
     /// The rotation of `angle`, kept in step with it.
     pub rot: Rot,
     /// m/s.
     pub velocity: Vec2,
+    /// Radians, counter-clockwise; always 0 for a particle.
+    pub angle: f32,
     /// rad/s; always 0 for a particle.
     pub angular_velocity: f32,
-    /// kg (0 for static and kinematic bodies).
-    pub mass: f32,
     pub inv_mass: f32,
-    /// kg m^2 about the centre of mass (0 for particles, static and kinematic bodies).
-    pub inertia: f32,
     pub inv_inertia: f32,
-    pub friction: f32,
-    pub restitution: f32,
-    pub color: Option<Color>,
-    /// Which other bodies it may touch.
-    pub filter: crate::defs::Filter,
-    /// Overlaps are reported, never resolved.
-    pub sensor: bool,
     /// Force (N) accumulated for the next step by [`crate::World::apply_force`]; cleared by the step.
     pub force: Vec2,
     /// Torque (N m) accumulated for the next step.
     pub torque: f32,
+    pub body_type: BodyType,
+    pub model: BodyModel,
+    /// Overlaps are reported, never resolved.
+    pub sensor: bool,
+    pub friction: f32,
+    pub restitution: f32,
+    /// kg (0 for static and kinematic bodies).
+    pub mass: f32,
+    /// kg m^2 about the centre of mass (0 for particles, static and kinematic bodies).
+    pub inertia: f32,
     /// XPBD: the position and angle corrections of the current substep. Velocities are
     /// derived from them, v = v_predicted + dx / h, which is (x - x_prev) / h without the
     /// f32 cancellation of subtracting two nearby positions far from the origin.
     pub(crate) correction: Vec2,
     pub(crate) correction_angle: f32,
+    /// Which other bodies it may touch.
+    pub filter: crate::defs::Filter,
+    /// The shape, centred on the centre of mass.
+    pub shape: Shape,
+    /// Where the scene's shape origin lies in the body frame (minus the centroid of the
+    /// shape as described); zero for circles, boxes and centred polygons.
+    pub origin_offset: Vec2,
+    pub color: Option<Color>,
+    /// Unique name.
+    pub name: String,
 }
 
 impl Body {

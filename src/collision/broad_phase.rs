@@ -16,6 +16,8 @@ pub struct BroadPhase {
     entries: Vec<(u64, u32)>,
     /// (body, [x0, y0, x1, y1]): the cells each body that is not large covers.
     ranges: Vec<(u32, [i64; 4])>,
+    /// Per body: its lowest cell [x0, y0] (meaningful for bodies in `ranges`).
+    lowest: Vec<[i64; 2]>,
     /// Dense grid: where each cell's bodies start in `cell_bodies` (counting sort).
     cell_start: Vec<u32>,
     cell_fill: Vec<u32>,
@@ -76,6 +78,8 @@ impl BroadPhase {
         let to_cell = |v: Vec2| (floor_i64(v.x * inv), floor_i64(v.y * inv));
         // each body's cell range; the grid's bounds
         self.ranges.clear();
+        // every body in `ranges` writes its entry below; the others' are never read
+        self.lowest.resize(aabbs.len(), [0; 2]);
         let (mut gx0, mut gy0, mut gx1, mut gy1) = (i64::MAX, i64::MAX, i64::MIN, i64::MIN);
         for (i, b) in aabbs.iter().enumerate() {
             let (x0, y0) = to_cell(b.min);
@@ -89,6 +93,7 @@ impl BroadPhase {
                 continue;
             }
             self.ranges.push((i as u32, [x0, y0, x1, y1]));
+            self.lowest[i] = [x0, y0];
             (gx0, gy0, gx1, gy1) = (gx0.min(x0), gy0.min(y0), gx1.max(x1), gy1.max(y1));
         }
         // saturating: with no ranges the bounds are still (MAX, MIN)
@@ -105,7 +110,6 @@ impl BroadPhase {
                 aabbs,
                 moves,
                 &can_collide,
-                inv,
                 [gx0, gy0],
                 w as usize,
                 h as usize,
@@ -182,7 +186,6 @@ impl BroadPhase {
         aabbs: &[Aabb],
         moves: &[bool],
         can_collide: &impl Fn(u32, u32) -> bool,
-        inv: f32,
         origin: [i64; 2],
         w: usize,
         h: usize,
@@ -229,9 +232,11 @@ impl BroadPhase {
                     if !(moves[a as usize] || moves[b as usize]) || !ba.overlaps(bb) {
                         continue;
                     }
-                    // report only from the cell holding the overlap's lower-left corner
-                    let corner = ba.min.max(bb.min);
-                    if (floor_i64(corner.x * inv), floor_i64(corner.y * inv)) != (cx, cy) {
+                    // report only from the cell holding the overlap's lower-left corner,
+                    // max(a.min, b.min): the cell is monotone in the point, so the
+                    // corner's cell is the larger of the two bodies' lowest cells
+                    let (la, lb) = (self.lowest[a as usize], self.lowest[b as usize]);
+                    if (la[0].max(lb[0]), la[1].max(lb[1])) != (cx, cy) {
                         continue;
                     }
                     // a < b: bodies lie in a cell in increasing order

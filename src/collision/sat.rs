@@ -170,15 +170,15 @@ pub fn collide_polygons(
 ) -> Manifold {
     if pa.count == 4 && pb.count == 4 {
         // boxes: the same code with the counts known, so every loop unrolls
-        collide_polygons_n(pa, 4, xa, pb, 4, xb, margin)
+        collide_polygons_n::<4>(pa, 4, xa, pb, 4, xb, margin)
     } else {
-        collide_polygons_n(pa, pa.count, xa, pb, pb.count, xb, margin)
+        collide_polygons_n::<MAX_POLYGON_VERTICES>(pa, pa.count, xa, pb, pb.count, xb, margin)
     }
 }
 
-/// [`collide_polygons`] for polygons of `na` and `nb` vertices.
+/// [`collide_polygons`] for polygons of `na` and `nb` vertices, B's at most `CAP`.
 #[inline(always)]
-fn collide_polygons_n(
+fn collide_polygons_n<const CAP: usize>(
     pa: &Polygon,
     na_count: usize,
     xa: &Transform,
@@ -189,8 +189,8 @@ fn collide_polygons_n(
 ) -> Manifold {
     let mut m = Manifold::default();
     let rel = xa.inv_mul(xb);
-    let mut vb = [Vec2::ZERO; MAX_POLYGON_VERTICES];
-    let mut nb = [Vec2::ZERO; MAX_POLYGON_VERTICES];
+    let mut vb = [Vec2::ZERO; CAP];
+    let mut nb = [Vec2::ZERO; CAP];
     for i in 0..nb_count {
         vb[i] = rel.apply(pb.vertices[i]);
         nb[i] = rel.q.rotate(pb.normals[i]);

@@ -373,6 +373,8 @@ pub struct SoftSolver {
     inv_h: f32,
     slop: f32,
     max_push: f32,
+    /// Whether some contact of the step has restitution.
+    restitution: bool,
 }
 
 impl SoftSolver {
@@ -383,6 +385,7 @@ impl SoftSolver {
         self.inv_h = 1.0 / h;
         self.slop = s.slop;
         self.max_push = s.max_push_speed;
+        self.restitution = false;
         let nb = bodies.len();
         let (rest, sink) = (nb as u32, nb as u32 + 1);
         self.bodies.clear();
@@ -499,6 +502,7 @@ impl SoftSolver {
             w.mass_scale[k] = soft.mass_scale;
             w.impulse_scale[k] = soft.impulse_scale;
             cold.restitution[k] = c.restitution;
+            self.restitution |= c.restitution != 0.0;
             cold.count[k] = c.manifold.count as u8;
             for (i, cp) in c.manifold.points().iter().enumerate() {
                 let (ra, rb) = (cp.anchor_a, cp.anchor_b);
@@ -510,8 +514,11 @@ impl SoftSolver {
                 let rtb = cross(rb, t);
                 let kt = ima + imb + iia * rta * rta + iib * rtb * rtb;
                 // dv = vb + wb x rb - va - wa x ra
-                let dv = bb.v + cross_sv(bb.w, rb) - ba.v - cross_sv(ba.w, ra);
-                cold.relative_velocity[i][k] = n.dot(dv);
+                // (read only by restitution: skipped where the pair has none)
+                if c.restitution != 0.0 {
+                    let dv = bb.v + cross_sv(bb.w, rb) - ba.v - cross_sv(ba.w, ra);
+                    cold.relative_velocity[i][k] = n.dot(dv);
+                }
                 let (ni, ti) = if s.warm_start {
                     (cp.normal_impulse, cp.tangent_impulse)
                 } else {
@@ -615,24 +622,36 @@ impl SoftSolver {
     /// One sweep over every row: with `BIAS`, soft rows that push overlap out; without,
     /// rigid rows that only remove approach speed (relax). Returns max |delta lambda|.
     pub fn sweep<const BIAS: bool>(&mut self) -> f32 {
+        // the largest normal impulse of each point is read only by restitution: kept
+        // only when some contact of the step has restitution
         #[cfg(target_arch = "x86_64")]
         if testing::use_avx2() {
             // SAFETY: the CPU has AVX2.
-            return unsafe { self.sweep_avx2::<BIAS>() };
+            return unsafe {
+                if self.restitution {
+                    self.sweep_avx2::<BIAS, true>()
+                } else {
+                    self.sweep_avx2::<BIAS, false>()
+                }
+            };
         }
-        self.sweep_impl::<BIAS>()
+        if self.restitution {
+            self.sweep_impl::<BIAS, true>()
+        } else {
+            self.sweep_impl::<BIAS, false>()
+        }
     }
 
     /// [`Self::sweep`] compiled for AVX2 (three-operand forms, blends): the same
     /// arithmetic, so the same results to the bit.
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2")]
-    fn sweep_avx2<const BIAS: bool>(&mut self) -> f32 {
-        self.sweep_impl::<BIAS>()
+    fn sweep_avx2<const BIAS: bool, const MAX_IMPULSE: bool>(&mut self) -> f32 {
+        self.sweep_impl::<BIAS, MAX_IMPULSE>()
     }
 
     #[inline(always)]
-    fn sweep_impl<const BIAS: bool>(&mut self) -> f32 {
+    fn sweep_impl<const BIAS: bool, const MAX_IMPULSE: bool>(&mut self) -> f32 {
         let bodies = &mut self.bodies;
         let inv_h = Vec4::splat(self.inv_h);
         let slop = Vec4::splat(self.slop);
@@ -681,7 +700,9 @@ impl SoftSolver {
                 let new = (p.normal_impulse + d).max(Vec4::ZERO);
                 let d = new - p.normal_impulse;
                 p.normal_impulse = new;
-                p.max_normal_impulse = p.max_normal_impulse.max(new);
+                if MAX_IMPULSE {
+                    p.max_normal_impulse = p.max_normal_impulse.max(new);
+                }
                 residual = residual.max(d.abs());
                 v.apply(&m, p, d * nx, d * ny);
             }
@@ -716,6 +737,9 @@ impl SoftSolver {
     /// Restitution: a point that was approaching faster than the threshold and was pushed
     /// leaves with -e times its approach speed. Lane by lane (rarely needed).
     pub fn apply_restitution(&mut self, threshold: f32) {
+        if !self.restitution {
+            return;
+        }
         let bodies = &mut self.bodies;
         for (c, cold) in self.wide.iter_mut().zip(&self.cold) {
             if cold.restitution.cmpeq(Vec4::ZERO).all() {
