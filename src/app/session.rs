@@ -384,6 +384,35 @@ pub struct Compare {
     pub others: Vec<Session>,
 }
 
+impl Session {
+    /// The figures a `--compare` pane's label shows, from the recent steps: the mean ms
+    /// of the last [`crate::compare::Pane::STEP_WINDOW`] steps, and the last step's
+    /// overlap, joint error and energy drift.
+    pub fn figures(&self) -> crate::compare::Figures {
+        let n = self
+            .history
+            .len()
+            .min(crate::compare::Pane::STEP_WINDOW as usize);
+        let last = self.history.back();
+        crate::compare::Figures {
+            ms_per_step: (n > 0).then(|| {
+                self.history
+                    .iter()
+                    .rev()
+                    .take(n)
+                    .map(|s| f64::from(s.ms))
+                    .sum::<f64>()
+                    / n as f64
+            }),
+            penetration: last.map_or(0.0, |s| s.penetration),
+            joint_error: (!self.world.joints().is_empty())
+                .then(|| last.map_or(0.0, |s| s.joint_error)),
+            energy_drift: (self.energy_start.abs() > 1e-9 && last.is_some())
+                .then(|| last.map_or(0.0, |s| s.energy_drift)),
+        }
+    }
+}
+
 impl Compare {
     /// All panes (the first one's included).
     pub fn panes(&self) -> usize {
@@ -445,6 +474,31 @@ mod tests {
             },
         )
         .unwrap()
+    }
+
+    #[test]
+    fn a_pane_label_shows_figures_only_where_they_apply() {
+        let on = |name| Session::new(scene::load(name).unwrap(), Default::default()).unwrap();
+        let mut stack = on("stack");
+        let f = stack.figures();
+        assert_eq!(f.ms_per_step, None, "no step yet");
+        assert_eq!(f.energy_drift, None);
+        for _ in 0..20 {
+            stack.step_once();
+        }
+        let f = stack.figures();
+        assert!(f.ms_per_step.is_some_and(|ms| ms >= 0.0));
+        assert_eq!(f.joint_error, None, "the stack has no joints");
+        // a resting stack under gravity neither gains nor loses much energy in 20 steps
+        assert!(f.energy_drift.is_some_and(|d| d.abs() < 0.01), "{f:?}");
+        assert!((0.0..0.05).contains(&f.penetration), "{f:?}");
+        let mut chain = on("ball_and_chain");
+        for _ in 0..20 {
+            chain.step_once();
+        }
+        // issue 10's bound for the ball and chain: the joints hold within 0.05 m
+        let j = chain.figures().joint_error.expect("a chain has joints");
+        assert!((0.0..0.05).contains(&j), "joint error {j}");
     }
 
     #[test]

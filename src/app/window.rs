@@ -26,6 +26,12 @@ const EMITTER_RADIUS_PX: f32 = 110.0;
 const TOOL_COLOR: [u8; 4] = [255, 255, 255, 200];
 /// The line between `--compare` panes.
 const DIVIDER_COLOR: [u8; 4] = [200, 200, 210, 255];
+/// `run --compare` labels: text and the box behind it.
+const LABEL_COLOR: [u8; 4] = [235, 235, 240, 255];
+const LABEL_BACK: [u8; 4] = [0, 0, 0, 150];
+/// Screen pixels per font pixel of a pane label, and its margin from the pane's corner.
+const LABEL_SCALE: u32 = 2;
+const LABEL_MARGIN_PX: f32 = 8.0;
 /// How often the panel is redrawn when nothing touches it (its live figures and plots).
 const PANEL_REFRESH: std::time::Duration = std::time::Duration::from_millis(250);
 
@@ -94,6 +100,12 @@ pub(super) struct App {
     compare: Option<Compare>,
     /// One pane's draw list, before it is moved into place in `list`.
     pane_list: DrawList,
+    /// `run --compare`: each pane's label lines (settings, then figures), refreshed
+    /// every [`PANEL_REFRESH`] so the digits can be read.
+    labels: Vec<Vec<String>>,
+    labels_next: Option<Instant>,
+    /// Scratch: a label line's font-pixel runs.
+    runs: Vec<[u32; 3]>,
 }
 
 impl App {
@@ -106,6 +118,9 @@ impl App {
             list: DrawList::new(),
             compare: None,
             pane_list: DrawList::new(),
+            labels: Vec::new(),
+            labels_next: None,
+            runs: Vec::new(),
             gpu: None,
             mouse: Mouse::default(),
             fatal: None,
@@ -431,6 +446,7 @@ impl App {
                     DIVIDER_COLOR,
                 );
             }
+            self.push_pane_labels(now);
         } else {
             fill_world_draw_list(&mut self.list, &self.session.world, &overlays);
             self.push_tools();
@@ -664,6 +680,60 @@ impl App {
     }
 
     /// The drag spring and the emitter's ring, over the world.
+    /// `run --compare`: each pane's settings and live figures at its top-left corner,
+    /// drawn as segments of the bitmap font (`render::font`) over a dark box.
+    fn push_pane_labels(&mut self, now: Instant) {
+        let Some(c) = self.compare.as_ref() else {
+            return;
+        };
+        if self.labels_next.is_none_or(|t| now >= t) || self.labels.len() != c.panes() {
+            self.labels = std::iter::once(&self.session)
+                .chain(&c.others)
+                .zip(&c.labels)
+                .map(|(s, label)| {
+                    let mut lines = vec![label.clone()];
+                    lines.extend(crate::compare::figure_lines(&s.figures()));
+                    lines
+                })
+                .collect();
+            self.labels_next = Some(now + PANEL_REFRESH);
+        }
+        let [w, h] = self.camera.size;
+        let ppm = self.camera.pixels_per_meter;
+        let left = self.camera.center.x - 0.5 * w as f32 / ppm;
+        let top = self.camera.center.y + 0.5 * h as f32 / ppm;
+        let to_world = |x: f32, y: f32| Vec2::new(left + x / ppm, top - y / ppm);
+        let pw = (w / self.panes() as u32).max(1) as f32;
+        let s = LABEL_SCALE as f32;
+        for (k, lines) in self.labels.iter().enumerate() {
+            let x0 = k as f32 * pw + LABEL_MARGIN_PX;
+            let y0 = LABEL_MARGIN_PX;
+            let [tw, th] = crate::render::font::text_size(lines, LABEL_SCALE);
+            let pad = 4.0;
+            let (bw, bh) = (tw as f32 + 2.0 * pad, th as f32 + 2.0 * pad);
+            self.list.push_box(
+                to_world(x0 - pad + 0.5 * bw, y0 - pad + 0.5 * bh),
+                bw / ppm,
+                bh / ppm,
+                0.0,
+                LABEL_BACK,
+                [0, 0, 0, 0],
+            );
+            for (row, line) in lines.iter().enumerate() {
+                self.runs.clear();
+                crate::render::font::text_runs(line, &mut self.runs);
+                let y = y0 + (row as u32 * crate::render::font::CELL_H) as f32 * s;
+                for &[a, b, r] in &self.runs {
+                    // round-capped segments through the middle of the run's pixels
+                    let yy = y + (r as f32 + 0.5) * s;
+                    let p = to_world(x0 + (a as f32 + 0.5) * s, yy);
+                    let q = to_world(x0 + (b as f32 - 0.5) * s, yy);
+                    self.list.push_line(p, q, s, LABEL_COLOR);
+                }
+            }
+        }
+    }
+
     fn push_tools(&mut self) {
         if let Some(d) = self.session.drag
             && let Some(b) = self.session.world.bodies.get(d.body)
