@@ -419,6 +419,20 @@ impl Compare {
         self.others.len() + 1
     }
 
+    /// ctrl+L with `--compare`: the state saved from the first pane is put into every
+    /// pane, each keeping its own solver settings, so all panes go on from the same
+    /// bodies at the same step. A pane that cannot take it keeps its world and says why.
+    pub fn load_state(&mut self, first: &mut Session, path: &Path) {
+        for s in std::iter::once(first).chain(self.others.iter_mut()) {
+            let keep = s.settings;
+            s.load_state(path);
+            if s.error.is_none() {
+                s.settings = keep;
+                s.apply_settings();
+            }
+        }
+    }
+
     /// Steps each other pane `steps` times (the steps the first pane's
     /// [`Session::advance`] or [`Session::step_once`] took), with the first pane's drag
     /// target and emitter.
@@ -474,6 +488,45 @@ mod tests {
             },
         )
         .unwrap()
+    }
+
+    #[test]
+    fn ctrl_l_puts_the_first_panes_state_into_every_pane_keeping_each_solver() {
+        let pane = |kind| {
+            let o = SolverOverrides {
+                kind: Some(kind),
+                ..Default::default()
+            };
+            Session::new(scene::load("stack").unwrap(), o).unwrap()
+        };
+        let mut first = pane(SolverKind::Soft);
+        let mut cmp = Compare {
+            labels: vec!["soft".into(), "xpbd".into()],
+            others: vec![pane(SolverKind::Xpbd)],
+        };
+        for _ in 0..30 {
+            first.step_once();
+        }
+        cmp.follow(&first, 30);
+        let path = std::env::temp_dir().join(format!("sandbox2d_cmp_{}.json", std::process::id()));
+        first.save_state(&path);
+        let saved: Vec<_> = first.world.bodies.iter().map(|b| b.position).collect();
+        for _ in 0..30 {
+            first.step_once();
+        }
+        cmp.follow(&first, 30);
+        cmp.load_state(&mut first, &path);
+        let _ = std::fs::remove_file(&path);
+        for (s, kind) in [
+            (&first, SolverKind::Soft),
+            (&cmp.others[0], SolverKind::Xpbd),
+        ] {
+            assert_eq!(s.error, None);
+            assert_eq!(s.world.step_count(), 30);
+            assert_eq!(s.world.settings.kind, kind, "each pane keeps its solver");
+            let now: Vec<_> = s.world.bodies.iter().map(|b| b.position).collect();
+            assert_eq!(now, saved, "every pane starts again from the saved bodies");
+        }
     }
 
     #[test]

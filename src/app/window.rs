@@ -827,7 +827,11 @@ impl App {
                 self.panel_dirty = true;
             }
             Key::Character(c) if ctrl && c.eq_ignore_ascii_case("l") => {
-                self.session.load_state(state_file);
+                // with --compare: into every pane, each keeping its solver
+                match self.compare.as_mut() {
+                    Some(c) => c.load_state(&mut self.session, state_file),
+                    None => self.session.load_state(state_file),
+                }
                 (self.follow, self.selected) = (None, None);
                 self.panel_dirty = true;
             }
