@@ -315,6 +315,10 @@ pub struct SolverSettings {
     pub slop: f32,
     /// PGS: solve the position error apart from the velocities (no energy added).
     pub split_impulse: bool,
+    /// PGS and XPBD: a two-point manifold's normal rows solved together (the exact 2x2
+    /// LCP, a block Gauss-Seidel step; for XPBD of the position rows) instead of one
+    /// after the other.
+    pub block_solve: bool,
     /// Impacts slower than this (m/s) do not bounce.
     pub restitution_threshold: f32,
     /// Soft step: the contact spring's frequency (Hz), capped at a quarter of the substep
@@ -372,6 +376,7 @@ impl SolverSettings {
             baumgarte: 0.2,
             slop: 0.005,
             split_impulse: true,
+            block_solve: true,
             restitution_threshold: 1.0,
             contact_hertz: 30.0,
             contact_damping_ratio: 10.0,
@@ -426,12 +431,14 @@ impl SolverSettings {
                 "baumgarte",
                 "slop",
                 "split_impulse",
+                "block_solve",
                 "restitution_threshold",
             ],
             SolverKind::Xpbd => &[
                 "dt",
                 "substeps",
                 "iterations",
+                "block_solve",
                 "restitution_threshold",
                 "max_push_speed",
             ],
@@ -510,6 +517,7 @@ pub struct SolverOverrides {
     pub baumgarte: Option<f32>,
     pub slop: Option<f32>,
     pub split_impulse: Option<bool>,
+    pub block_solve: Option<bool>,
     pub restitution_threshold: Option<f32>,
     pub contact_hertz: Option<f32>,
     pub contact_damping_ratio: Option<f32>,
@@ -531,6 +539,7 @@ impl SolverOverrides {
             baumgarte: other.baumgarte.or(self.baumgarte),
             slop: other.slop.or(self.slop),
             split_impulse: other.split_impulse.or(self.split_impulse),
+            block_solve: other.block_solve.or(self.block_solve),
             restitution_threshold: other.restitution_threshold.or(self.restitution_threshold),
             contact_hertz: other.contact_hertz.or(self.contact_hertz),
             contact_damping_ratio: other.contact_damping_ratio.or(self.contact_damping_ratio),
@@ -553,6 +562,7 @@ impl SolverOverrides {
             baumgarte: self.baumgarte.unwrap_or(d.baumgarte),
             slop: self.slop.unwrap_or(d.slop),
             split_impulse: self.split_impulse.unwrap_or(d.split_impulse),
+            block_solve: self.block_solve.unwrap_or(d.block_solve),
             restitution_threshold: self
                 .restitution_threshold
                 .unwrap_or(d.restitution_threshold),

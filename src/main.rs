@@ -259,6 +259,9 @@ struct SolverFlags {
     /// Position error solved apart from velocities.
     #[arg(long, value_enum)]
     split_impulse: Option<OnOff>,
+    /// PGS: a two-point manifold's normal rows solved together (2x2 LCP).
+    #[arg(long, value_enum)]
+    block_solve: Option<OnOff>,
     /// Baumgarte factor beta in [0, 1].
     #[arg(long)]
     baumgarte: Option<f32>,
@@ -298,6 +301,7 @@ impl SolverFlags {
             baumgarte: self.baumgarte,
             slop: self.slop,
             split_impulse: self.split_impulse.map(Into::into),
+            block_solve: self.block_solve.map(Into::into),
             restitution_threshold: None,
             contact_hertz: self.contact_hertz,
             contact_damping_ratio: self.contact_damping_ratio,
@@ -320,6 +324,7 @@ impl SolverFlags {
             tolerance: self.tolerance.or(base.tolerance),
             warm_start: self.warm_start.or(base.warm_start),
             split_impulse: self.split_impulse.or(base.split_impulse),
+            block_solve: self.block_solve.or(base.block_solve),
             baumgarte: self.baumgarte.or(base.baumgarte),
             slop: self.slop.or(base.slop),
             contact_hertz: self.contact_hertz.or(base.contact_hertz),
@@ -806,6 +811,7 @@ fn simulate(a: &SimulateArgs) -> Result<(), Failure> {
                 "tolerance": settings.tolerance,
                 "warm_start": settings.warm_start,
                 "split_impulse": settings.split_impulse,
+                "block_solve": settings.block_solve,
                 "baumgarte": settings.baumgarte,
                 "slop": settings.slop,
                 "restitution_threshold": settings.restitution_threshold,

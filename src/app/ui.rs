@@ -176,6 +176,9 @@ fn contents(ui: &mut Ui, s: &mut Session, frame: FrameStats, actions: &mut Panel
     if has("split_impulse") {
         ui.checkbox(&mut st.split_impulse, "split impulse");
     }
+    if has("block_solve") {
+        ui.checkbox(&mut st.block_solve, "block solve (2 points together)");
+    }
     if s.settings != before {
         s.apply_settings();
     }

@@ -113,6 +113,67 @@ struct Constraint {
     points: [Point; 2],
     /// collided this step (its time-of-impact correction is made once)
     collided: bool,
+    /// Two points solved together: the normal rows' 2x2 block K = J M^-1 J^T as
+    /// (k11, k12, k22), or `None` where the manifold has one point or K is too close to
+    /// singular (the points nearly coincide) to invert safely.
+    block: Option<Block>,
+}
+
+/// The 2x2 normal block of a two-point manifold and its inverse.
+#[derive(Clone, Copy, Debug, Default)]
+pub(crate) struct Block {
+    k: [f32; 3],
+    pub(crate) inv: [f32; 3],
+}
+
+impl Block {
+    /// Above this condition estimate, k11^2 / det K, the rows are solved one by one.
+    const MAX_CONDITION: f32 = 1000.0;
+
+    pub(crate) fn new(k11: f32, k12: f32, k22: f32) -> Option<Block> {
+        let det = k11 * k22 - k12 * k12;
+        if !(det > 0.0) || k11 * k11 >= Self::MAX_CONDITION * det {
+            return None;
+        }
+        let id = 1.0 / det;
+        Some(Block {
+            k: [k11, k12, k22],
+            inv: [k22 * id, -k12 * id, k11 * id],
+        })
+    }
+
+    /// The 2x2 LCP: find x >= 0 with w = K x + q >= 0 and x . w = 0, where
+    /// q = (J v - target) - K x_old is taken at the accumulated x_old. Tries, in order,
+    /// both rows pushing, only the first, only the second, neither; K symmetric positive
+    /// definite makes exactly one of them hold (up to rounding: then `x_old` is kept).
+    pub(crate) fn solve(&self, x_old: [f32; 2], gap: [f32; 2]) -> [f32; 2] {
+        let [k11, k12, k22] = self.k;
+        // q = gap - K x_old
+        let q1 = gap[0] - (k11 * x_old[0] + k12 * x_old[1]);
+        let q2 = gap[1] - (k12 * x_old[0] + k22 * x_old[1]);
+        // both: x = -K^-1 q
+        let [i11, i12, i22] = self.inv;
+        let x1 = -(i11 * q1 + i12 * q2);
+        let x2 = -(i12 * q1 + i22 * q2);
+        if x1 >= 0.0 && x2 >= 0.0 {
+            return [x1, x2];
+        }
+        // first only: x1 = -q1 / k11, then w2 = k12 x1 + q2 >= 0
+        let x1 = -q1 / k11;
+        if x1 >= 0.0 && k12 * x1 + q2 >= 0.0 {
+            return [x1, 0.0];
+        }
+        // second only
+        let x2 = -q2 / k22;
+        if x2 >= 0.0 && k12 * x2 + q1 >= 0.0 {
+            return [0.0, x2];
+        }
+        // neither: both rows separating
+        if q1 >= 0.0 && q2 >= 0.0 {
+            return [0.0, 0.0];
+        }
+        x_old
+    }
 }
 
 /// What one solve did.
@@ -170,6 +231,7 @@ impl PgsSolver {
                 count: c.manifold.count as u32,
                 points: [Point::default(); 2],
                 collided: false,
+                block: None,
             };
             for (i, cp) in c.manifold.points().iter().enumerate() {
                 let (ra, rb) = (cp.anchor_a, cp.anchor_b);
@@ -210,6 +272,20 @@ impl PgsSolver {
                     separation: sep,
                 };
             }
+            if con.count == 2 && s.block_solve {
+                let (p, q) = (&con.points[0], &con.points[1]);
+                let k = |r1: Vec2, r2: Vec2, ra1: Vec2, ra2: Vec2| {
+                    ba.inv_m
+                        + bb.inv_m
+                        + ba.inv_i * cross(ra1, n) * cross(ra2, n)
+                        + bb.inv_i * cross(r1, n) * cross(r2, n)
+                };
+                con.block = Block::new(
+                    k(p.rb, p.rb, p.ra, p.ra),
+                    k(p.rb, q.rb, p.ra, q.ra),
+                    k(q.rb, q.rb, q.ra, q.ra),
+                );
+            }
             self.constraints.push(con);
         }
     }
@@ -249,6 +325,22 @@ impl PgsSolver {
                 p.tangent_impulse = new;
                 residual = residual.max(d.abs());
                 pv.apply(d * t, p.ra, p.rb);
+            }
+            if let Some(block) = &c.block {
+                // both normal rows at once (the 2x2 LCP)
+                let [p, q] = &mut c.points;
+                let gap = [
+                    pv.relative(p.ra, p.rb).dot(n) - p.velocity_bias,
+                    pv.relative(q.ra, q.rb).dot(n) - q.velocity_bias,
+                ];
+                let x = block.solve([p.normal_impulse, q.normal_impulse], gap);
+                let (d1, d2) = (x[0] - p.normal_impulse, x[1] - q.normal_impulse);
+                (p.normal_impulse, q.normal_impulse) = (x[0], x[1]);
+                residual = residual.max(d1.abs()).max(d2.abs());
+                pv.apply(d1 * n, p.ra, p.rb);
+                pv.apply(d2 * n, q.ra, q.rb);
+                pv.store(bodies, c.a, c.b);
+                continue;
             }
             for p in &mut c.points[..count] {
                 // lambda = -m_n (J v - bias), projected onto [0, inf)
@@ -389,6 +481,22 @@ impl PgsSolver {
         for c in &mut self.constraints {
             let n = c.normal;
             let mut pv = PairVel::load_pseudo(&self.bodies, &self.pseudo, c.a, c.b);
+            if let Some(block) = &c.block {
+                let [p, q] = &mut c.points;
+                let gap = [
+                    pv.relative(p.ra, p.rb).dot(n) - p.position_bias,
+                    pv.relative(q.ra, q.rb).dot(n) - q.position_bias,
+                ];
+                let x = block.solve([p.pseudo_impulse, q.pseudo_impulse], gap);
+                let (d1, d2) = (x[0] - p.pseudo_impulse, x[1] - q.pseudo_impulse);
+                (p.pseudo_impulse, q.pseudo_impulse) = (x[0], x[1]);
+                residual = residual.max(d1.abs()).max(d2.abs());
+                pv.apply(d1 * n, p.ra, p.rb);
+                pv.apply(d2 * n, q.ra, q.rb);
+                self.pseudo[c.a as usize] = (pv.va, pv.wa);
+                self.pseudo[c.b as usize] = (pv.vb, pv.wb);
+                continue;
+            }
             for p in &mut c.points[..c.count as usize] {
                 let d = -p.normal_mass * (pv.relative(p.ra, p.rb).dot(n) - p.position_bias);
                 let new = (p.pseudo_impulse + d).max(0.0);

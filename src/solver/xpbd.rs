@@ -5,7 +5,7 @@
 //! velocities are derived, applies dynamic friction and restitution at the velocity level.
 
 use super::contact_cache::Contact;
-use super::pgs::SolverBody;
+use super::pgs::{Block, SolverBody};
 use crate::body::Body;
 use crate::joint::{linear_correction, move_body};
 use crate::math::{Rot, Vec2, cross, cross_sv};
@@ -42,6 +42,10 @@ pub struct XpbdContacts {
     pub points: Vec<XpbdPoint>,
     /// Positions and rotations at the start of the substep.
     pub prev_rot: Vec<(Vec2, Rot)>,
+    /// Project a manifold's two points together (`block_solve`).
+    pub block: bool,
+    /// The velocity pass's normal impulses (scratch).
+    jn: Vec<f32>,
 }
 
 struct Geo {
@@ -60,6 +64,41 @@ fn geometry(p: &XpbdPoint, bodies: &[Body]) -> Geo {
     let n = ba.rot.rotate(p.local_n);
     let gap = ((bb.position + rb) - (ba.position + ra)).dot(n);
     Geo { ra, rb, n, gap }
+}
+
+/// Static friction at one touching point: cancels the relative tangential motion of
+/// its two anchors since the substep began while |lambda_t| <= mu lambda_n.
+fn static_friction(p: &mut XpbdPoint, bodies: &mut [Body], prev_at_start: &[(Vec2, Rot)]) {
+    let (a, b) = (p.a as usize, p.b as usize);
+    let g = geometry(p, bodies);
+    let pa_now = bodies[a].position + g.ra;
+    let pb_now = bodies[b].position + g.rb;
+    let (xa0, qa0) = prev_at_start[a];
+    let (xb0, qb0) = prev_at_start[b];
+    let pa_then = xa0 + qa0.rotate(p.local_a);
+    let pb_then = xb0 + qb0.rotate(p.local_b);
+    let dp = (pb_now - pb_then) - (pa_now - pa_then);
+    let dt = dp - dp.dot(g.n) * g.n;
+    let slide = dt.length();
+    if slide <= 1e-9 {
+        return;
+    }
+    let t = dt / slide;
+    let (ima, iia) = (bodies[a].inv_mass, bodies[a].inv_inertia);
+    let (imb, iib) = (bodies[b].inv_mass, bodies[b].inv_inertia);
+    let (rta, rtb) = (cross(g.ra, t), cross(g.rb, t));
+    let w = ima + iia * rta * rta + imb + iib * rtb * rtb;
+    if w <= 0.0 {
+        return;
+    }
+    // delta lambda_t = -slide / w, applied while |lambda_t| <= mu_s lambda_n
+    let dlt = -slide / w;
+    if (p.lambda_t + dlt).abs() <= p.friction * p.lambda_n {
+        p.lambda_t += dlt;
+        let imp = dlt * t;
+        move_body(&mut bodies[a], -ima * imp, -iia * cross(g.ra, imp));
+        move_body(&mut bodies[b], imb * imp, iib * cross(g.rb, imp));
+    }
 }
 
 impl XpbdContacts {
@@ -114,60 +153,170 @@ impl XpbdContacts {
     /// One projection of every contact: the overlap (C = gap < 0), then static friction
     /// on the tangential motion of the two points since the substep began.
     /// Returns the deepest overlap met (m).
+    ///
+    /// A manifold's two points are projected together, as the 2x2 LCP of their position
+    /// rows (the same block as PGS's, [`Block`]): one point after the other, the first
+    /// push tips the body about the second point and the second tips it back, so a
+    /// resting box rocked about its bottom face and a stack of 10 fell. Points that
+    /// nearly coincide (the block too close to singular) go one by one.
     pub fn project(&mut self, bodies: &mut [Body]) -> f32 {
-        let prev_at_start = &self.prev_rot;
         let mut deepest = 0.0f32;
-        for p in &mut self.points {
+        let mut i = 0;
+        while i < self.points.len() {
+            let pair = self.block
+                && i + 1 < self.points.len()
+                && self.points[i + 1].contact == self.points[i].contact;
+            if pair && self.project_pair(bodies, i, &mut deepest) {
+                i += 2;
+                continue;
+            }
+            let p = &mut self.points[i];
             let g = geometry(p, bodies);
-            if g.gap >= p.floor {
-                continue;
+            if g.gap < p.floor {
+                deepest = deepest.max(-g.gap);
+                let (a, b) = (p.a as usize, p.b as usize);
+                let mut dl = 0.0;
+                let now = [g.ra, g.rb, g.n];
+                linear_correction(bodies, a, b, now, now, g.gap - p.floor, 0.0, &mut dl);
+                p.lambda_n += dl.max(0.0);
+                static_friction(p, bodies, &self.prev_rot);
             }
-            deepest = deepest.max(-g.gap);
-            let (a, b) = (p.a as usize, p.b as usize);
-            let mut dl = 0.0;
-            let now = [g.ra, g.rb, g.n];
-            linear_correction(bodies, a, b, now, now, g.gap - p.floor, 0.0, &mut dl);
-            p.lambda_n += dl.max(0.0);
-            // static friction: the relative tangential motion of the points this substep
-            let g = geometry(p, bodies);
-            let pa_now = bodies[a].position + g.ra;
-            let pb_now = bodies[b].position + g.rb;
-            let (xa0, qa0) = prev_at_start[a];
-            let (xb0, qb0) = prev_at_start[b];
-            let pa_then = xa0 + qa0.rotate(p.local_a);
-            let pb_then = xb0 + qb0.rotate(p.local_b);
-            let dp = (pb_now - pb_then) - (pa_now - pa_then);
-            let dt = dp - dp.dot(g.n) * g.n;
-            let slide = dt.length();
-            if slide <= 1e-9 {
-                continue;
-            }
-            let t = dt / slide;
-            let (ima, iia) = (bodies[a].inv_mass, bodies[a].inv_inertia);
-            let (imb, iib) = (bodies[b].inv_mass, bodies[b].inv_inertia);
-            let (rta, rtb) = (cross(g.ra, t), cross(g.rb, t));
-            let w = ima + iia * rta * rta + imb + iib * rtb * rtb;
-            if w <= 0.0 {
-                continue;
-            }
-            // delta lambda_t = -slide / w, applied while |lambda_t| <= mu_s lambda_n
-            let dlt = -slide / w;
-            if (p.lambda_t + dlt).abs() <= p.friction * p.lambda_n {
-                p.lambda_t += dlt;
-                let imp = dlt * t;
+            i += 1;
+        }
+        deepest
+    }
+
+    /// The normal rows of points `i` and `i + 1` (one manifold) solved together, then
+    /// static friction at each. `false` (nothing done) where the block is singular.
+    fn project_pair(&mut self, bodies: &mut [Body], i: usize, deepest: &mut f32) -> bool {
+        let (p, q) = (&self.points[i], &self.points[i + 1]);
+        let (gp, gq) = (geometry(p, bodies), geometry(q, bodies));
+        let c = [gp.gap - p.floor, gq.gap - q.floor];
+        if c[0] >= 0.0 && c[1] >= 0.0 {
+            return true;
+        }
+        let (a, b) = (p.a as usize, p.b as usize);
+        let (ima, iia) = (bodies[a].inv_mass, bodies[a].inv_inertia);
+        let (imb, iib) = (bodies[b].inv_mass, bodies[b].inv_inertia);
+        let n = gp.n;
+        let (rap, rbp) = (cross(gp.ra, n), cross(gp.rb, n));
+        let (raq, rbq) = (cross(gq.ra, n), cross(gq.rb, n));
+        let k = |x1: f32, y1: f32, x2: f32, y2: f32| ima + imb + iia * x1 * x2 + iib * y1 * y2;
+        let Some(block) = Block::new(
+            k(rap, rbp, rap, rbp),
+            k(rap, rbp, raq, rbq),
+            k(raq, rbq, raq, rbq),
+        ) else {
+            return false;
+        };
+        *deepest = deepest.max(-gp.gap.min(gq.gap));
+        // position impulses x >= 0 with C + K x >= 0, complementary
+        let x = block.solve([0.0, 0.0], c);
+        for (g, xi) in [(&gp, x[0]), (&gq, x[1])] {
+            if xi > 0.0 {
+                let imp = xi * n;
                 move_body(&mut bodies[a], -ima * imp, -iia * cross(g.ra, imp));
                 move_body(&mut bodies[b], imb * imp, iib * cross(g.rb, imp));
             }
         }
-        deepest
+        for (j, xi) in [(i, x[0]), (i + 1, x[1])] {
+            let p = &mut self.points[j];
+            p.lambda_n += xi;
+            if xi > 0.0 {
+                static_friction(p, bodies, &self.prev_rot);
+            }
+        }
+        true
     }
 
     /// The velocity pass of the touching points: restitution, then dynamic friction, an
     /// impulse against the sliding velocity v_t of at most mu times the net normal impulse
     /// (and no more than stops the sliding); restitution
-    /// v_n' = max(-e v_n_before, 0) (e = 0 below the threshold speed).
-    pub fn velocity_pass(&self, world: &[Body], bodies: &mut [SolverBody], h: f32, threshold: f32) {
-        for p in &self.points {
+    /// v_n' = max(-e v_n_before, 0) (e = 0 below the threshold speed). The normal targets
+    /// of a manifold's two points are met together (`block_solve`), then friction.
+    pub fn velocity_pass(
+        &mut self,
+        world: &[Body],
+        bodies: &mut [SolverBody],
+        h: f32,
+        threshold: f32,
+    ) {
+        let mut jn = std::mem::take(&mut self.jn);
+        jn.clear();
+        jn.resize(self.points.len(), 0.0);
+        let target_of = |p: &XpbdPoint| {
+            let e = if p.vn_before.abs() <= threshold {
+                0.0
+            } else {
+                p.restitution
+            };
+            (-e * p.vn_before).max(0.0)
+        };
+        let mut i = 0;
+        while i < self.points.len() {
+            let p = &self.points[i];
+            if p.lambda_n <= 0.0 {
+                i += 1;
+                continue;
+            }
+            let (a, b) = (p.a as usize, p.b as usize);
+            let (ima, iia) = (bodies[a].inv_m, bodies[a].inv_i);
+            let (imb, iib) = (bodies[b].inv_m, bodies[b].inv_i);
+            let g = geometry(p, world);
+            if self.block
+                && i + 1 < self.points.len()
+                && self.points[i + 1].contact == p.contact
+                && self.points[i + 1].lambda_n > 0.0
+            {
+                let q = &self.points[i + 1];
+                let gq = geometry(q, world);
+                let n = g.n;
+                let (rap, rbp) = (cross(g.ra, n), cross(g.rb, n));
+                let (raq, rbq) = (cross(gq.ra, n), cross(gq.rb, n));
+                let k =
+                    |x1: f32, y1: f32, x2: f32, y2: f32| ima + imb + iia * x1 * x2 + iib * y1 * y2;
+                if let Some(block) = Block::new(
+                    k(rap, rbp, rap, rbp),
+                    k(rap, rbp, raq, rbq),
+                    k(raq, rbq, raq, rbq),
+                ) {
+                    let (sa, sb) = (bodies[a], bodies[b]);
+                    let vn = |ra: Vec2, rb: Vec2| {
+                        (sb.v + cross_sv(sb.w, rb) - sa.v - cross_sv(sa.w, ra)).dot(n)
+                    };
+                    // K j = target - v_n, both rows at once (an equality: j may pull)
+                    let r1 = target_of(p) - vn(g.ra, g.rb);
+                    let r2 = target_of(q) - vn(gq.ra, gq.rb);
+                    let [i11, i12, i22] = block.inv;
+                    let (j1, j2) = (i11 * r1 + i12 * r2, i12 * r1 + i22 * r2);
+                    for (gg, j) in [(&g, j1), (&gq, j2)] {
+                        let imp = j * n;
+                        bodies[a].v -= ima * imp;
+                        bodies[a].w -= iia * cross(gg.ra, imp);
+                        bodies[b].v += imb * imp;
+                        bodies[b].w += iib * cross(gg.rb, imp);
+                    }
+                    (jn[i], jn[i + 1]) = (j1, j2);
+                    i += 2;
+                    continue;
+                }
+            }
+            let (sa, sb) = (bodies[a], bodies[b]);
+            let vn = (sb.v + cross_sv(sb.w, g.rb) - sa.v - cross_sv(sa.w, g.ra)).dot(g.n);
+            let (ra_n, rb_n) = (cross(g.ra, g.n), cross(g.rb, g.n));
+            let wn = ima + iia * ra_n * ra_n + imb + iib * rb_n * rb_n;
+            if wn > 0.0 {
+                let j = (target_of(p) - vn) / wn;
+                let imp = j * g.n;
+                bodies[a].v -= ima * imp;
+                bodies[a].w -= iia * cross(g.ra, imp);
+                bodies[b].v += imb * imp;
+                bodies[b].w += iib * cross(g.rb, imp);
+                jn[i] = j;
+            }
+            i += 1;
+        }
+        for (p, &j) in self.points.iter().zip(&jn) {
             if p.lambda_n <= 0.0 {
                 continue;
             }
@@ -175,55 +324,29 @@ impl XpbdContacts {
             let (a, b) = (p.a as usize, p.b as usize);
             let (ima, iia) = (bodies[a].inv_m, bodies[a].inv_i);
             let (imb, iib) = (bodies[b].inv_m, bodies[b].inv_i);
-            let relative = |bodies: &[SolverBody]| {
-                let (sa, sb) = (bodies[a], bodies[b]);
-                sb.v + cross_sv(sb.w, g.rb) - sa.v - cross_sv(sa.w, g.ra)
-            };
-            // the generalized inverse mass along dir at the two points
-            let w_along = |dir: Vec2| {
-                let (ra_n, rb_n) = (cross(g.ra, dir), cross(g.rb, dir));
-                ima + iia * ra_n * ra_n + imb + iib * rb_n * rb_n
-            };
-            let apply = |dir: Vec2, impulse: f32, bodies: &mut [SolverBody]| {
-                let imp = impulse * dir;
-                let ba = &mut bodies[a];
-                ba.v -= ima * imp;
-                ba.w -= iia * cross(g.ra, imp);
-                let bb = &mut bodies[b];
-                bb.v += imb * imp;
-                bb.w += iib * cross(g.rb, imp);
-            };
-            // restitution first: v_n' = max(-e v_n_before, 0)
-            let vn = relative(bodies).dot(g.n);
-            let e = if p.vn_before.abs() <= threshold {
-                0.0
-            } else {
-                p.restitution
-            };
-            let target = (-e * p.vn_before).max(0.0);
-            let wn = w_along(g.n);
-            let mut jn = 0.0;
-            if wn > 0.0 {
-                jn = (target - vn) / wn;
-                apply(g.n, jn, bodies);
-            }
             // dynamic friction, bounded by mu times the substep's net normal impulse:
             // the push-out lambda_n / h less what the pass above took back (the push-out
             // leaves a separating velocity that the pass removes; counting only the
             // push-out would double the friction of a resting contact)
-            let rel = relative(bodies);
+            let (sa, sb) = (bodies[a], bodies[b]);
+            let rel = sb.v + cross_sv(sb.w, g.rb) - sa.v - cross_sv(sa.w, g.ra);
             let vt = rel - rel.dot(g.n) * g.n;
             let speed_t = vt.length();
-            let normal = (p.lambda_n / h + jn).max(0.0);
+            let normal = (p.lambda_n / h + j).max(0.0);
             if speed_t > 1e-9 {
                 let t = -vt / speed_t;
-                let w = w_along(t);
+                let (ra_t, rb_t) = (cross(g.ra, t), cross(g.rb, t));
+                let w = ima + iia * ra_t * ra_t + imb + iib * rb_t * rb_t;
                 if w > 0.0 {
-                    let j = (p.friction * normal).min(speed_t / w);
-                    apply(t, j, bodies);
+                    let imp = (p.friction * normal).min(speed_t / w) * t;
+                    bodies[a].v -= ima * imp;
+                    bodies[a].w -= iia * cross(g.ra, imp);
+                    bodies[b].v += imb * imp;
+                    bodies[b].w += iib * cross(g.rb, imp);
                 }
             }
         }
+        self.jn = jn;
     }
 }
 

@@ -34,6 +34,7 @@ impl Stepper for XpbdStepper {
         let (n, h) = (cx.substeps, cx.h);
         let mut deepest = world.collide(cx.dt, cx.margin, Speculative::MarginPlusMotion, clock);
         self.xpbd.prepare(&world.bodies, &world.contacts);
+        self.xpbd.block = s.block_solve;
         self.lambdas.clear();
         self.lambdas.resize(world.joints.len(), [0.0; SLOTS]);
         let mut normal_sum = std::mem::take(&mut self.normal_sum);
