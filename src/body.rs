@@ -54,6 +54,16 @@ pub struct Body {
     pub color: Option<Color>,
     /// Unique name.
     pub name: String,
+    /// Asleep: at rest with its whole island; not moved, integrated or solved until
+    /// something touches, pulls or pushes the island ([`crate::World`]'s sleep).
+    #[serde(default)]
+    pub asleep: bool,
+    /// How long (s) it has moved slower than the sleep thresholds.
+    #[serde(default)]
+    pub(crate) sleep_time: f32,
+    /// The island it fell asleep with (woken together).
+    #[serde(default)]
+    pub(crate) island: u32,
 }
 
 impl Body {

@@ -289,6 +289,10 @@ impl SolverKind {
     }
 }
 
+fn yes() -> bool {
+    true
+}
+
 /// The solver's settings, complete. See [`SolverOverrides`] for the partial form a scene
 /// gives. One flat struct for every kind: the fields each kind reads are listed by
 /// [`SolverSettings::keys`]; the others are kept (so switching kinds back and forth in the
@@ -318,7 +322,11 @@ pub struct SolverSettings {
     /// PGS and XPBD: a two-point manifold's normal rows solved together (the exact 2x2
     /// LCP, a block Gauss-Seidel step; for XPBD of the position rows) instead of one
     /// after the other.
+    #[serde(default = "yes")]
     pub block_solve: bool,
+    /// Islands of bodies at rest fall asleep and cost nothing until woken (every kind).
+    #[serde(default = "yes")]
+    pub sleep: bool,
     /// Impacts slower than this (m/s) do not bounce.
     pub restitution_threshold: f32,
     /// Soft step: the contact spring's frequency (Hz), capped at a quarter of the substep
@@ -377,6 +385,7 @@ impl SolverSettings {
             slop: 0.005,
             split_impulse: true,
             block_solve: true,
+            sleep: true,
             restitution_threshold: 1.0,
             contact_hertz: 30.0,
             contact_damping_ratio: 10.0,
@@ -421,6 +430,7 @@ impl SolverSettings {
                 "max_push_speed",
                 "joint_hertz",
                 "joint_damping_ratio",
+                "sleep",
             ],
             SolverKind::Pgs => &[
                 "dt",
@@ -433,6 +443,7 @@ impl SolverSettings {
                 "split_impulse",
                 "block_solve",
                 "restitution_threshold",
+                "sleep",
             ],
             SolverKind::Xpbd => &[
                 "dt",
@@ -441,6 +452,7 @@ impl SolverSettings {
                 "block_solve",
                 "restitution_threshold",
                 "max_push_speed",
+                "sleep",
             ],
         }
     }
@@ -518,6 +530,7 @@ pub struct SolverOverrides {
     pub slop: Option<f32>,
     pub split_impulse: Option<bool>,
     pub block_solve: Option<bool>,
+    pub sleep: Option<bool>,
     pub restitution_threshold: Option<f32>,
     pub contact_hertz: Option<f32>,
     pub contact_damping_ratio: Option<f32>,
@@ -540,6 +553,7 @@ impl SolverOverrides {
             slop: other.slop.or(self.slop),
             split_impulse: other.split_impulse.or(self.split_impulse),
             block_solve: other.block_solve.or(self.block_solve),
+            sleep: other.sleep.or(self.sleep),
             restitution_threshold: other.restitution_threshold.or(self.restitution_threshold),
             contact_hertz: other.contact_hertz.or(self.contact_hertz),
             contact_damping_ratio: other.contact_damping_ratio.or(self.contact_damping_ratio),
@@ -563,6 +577,7 @@ impl SolverOverrides {
             slop: self.slop.unwrap_or(d.slop),
             split_impulse: self.split_impulse.unwrap_or(d.split_impulse),
             block_solve: self.block_solve.unwrap_or(d.block_solve),
+            sleep: self.sleep.unwrap_or(d.sleep),
             restitution_threshold: self
                 .restitution_threshold
                 .unwrap_or(d.restitution_threshold),

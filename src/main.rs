@@ -262,6 +262,9 @@ struct SolverFlags {
     /// PGS: a two-point manifold's normal rows solved together (2x2 LCP).
     #[arg(long, value_enum)]
     block_solve: Option<OnOff>,
+    /// Islands at rest fall asleep (default on; benchmarks turn it off).
+    #[arg(long, value_enum)]
+    sleep: Option<OnOff>,
     /// Baumgarte factor beta in [0, 1].
     #[arg(long)]
     baumgarte: Option<f32>,
@@ -302,6 +305,7 @@ impl SolverFlags {
             slop: self.slop,
             split_impulse: self.split_impulse.map(Into::into),
             block_solve: self.block_solve.map(Into::into),
+            sleep: self.sleep.map(Into::into),
             restitution_threshold: None,
             contact_hertz: self.contact_hertz,
             contact_damping_ratio: self.contact_damping_ratio,
@@ -325,6 +329,7 @@ impl SolverFlags {
             warm_start: self.warm_start.or(base.warm_start),
             split_impulse: self.split_impulse.or(base.split_impulse),
             block_solve: self.block_solve.or(base.block_solve),
+            sleep: self.sleep.or(base.sleep),
             baumgarte: self.baumgarte.or(base.baumgarte),
             slop: self.slop.or(base.slop),
             contact_hertz: self.contact_hertz.or(base.contact_hertz),
@@ -812,6 +817,7 @@ fn simulate(a: &SimulateArgs) -> Result<(), Failure> {
                 "warm_start": settings.warm_start,
                 "split_impulse": settings.split_impulse,
                 "block_solve": settings.block_solve,
+                "sleep": settings.sleep,
                 "baumgarte": settings.baumgarte,
                 "slop": settings.slop,
                 "restitution_threshold": settings.restitution_threshold,

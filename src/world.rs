@@ -153,6 +153,14 @@ pub struct World {
     reach: Vec<f32>,
     pub(crate) contacts: Vec<Contact>,
     old_contacts: Vec<Contact>,
+    /// The contacts of sleeping islands, kept with their impulses for when they wake.
+    pub(crate) sleeping_contacts: Vec<Contact>,
+    /// Union-find parents of the sleep pass (scratch).
+    islands: Vec<u32>,
+    /// Each island's least rested time (scratch of the sleep pass).
+    least_rest: Vec<f32>,
+    /// Islands to wake (scratch).
+    to_wake: Vec<u32>,
     pub(crate) joints: Vec<Joint>,
     pub(crate) mouse: Option<MouseJoint>,
     /// Body pairs joined by a joint that must not collide, sorted.
@@ -196,6 +204,10 @@ impl World {
             reach: Vec::new(),
             contacts: Vec::new(),
             old_contacts: Vec::new(),
+            sleeping_contacts: Vec::new(),
+            islands: Vec::new(),
+            least_rest: Vec::new(),
+            to_wake: Vec::new(),
             joints: Vec::new(),
             mouse: None,
             no_collide: Vec::new(),
@@ -289,6 +301,8 @@ impl World {
                 self.no_collide.insert(at, pair);
             }
         }
+        self.wake(a);
+        self.wake(b);
         Ok(id)
     }
 
@@ -303,12 +317,18 @@ impl World {
     pub fn set_joint_drive(&mut self, joint: JointId, value: f32) {
         if let Some(j) = self.joints.get_mut(joint) {
             j.drive = if value.is_finite() { value } else { 0.0 };
+            let (a, b) = (j.a, j.b);
+            self.wake(a);
+            self.wake(b);
         }
     }
 
     /// Grabs a body with the mouse joint (or lets go with `None`).
     pub fn set_mouse(&mut self, mouse: Option<MouseJoint>) {
         self.mouse = mouse.filter(|m| m.body < self.bodies.len() && m.target.is_finite());
+        if let Some(m) = self.mouse {
+            self.wake(m.body);
+        }
     }
 
     /// The mouse joint, if a body is held.
@@ -484,6 +504,9 @@ impl World {
             torque: 0.0,
             correction: Vec2::ZERO,
             correction_angle: 0.0,
+            asleep: false,
+            sleep_time: 0.0,
+            island: 0,
         };
         if dynamic {
             // the terms of World::energy, in the same precision
@@ -594,6 +617,7 @@ impl World {
         clock.fill(&mut stats);
         self.stats = stats;
         self.stepper = Some(stepper);
+        self.update_sleep();
         for b in &mut self.bodies {
             b.force = Vec2::ZERO;
             b.torque = 0.0;
@@ -648,7 +672,7 @@ impl World {
         let g = self.gravity;
         let drag = self.drag;
         for b in &mut self.bodies {
-            if !b.is_dynamic() {
+            if !b.is_dynamic() || b.asleep {
                 continue;
             }
             let mut v = b.velocity + h * b.inv_mass * b.force;
@@ -679,6 +703,34 @@ impl World {
         speculative: Speculative,
         clock: &mut StageClock,
     ) -> f32 {
+        if self.sleeping_contacts.is_empty() && self.bodies.iter().all(|b| !b.asleep) {
+            return self.collide_awake(h, margin, speculative, clock);
+        }
+        // wake every island an awake body (or a moving kinematic one) reaches, then every
+        // island those reach, and so on: a woken island's own pairs were not looked for
+        loop {
+            let woke = self.wake_touched(h, margin);
+            if !woke {
+                break;
+            }
+        }
+        if !self.bodies.iter().any(is_mover) {
+            // all at rest: last step's contacts are kept aside, nothing is looked for
+            self.sleeping_contacts.append(&mut self.contacts);
+            clock.lap(Stage::Broad);
+            clock.lap(Stage::Narrow);
+            return 0.0;
+        }
+        self.collide_awake(h, margin, speculative, clock)
+    }
+
+    fn collide_awake(
+        &mut self,
+        h: f32,
+        margin: f32,
+        speculative: Speculative,
+        clock: &mut StageClock,
+    ) -> f32 {
         self.aabbs.clear();
         self.dynamic.clear();
         self.reach.clear();
@@ -702,7 +754,8 @@ impl World {
                 };
             }
             self.aabbs.push(bb.fattened(0.5 * margin));
-            self.dynamic.push(b.is_dynamic());
+            // a sleeping body is found only by the awake bodies near it, as a static one
+            self.dynamic.push(b.is_dynamic() && !b.asleep);
         }
         self.filtered = filtered;
         self.has_sensors = sensors;
@@ -722,6 +775,24 @@ impl World {
 
         std::mem::swap(&mut self.contacts, &mut self.old_contacts);
         self.contacts.clear();
+        if self.bodies.iter().any(|b| b.asleep) {
+            // contacts within sleeping islands (and of them with static bodies) are kept
+            // aside with their impulses until the island wakes
+            let bodies = &self.bodies;
+            let asleep_pair = |c: &Contact| {
+                let (a, b) = (&bodies[c.a as usize], &bodies[c.b as usize]);
+                // neither awake and dynamic, one of them asleep
+                !is_mover(a) && !is_mover(b) && (a.asleep || b.asleep)
+            };
+            let sleeping = &mut self.sleeping_contacts;
+            self.old_contacts.retain(|c| {
+                let keep = !asleep_pair(c);
+                if !keep {
+                    sleeping.push(*c);
+                }
+                keep
+            });
+        }
         let mut cache = CacheCursor::new(&self.old_contacts);
         let mut deepest = 0.0f32;
         for &(a, b) in &self.broad.pairs {
@@ -767,6 +838,247 @@ impl World {
         deepest
     }
 
+    /// Wakes the island `body` sleeps in (nothing if it is awake).
+    pub fn wake(&mut self, body: BodyId) {
+        if let Some(b) = self.bodies.get(body)
+            && b.asleep
+        {
+            let island = b.island;
+            self.wake_island(island);
+        }
+    }
+
+    /// Wakes every sleeping body of `island` and puts its kept contacts back in the
+    /// cache, so they start warm.
+    fn wake_island(&mut self, island: u32) {
+        for b in &mut self.bodies {
+            if b.asleep && b.island == island {
+                b.asleep = false;
+                b.sleep_time = 0.0;
+            }
+        }
+        let bodies = &self.bodies;
+        let (mut back, mut kept) = (Vec::new(), Vec::new());
+        for c in self.sleeping_contacts.drain(..) {
+            if bodies[c.a as usize].asleep || bodies[c.b as usize].asleep {
+                kept.push(c);
+            } else {
+                back.push(c);
+            }
+        }
+        self.sleeping_contacts = kept;
+        if !back.is_empty() {
+            // the cache is read as one list sorted by pair
+            self.contacts.extend(back);
+            self.contacts.sort_by_key(|c| (c.a, c.b));
+        }
+    }
+
+    /// One pass of waking: every sleeping island that an awake dynamic body's (or a
+    /// moving kinematic body's) box reaches, or whose body was pushed, set moving or
+    /// given a force since it fell asleep. Returns whether any woke.
+    fn wake_touched(&mut self, h: f32, margin: f32) -> bool {
+        let mut wake = std::mem::take(&mut self.to_wake);
+        wake.clear();
+        let mut movers = false;
+        for b in &self.bodies {
+            if b.asleep
+                && (b.velocity != Vec2::ZERO
+                    || b.angular_velocity != 0.0
+                    || b.force != Vec2::ZERO
+                    || b.torque != 0.0)
+            {
+                wake.push(b.island);
+            }
+            movers |= is_mover(b);
+        }
+        if !movers {
+            // nothing awake moves: nothing can reach a sleeping island
+            wake.sort_unstable();
+            wake.dedup();
+            for &island in &wake {
+                self.wake_island(island);
+            }
+            let woke = !wake.is_empty();
+            self.to_wake = wake;
+            return woke;
+        }
+        self.aabbs.clear();
+        self.dynamic.clear();
+        for b in &self.bodies {
+            let mut bb = b.shape.aabb(&b.transform());
+            if b.body_type != BodyType::Static {
+                let d = b.velocity * h;
+                bb = Aabb {
+                    min: bb.min + d.min(Vec2::ZERO),
+                    max: bb.max + d.max(Vec2::ZERO),
+                };
+            }
+            self.aabbs.push(bb.fattened(0.5 * margin));
+            // the movers look for sleepers; sleepers and static bodies are looked up
+            self.dynamic.push(is_mover(b));
+        }
+        let bodies = &self.bodies;
+        self.broad.find_pairs(&self.aabbs, &self.dynamic, |a, b| {
+            let (ba, bb) = (&bodies[a as usize], &bodies[b as usize]);
+            (ba.asleep && is_mover(bb)) || (bb.asleep && is_mover(ba))
+        });
+        for &(a, b) in &self.broad.pairs {
+            for i in [a, b] {
+                let body = &self.bodies[i as usize];
+                if body.asleep {
+                    wake.push(body.island);
+                }
+            }
+        }
+        // a joint to an awake body, or a joint the solver drives
+        for j in &self.joints {
+            let (ba, bb) = (&self.bodies[j.a], &self.bodies[j.b]);
+            if ba.asleep != bb.asleep && (ba.is_dynamic() || bb.is_dynamic()) {
+                for body in [ba, bb] {
+                    if body.asleep {
+                        wake.push(body.island);
+                    }
+                }
+            }
+        }
+        wake.sort_unstable();
+        wake.dedup();
+        for &island in &wake {
+            self.wake_island(island);
+        }
+        let woke = !wake.is_empty();
+        self.to_wake = wake;
+        woke
+    }
+
+    /// After a step: a dynamic body slower than 0.05 m/s and 2 degrees/s (Box2D's
+    /// thresholds) for 0.5 s is at rest; an island of bodies joined by touching contacts
+    /// and joints falls asleep when all of its bodies are. Bodies held by the mouse, with
+    /// a constant force or a driven joint, or touching a moving kinematic body stay awake.
+    fn update_sleep(&mut self) {
+        const LINEAR: f32 = 0.05;
+        const ANGULAR: f32 = 2.0 * std::f32::consts::PI / 180.0;
+        const TIME_TO_SLEEP: f32 = 0.5;
+        if !self.settings.sleep {
+            if self.bodies.iter().any(|b| b.asleep) || !self.sleeping_contacts.is_empty() {
+                let islands: Vec<u32> = self
+                    .bodies
+                    .iter()
+                    .filter(|b| b.asleep)
+                    .map(|b| b.island)
+                    .collect();
+                for i in islands {
+                    self.wake_island(i);
+                }
+            }
+            return;
+        }
+        let dt = self.settings.dt;
+        let n = self.bodies.len();
+        for b in &mut self.bodies {
+            if !b.is_dynamic() || b.asleep {
+                continue;
+            }
+            let r = b.shape.radius();
+            let slow = b.velocity.length_squared() < LINEAR * LINEAR
+                && (b.angular_velocity * b.angular_velocity < ANGULAR * ANGULAR)
+                && (b.angular_velocity * r).abs() < LINEAR;
+            b.sleep_time = if slow { b.sleep_time + dt } else { 0.0 };
+        }
+        // what keeps a body awake whatever its speed
+        for f in &self.forces {
+            self.bodies[f.body].sleep_time = 0.0;
+        }
+        if let Some(m) = self.mouse {
+            self.bodies[m.body].sleep_time = 0.0;
+        }
+        for j in &self.joints {
+            if j.drive != 0.0 || j.motor.is_some_and(|m| m.speed != 0.0) {
+                self.bodies[j.a].sleep_time = 0.0;
+                self.bodies[j.b].sleep_time = 0.0;
+            }
+        }
+        for c in &self.contacts {
+            let (ba, bb) = (&self.bodies[c.a as usize], &self.bodies[c.b as usize]);
+            let kinematic_moving = |b: &Body| {
+                b.body_type == BodyType::Kinematic
+                    && (b.velocity != Vec2::ZERO || b.angular_velocity != 0.0)
+            };
+            if kinematic_moving(ba) {
+                self.bodies[c.b as usize].sleep_time = 0.0;
+            } else if kinematic_moving(bb) {
+                self.bodies[c.a as usize].sleep_time = 0.0;
+            }
+        }
+        if self
+            .bodies
+            .iter()
+            .all(|b| !b.is_dynamic() || b.asleep || b.sleep_time < TIME_TO_SLEEP)
+        {
+            return;
+        }
+        // islands: union-find over awake dynamic bodies joined by touching contacts and
+        // joints
+        let parent = &mut self.islands;
+        parent.clear();
+        parent.extend(0..n as u32);
+        fn find(parent: &mut [u32], mut i: u32) -> u32 {
+            while parent[i as usize] != i {
+                let p = parent[parent[i as usize] as usize];
+                parent[i as usize] = p;
+                i = p;
+            }
+            i
+        }
+        let bodies = &self.bodies;
+        let joins = |a: usize, b: usize| bodies[a].is_dynamic() && bodies[b].is_dynamic();
+        let union = |parent: &mut Vec<u32>, a: usize, b: usize| {
+            let (ra, rb) = (find(parent, a as u32), find(parent, b as u32));
+            if ra != rb {
+                // the smaller index is the root: the same islands whatever the order
+                let (lo, hi) = (ra.min(rb), ra.max(rb));
+                parent[hi as usize] = lo;
+            }
+        };
+        let touch = self.settings.slop.max(0.005);
+        for c in &self.contacts {
+            let (a, b) = (c.a as usize, c.b as usize);
+            if joins(a, b) && c.manifold.points().iter().any(|p| p.separation < touch) {
+                union(parent, a, b);
+            }
+        }
+        for j in &self.joints {
+            if joins(j.a, j.b) {
+                union(parent, j.a, j.b);
+            }
+        }
+        // an island sleeps when its least rested body has rested long enough
+        let least = &mut self.least_rest;
+        least.clear();
+        least.resize(n, f32::INFINITY);
+        for (i, b) in bodies.iter().enumerate() {
+            if b.is_dynamic() && !b.asleep {
+                let r = find(parent, i as u32) as usize;
+                least[r] = least[r].min(b.sleep_time);
+            }
+        }
+        for i in 0..n {
+            let b = &self.bodies[i];
+            if !b.is_dynamic() || b.asleep {
+                continue;
+            }
+            let r = find(&mut self.islands, i as u32);
+            if least[r as usize] >= TIME_TO_SLEEP {
+                let b = &mut self.bodies[i];
+                b.asleep = true;
+                b.island = r;
+                b.velocity = Vec2::ZERO;
+                b.angular_velocity = 0.0;
+            }
+        }
+    }
+
     /// A body's position in the scene file's coordinates, [`World::origin`] added back
     /// in f64.
     pub fn world_position(&self, body: BodyId) -> glam::DVec2 {
@@ -803,6 +1115,14 @@ impl World {
         }
         h
     }
+}
+
+/// An awake dynamic body, or a kinematic one that moves: what wakes a sleeping island
+/// it reaches.
+fn is_mover(b: &Body) -> bool {
+    (b.is_dynamic() && !b.asleep)
+        || (b.body_type == BodyType::Kinematic
+            && (b.velocity != Vec2::ZERO || b.angular_velocity != 0.0))
 }
 
 /// The first derived value of a new joint that is not finite, by name.

@@ -107,6 +107,7 @@ fn a_resting_box_s_converged_lambdas_carry_its_weight() {
     let mut s = SolverSettings::pgs();
     s.iterations = 200;
     s.tolerance = 0.0;
+    s.sleep = false;
     let mut w = World::new(Some(Vec2::new(0.0, -10.0)), s);
     w.add_body(&BodyDef {
         name: "ground".into(),

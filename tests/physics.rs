@@ -716,6 +716,11 @@ fn a_resting_stack_hits_the_contact_cache_every_time() {
                 [[stack]]\ncount = 20\nbox = [1.0, 1.0]\norigin = [0.0, 0.0]\n";
     let sc = sandbox2d::scene::load_str(text, "stack20.toml").unwrap();
     for settings in [SolverSettings::soft(), SolverSettings::pgs()] {
+        // awake throughout: a sleeping stack's contacts are kept aside, not refound
+        let settings = SolverSettings {
+            sleep: false,
+            ..settings
+        };
         let mut w = World::from_def(&sc.world, settings).unwrap();
         w.step().unwrap();
         let mut last = point_ids(&w);
@@ -743,6 +748,8 @@ fn scene_world(text: &str, kind: sandbox2d::SolverKind) -> World {
     let sc = sandbox2d::scene::load_str(text, "test.toml").expect("parses");
     let settings = sandbox2d::SolverOverrides {
         kind: Some(kind),
+        // the solver is under test: nothing sleeps
+        sleep: Some(false),
         ..sc.world.solver
     }
     .resolve();
@@ -767,6 +774,7 @@ fn extremes_world(sweep: sandbox2d::bench::extremes::Sweep, value: f64) -> World
     let def = sandbox2d::bench::extremes::world_def(sweep, value);
     let settings = sandbox2d::SolverOverrides {
         kind: Some(sandbox2d::SolverSettings::default().kind),
+        sleep: Some(false),
         ..def.solver
     }
     .resolve();
@@ -875,6 +883,7 @@ fn extremes_world_of(
     let def = sandbox2d::bench::extremes::world_def(sweep, value);
     let settings = sandbox2d::SolverOverrides {
         kind: Some(kind),
+        sleep: Some(false),
         ..def.solver
     }
     .resolve();

@@ -119,7 +119,11 @@ impl Session {
             error: None,
             note: None,
             time_scale: 1.0,
-            overlays: Overlays::NONE,
+            // the window shows who sleeps (Z toggles)
+            overlays: Overlays {
+                sleeping: true,
+                ..Overlays::NONE
+            },
             drag: None,
             emitter: None,
             history: VecDeque::new(),

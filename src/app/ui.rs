@@ -179,6 +179,9 @@ fn contents(ui: &mut Ui, s: &mut Session, frame: FrameStats, actions: &mut Panel
     if has("block_solve") {
         ui.checkbox(&mut st.block_solve, "block solve (2 points together)");
     }
+    if has("sleep") {
+        ui.checkbox(&mut st.sleep, "sleep (islands at rest)");
+    }
     if s.settings != before {
         s.apply_settings();
     }
@@ -193,6 +196,7 @@ fn contents(ui: &mut Ui, s: &mut Session, frame: FrameStats, actions: &mut Panel
     ui.checkbox(&mut s.overlays.contacts, "contacts (normal ~ lambda)");
     ui.checkbox(&mut s.overlays.aabbs, "bounding boxes");
     ui.checkbox(&mut s.overlays.velocities, "velocities");
+    ui.checkbox(&mut s.overlays.sleeping, "sleeping bodies dimmed (Z)");
 
     ui.separator();
     stats(ui, s, frame);

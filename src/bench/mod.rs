@@ -204,6 +204,8 @@ impl Setting {
                 warm_start: Some(self.warm_start),
                 split_impulse: Some(self.split_impulse),
                 tolerance: Some(self.tolerance),
+                // the lab measures the solver: nothing sleeps (as in Box2D's benchmarks)
+                sleep: Some(false),
                 ..Default::default()
             })
             .resolve()

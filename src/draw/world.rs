@@ -32,6 +32,8 @@ pub struct Overlays {
     /// contact marks then shrink with the zoom ([`mark_sizes_px`]) so that, zoomed out,
     /// they never hide the bodies they sit on. `None`: their fixed pixel sizes.
     pub pixels_per_meter: Option<f32>,
+    /// Sleeping bodies drawn dimmed (half their colour, on the way to the background).
+    pub sleeping: bool,
 }
 
 impl Default for Overlays {
@@ -49,6 +51,7 @@ impl Overlays {
         contact_scale: None,
         velocity_scale: 0.1,
         pixels_per_meter: None,
+        sleeping: false,
     };
     /// Every overlay.
     pub const ALL: Overlays = Overlays {
@@ -58,6 +61,7 @@ impl Overlays {
         contact_scale: None,
         velocity_scale: 0.1,
         pixels_per_meter: None,
+        sleeping: true,
     };
     /// With `contact_scale: None`, the largest normal impulse of the frame is drawn this
     /// many mean body radii long.
@@ -149,7 +153,7 @@ pub fn world_draw_list(world: &World, overlays: &Overlays) -> DrawList {
 pub fn fill_world_draw_list(list: &mut DrawList, world: &World, overlays: &Overlays) {
     list.clear();
     for (i, b) in world.bodies.iter().enumerate() {
-        push_body(list, i, b);
+        push_body_dimmed(list, i, b, overlays.sleeping && b.asleep);
     }
     // joints: a line between the two anchors (a thread, a rope link) and a dot at each
     // (where a hinge or weld holds); the mouse joint from the grabbed point to its target
@@ -186,7 +190,17 @@ pub fn fill_world_draw_list(list: &mut DrawList, world: &World, overlays: &Overl
 /// Adds one body: a polygon (filled and outlined) or a circle, with a radius line for a
 /// rigid circle and none for a particle.
 pub fn push_body(list: &mut DrawList, index: usize, body: &Body) {
-    let fill = body_fill(index, body);
+    push_body_dimmed(list, index, body, false);
+}
+
+/// [`push_body`], with `dim`: half its fill (a sleeping body).
+pub fn push_body_dimmed(list: &mut DrawList, index: usize, body: &Body, dim: bool) {
+    let mut fill = body_fill(index, body);
+    if dim {
+        for c in &mut fill[..3] {
+            *c /= 2;
+        }
+    }
     let outline = outline_for(fill);
     let xf = body.transform();
     match &body.shape {

@@ -86,6 +86,7 @@ pub(crate) struct FileSolver {
     pub slop: Option<S<f32>>,
     pub split_impulse: Option<S<bool>>,
     pub block_solve: Option<S<bool>>,
+    pub sleep: Option<S<bool>>,
     pub restitution_threshold: Option<S<f32>>,
     pub soft_step: Option<S<bool>>,
     pub contact_hertz: Option<S<f32>>,

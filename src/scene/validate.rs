@@ -631,6 +631,7 @@ impl Ctx<'_> {
             slop: f(&s.slop, "slop")?,
             split_impulse: s.split_impulse.as_ref().map(|v| *v.get_ref()),
             block_solve: s.block_solve.as_ref().map(|v| *v.get_ref()),
+            sleep: s.sleep.as_ref().map(|v| *v.get_ref()),
             restitution_threshold: f(&s.restitution_threshold, "restitution_threshold")?,
             contact_hertz: f(&s.contact_hertz, "contact_hertz")?,
             contact_damping_ratio: f(&s.contact_damping_ratio, "contact_damping_ratio")?,

@@ -663,7 +663,11 @@ mod tests {
             "spring.toml",
         )
         .unwrap();
-        let mut w = crate::World::from_def(&sc.world, crate::SolverSettings::soft()).unwrap();
+        let settings = crate::SolverSettings {
+            sleep: false,
+            ..crate::SolverSettings::soft()
+        };
+        let mut w = crate::World::from_def(&sc.world, settings).unwrap();
         for _ in 0..600 {
             w.step().unwrap();
         }

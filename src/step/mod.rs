@@ -172,7 +172,12 @@ pub(crate) mod testing {
             "box.toml",
         )
         .unwrap();
-        World::from_def(&sc.world, SolverSettings::defaults(kind)).unwrap()
+        // the solver's rows are under test: nothing sleeps
+        let settings = SolverSettings {
+            sleep: false,
+            ..SolverSettings::defaults(kind)
+        };
+        World::from_def(&sc.world, settings).unwrap()
     }
 
     /// A 2 kg disc hanging at rest 1 m below a
@@ -186,7 +191,12 @@ pub(crate) mod testing {
             "hang.toml",
         )
         .unwrap();
-        World::from_def(&sc.world, SolverSettings::defaults(kind)).unwrap()
+        // the solver's rows are under test: nothing sleeps
+        let settings = SolverSettings {
+            sleep: false,
+            ..SolverSettings::defaults(kind)
+        };
+        World::from_def(&sc.world, settings).unwrap()
     }
 
     /// The sum of the normal lambdas of the last solve (N s).

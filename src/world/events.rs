@@ -90,7 +90,8 @@ impl World {
         self.events.clear();
         // touching pairs now, with their summed normal impulse
         let mut now: Vec<((u32, u32), f32)> = Vec::new();
-        for c in &self.contacts {
+        // a sleeping island's contacts still touch
+        for c in self.contacts.iter().chain(&self.sleeping_contacts) {
             let points = c.manifold.points();
             let impulse: f32 = points.iter().map(|p| p.normal_impulse).sum();
             // overlapping, or pushed apart by the solve (a speculative point the solver

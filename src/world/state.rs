@@ -60,6 +60,9 @@ pub struct WorldState {
     pub joints: Vec<Joint>,
     /// The contact cache: the last step's contacts, sorted by pair, with their impulses.
     pub contacts: Vec<Contact>,
+    /// The contacts of sleeping islands, with their impulses.
+    #[serde(default)]
+    pub sleeping_contacts: Vec<Contact>,
     /// The mouse joint, if a body is held.
     pub mouse: Option<MouseJoint>,
     /// Whether events are recorded.
@@ -203,7 +206,12 @@ impl WorldState {
                 return bad(format!("the {what}s are not sorted"));
             }
         }
-        for (k, c) in self.contacts.iter().enumerate() {
+        for (k, c) in self
+            .contacts
+            .iter()
+            .chain(&self.sleeping_contacts)
+            .enumerate()
+        {
             body("a contact", c.b as usize)?;
             if c.a >= c.b {
                 return bad(format!("contact #{k} is of bodies #{} and #{}", c.a, c.b));
@@ -284,6 +292,7 @@ impl World {
             bodies: self.bodies.clone(),
             joints: self.joints.clone(),
             contacts: self.contacts.clone(),
+            sleeping_contacts: self.sleeping_contacts.clone(),
             mouse: self.mouse,
             record_events: self.record_events,
             origin: self.origin,
@@ -311,6 +320,7 @@ impl World {
         self.dynamic.clear();
         self.reach.clear();
         self.contacts = s.contacts.clone();
+        self.sleeping_contacts = s.sleeping_contacts.clone();
         self.old_contacts.clear();
         self.joints = s.joints.clone();
         self.mouse = s.mouse;

@@ -1,0 +1,187 @@
+//! Sleeping: islands at rest stop costing, and wake when anything reaches them.
+
+use sandbox2d::{SolverKind, SolverSettings, World};
+
+/// A stack of `count` 1 m boxes on a static ground, gravity 10, under `kind`'s defaults
+/// (sleep on, as they default).
+fn stack(count: u32, kind: SolverKind) -> World {
+    let text = format!(
+        "name = \"s\"\n[world]\ngravity = [0.0, -10.0]\n\
+         [[body]]\nname = \"ground\"\ntype = \"static\"\nshape = {{ box = [40.0, 1.0] }}\nposition = [0.0, -0.5]\n\
+         [[stack]]\ncount = {count}\nbox = [1.0, 1.0]\norigin = [0.0, 0.0]\n"
+    );
+    let sc = sandbox2d::scene::load_str(&text, "stack.toml").unwrap();
+    World::from_def(&sc.world, SolverSettings::defaults(kind)).unwrap()
+}
+
+fn steps(w: &mut World, n: usize) {
+    for _ in 0..n {
+        w.step().unwrap();
+    }
+}
+
+fn asleep(w: &World) -> usize {
+    w.bodies.iter().filter(|b| b.asleep).count()
+}
+
+fn box_def(name: &str, y: f32) -> sandbox2d::BodyDef {
+    sandbox2d::BodyDef {
+        name: name.into(),
+        shape: sandbox2d::ShapeDef::Box {
+            width: 1.0,
+            height: 1.0,
+        },
+        position: sandbox2d::math::Vec2::new(0.0, y),
+        ..Default::default()
+    }
+}
+
+#[test]
+fn a_stack_at_rest_falls_asleep_and_stops_costing() {
+    // every solver: a stack of 5 at rest sleeps within 3 s (0.5 s below 0.05 m/s and
+    // 2 deg/s), then its bodies do not move by a bit and no contact reaches the solver
+    for kind in SolverKind::ALL {
+        let mut w = stack(5, kind);
+        steps(&mut w, 180);
+        assert_eq!(asleep(&w), 5, "{kind:?}: all five asleep after 3 s");
+        let before: Vec<_> = w.bodies.iter().map(|b| (b.position, b.angle)).collect();
+        steps(&mut w, 60);
+        let after: Vec<_> = w.bodies.iter().map(|b| (b.position, b.angle)).collect();
+        assert_eq!(before, after, "{kind:?}: a sleeping stack moved");
+        assert_eq!(
+            w.stats().contacts,
+            0,
+            "{kind:?}: contacts solved while asleep"
+        );
+        assert!(
+            w.bodies
+                .iter()
+                .all(|b| b.velocity == sandbox2d::math::Vec2::ZERO)
+        );
+    }
+}
+
+#[test]
+fn sleep_off_keeps_every_body_awake() {
+    for kind in SolverKind::ALL {
+        let mut w = stack(5, kind);
+        w.settings.sleep = false;
+        steps(&mut w, 240);
+        assert_eq!(asleep(&w), 0, "{kind:?}");
+        assert!(
+            w.stats().contacts >= 5,
+            "{kind:?}: the stack's contacts are solved"
+        );
+    }
+}
+
+#[test]
+fn a_box_dropped_on_a_sleeping_stack_wakes_it_and_is_carried() {
+    // the falling box reaches the island: it wakes whole, with its contacts' impulses
+    // kept (warm), and the stack carries the new box (its top at 6 m, within the slops)
+    for kind in SolverKind::ALL {
+        let mut w = stack(5, kind);
+        steps(&mut w, 180);
+        assert_eq!(asleep(&w), 5, "{kind:?}");
+        let top = w.add_body(&box_def("dropped", 8.0)).unwrap();
+        let mut woke_at = None;
+        for k in 0..240 {
+            w.step().unwrap();
+            if woke_at.is_none() && asleep(&w) == 0 {
+                woke_at = Some(k);
+            }
+        }
+        let k = woke_at.unwrap_or_else(|| panic!("{kind:?}: the stack never woke"));
+        // free fall from 8 m to the top at 5 m takes sqrt(2 * 2.5 / 10) = 0.71 s: it must
+        // wake before the box lands (42 steps), not after
+        assert!(k < 45, "{kind:?}: woke at step {k}");
+        let y = w.bodies[top].position.y;
+        assert!(
+            (y - 5.5).abs() < 0.05,
+            "{kind:?}: the dropped box rests at {y}, not on the stack"
+        );
+        for (i, b) in w.bodies[1..6].iter().enumerate() {
+            let want = 0.5 + i as f32;
+            assert!(
+                (b.position.y - want).abs() < 0.05,
+                "{kind:?}: box {i} at {}",
+                b.position.y
+            );
+        }
+    }
+}
+
+#[test]
+fn a_force_a_grab_or_a_new_velocity_wakes_the_island() {
+    for kind in SolverKind::ALL {
+        let mut w = stack(3, kind);
+        steps(&mut w, 180);
+        assert_eq!(asleep(&w), 3, "{kind:?}");
+        // a force on the bottom box wakes all three (one island)
+        let p = w.bodies[1].position;
+        w.apply_force(1, sandbox2d::math::Vec2::new(50.0, 0.0), p);
+        w.step().unwrap();
+        assert_eq!(asleep(&w), 0, "{kind:?}: a force woke nothing");
+        steps(&mut w, 240);
+        assert_eq!(asleep(&w), 3, "{kind:?}: asleep again");
+        // the mouse
+        let grab = w.grab(3, w.bodies[3].position).unwrap();
+        w.set_mouse(Some(grab));
+        assert_eq!(asleep(&w), 0, "{kind:?}: a grab woke nothing");
+        w.set_mouse(None);
+        steps(&mut w, 240);
+        assert_eq!(asleep(&w), 3, "{kind:?}: asleep again");
+        // a velocity set from outside
+        w.bodies[2].velocity.x = 1.0;
+        w.step().unwrap();
+        assert_eq!(asleep(&w), 0, "{kind:?}: a new velocity woke nothing");
+        assert!(w.bodies[2].position.x > 0.0, "{kind:?}: and it moved");
+    }
+}
+
+#[test]
+fn a_sleeping_world_saves_and_restores_bit_for_bit() {
+    // the sleeping island's kept contacts are part of the state: a world restored while
+    // asleep, woken by the same falling box, steps to the same bits
+    let mut w = stack(5, SolverKind::Soft);
+    steps(&mut w, 180);
+    assert_eq!(asleep(&w), 5);
+    let saved = w.snapshot();
+    let mut r = stack(5, SolverKind::Soft);
+    r.restore(&saved).unwrap();
+    for world in [&mut w, &mut r] {
+        world.add_body(&box_def("dropped", 7.0)).unwrap();
+        steps(world, 120);
+    }
+    assert_eq!(w.state_hash(), r.state_hash());
+    let json = saved.to_json().unwrap();
+    let back = sandbox2d::WorldState::from_json(&json).unwrap();
+    let mut r2 = stack(5, SolverKind::Soft);
+    r2.restore(&back).unwrap();
+    r2.add_body(&box_def("dropped", 7.0)).unwrap();
+    steps(&mut r2, 120);
+    assert_eq!(w.state_hash(), r2.state_hash(), "through JSON");
+}
+
+#[test]
+fn falling_asleep_ends_no_touch() {
+    // a sleeping island's contacts still touch: no end events when it falls asleep, and
+    // none begin again when it wakes
+    let mut w = stack(3, SolverKind::Soft);
+    w.record_events = true;
+    let mut begins = 0;
+    let mut ends = 0;
+    for _ in 0..300 {
+        w.step().unwrap();
+        for e in w.events() {
+            match e.kind {
+                sandbox2d::EventKind::Begin => begins += 1,
+                sandbox2d::EventKind::End => ends += 1,
+                _ => {}
+            }
+        }
+    }
+    assert_eq!(asleep(&w), 3);
+    assert_eq!(begins, 3, "three touching pairs begin once");
+    assert_eq!(ends, 0, "no pair ended");
+}
