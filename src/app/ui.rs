@@ -216,6 +216,10 @@ fn stats(ui: &mut Ui, s: &Session, frame: FrameStats) {
             };
             row("fps", format!("{:.0}", frame.fps));
             row("bodies", frame.bodies.to_string());
+            let asleep = s.world.bodies.iter().filter(|b| b.asleep).count();
+            if asleep > 0 {
+                row("asleep", asleep.to_string());
+            }
             row("joints", s.world.joints().len().to_string());
             row("sim time", format!("{:.2} s", s.world.time()));
             row("ms / step", format!("{:.3} (mean {mean_ms:.3})", last.ms));
