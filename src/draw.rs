@@ -13,7 +13,7 @@ use glam::Vec2;
 
 pub mod world;
 
-pub use world::{Overlays, fill_world_draw_list, push_joint_lines, world_draw_list};
+pub use world::{Overlays, Tint, fill_world_draw_list, push_joint_lines, world_draw_list};
 
 /// Maps y-up world metres to y-down pixels.
 ///
@@ -275,6 +275,8 @@ pub struct DrawList {
     pub background: Color,
     /// Width in pixels of circle and polygon outlines (and of circles' radius lines).
     pub outline_width_px: f32,
+    /// Per-body values of the tint overlay (scratch kept between frames).
+    pub(crate) scratch: Vec<f32>,
 }
 
 impl Default for DrawList {
@@ -299,6 +301,7 @@ impl DrawList {
             lines: Vec::new(),
             background: Self::DEFAULT_BACKGROUND,
             outline_width_px: Self::DEFAULT_OUTLINE_WIDTH_PX,
+            scratch: Vec::new(),
         }
     }
 

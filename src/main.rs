@@ -66,6 +66,16 @@ enum OverlayArg {
 }
 
 #[cfg(feature = "render")]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+enum TintArg {
+    /// Each body by its speed (blue at rest, red from 5 m/s).
+    Speed,
+    /// Each body by its constraint error: deepest contact overlap, largest joint
+    /// separation (red from 5 cm).
+    Error,
+}
+
+#[cfg(feature = "render")]
 #[derive(Args)]
 struct RenderArgs {
     /// A scene file, or the name of a built-in scene (see `sandbox2d scenes`).
@@ -88,6 +98,9 @@ struct RenderArgs {
     /// Debug overlays, comma-separated.
     #[arg(long, value_enum, value_delimiter = ',')]
     overlays: Vec<OverlayArg>,
+    /// Colour each body by a measure instead of its own colour.
+    #[arg(long, value_enum)]
+    tint: Option<TintArg>,
     /// Side by side: one pane per --compare (2 to 4), each the scene with these solver
     /// flags over the others, e.g. --compare "--solver pgs --iterations 4" --compare
     /// "--solver soft"; the panes share --size's width.
@@ -1099,6 +1112,11 @@ fn frame_job(a: &RenderArgs) -> Result<sandbox2d::render::FrameJob, Failure> {
         contacts: a.overlays.contains(&OverlayArg::Contacts),
         aabbs: a.overlays.contains(&OverlayArg::Aabbs),
         velocities: a.overlays.contains(&OverlayArg::Velocities),
+        tint: match a.tint {
+            None => sandbox2d::draw::world::Tint::Off,
+            Some(TintArg::Speed) => sandbox2d::draw::world::Tint::Speed,
+            Some(TintArg::Error) => sandbox2d::draw::world::Tint::Error,
+        },
         ..sandbox2d::draw::Overlays::NONE
     };
     Ok(sandbox2d::render::FrameJob {

@@ -197,6 +197,17 @@ fn contents(ui: &mut Ui, s: &mut Session, frame: FrameStats, actions: &mut Panel
     ui.checkbox(&mut s.overlays.aabbs, "bounding boxes");
     ui.checkbox(&mut s.overlays.velocities, "velocities");
     ui.checkbox(&mut s.overlays.sleeping, "sleeping bodies dimmed (Z)");
+    ui.horizontal(|ui| {
+        use crate::draw::Tint;
+        ui.label("tint (V)");
+        for (t, name) in [
+            (Tint::Off, "off"),
+            (Tint::Speed, "speed"),
+            (Tint::Error, "error"),
+        ] {
+            ui.selectable_value(&mut s.overlays.tint, t, name);
+        }
+    });
 
     ui.separator();
     stats(ui, s, frame);

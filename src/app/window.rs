@@ -864,6 +864,10 @@ impl App {
                 (self.follow, self.selected) = (None, None);
                 self.reset_camera();
             }
+            Key::Character(c) if c.eq_ignore_ascii_case("v") => {
+                self.session.overlays.tint = self.session.overlays.tint.next();
+                self.panel_dirty = true;
+            }
             Key::Character(c) if c.eq_ignore_ascii_case("z") => {
                 self.session.overlays.sleeping = !self.session.overlays.sleeping;
                 self.panel_dirty = true;

@@ -34,6 +34,102 @@ pub struct Overlays {
     pub pixels_per_meter: Option<f32>,
     /// Sleeping bodies drawn dimmed (half their colour, on the way to the background).
     pub sleeping: bool,
+    /// Bodies coloured by a measure instead of their own colour ([`Tint`]).
+    pub tint: Tint,
+}
+
+/// What the tint overlay colours each body by, on a ramp from blue (0) through green
+/// and yellow to red (at [`Tint::full`] and beyond).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Tint {
+    /// Bodies keep their own colours.
+    #[default]
+    Off,
+    /// Speed: |v| + |w| r (m/s), the fastest point's; red from 5 m/s.
+    Speed,
+    /// Constraint error: the deepest overlap of the body's contacts and the largest
+    /// anchor separation of its joints (m); red from 5 cm (ten PGS slops).
+    Error,
+}
+
+impl Tint {
+    /// The value drawn red.
+    pub fn full(self) -> f32 {
+        match self {
+            Tint::Off => 1.0,
+            Tint::Speed => 5.0,
+            Tint::Error => 0.05,
+        }
+    }
+
+    /// The next in the cycle off, speed, error (the window's V key).
+    pub fn next(self) -> Tint {
+        match self {
+            Tint::Off => Tint::Speed,
+            Tint::Speed => Tint::Error,
+            Tint::Error => Tint::Off,
+        }
+    }
+
+    /// Each body's value under this tint (0 for static bodies and for `Off`).
+    pub fn values(self, world: &World, out: &mut Vec<f32>) {
+        out.clear();
+        out.resize(world.bodies.len(), 0.0);
+        match self {
+            Tint::Off => {}
+            Tint::Speed => {
+                for (v, b) in out.iter_mut().zip(&world.bodies) {
+                    if b.body_type != BodyType::Static {
+                        *v = b.velocity.length() + b.angular_velocity.abs() * b.shape.radius();
+                    }
+                }
+            }
+            Tint::Error => {
+                for c in world.contacts() {
+                    let deepest = c
+                        .manifold
+                        .points()
+                        .iter()
+                        .fold(0.0f32, |m, p| m.max(-p.separation));
+                    for i in [c.a as usize, c.b as usize] {
+                        out[i] = out[i].max(deepest);
+                    }
+                }
+                for j in world.joints() {
+                    let e = j.position_error(&world.bodies);
+                    for i in [j.a, j.b] {
+                        out[i] = out[i].max(e);
+                    }
+                }
+                for (v, b) in out.iter_mut().zip(&world.bodies) {
+                    if b.body_type == BodyType::Static {
+                        *v = 0.0;
+                    }
+                }
+            }
+        }
+    }
+}
+
+/// The tint ramp at t in [0, 1] (clamped): blue, cyan, green, yellow, red.
+pub fn tint_color(t: f32) -> Color {
+    const STOPS: [[f32; 3]; 5] = [
+        [40.0, 90.0, 220.0],
+        [40.0, 200.0, 220.0],
+        [60.0, 200.0, 80.0],
+        [230.0, 210.0, 50.0],
+        [230.0, 50.0, 40.0],
+    ];
+    let t = if t.is_finite() {
+        t.clamp(0.0, 1.0)
+    } else {
+        1.0
+    };
+    let x = t * (STOPS.len() - 1) as f32;
+    let i = (x as usize).min(STOPS.len() - 2);
+    let f = x - i as f32;
+    let c = |k: usize| (STOPS[i][k] + f * (STOPS[i + 1][k] - STOPS[i][k])).round() as u8;
+    [c(0), c(1), c(2), 255]
 }
 
 impl Default for Overlays {
@@ -52,6 +148,7 @@ impl Overlays {
         velocity_scale: 0.1,
         pixels_per_meter: None,
         sleeping: false,
+        tint: Tint::Off,
     };
     /// Every overlay.
     pub const ALL: Overlays = Overlays {
@@ -62,6 +159,7 @@ impl Overlays {
         velocity_scale: 0.1,
         pixels_per_meter: None,
         sleeping: true,
+        tint: Tint::Off,
     };
     /// With `contact_scale: None`, the largest normal impulse of the frame is drawn this
     /// many mean body radii long.
@@ -152,8 +250,23 @@ pub fn world_draw_list(world: &World, overlays: &Overlays) -> DrawList {
 /// with the world's bodies and the chosen overlays.
 pub fn fill_world_draw_list(list: &mut DrawList, world: &World, overlays: &Overlays) {
     list.clear();
-    for (i, b) in world.bodies.iter().enumerate() {
-        push_body_dimmed(list, i, b, overlays.sleeping && b.asleep);
+    if overlays.tint == Tint::Off {
+        for (i, b) in world.bodies.iter().enumerate() {
+            push_body_dimmed(list, i, b, overlays.sleeping && b.asleep);
+        }
+    } else {
+        let mut values = std::mem::take(&mut list.scratch);
+        overlays.tint.values(world, &mut values);
+        let full = overlays.tint.full();
+        for ((i, b), &v) in world.bodies.iter().enumerate().zip(&values) {
+            let fill = if b.body_type == BodyType::Static {
+                body_fill(i, b)
+            } else {
+                tint_color(v / full)
+            };
+            push_body_colored(list, b, fill, overlays.sleeping && b.asleep);
+        }
+        list.scratch = values;
     }
     // joints: a line between the two anchors (a thread, a rope link) and a dot at each
     // (where a hinge or weld holds); the mouse joint from the grabbed point to its target
@@ -195,7 +308,12 @@ pub fn push_body(list: &mut DrawList, index: usize, body: &Body) {
 
 /// [`push_body`], with `dim`: half its fill (a sleeping body).
 pub fn push_body_dimmed(list: &mut DrawList, index: usize, body: &Body, dim: bool) {
-    let mut fill = body_fill(index, body);
+    push_body_colored(list, body, body_fill(index, body), dim);
+}
+
+/// Adds one body filled with `fill` (halved with `dim`).
+pub fn push_body_colored(list: &mut DrawList, body: &Body, fill: Color, dim: bool) {
+    let mut fill = fill;
     if dim {
         for c in &mut fill[..3] {
             *c /= 2;
@@ -666,5 +784,47 @@ mod tests {
             l.background = [1, 1, 1, 255];
             l
         });
+    }
+
+    #[test]
+    fn the_tint_colours_by_speed_and_by_error() {
+        // the ramp: blue at 0, red at 1 and beyond, red rising along the ramp
+        assert_eq!(tint_color(0.0), [40, 90, 220, 255]);
+        assert_eq!(tint_color(1.0), [230, 50, 40, 255]);
+        assert_eq!(tint_color(7.0), tint_color(1.0));
+        let reds: Vec<u8> = (0..=10).map(|k| tint_color(k as f32 / 10.0)[0]).collect();
+        assert!(reds.windows(2).all(|w| w[0] <= w[1]), "{reds:?}");
+        // speed: |v| + |w| r of the body; the static ground 0
+        let mut w = world();
+        w.bodies[1].velocity = Vec2::new(3.0, 4.0);
+        w.bodies[1].angular_velocity = 2.0;
+        let mut v = Vec::new();
+        Tint::Speed.values(&w, &mut v);
+        let r = w.bodies[1].shape.radius();
+        assert_eq!(v[0], 0.0);
+        assert!((v[1] - (5.0 + 2.0 * r)).abs() < 1e-5, "{}", v[1]);
+        // error: the box pushed 3 cm into the ground carries its contact's overlap
+        let mut w = world();
+        w.bodies[1].position.y = 0.47;
+        w.step().unwrap();
+        Tint::Error.values(&w, &mut v);
+        let deepest = w
+            .contacts()
+            .iter()
+            .flat_map(|c| c.manifold.points().iter().map(|p| -p.separation))
+            .fold(0.0f32, f32::max);
+        assert!(deepest > 0.01, "the box overlaps: {deepest}");
+        assert_eq!(v[1], deepest);
+        assert_eq!(v[0], 0.0, "static bodies are not tinted");
+        // drawn: the tinted list fills the box with the ramp's colour of its value
+        let list = world_draw_list(
+            &w,
+            &Overlays {
+                tint: Tint::Error,
+                ..Overlays::NONE
+            },
+        );
+        let want = tint_color(deepest / Tint::Error.full());
+        assert!(list.boxes.iter().any(|b| b.fill == want), "{want:?}");
     }
 }
