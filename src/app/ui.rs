@@ -266,6 +266,15 @@ fn stats(ui: &mut Ui, s: &Session, frame: FrameStats) {
         s.history.iter().map(|x| x.penetration),
         Color32::from_rgb(255, 170, 80),
     );
+    if s.history.iter().any(|x| x.mlcp_residual.is_some()) {
+        let sampled: Vec<f32> = s.history.iter().filter_map(|x| x.mlcp_residual).collect();
+        plot(
+            ui,
+            "residual vs converged MLCP (relative)",
+            sampled.into_iter(),
+            Color32::from_rgb(120, 230, 200),
+        );
+    }
 }
 
 /// The stages of a step and their colours, in pipeline order.
