@@ -21,7 +21,21 @@ pub struct FrameStats {
     pub fps: f32,
     /// Bodies drawn.
     pub bodies: usize,
+    /// A frame's phases (ms), the mean over recent frames, as [`FRAME_PHASES`] names them.
+    pub phase_ms: [f32; 6],
 }
+
+/// The phases of a window frame and their colours, in the order they run: the draw
+/// list, the panel (egui, when it is due), acquiring the surface, encoding and
+/// submitting, the simulation (stepped while the rasteriser works) and present.
+pub const FRAME_PHASES: [(&str, Color32); 6] = [
+    ("draw list", Color32::from_rgb(80, 160, 255)),
+    ("panel", Color32::from_rgb(230, 200, 70)),
+    ("acquire", Color32::from_rgb(150, 150, 150)),
+    ("encode", Color32::from_rgb(90, 210, 140)),
+    ("simulate", Color32::from_rgb(255, 150, 70)),
+    ("present", Color32::from_rgb(210, 110, 230)),
+];
 
 /// The time step slider's range (s): 1/1000 to 1/15.
 pub const MIN_DT: f32 = 0.001;
@@ -240,6 +254,12 @@ fn stats(ui: &mut Ui, s: &Session, frame: FrameStats) {
             row("penetration", format!("{:.4} m", last.penetration));
         });
     profiler(ui, &last.stage_ms);
+    stacked_bar(
+        ui,
+        "a frame by phase, recent mean",
+        &FRAME_PHASES,
+        &frame.phase_ms,
+    );
     plot(
         ui,
         "ms / step",
@@ -286,25 +306,26 @@ pub const STAGES: [(&str, Color32); 5] = [
     ("integrate", Color32::from_rgb(210, 110, 230)),
 ];
 
-/// Each stage's share of the bar's width (they sum to 1; all 0 before a step).
-pub fn stage_shares(stage_ms: &[f32; 5]) -> [f32; 5] {
-    let total: f32 = stage_ms.iter().map(|v| v.max(0.0)).sum();
-    if total <= 0.0 || !total.is_finite() {
-        return [0.0; 5];
-    }
-    stage_ms.map(|v| v.max(0.0) / total)
-}
-
 /// The last step's time split by stage: a stacked bar and, under it, each stage's ms.
 fn profiler(ui: &mut Ui, stage_ms: &[f32; 5]) {
-    let total: f32 = stage_ms.iter().sum();
-    ui.small(format!("last step by stage ({total:.3} ms)"));
+    stacked_bar(ui, "last step by stage", &STAGES, stage_ms);
+}
+
+/// A stacked bar of `parts` (ms), titled with their total, and each part's ms under it.
+fn stacked_bar<const N: usize>(
+    ui: &mut Ui,
+    title: &str,
+    names: &[(&str, Color32); N],
+    parts: &[f32; N],
+) {
+    let total: f32 = parts.iter().map(|v| v.max(0.0)).sum();
+    ui.small(format!("{title} ({total:.3} ms)"));
     let width = ui.available_width().max(120.0);
     let (response, painter) = ui.allocate_painter(EVec2::new(width, 14.0), Sense::hover());
     let rect = response.rect;
     painter.rect_filled(rect, 2.0, Color32::from_gray(28));
     let mut x = rect.left();
-    for ((_, color), share) in STAGES.iter().zip(stage_shares(stage_ms)) {
+    for ((_, color), share) in names.iter().zip(shares(parts)) {
         let w = rect.width() * share;
         painter.rect_filled(
             Rect::from_min_size(Pos2::new(x, rect.top()), EVec2::new(w, rect.height())),
@@ -314,10 +335,19 @@ fn profiler(ui: &mut Ui, stage_ms: &[f32; 5]) {
         x += w;
     }
     ui.horizontal_wrapped(|ui| {
-        for ((name, color), ms) in STAGES.iter().zip(stage_ms) {
+        for ((name, color), ms) in names.iter().zip(parts) {
             ui.colored_label(*color, format!("{name} {ms:.3}"));
         }
     });
+}
+
+/// Each part's share of the total (they sum to 1; all 0 when nothing was timed).
+fn shares<const N: usize>(parts: &[f32; N]) -> [f32; N] {
+    let total: f32 = parts.iter().map(|v| v.max(0.0)).sum();
+    if total <= 0.0 || !total.is_finite() {
+        return [0.0; N];
+    }
+    parts.map(|v| v.max(0.0) / total)
 }
 
 /// A small line plot of `values` (oldest first) scaled from 0 to their maximum, under a
@@ -365,12 +395,17 @@ mod tests {
 
     #[test]
     fn the_profiler_bar_splits_the_step_by_stage() {
-        let shares = stage_shares(&[0.0, 1.0, 1.0, 2.0, 0.0]);
-        assert_eq!(shares, [0.0, 0.25, 0.25, 0.5, 0.0]);
-        assert_eq!(stage_shares(&[0.0; 5]), [0.0; 5]);
+        let split = shares(&[0.0, 1.0, 1.0, 2.0, 0.0]);
+        assert_eq!(split, [0.0, 0.25, 0.25, 0.5, 0.0]);
+        // the frame's six phases the same way
+        assert_eq!(
+            shares(&[1.0, 0.0, 0.0, 1.0, 2.0, 0.0]),
+            [0.25, 0.0, 0.0, 0.25, 0.5, 0.0]
+        );
+        assert_eq!(shares(&[0.0; 5]), [0.0; 5]);
         // a stage that measured nothing sane takes no width
         assert_eq!(
-            stage_shares(&[f32::NAN, 1.0, 0.0, 0.0, 0.0]),
+            shares(&[f32::NAN, 1.0, 0.0, 0.0, 0.0]),
             [0.0, 1.0, 0.0, 0.0, 0.0]
         );
     }

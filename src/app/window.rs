@@ -76,6 +76,12 @@ pub(super) struct App {
     /// the surface texture, encoding and submitting, the simulation (while the frame is
     /// rasterised), presenting.
     phase_ms: [f64; 6],
+    /// The frame phases (ms) the panel shows: the mean over the frames between its
+    /// last two refreshes (most frames run no panel and half of them no step, so one
+    /// frame alone says little).
+    last_phase_ms: [f32; 6],
+    /// Phases summed since the panel last ran, and over how many frames.
+    phase_since: ([f64; 6], u32),
     /// The side panel is shown (H toggles it).
     panel_visible: bool,
     /// The body last grabbed with the mouse (C makes the camera follow it).
@@ -134,6 +140,8 @@ impl App {
             panel_dirty: true,
             panel_next: None,
             phase_ms: [0.0; 6],
+            last_phase_ms: [0.0; 6],
+            phase_since: ([0.0; 6], 0),
             recent: Default::default(),
             frame_ms: Vec::new(),
             screenshot: None,
@@ -459,6 +467,7 @@ impl App {
         let frame_stats = FrameStats {
             fps,
             bodies: self.session.world.bodies.len(),
+            phase_ms: self.last_phase_ms,
         };
         let t_list = Instant::now();
         let size = [g.config.width, g.config.height];
@@ -474,6 +483,19 @@ impl App {
             // keep egui's input queue from growing while it is not run
             drop(g.egui_state.take_egui_input(&g.window));
         } else if due {
+            let (sum, n) = &mut self.phase_since;
+            if *n > 0 {
+                let k = *n as f64;
+                for (last, s) in self.last_phase_ms.iter_mut().zip(sum.iter()) {
+                    *last = (s / k) as f32;
+                }
+            }
+            *sum = [0.0; 6];
+            *n = 0;
+            let frame_stats = FrameStats {
+                phase_ms: self.last_phase_ms,
+                ..frame_stats
+            };
             let raw = g.egui_state.take_egui_input(&g.window);
             let ctx = g.egui_state.egui_ctx().clone();
             let session = &mut self.session;
@@ -605,7 +627,8 @@ impl App {
         g.window.pre_present_notify();
         g.queue.present(texture);
         let t_present = Instant::now();
-        for (acc, d) in self.phase_ms.iter_mut().zip([
+        self.phase_since.1 += 1;
+        for ((acc, since), d) in self.phase_ms.iter_mut().zip(&mut self.phase_since.0).zip([
             t_list - now,
             t_ui - t_list,
             t_acquire - t_ui,
@@ -614,6 +637,7 @@ impl App {
             t_present - t_sim,
         ]) {
             *acc += d.as_secs_f64() * 1e3;
+            *since += d.as_secs_f64() * 1e3;
         }
         for id in &free {
             g.egui_renderer.free_texture(id);

@@ -155,7 +155,7 @@ impl XpbdContacts {
     /// Returns the deepest overlap met (m).
     ///
     /// A manifold's two points are projected together, as the 2x2 LCP of their position
-    /// rows (the same block as PGS's, [`Block`]): one point after the other, the first
+    /// rows (the same block as PGS's, `Block`): one point after the other, the first
     /// push tips the body about the second point and the second tips it back, so a
     /// resting box rocked about its bottom face and a stack of 10 fell. Points that
     /// nearly coincide (the block too close to singular) go one by one.
