@@ -740,20 +740,12 @@ impl World {
         for b in &self.bodies {
             filtered |= b.filter != crate::defs::Filter::default();
             sensors |= b.sensor;
-            let mut bb = b.shape.aabb(&b.transform());
+            let bb = b.shape.aabb(&b.transform());
             // the most any point of the body moves in h: h (|v| + |w| r)
             let r = 0.5 * (bb.max - bb.min).length();
             self.reach
                 .push(h * (b.velocity.length() + b.angular_velocity.abs() * r));
-            // grow moving boxes by their motion this step so fast bodies find their pairs
-            if b.body_type != BodyType::Static {
-                let d = b.velocity * h;
-                bb = Aabb {
-                    min: bb.min + d.min(Vec2::ZERO),
-                    max: bb.max + d.max(Vec2::ZERO),
-                };
-            }
-            self.aabbs.push(bb.fattened(0.5 * margin));
+            self.aabbs.push(swept_box(b, bb, h, margin));
             // a sleeping body is found only by the awake bodies near it, as a static one
             self.dynamic.push(b.is_dynamic() && !b.asleep);
         }
@@ -906,15 +898,8 @@ impl World {
         self.aabbs.clear();
         self.dynamic.clear();
         for b in &self.bodies {
-            let mut bb = b.shape.aabb(&b.transform());
-            if b.body_type != BodyType::Static {
-                let d = b.velocity * h;
-                bb = Aabb {
-                    min: bb.min + d.min(Vec2::ZERO),
-                    max: bb.max + d.max(Vec2::ZERO),
-                };
-            }
-            self.aabbs.push(bb.fattened(0.5 * margin));
+            self.aabbs
+                .push(swept_box(b, b.shape.aabb(&b.transform()), h, margin));
             // the movers look for sleepers; sleepers and static bodies are looked up
             self.dynamic.push(is_mover(b));
         }
@@ -1115,6 +1100,21 @@ impl World {
         }
         h
     }
+}
+
+/// The broad phase's box of a body whose shape's box is `bb`: grown by its motion over
+/// `h` (a moving body's, so that fast bodies find their pairs) and by half the margin.
+fn swept_box(b: &Body, bb: Aabb, h: f32, margin: f32) -> Aabb {
+    let bb = if b.body_type != BodyType::Static {
+        let d = b.velocity * h;
+        Aabb {
+            min: bb.min + d.min(Vec2::ZERO),
+            max: bb.max + d.max(Vec2::ZERO),
+        }
+    } else {
+        bb
+    };
+    bb.fattened(0.5 * margin)
 }
 
 /// An awake dynamic body, or a kinematic one that moves: what wakes a sleeping island

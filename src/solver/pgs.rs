@@ -142,6 +142,30 @@ impl Block {
         })
     }
 
+    /// One block step of a manifold's two normal rows on the velocities `pv`: the gaps
+    /// J v - `bias`, the LCP below from the accumulated `lambda`s, which are updated
+    /// and their change applied along `n`. Returns the larger |delta lambda|.
+    fn step(
+        &self,
+        pv: &mut PairVel,
+        n: Vec2,
+        [p, q]: [&mut Point; 2],
+        bias: impl Fn(&Point) -> f32,
+        lambda: impl Fn(&mut Point) -> &mut f32,
+    ) -> f32 {
+        let gap = [
+            pv.relative(p.ra, p.rb).dot(n) - bias(p),
+            pv.relative(q.ra, q.rb).dot(n) - bias(q),
+        ];
+        let (lp, lq) = (*lambda(p), *lambda(q));
+        let x = self.solve([lp, lq], gap);
+        let (d1, d2) = (x[0] - lp, x[1] - lq);
+        (*lambda(p), *lambda(q)) = (x[0], x[1]);
+        pv.apply(d1 * n, p.ra, p.rb);
+        pv.apply(d2 * n, q.ra, q.rb);
+        d1.abs().max(d2.abs())
+    }
+
     /// The 2x2 LCP: find x >= 0 with w = K x + q >= 0 and x . w = 0, where
     /// q = (J v - target) - K x_old is taken at the accumulated x_old. Tries, in order,
     /// both rows pushing, only the first, only the second, neither; K symmetric positive
@@ -329,16 +353,14 @@ impl PgsSolver {
             if let Some(block) = &c.block {
                 // both normal rows at once (the 2x2 LCP)
                 let [p, q] = &mut c.points;
-                let gap = [
-                    pv.relative(p.ra, p.rb).dot(n) - p.velocity_bias,
-                    pv.relative(q.ra, q.rb).dot(n) - q.velocity_bias,
-                ];
-                let x = block.solve([p.normal_impulse, q.normal_impulse], gap);
-                let (d1, d2) = (x[0] - p.normal_impulse, x[1] - q.normal_impulse);
-                (p.normal_impulse, q.normal_impulse) = (x[0], x[1]);
-                residual = residual.max(d1.abs()).max(d2.abs());
-                pv.apply(d1 * n, p.ra, p.rb);
-                pv.apply(d2 * n, q.ra, q.rb);
+                let d = block.step(
+                    &mut pv,
+                    n,
+                    [p, q],
+                    |p| p.velocity_bias,
+                    |p| &mut p.normal_impulse,
+                );
+                residual = residual.max(d);
                 pv.store(bodies, c.a, c.b);
                 continue;
             }
@@ -483,16 +505,14 @@ impl PgsSolver {
             let mut pv = PairVel::load_pseudo(&self.bodies, &self.pseudo, c.a, c.b);
             if let Some(block) = &c.block {
                 let [p, q] = &mut c.points;
-                let gap = [
-                    pv.relative(p.ra, p.rb).dot(n) - p.position_bias,
-                    pv.relative(q.ra, q.rb).dot(n) - q.position_bias,
-                ];
-                let x = block.solve([p.pseudo_impulse, q.pseudo_impulse], gap);
-                let (d1, d2) = (x[0] - p.pseudo_impulse, x[1] - q.pseudo_impulse);
-                (p.pseudo_impulse, q.pseudo_impulse) = (x[0], x[1]);
-                residual = residual.max(d1.abs()).max(d2.abs());
-                pv.apply(d1 * n, p.ra, p.rb);
-                pv.apply(d2 * n, q.ra, q.rb);
+                let d = block.step(
+                    &mut pv,
+                    n,
+                    [p, q],
+                    |p| p.position_bias,
+                    |p| &mut p.pseudo_impulse,
+                );
+                residual = residual.max(d);
                 self.pseudo[c.a as usize] = (pv.va, pv.wa);
                 self.pseudo[c.b as usize] = (pv.vb, pv.wb);
                 continue;
