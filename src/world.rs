@@ -884,46 +884,37 @@ impl World {
             }
             movers |= is_mover(b);
         }
-        if !movers {
-            // nothing awake moves: nothing can reach a sleeping island
-            wake.sort_unstable();
-            wake.dedup();
-            for &island in &wake {
-                self.wake_island(island);
+        // nothing awake moves: nothing can reach a sleeping island
+        if movers {
+            self.aabbs.clear();
+            self.dynamic.clear();
+            for b in &self.bodies {
+                self.aabbs
+                    .push(swept_box(b, b.shape.aabb(&b.transform()), h, margin));
+                // the movers look for sleepers; sleepers and static bodies are looked up
+                self.dynamic.push(is_mover(b));
             }
-            let woke = !wake.is_empty();
-            self.to_wake = wake;
-            return woke;
-        }
-        self.aabbs.clear();
-        self.dynamic.clear();
-        for b in &self.bodies {
-            self.aabbs
-                .push(swept_box(b, b.shape.aabb(&b.transform()), h, margin));
-            // the movers look for sleepers; sleepers and static bodies are looked up
-            self.dynamic.push(is_mover(b));
-        }
-        let bodies = &self.bodies;
-        self.broad.find_pairs(&self.aabbs, &self.dynamic, |a, b| {
-            let (ba, bb) = (&bodies[a as usize], &bodies[b as usize]);
-            (ba.asleep && is_mover(bb)) || (bb.asleep && is_mover(ba))
-        });
-        for &(a, b) in &self.broad.pairs {
-            for i in [a, b] {
-                let body = &self.bodies[i as usize];
-                if body.asleep {
-                    wake.push(body.island);
-                }
-            }
-        }
-        // a joint to an awake body, or a joint the solver drives
-        for j in &self.joints {
-            let (ba, bb) = (&self.bodies[j.a], &self.bodies[j.b]);
-            if ba.asleep != bb.asleep && (ba.is_dynamic() || bb.is_dynamic()) {
-                for body in [ba, bb] {
+            let bodies = &self.bodies;
+            self.broad.find_pairs(&self.aabbs, &self.dynamic, |a, b| {
+                let (ba, bb) = (&bodies[a as usize], &bodies[b as usize]);
+                (ba.asleep && is_mover(bb)) || (bb.asleep && is_mover(ba))
+            });
+            for &(a, b) in &self.broad.pairs {
+                for i in [a, b] {
+                    let body = &self.bodies[i as usize];
                     if body.asleep {
                         wake.push(body.island);
                     }
+                }
+            }
+            // a joint to a body that moves (one to a static anchor keeps it asleep)
+            for j in &self.joints {
+                let (ba, bb) = (&self.bodies[j.a], &self.bodies[j.b]);
+                if ba.asleep && is_mover(bb) {
+                    wake.push(ba.island);
+                }
+                if bb.asleep && is_mover(ba) {
+                    wake.push(bb.island);
                 }
             }
         }
@@ -940,7 +931,7 @@ impl World {
     /// After a step: a dynamic body slower than 0.05 m/s and 2 degrees/s (Box2D's
     /// thresholds) for 0.5 s is at rest; an island of bodies joined by touching contacts
     /// and joints falls asleep when all of its bodies are. Bodies held by the mouse, with
-    /// a constant force or a driven joint, or touching a moving kinematic body stay awake.
+    /// a constant force or a joint, or touching a moving kinematic body stay awake.
     fn update_sleep(&mut self) {
         const LINEAR: f32 = 0.05;
         const ANGULAR: f32 = 2.0 * std::f32::consts::PI / 180.0;
@@ -978,11 +969,12 @@ impl World {
         if let Some(m) = self.mouse {
             self.bodies[m.body].sleep_time = 0.0;
         }
+        // jointed bodies stay awake: the joint solvers do not skip sleeping bodies yet,
+        // so a sleeping body's joint would push it (its warm-started impulse without the
+        // gravity it balanced) and wake it the next step
         for j in &self.joints {
-            if j.drive != 0.0 || j.motor.is_some_and(|m| m.speed != 0.0) {
-                self.bodies[j.a].sleep_time = 0.0;
-                self.bodies[j.b].sleep_time = 0.0;
-            }
+            self.bodies[j.a].sleep_time = 0.0;
+            self.bodies[j.b].sleep_time = 0.0;
         }
         for c in &self.contacts {
             let (ba, bb) = (&self.bodies[c.a as usize], &self.bodies[c.b as usize]);
