@@ -581,19 +581,21 @@ mod tests {
         assert!(run(SolverKind::Soft, 1).is_empty());
     }
 
+    /// A session on the built-in stack under `kind`'s defaults (a compare pane).
+    fn stack_pane(kind: SolverKind) -> Session {
+        let o = SolverOverrides {
+            kind: Some(kind),
+            ..Default::default()
+        };
+        Session::new(scene::load("stack").unwrap(), o).unwrap()
+    }
+
     #[test]
     fn ctrl_l_puts_the_first_panes_state_into_every_pane_keeping_each_solver() {
-        let pane = |kind| {
-            let o = SolverOverrides {
-                kind: Some(kind),
-                ..Default::default()
-            };
-            Session::new(scene::load("stack").unwrap(), o).unwrap()
-        };
-        let mut first = pane(SolverKind::Soft);
+        let mut first = stack_pane(SolverKind::Soft);
         let mut cmp = Compare {
             labels: vec!["soft".into(), "xpbd".into()],
-            others: vec![pane(SolverKind::Xpbd)],
+            others: vec![stack_pane(SolverKind::Xpbd)],
         };
         for _ in 0..30 {
             first.step_once();
@@ -647,17 +649,10 @@ mod tests {
 
     #[test]
     fn a_compare_session_steps_every_pane_in_lock_step_and_mirrors_the_mouse() {
-        let pane = |kind| {
-            let o = SolverOverrides {
-                kind: Some(kind),
-                ..Default::default()
-            };
-            Session::new(scene::load("stack").unwrap(), o).unwrap()
-        };
-        let mut first = pane(SolverKind::Soft);
+        let mut first = stack_pane(SolverKind::Soft);
         let mut cmp = Compare {
             labels: vec!["soft".into(), "pgs".into(), "xpbd".into()],
-            others: vec![pane(SolverKind::Pgs), pane(SolverKind::Xpbd)],
+            others: vec![stack_pane(SolverKind::Pgs), stack_pane(SolverKind::Xpbd)],
         };
         assert_eq!(cmp.panes(), 3);
         let dt = first.world.settings.dt as f64;
