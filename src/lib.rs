@@ -26,6 +26,7 @@ pub mod draw;
 pub mod joint;
 pub mod math;
 pub mod output;
+pub mod parallel;
 pub mod scene;
 pub mod shape;
 pub mod sim;

@@ -30,6 +30,12 @@ const DEFAULT_SCENE: &str = "pyramid";
 struct Cli {
     #[command(subcommand)]
     command: Option<Command>,
+    /// Threads a step may use: the narrow phase, the soft step's colours and integration
+    /// are split between them; results are the same to the bit whatever N. Default: every
+    /// core for simulate, render and run; 1 for bench and tune, whose timings are what they
+    /// report (the published figures are one thread's).
+    #[arg(long, global = true, value_name = "N")]
+    threads: Option<usize>,
 }
 
 #[derive(Subcommand)]
@@ -534,6 +540,19 @@ fn main() -> ExitCode {
         .init();
     let cli = Cli::parse();
     install_interrupt_handler();
+    let timing = matches!(cli.command, Some(Command::Bench(_) | Command::Tune(_)));
+    match cli.threads {
+        Some(n) if !(1..=sandbox2d::parallel::MAX_THREADS).contains(&n) => {
+            eprintln!(
+                "error: --threads must be 1..={}, got {n}",
+                sandbox2d::parallel::MAX_THREADS
+            );
+            return ExitCode::from(2);
+        }
+        Some(n) => sandbox2d::parallel::set_default_threads(n),
+        None if timing => {}
+        None => sandbox2d::parallel::set_default_threads(sandbox2d::parallel::available()),
+    }
     let result = match cli.command {
         None => default_command(),
         Some(Command::Scenes) => list_scenes(),

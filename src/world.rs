@@ -10,10 +10,12 @@ use crate::defs::{
 };
 use crate::joint::{Joint, JointId, MouseJoint};
 use crate::math::{Aabb, Rot, Vec2, cross};
+use crate::parallel::{self, Pool};
 use crate::shape::{Shape, ShapeError};
 use crate::solver::contact_cache::{CacheCursor, Contact, match_points};
 use crate::solver::joint_rows::apply_drives;
 use crate::step::{Stage, StageClock, StepContext, Stepper, new_stepper};
+use std::sync::{Arc, Mutex};
 
 mod events;
 mod measure;
@@ -187,7 +189,35 @@ pub struct World {
     /// Where this world's (0, 0) is (m): positions in it are relative to this
     /// ([`WorldDef::origin`]); [`World::world_position`] adds it back.
     pub origin: glam::DVec2,
+    /// Threads the step may use ([`World::set_threads`]).
+    threads: usize,
+    /// The worker threads, made at the first step that has work for them; clones share
+    /// it (taking turns).
+    pool: Option<Arc<Pool>>,
+    /// Per thread: the contacts its share of the narrow phase found (scratch).
+    narrow_out: NarrowScratch,
 }
+
+/// Per-thread narrow-phase output buffers; a clone starts with none.
+#[derive(Default)]
+struct NarrowScratch(Vec<Mutex<Vec<Contact>>>);
+
+impl Clone for NarrowScratch {
+    fn clone(&self) -> Self {
+        NarrowScratch::default()
+    }
+}
+
+impl std::fmt::Debug for NarrowScratch {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str("NarrowScratch")
+    }
+}
+
+/// Fewest bodies for which a world starts its worker threads.
+const MIN_BODIES_FOR_THREADS: usize = 256;
+/// Body pairs a thread claims at a time in the narrow phase.
+const PAIR_BLOCK: usize = 256;
 
 impl World {
     /// An empty world with the given gravity and solver settings.
@@ -222,7 +252,44 @@ impl World {
             step_count: 0,
             time: 0.0,
             origin: glam::DVec2::ZERO,
+            threads: parallel::default_threads(),
+            pool: None,
+            narrow_out: NarrowScratch::default(),
         }
+    }
+
+    /// Lets the step use `n` threads (1 = the caller alone; clamped to
+    /// 1..=[`parallel::MAX_THREADS`]). The results are the same to the bit whatever `n`:
+    /// only independent work is split (pairs, constraints of one colour, bodies). A new
+    /// world takes [`parallel::default_threads`] (1 unless the program set it).
+    pub fn set_threads(&mut self, n: usize) {
+        let n = n.clamp(1, parallel::MAX_THREADS);
+        if n != self.threads {
+            self.threads = n;
+            self.pool = None;
+        }
+    }
+
+    /// Threads the step may use.
+    pub fn threads(&self) -> usize {
+        self.threads
+    }
+
+    /// Parallel jobs the steps of this world (and its clones) have run so far: 0 with one
+    /// thread or while the world is too small for its worker threads.
+    pub fn parallel_jobs(&self) -> u64 {
+        self.pool.as_ref().map_or(0, |p| p.jobs())
+    }
+
+    /// The pool for this step: `None` for one thread or a small world.
+    pub(crate) fn pool(&mut self) -> Option<Arc<Pool>> {
+        if self.threads < 2 || self.bodies.len() < MIN_BODIES_FOR_THREADS {
+            return None;
+        }
+        Some(Arc::clone(
+            self.pool
+                .get_or_insert_with(|| Arc::new(Pool::new(self.threads))),
+        ))
     }
 
     /// Builds the world a description asks for, with these solver settings.
@@ -785,47 +852,43 @@ impl World {
                 keep
             });
         }
-        let mut cache = CacheCursor::new(&self.old_contacts);
-        let mut deepest = 0.0f32;
-        for &(a, b) in &self.broad.pairs {
-            let (ba, bb) = (&self.bodies[a as usize], &self.bodies[b as usize]);
-            if self.has_sensors && (ba.sensor || bb.sensor) {
-                // heard (World::events), never resolved
-                continue;
-            }
-            let pair_margin = match speculative {
-                Speculative::MarginPlusMotion => {
-                    margin + self.reach[a as usize] + self.reach[b as usize]
+        let pool = self.pool();
+        let narrow = Narrow {
+            bodies: &self.bodies,
+            pairs: &self.broad.pairs,
+            old: &self.old_contacts,
+            reach: &self.reach,
+            has_sensors: self.has_sensors,
+            speculative,
+            margin,
+        };
+        let pairs = narrow.pairs.len();
+        let deepest = match pool.as_deref() {
+            Some(pool) if pairs > PAIR_BLOCK => {
+                // each block of pairs goes into its own buffer; the buffers are put back
+                // together in pair order, so the contacts are those of one thread
+                let blocks = pairs.div_ceil(PAIR_BLOCK);
+                let outs = &mut self.narrow_out.0;
+                if outs.len() < blocks {
+                    outs.resize_with(blocks, Default::default);
                 }
-                Speculative::MarginOrMotion => {
-                    margin.max(self.reach[a as usize] + self.reach[b as usize])
+                let outs = &outs[..blocks];
+                let deepest = parallel::ranges_max(Some(pool), pairs, PAIR_BLOCK, &|_, range| {
+                    let mut out = outs[range.start / PAIR_BLOCK]
+                        .lock()
+                        .unwrap_or_else(|e| e.into_inner());
+                    out.clear();
+                    narrow.run(range, &mut out)
+                });
+                self.contacts.clear();
+                for o in outs {
+                    self.contacts
+                        .extend_from_slice(&o.lock().unwrap_or_else(|e| e.into_inner()));
                 }
-            };
-            let mut m = sat::collide(
-                &ba.shape,
-                &ba.transform(),
-                &bb.shape,
-                &bb.transform(),
-                pair_margin,
-            );
-            if m.count == 0 {
-                continue;
+                deepest
             }
-            if let Some(old) = cache.find(a, b) {
-                match_points(old, &mut m);
-            }
-            for p in m.points() {
-                deepest = deepest.max(-p.separation);
-            }
-            self.contacts.push(Contact {
-                a,
-                b,
-                manifold: m,
-                // mu = sqrt(mu_a mu_b), e = max(e_a, e_b)
-                friction: (ba.friction * bb.friction).sqrt(),
-                restitution: ba.restitution.max(bb.restitution),
-            });
-        }
+            _ => narrow.run(0..narrow.pairs.len(), &mut self.contacts),
+        };
         clock.lap(Stage::Narrow);
         deepest
     }
@@ -1107,6 +1170,70 @@ fn swept_box(b: &Body, bb: Aabb, h: f32, margin: f32) -> Aabb {
         bb
     };
     bb.fattened(0.5 * margin)
+}
+
+/// What the narrow phase reads: the pairs of the broad phase and last step's contacts.
+struct Narrow<'a> {
+    bodies: &'a [Body],
+    pairs: &'a [(u32, u32)],
+    /// Last step's contacts, sorted by pair (the cache).
+    old: &'a [Contact],
+    reach: &'a [f32],
+    has_sensors: bool,
+    speculative: Speculative,
+    margin: f32,
+}
+
+impl Narrow<'_> {
+    /// Collides the pairs of `range` (in order) and pushes the touching ones to `out`;
+    /// returns the deepest overlap found (m, >= 0).
+    fn run(&self, range: std::ops::Range<usize>, out: &mut Vec<Contact>) -> f32 {
+        let pairs = &self.pairs[range];
+        let Some(&first) = pairs.first() else {
+            return 0.0;
+        };
+        // the cache from the first pair of the run on
+        let from = self.old.partition_point(|c| (c.a, c.b) < first);
+        let mut cache = CacheCursor::new(&self.old[from..]);
+        let mut deepest = 0.0f32;
+        for &(a, b) in pairs {
+            let (ba, bb) = (&self.bodies[a as usize], &self.bodies[b as usize]);
+            if self.has_sensors && (ba.sensor || bb.sensor) {
+                // heard (World::events), never resolved
+                continue;
+            }
+            let (ra, rb) = (self.reach[a as usize], self.reach[b as usize]);
+            let pair_margin = match self.speculative {
+                Speculative::MarginPlusMotion => self.margin + ra + rb,
+                Speculative::MarginOrMotion => self.margin.max(ra + rb),
+            };
+            let mut m = sat::collide(
+                &ba.shape,
+                &ba.transform(),
+                &bb.shape,
+                &bb.transform(),
+                pair_margin,
+            );
+            if m.count == 0 {
+                continue;
+            }
+            if let Some(old) = cache.find(a, b) {
+                match_points(old, &mut m);
+            }
+            for p in m.points() {
+                deepest = deepest.max(-p.separation);
+            }
+            out.push(Contact {
+                a,
+                b,
+                manifold: m,
+                // mu = sqrt(mu_a mu_b), e = max(e_a, e_b)
+                friction: (ba.friction * bb.friction).sqrt(),
+                restitution: ba.restitution.max(bb.restitution),
+            });
+        }
+        deepest
+    }
 }
 
 /// An awake dynamic body, or a kinematic one that moves: what wakes a sleeping island

@@ -44,12 +44,12 @@ fn soft_pyramid(n: usize) -> World {
 fn soft_solve(w: &World) -> SoftSolver {
     let mut s = SoftSolver::default();
     let h = w.settings.dt / w.settings.substeps as f32;
-    s.prepare(&w.bodies, w.contacts(), &w.settings, h);
-    s.warm_start();
+    s.prepare(&w.bodies, w.contacts(), &w.settings, h, None);
+    s.warm_start(None);
     for _ in 0..4 {
-        s.sweep::<true>();
+        s.sweep::<true>(None);
     }
-    s.sweep::<false>();
+    s.sweep::<false>(None);
     s
 }
 

@@ -31,6 +31,7 @@ use super::pgs::SolveStats;
 use crate::body::Body;
 use crate::defs::SolverSettings;
 use crate::math::{Rot, Vec2, cross, cross_sv};
+use crate::parallel::{self, MAX_THREADS, Pool};
 use glam::Vec4;
 
 /// Test hooks, per thread (tests running side by side do not see each other's): which
@@ -195,6 +196,56 @@ struct WideCold {
 /// Colour of a constraint no colour was free for: it gets a wide constraint to itself.
 const OVERFLOW: usize = 64;
 
+/// The soft bodies as one job's threads share them. Within a colour no two constraints
+/// share a moving body, so the threads of a job read and write disjoint bodies, apart
+/// from the rest slot (only read) and the sink (only written): each thread writes to a
+/// sink of its own.
+#[derive(Clone, Copy)]
+struct BodyPtr {
+    p: *mut SoftBody,
+    len: usize,
+    /// The index of the shared sink in the constraints, and this thread's own sink.
+    sink: u32,
+    my_sink: u32,
+}
+
+// SAFETY: see the type's docs: the threads of a job touch disjoint bodies.
+unsafe impl Send for BodyPtr {}
+unsafe impl Sync for BodyPtr {}
+
+impl BodyPtr {
+    fn new(bodies: &mut [SoftBody], sink: u32) -> BodyPtr {
+        BodyPtr {
+            p: bodies.as_mut_ptr(),
+            len: bodies.len(),
+            sink,
+            my_sink: sink,
+        }
+    }
+
+    /// The same bodies, as thread `t` of a job writes them.
+    fn for_thread(self, t: usize) -> BodyPtr {
+        BodyPtr {
+            my_sink: self.sink + t as u32,
+            ..self
+        }
+    }
+
+    /// Body i, to read.
+    #[inline(always)]
+    fn at(self, i: u32) -> *mut SoftBody {
+        assert!((i as usize) < self.len);
+        // SAFETY: in bounds (checked above).
+        unsafe { self.p.add(i as usize) }
+    }
+
+    /// Body i, to write: the sink goes to this thread's own.
+    #[inline(always)]
+    fn written(self, i: u32) -> *mut SoftBody {
+        self.at(if i == self.sink { self.my_sink } else { i })
+    }
+}
+
 /// Four bodies' states, transposed: lane k holds body k.
 struct WideBody {
     vx: Vec4,
@@ -212,13 +263,14 @@ impl WideBody {
     /// Loads four bodies (two 16-byte loads each) and transposes them.
     #[cfg(target_arch = "x86_64")]
     #[inline(always)]
-    fn gather(bodies: &[SoftBody], idx: &[u32; 4]) -> WideBody {
+    fn gather(bodies: BodyPtr, idx: &[u32; 4]) -> WideBody {
         use std::arch::x86_64::*;
         let rows = idx.map(|i| {
-            let s: &SoftBody = &bodies[i as usize];
-            let p = s as *const SoftBody as *const f32;
+            let p = bodies.at(i) as *const f32;
             // SAFETY: SoftBody is repr(C, align(32)): eight f32, so both 16-byte loads
-            // stay inside the body and are aligned (SSE2 is part of x86_64).
+            // stay inside the body and are aligned (SSE2 is part of x86_64); `at` checks
+            // the index in debug builds, and no other thread writes this body now
+            // (BodyPtr).
             unsafe { (_mm_load_ps(p), _mm_load_ps(p.add(4))) }
         });
         let (v, d) = (
@@ -240,12 +292,11 @@ impl WideBody {
     /// Writes the velocities of four bodies back (one 16-byte store each).
     #[cfg(target_arch = "x86_64")]
     #[inline(always)]
-    fn scatter(&self, vx: Vec4, vy: Vec4, w: Vec4, bodies: &mut [SoftBody], idx: &[u32; 4]) {
+    fn scatter(&self, vx: Vec4, vy: Vec4, w: Vec4, bodies: BodyPtr, idx: &[u32; 4]) {
         use std::arch::x86_64::*;
         let rows = transpose4([vx.into(), vy.into(), w.into(), self.dtheta.into()]);
         for k in 0..4 {
-            let s: &mut SoftBody = &mut bodies[idx[k] as usize];
-            let p = s as *mut SoftBody as *mut f32;
+            let p = bodies.written(idx[k]) as *mut f32;
             // SAFETY: as in gather; the first four f32 are v, w, dtheta.
             unsafe { _mm_store_ps(p, rows[k]) };
         }
@@ -253,8 +304,9 @@ impl WideBody {
 
     #[cfg(not(target_arch = "x86_64"))]
     #[inline(always)]
-    fn gather(bodies: &[SoftBody], idx: &[u32; 4]) -> WideBody {
-        let [s0, s1, s2, s3] = idx.map(|i| bodies[i as usize]);
+    fn gather(bodies: BodyPtr, idx: &[u32; 4]) -> WideBody {
+        // SAFETY: as in the x86_64 build.
+        let [s0, s1, s2, s3] = idx.map(|i| unsafe { *bodies.at(i) });
         WideBody {
             vx: Vec4::new(s0.v.x, s1.v.x, s2.v.x, s3.v.x),
             vy: Vec4::new(s0.v.y, s1.v.y, s2.v.y, s3.v.y),
@@ -269,10 +321,11 @@ impl WideBody {
 
     #[cfg(not(target_arch = "x86_64"))]
     #[inline(always)]
-    fn scatter(&self, vx: Vec4, vy: Vec4, w: Vec4, bodies: &mut [SoftBody], idx: &[u32; 4]) {
+    fn scatter(&self, vx: Vec4, vy: Vec4, w: Vec4, bodies: BodyPtr, idx: &[u32; 4]) {
         let (vx, vy, w) = (vx.to_array(), vy.to_array(), w.to_array());
         for k in 0..4 {
-            let s = &mut bodies[idx[k] as usize];
+            // SAFETY: as in the x86_64 build.
+            let s = unsafe { &mut *bodies.written(idx[k]) };
             s.v = Vec2::new(vx[k], vy[k]);
             s.w = w[k];
         }
@@ -352,9 +405,14 @@ fn friction_rows(c: &mut WideConstraint, v: &mut PairVel4, residual: &mut Vec4) 
 /// The soft-step contact solver and its reusable buffers.
 #[derive(Clone, Default, Debug)]
 pub struct SoftSolver {
-    /// Every body's state, by body index; then two slots of the solver's own: a body at
-    /// rest that empty lanes read, and a sink that writes of unmoved bodies go to.
+    /// Every body's state, by body index; then slots of the solver's own: a body at rest
+    /// that empty lanes read, and one sink per thread that writes of unmoved bodies go to.
     pub bodies: Vec<SoftBody>,
+    /// The first sink's index.
+    sink: u32,
+    /// Each colour's wide constraints, [start, end), in order; the overflow group follows
+    /// the last.
+    color_ranges: Vec<(u32, u32)>,
     /// Whether the solver moves body i (dynamic).
     moves: Vec<bool>,
     /// (1/m, 1/I) of body i.
@@ -366,6 +424,8 @@ pub struct SoftSolver {
     cold: Vec<WideCold>,
     /// Where contact i's constraint lies: wide index * 4 + lane.
     slot: Vec<u32>,
+    /// The contact in each lane (wide index * 4 + lane), u32::MAX for an empty lane.
+    lane_contact: Vec<u32>,
     /// Per body: the colours its constraints use.
     body_colors: Vec<u64>,
     colors: Vec<u8>,
@@ -381,7 +441,14 @@ impl SoftSolver {
     /// Builds this step's constraints from the contacts (collided at the step's start)
     /// for substeps of `h`, and loads the bodies. Lambdas start from the cache if warm
     /// starting.
-    pub fn prepare(&mut self, bodies: &[Body], contacts: &[Contact], s: &SolverSettings, h: f32) {
+    pub fn prepare(
+        &mut self,
+        bodies: &[Body],
+        contacts: &[Contact],
+        s: &SolverSettings,
+        h: f32,
+        pool: Option<&Pool>,
+    ) {
         self.inv_h = 1.0 / h;
         self.slop = s.slop;
         self.max_push = s.max_push_speed;
@@ -394,8 +461,10 @@ impl SoftSolver {
             w: b.angular_velocity,
             ..Default::default()
         }));
-        self.bodies.push(SoftBody::default());
-        self.bodies.push(SoftBody::default());
+        // the rest slot, then a sink per thread
+        self.bodies
+            .extend(std::iter::repeat_n(SoftBody::default(), 1 + MAX_THREADS));
+        self.sink = sink;
         self.moves.clear();
         self.moves.extend(bodies.iter().map(|b| b.is_dynamic()));
         // inverse mass and inertia, packed, so the contact loop reads no `Body`
@@ -435,6 +504,7 @@ impl SoftSolver {
         // overflow constraint has one to itself
         let mut next = [0u32; OVERFLOW + 1];
         let mut acc = 0u32;
+        self.color_ranges.clear();
         for (color, (nx, &n)) in next.iter_mut().zip(&counts).enumerate() {
             *nx = acc;
             acc += if color == OVERFLOW || one_lane {
@@ -442,6 +512,9 @@ impl SoftSolver {
             } else {
                 n.div_ceil(4) * 4
             };
+            if color < OVERFLOW && n > 0 {
+                self.color_ranges.push((*nx / 4, acc / 4));
+            }
         }
         let n_wide = (acc / 4) as usize;
 
@@ -451,26 +524,11 @@ impl SoftSolver {
         let soft_dynamic = Softness::new(hertz, s.contact_damping_ratio, h);
         let soft_static = Softness::new(2.0 * hertz, s.contact_damping_ratio, h);
 
-        let empty = WideConstraint {
-            a: [rest; 4],
-            b: [rest; 4],
-            wa: [sink; 4],
-            wb: [sink; 4],
-            nx: Vec4::ZERO,
-            ny: Vec4::ZERO,
-            friction: Vec4::ZERO,
-            m: InvMass4::default(),
-            bias_rate: Vec4::ZERO,
-            mass_scale: Vec4::ZERO,
-            impulse_scale: Vec4::ZERO,
-            points: [WidePoint::default(); 2],
-        };
-        self.wide.clear();
-        self.wide.resize(n_wide, empty);
-        self.cold.clear();
-        self.cold.resize(n_wide, WideCold::default());
+        // where each contact goes, and which contact each lane holds
         self.slot.clear();
-        for (c, &color) in contacts.iter().zip(&self.colors) {
+        self.lane_contact.clear();
+        self.lane_contact.resize(n_wide * 4, u32::MAX);
+        for (i, &color) in self.colors.iter().enumerate() {
             let at = next[color as usize];
             next[color as usize] += if color as usize == OVERFLOW || one_lane {
                 4
@@ -478,65 +536,39 @@ impl SoftSolver {
                 1
             };
             self.slot.push(at);
-            let (wi, k) = ((at / 4) as usize, (at % 4) as usize);
-            let (w, cold) = (&mut self.wide[wi], &mut self.cold[wi]);
-            let (ba, bb) = (self.bodies[c.a as usize], self.bodies[c.b as usize]);
-            let ((ima, iia), (imb, iib)) =
-                (self.inv_mass[c.a as usize], self.inv_mass[c.b as usize]);
-            let (ma, mb) = (self.moves[c.a as usize], self.moves[c.b as usize]);
-            let soft = if ma && mb { soft_dynamic } else { soft_static };
-            let n = c.manifold.normal;
-            let t = Vec2::new(n.y, -n.x);
-            w.a[k] = c.a;
-            w.b[k] = c.b;
-            w.wa[k] = if ma { c.a } else { sink };
-            w.wb[k] = if mb { c.b } else { sink };
-            w.nx[k] = n.x;
-            w.ny[k] = n.y;
-            w.friction[k] = c.friction;
-            w.m.ima[k] = ima;
-            w.m.iia[k] = iia;
-            w.m.imb[k] = imb;
-            w.m.iib[k] = iib;
-            w.bias_rate[k] = soft.bias_rate;
-            w.mass_scale[k] = soft.mass_scale;
-            w.impulse_scale[k] = soft.impulse_scale;
-            cold.restitution[k] = c.restitution;
-            self.restitution |= c.restitution != 0.0;
-            cold.count[k] = c.manifold.count as u8;
-            for (i, cp) in c.manifold.points().iter().enumerate() {
-                let (ra, rb) = (cp.anchor_a, cp.anchor_b);
-                let rna = cross(ra, n);
-                let rnb = cross(rb, n);
-                // K = 1/mA + 1/mB + (ra x n)^2/IA + (rb x n)^2/IB
-                let kn = ima + imb + iia * rna * rna + iib * rnb * rnb;
-                let rta = cross(ra, t);
-                let rtb = cross(rb, t);
-                let kt = ima + imb + iia * rta * rta + iib * rtb * rtb;
-                // dv = vb + wb x rb - va - wa x ra
-                // (read only by restitution: skipped where the pair has none)
-                if c.restitution != 0.0 {
-                    let dv = bb.v + cross_sv(bb.w, rb) - ba.v - cross_sv(ba.w, ra);
-                    cold.relative_velocity[i][k] = n.dot(dv);
-                }
-                let (ni, ti) = if s.warm_start {
-                    (cp.normal_impulse, cp.tangent_impulse)
-                } else {
-                    (0.0, 0.0)
-                };
-                let p = &mut w.points[i];
-                p.rax[k] = ra.x;
-                p.ray[k] = ra.y;
-                p.rbx[k] = rb.x;
-                p.rby[k] = rb.y;
-                // s0 - n . (rb - ra)
-                p.base_separation[k] = cp.separation - n.dot(rb - ra);
-                p.normal_mass[k] = if kn > 0.0 { 1.0 / kn } else { 0.0 };
-                p.tangent_mass[k] = if kt > 0.0 { 1.0 / kt } else { 0.0 };
-                p.normal_impulse[k] = ni;
-                p.tangent_impulse[k] = ti;
-            }
+            self.lane_contact[at as usize] = i as u32;
         }
+        // every wide constraint is written whole below: old contents do not matter
+        self.wide.resize(n_wide, WideConstraint::empty(rest, sink));
+        self.cold.resize(n_wide, WideCold::default());
+        let fill = Fill {
+            contacts,
+            lane_contact: &self.lane_contact,
+            bodies: &self.bodies,
+            inv_mass: &self.inv_mass,
+            moves: &self.moves,
+            soft_dynamic,
+            soft_static,
+            warm_start: s.warm_start,
+            rest,
+            sink,
+        };
+        parallel::chunks_mut(pool, &mut self.wide, WIDE_BLOCK, &|_, offset, wide| {
+            for (i, w) in wide.iter_mut().enumerate() {
+                *w = fill.wide(offset + i);
+            }
+            0.0
+        });
+        let restitution =
+            parallel::chunks_mut(pool, &mut self.cold, WIDE_BLOCK, &|_, offset, cold| {
+                let mut any = false;
+                for (i, c) in cold.iter_mut().enumerate() {
+                    *c = fill.cold(offset + i);
+                    any |= c.restitution.cmpne(Vec4::ZERO).any();
+                }
+                if any { 1.0 } else { 0.0 }
+            });
+        self.restitution = restitution > 0.0;
     }
 
     /// Copies the bodies' velocities in (after the world integrated forces into them).
@@ -579,159 +611,79 @@ impl SoftSolver {
     }
 
     /// Applies the accumulated lambdas (the last substep's impulses).
-    pub fn warm_start(&mut self) {
-        #[cfg(target_arch = "x86_64")]
-        if testing::use_avx2() {
-            // SAFETY: the CPU has AVX2.
-            return unsafe { self.warm_start_avx2() };
-        }
-        self.warm_start_impl()
-    }
-
-    #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx2")]
-    fn warm_start_avx2(&mut self) {
-        self.warm_start_impl()
-    }
-
-    #[inline(always)]
-    fn warm_start_impl(&mut self) {
-        let bodies = &mut self.bodies;
-        for c in &self.wide {
-            let sa = WideBody::gather(bodies, &c.a);
-            let sb = WideBody::gather(bodies, &c.b);
-            let (mut vax, mut vay, mut wa) = (sa.vx, sa.vy, sa.w);
-            let (mut vbx, mut vby, mut wb) = (sb.vx, sb.vy, sb.w);
-            for p in &c.points {
-                // P = lambda_n n + lambda_t t, t = (ny, -nx)
-                let px = p.normal_impulse * c.nx + p.tangent_impulse * c.ny;
-                let py = p.normal_impulse * c.ny - p.tangent_impulse * c.nx;
-                // v -= P/mA, w -= (ra x P)/IA; v += P/mB, w += (rb x P)/IB
-                vax -= c.m.ima * px;
-                vay -= c.m.ima * py;
-                wa -= c.m.iia * (p.rax * py - p.ray * px);
-                vbx += c.m.imb * px;
-                vby += c.m.imb * py;
-                wb += c.m.iib * (p.rbx * py - p.rby * px);
-            }
-            sa.scatter(vax, vay, wa, bodies, &c.wa);
-            sb.scatter(vbx, vby, wb, bodies, &c.wb);
-        }
+    pub fn warm_start(&mut self, pool: Option<&Pool>) {
+        let avx2 = use_avx2();
+        let bodies = BodyPtr::new(&mut self.bodies, self.sink);
+        self.for_colors(pool, &|t, chunk| {
+            warm_start_range(chunk, bodies.for_thread(t), avx2);
+            0.0
+        });
     }
 
     /// One sweep over every row: with `BIAS`, soft rows that push overlap out; without,
     /// rigid rows that only remove approach speed (relax). Returns max |delta lambda|.
-    pub fn sweep<const BIAS: bool>(&mut self) -> f32 {
-        // the largest normal impulse of each point is read only by restitution: kept
-        // only when some contact of the step has restitution
-        #[cfg(target_arch = "x86_64")]
-        if testing::use_avx2() {
-            // SAFETY: the CPU has AVX2.
-            return unsafe {
-                if self.restitution {
-                    self.sweep_avx2::<BIAS, true>()
-                } else {
-                    self.sweep_avx2::<BIAS, false>()
-                }
-            };
-        }
-        if self.restitution {
-            self.sweep_impl::<BIAS, true>()
-        } else {
-            self.sweep_impl::<BIAS, false>()
-        }
+    pub fn sweep<const BIAS: bool>(&mut self, pool: Option<&Pool>) -> f32 {
+        let k = SweepConsts {
+            inv_h: self.inv_h,
+            slop: self.slop,
+            max_push: self.max_push,
+            // the largest normal impulse of each point is read only by restitution: kept
+            // only when some contact of the step has restitution
+            max_impulse: self.restitution,
+            avx2: use_avx2(),
+        };
+        let bodies = BodyPtr::new(&mut self.bodies, self.sink);
+        self.for_colors(pool, &|t, chunk| {
+            sweep_range::<BIAS>(chunk, bodies.for_thread(t), &k)
+        })
     }
 
-    /// [`Self::sweep`] compiled for AVX2 (three-operand forms, blends): the same
-    /// arithmetic, so the same results to the bit.
-    #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx2")]
-    fn sweep_avx2<const BIAS: bool, const MAX_IMPULSE: bool>(&mut self) -> f32 {
-        self.sweep_impl::<BIAS, MAX_IMPULSE>()
-    }
-
-    #[inline(always)]
-    fn sweep_impl<const BIAS: bool, const MAX_IMPULSE: bool>(&mut self) -> f32 {
-        let bodies = &mut self.bodies;
-        let inv_h = Vec4::splat(self.inv_h);
-        let slop = Vec4::splat(self.slop);
-        let min_bias = Vec4::splat(-self.max_push);
-        let mut residual = Vec4::ZERO;
-        for c in &mut self.wide {
-            let sa = WideBody::gather(bodies, &c.a);
-            let sb = WideBody::gather(bodies, &c.b);
-            let mut v = PairVel4 {
-                vax: sa.vx,
-                vay: sa.vy,
-                wa: sa.w,
-                vbx: sb.vx,
-                vby: sb.vy,
-                wb: sb.w,
-            };
-            let (nx, ny, m) = (c.nx, c.ny, c.m);
-            let dpx = sb.dpx - sa.dpx;
-            let dpy = sb.dpy - sa.dpy;
-            for p in &mut c.points {
-                // q r: the anchors turned by the rotation since collide
-                let qrax = sa.qc * p.rax - sa.qs * p.ray;
-                let qray = sa.qs * p.rax + sa.qc * p.ray;
-                let qrbx = sb.qc * p.rbx - sb.qs * p.rby;
-                let qrby = sb.qs * p.rbx + sb.qc * p.rby;
-                // s = s0 - n.(rb - ra) + n.(dp_b - dp_a + q_b rb - q_a ra)
-                let s = p.base_separation + nx * (dpx + qrbx - qrax) + ny * (dpy + qrby - qray);
-                let speculative = s.cmpgt(Vec4::ZERO);
-                // speculative: bias = s / h (may close the gap this substep, not more)
-                let spec_bias = s * inv_h;
-                let (bias, mass_scale, impulse_scale) = if BIAS {
-                    // bias = max(rate S, -v_max), S = min(s + slop, 0)
-                    let soft_bias = (c.bias_rate * (s + slop).min(Vec4::ZERO)).max(min_bias);
-                    (
-                        Vec4::select(speculative, spec_bias, soft_bias),
-                        Vec4::select(speculative, Vec4::ONE, c.mass_scale),
-                        Vec4::select(speculative, Vec4::ZERO, c.impulse_scale),
-                    )
-                } else {
-                    (spec_bias.max(Vec4::ZERO), Vec4::ONE, Vec4::ZERO)
-                };
-                let vn = v.along(p, nx, ny);
-                // d lambda = -m_n s_m (vn + bias) - s_i lambda, then lambda >= 0
-                let d =
-                    -p.normal_mass * mass_scale * (vn + bias) - impulse_scale * p.normal_impulse;
-                let new = (p.normal_impulse + d).max(Vec4::ZERO);
-                let d = new - p.normal_impulse;
-                p.normal_impulse = new;
-                if MAX_IMPULSE {
-                    p.max_normal_impulse = p.max_normal_impulse.max(new);
-                }
-                residual = residual.max(d.abs());
-                v.apply(&m, p, d * nx, d * ny);
-            }
-            if !BIAS {
-                // friction only in the relax sweep: solved against the push-out speeds
-                // of the biased sweep it lets the flanks of a tall pile creep outwards
-                friction_rows(c, &mut v, &mut residual);
-            }
-            sa.scatter(v.vax, v.vay, v.wa, bodies, &c.wa);
-            sb.scatter(v.vbx, v.vby, v.wb, bodies, &c.wb);
+    /// Runs `f(thread, constraints)` over every wide constraint, colour after colour:
+    /// the constraints of one colour split between the pool's threads (they share no
+    /// moving body), the overflow group on the caller alone. Returns the largest value
+    /// `f` returned.
+    fn for_colors(
+        &mut self,
+        pool: Option<&Pool>,
+        f: &(dyn Fn(usize, &mut [WideConstraint]) -> f32 + Sync),
+    ) -> f32 {
+        let Some(pool) = pool.filter(|p| p.threads() > 1) else {
+            return f(0, &mut self.wide);
+        };
+        let mut r = f32::NEG_INFINITY;
+        let mut done = 0usize;
+        for &(start, end) in &self.color_ranges {
+            let (start, end) = (start as usize, end as usize);
+            r = r.max(parallel::chunks_mut(
+                Some(pool),
+                &mut self.wide[start..end],
+                WIDE_BLOCK,
+                &|t, _, c| f(t, c),
+            ));
+            done = end;
         }
-        residual.max_element()
+        // the overflow group: constraints that may share bodies, one by one
+        r.max(f(0, &mut self.wide[done..]))
     }
 
     /// Moves every body by its velocity for one substep: dp += h v, dtheta += h w,
     /// q += h w q_perp (normalised).
-    pub fn integrate_positions(&mut self, h: f32) {
-        for s in &mut self.bodies {
-            s.dp += h * s.v;
-            s.dtheta += h * s.w;
-            // q' = q + h w (-s, c), then |q'| = 1
-            let hw = h * s.w;
-            let (c, sn) = (s.dq.c - hw * s.dq.s, s.dq.s + hw * s.dq.c);
-            let inv = 1.0 / (c * c + sn * sn).sqrt();
-            s.dq = Rot {
-                c: c * inv,
-                s: sn * inv,
-            };
-        }
+    pub fn integrate_positions(&mut self, h: f32, pool: Option<&Pool>) {
+        parallel::chunks_mut(pool, &mut self.bodies, BODY_BLOCK, &|_, _, bodies| {
+            for s in bodies {
+                s.dp += h * s.v;
+                s.dtheta += h * s.w;
+                // q' = q + h w (-s, c), then |q'| = 1
+                let hw = h * s.w;
+                let (c, sn) = (s.dq.c - hw * s.dq.s, s.dq.s + hw * s.dq.c);
+                let inv = 1.0 / (c * c + sn * sn).sqrt();
+                s.dq = Rot {
+                    c: c * inv,
+                    s: sn * inv,
+                };
+            }
+            0.0
+        });
     }
 
     /// Restitution: a point that was approaching faster than the threshold and was pushed
@@ -782,31 +734,40 @@ impl SoftSolver {
 
     /// Substep loop of the solver's part: warm start, `iterations` biased sweeps,
     /// integrate positions, one relax sweep. The caller integrates velocities before.
-    pub fn substep(&mut self, s: &SolverSettings, h: f32, stats: &mut SolveStats) {
+    pub fn substep(
+        &mut self,
+        s: &SolverSettings,
+        h: f32,
+        stats: &mut SolveStats,
+        pool: Option<&Pool>,
+    ) {
         if s.warm_start {
-            self.warm_start();
+            self.warm_start(pool);
         }
         for _ in 0..s.iterations {
-            stats.residual = self.sweep::<true>();
+            stats.residual = self.sweep::<true>(pool);
             stats.iterations += 1;
         }
-        self.integrate_positions(h);
-        stats.residual = self.sweep::<false>();
+        self.integrate_positions(h, pool);
+        stats.residual = self.sweep::<false>(pool);
         stats.iterations += 1;
     }
 
     /// Writes the lambdas back into the contacts, for next step's warm start.
-    pub fn store_impulses(&self, contacts: &mut [Contact]) {
-        for (c, &at) in contacts.iter_mut().zip(&self.slot) {
-            let (w, k) = (&self.wide[(at / 4) as usize], (at % 4) as usize);
-            for (p, q) in c.manifold.points[..c.manifold.count]
-                .iter_mut()
-                .zip(&w.points)
-            {
-                p.normal_impulse = q.normal_impulse[k];
-                p.tangent_impulse = q.tangent_impulse[k];
+    pub fn store_impulses(&self, contacts: &mut [Contact], pool: Option<&Pool>) {
+        parallel::chunks_mut(pool, contacts, CONTACT_BLOCK, &|_, offset, contacts| {
+            for (c, &at) in contacts.iter_mut().zip(&self.slot[offset..]) {
+                let (w, k) = (&self.wide[(at / 4) as usize], (at % 4) as usize);
+                for (p, q) in c.manifold.points[..c.manifold.count]
+                    .iter_mut()
+                    .zip(&w.points)
+                {
+                    p.normal_impulse = q.normal_impulse[k];
+                    p.tangent_impulse = q.tangent_impulse[k];
+                }
             }
-        }
+            0.0
+        });
     }
 
     /// The normal and friction lambdas of every row, contact by contact.
@@ -825,7 +786,7 @@ impl SoftSolver {
     /// Checks the layout: every contact's slot holds its pair, and no moving body appears
     /// in two lanes of one wide constraint (for tests).
     pub fn lanes_are_independent(&self, contacts: &[Contact]) -> bool {
-        let sink = self.bodies.len() as u32 - 1;
+        let sink = self.sink;
         let pairs_ok = contacts.iter().zip(&self.slot).all(|(c, &at)| {
             let (w, k) = (&self.wide[(at / 4) as usize], (at % 4) as usize);
             w.a[k] == c.a && w.b[k] == c.b
@@ -851,6 +812,303 @@ impl SoftSolver {
     pub fn wide_count(&self) -> usize {
         self.wide.len()
     }
+}
+
+impl WideConstraint {
+    /// Four empty lanes: they read the rest slot, write the sink, and weigh nothing.
+    fn empty(rest: u32, sink: u32) -> WideConstraint {
+        WideConstraint {
+            a: [rest; 4],
+            b: [rest; 4],
+            wa: [sink; 4],
+            wb: [sink; 4],
+            nx: Vec4::ZERO,
+            ny: Vec4::ZERO,
+            friction: Vec4::ZERO,
+            m: InvMass4::default(),
+            bias_rate: Vec4::ZERO,
+            mass_scale: Vec4::ZERO,
+            impulse_scale: Vec4::ZERO,
+            points: [WidePoint::default(); 2],
+        }
+    }
+}
+
+/// What `prepare` builds each wide constraint from (shared by the threads that build
+/// them, each writing its own wide constraints).
+struct Fill<'a> {
+    contacts: &'a [Contact],
+    lane_contact: &'a [u32],
+    bodies: &'a [SoftBody],
+    inv_mass: &'a [(f32, f32)],
+    moves: &'a [bool],
+    soft_dynamic: Softness,
+    soft_static: Softness,
+    warm_start: bool,
+    rest: u32,
+    sink: u32,
+}
+
+impl Fill<'_> {
+    /// The contacts of wide constraint `wi`'s lanes.
+    fn lanes(&self, wi: usize) -> impl Iterator<Item = (usize, &Contact)> {
+        self.lane_contact[wi * 4..wi * 4 + 4]
+            .iter()
+            .enumerate()
+            .filter(|(_, i)| **i != u32::MAX)
+            .map(|(k, &i)| (k, &self.contacts[i as usize]))
+    }
+
+    fn wide(&self, wi: usize) -> WideConstraint {
+        let mut w = WideConstraint::empty(self.rest, self.sink);
+        for (k, c) in self.lanes(wi) {
+            let ((ima, iia), (imb, iib)) =
+                (self.inv_mass[c.a as usize], self.inv_mass[c.b as usize]);
+            let (ma, mb) = (self.moves[c.a as usize], self.moves[c.b as usize]);
+            let soft = if ma && mb {
+                self.soft_dynamic
+            } else {
+                self.soft_static
+            };
+            let n = c.manifold.normal;
+            let t = Vec2::new(n.y, -n.x);
+            w.a[k] = c.a;
+            w.b[k] = c.b;
+            w.wa[k] = if ma { c.a } else { self.sink };
+            w.wb[k] = if mb { c.b } else { self.sink };
+            w.nx[k] = n.x;
+            w.ny[k] = n.y;
+            w.friction[k] = c.friction;
+            w.m.ima[k] = ima;
+            w.m.iia[k] = iia;
+            w.m.imb[k] = imb;
+            w.m.iib[k] = iib;
+            w.bias_rate[k] = soft.bias_rate;
+            w.mass_scale[k] = soft.mass_scale;
+            w.impulse_scale[k] = soft.impulse_scale;
+            for (i, cp) in c.manifold.points().iter().enumerate() {
+                let (ra, rb) = (cp.anchor_a, cp.anchor_b);
+                let rna = cross(ra, n);
+                let rnb = cross(rb, n);
+                // K = 1/mA + 1/mB + (ra x n)^2/IA + (rb x n)^2/IB
+                let kn = ima + imb + iia * rna * rna + iib * rnb * rnb;
+                let rta = cross(ra, t);
+                let rtb = cross(rb, t);
+                let kt = ima + imb + iia * rta * rta + iib * rtb * rtb;
+                let (ni, ti) = if self.warm_start {
+                    (cp.normal_impulse, cp.tangent_impulse)
+                } else {
+                    (0.0, 0.0)
+                };
+                let p = &mut w.points[i];
+                p.rax[k] = ra.x;
+                p.ray[k] = ra.y;
+                p.rbx[k] = rb.x;
+                p.rby[k] = rb.y;
+                // s0 - n . (rb - ra)
+                p.base_separation[k] = cp.separation - n.dot(rb - ra);
+                p.normal_mass[k] = if kn > 0.0 { 1.0 / kn } else { 0.0 };
+                p.tangent_mass[k] = if kt > 0.0 { 1.0 / kt } else { 0.0 };
+                p.normal_impulse[k] = ni;
+                p.tangent_impulse[k] = ti;
+            }
+        }
+        w
+    }
+
+    fn cold(&self, wi: usize) -> WideCold {
+        let mut cold = WideCold::default();
+        for (k, c) in self.lanes(wi) {
+            cold.restitution[k] = c.restitution;
+            cold.count[k] = c.manifold.count as u8;
+            if c.restitution == 0.0 {
+                continue;
+            }
+            // dv = vb + wb x rb - va - wa x ra (read only by restitution)
+            let (ba, bb) = (self.bodies[c.a as usize], self.bodies[c.b as usize]);
+            let n = c.manifold.normal;
+            for (i, cp) in c.manifold.points().iter().enumerate() {
+                let (ra, rb) = (cp.anchor_a, cp.anchor_b);
+                let dv = bb.v + cross_sv(bb.w, rb) - ba.v - cross_sv(ba.w, ra);
+                cold.relative_velocity[i][k] = n.dot(dv);
+            }
+        }
+        cold
+    }
+}
+
+/// Wide constraints a thread claims at a time (about a microsecond of work).
+const WIDE_BLOCK: usize = 32;
+/// Bodies a thread claims at a time (integration).
+const BODY_BLOCK: usize = 1024;
+/// Contacts a thread claims at a time (copying lambdas out).
+const CONTACT_BLOCK: usize = 512;
+
+/// Whether the sweeps run their AVX2 build, read once on the caller (the test hook is
+/// per thread).
+fn use_avx2() -> bool {
+    #[cfg(target_arch = "x86_64")]
+    {
+        testing::use_avx2()
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    {
+        false
+    }
+}
+
+/// What a sweep reads besides the constraints and bodies.
+struct SweepConsts {
+    inv_h: f32,
+    slop: f32,
+    max_push: f32,
+    /// Keep each point's largest normal impulse (for restitution).
+    max_impulse: bool,
+    avx2: bool,
+}
+
+fn warm_start_range(wide: &[WideConstraint], bodies: BodyPtr, avx2: bool) {
+    #[cfg(target_arch = "x86_64")]
+    if avx2 {
+        // SAFETY: the CPU has AVX2 (use_avx2).
+        return unsafe { warm_start_avx2(wide, bodies) };
+    }
+    let _ = avx2;
+    warm_start_impl(wide, bodies)
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+fn warm_start_avx2(wide: &[WideConstraint], bodies: BodyPtr) {
+    warm_start_impl(wide, bodies)
+}
+
+#[inline(always)]
+fn warm_start_impl(wide: &[WideConstraint], bodies: BodyPtr) {
+    for c in wide {
+        let sa = WideBody::gather(bodies, &c.a);
+        let sb = WideBody::gather(bodies, &c.b);
+        let (mut vax, mut vay, mut wa) = (sa.vx, sa.vy, sa.w);
+        let (mut vbx, mut vby, mut wb) = (sb.vx, sb.vy, sb.w);
+        for p in &c.points {
+            // P = lambda_n n + lambda_t t, t = (ny, -nx)
+            let px = p.normal_impulse * c.nx + p.tangent_impulse * c.ny;
+            let py = p.normal_impulse * c.ny - p.tangent_impulse * c.nx;
+            // v -= P/mA, w -= (ra x P)/IA; v += P/mB, w += (rb x P)/IB
+            vax -= c.m.ima * px;
+            vay -= c.m.ima * py;
+            wa -= c.m.iia * (p.rax * py - p.ray * px);
+            vbx += c.m.imb * px;
+            vby += c.m.imb * py;
+            wb += c.m.iib * (p.rbx * py - p.rby * px);
+        }
+        sa.scatter(vax, vay, wa, bodies, &c.wa);
+        sb.scatter(vbx, vby, wb, bodies, &c.wb);
+    }
+}
+
+fn sweep_range<const BIAS: bool>(
+    wide: &mut [WideConstraint],
+    bodies: BodyPtr,
+    k: &SweepConsts,
+) -> f32 {
+    #[cfg(target_arch = "x86_64")]
+    if k.avx2 {
+        // SAFETY: the CPU has AVX2 (use_avx2).
+        return unsafe {
+            if k.max_impulse {
+                sweep_avx2::<BIAS, true>(wide, bodies, k)
+            } else {
+                sweep_avx2::<BIAS, false>(wide, bodies, k)
+            }
+        };
+    }
+    if k.max_impulse {
+        sweep_impl::<BIAS, true>(wide, bodies, k)
+    } else {
+        sweep_impl::<BIAS, false>(wide, bodies, k)
+    }
+}
+
+/// [`sweep_impl`] compiled for AVX2 (three-operand forms, blends): the same arithmetic,
+/// so the same results to the bit.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+fn sweep_avx2<const BIAS: bool, const MAX_IMPULSE: bool>(
+    wide: &mut [WideConstraint],
+    bodies: BodyPtr,
+    k: &SweepConsts,
+) -> f32 {
+    sweep_impl::<BIAS, MAX_IMPULSE>(wide, bodies, k)
+}
+
+#[inline(always)]
+fn sweep_impl<const BIAS: bool, const MAX_IMPULSE: bool>(
+    wide: &mut [WideConstraint],
+    bodies: BodyPtr,
+    k: &SweepConsts,
+) -> f32 {
+    let inv_h = Vec4::splat(k.inv_h);
+    let slop = Vec4::splat(k.slop);
+    let min_bias = Vec4::splat(-k.max_push);
+    let mut residual = Vec4::ZERO;
+    for c in wide {
+        let sa = WideBody::gather(bodies, &c.a);
+        let sb = WideBody::gather(bodies, &c.b);
+        let mut v = PairVel4 {
+            vax: sa.vx,
+            vay: sa.vy,
+            wa: sa.w,
+            vbx: sb.vx,
+            vby: sb.vy,
+            wb: sb.w,
+        };
+        let (nx, ny, m) = (c.nx, c.ny, c.m);
+        let dpx = sb.dpx - sa.dpx;
+        let dpy = sb.dpy - sa.dpy;
+        for p in &mut c.points {
+            // q r: the anchors turned by the rotation since collide
+            let qrax = sa.qc * p.rax - sa.qs * p.ray;
+            let qray = sa.qs * p.rax + sa.qc * p.ray;
+            let qrbx = sb.qc * p.rbx - sb.qs * p.rby;
+            let qrby = sb.qs * p.rbx + sb.qc * p.rby;
+            // s = s0 - n.(rb - ra) + n.(dp_b - dp_a + q_b rb - q_a ra)
+            let s = p.base_separation + nx * (dpx + qrbx - qrax) + ny * (dpy + qrby - qray);
+            let speculative = s.cmpgt(Vec4::ZERO);
+            // speculative: bias = s / h (may close the gap this substep, not more)
+            let spec_bias = s * inv_h;
+            let (bias, mass_scale, impulse_scale) = if BIAS {
+                // bias = max(rate S, -v_max), S = min(s + slop, 0)
+                let soft_bias = (c.bias_rate * (s + slop).min(Vec4::ZERO)).max(min_bias);
+                (
+                    Vec4::select(speculative, spec_bias, soft_bias),
+                    Vec4::select(speculative, Vec4::ONE, c.mass_scale),
+                    Vec4::select(speculative, Vec4::ZERO, c.impulse_scale),
+                )
+            } else {
+                (spec_bias.max(Vec4::ZERO), Vec4::ONE, Vec4::ZERO)
+            };
+            let vn = v.along(p, nx, ny);
+            // d lambda = -m_n s_m (vn + bias) - s_i lambda, then lambda >= 0
+            let d = -p.normal_mass * mass_scale * (vn + bias) - impulse_scale * p.normal_impulse;
+            let new = (p.normal_impulse + d).max(Vec4::ZERO);
+            let d = new - p.normal_impulse;
+            p.normal_impulse = new;
+            if MAX_IMPULSE {
+                p.max_normal_impulse = p.max_normal_impulse.max(new);
+            }
+            residual = residual.max(d.abs());
+            v.apply(&m, p, d * nx, d * ny);
+        }
+        if !BIAS {
+            // friction only in the relax sweep: solved against the push-out speeds
+            // of the biased sweep it lets the flanks of a tall pile creep outwards
+            friction_rows(c, &mut v, &mut residual);
+        }
+        sa.scatter(v.vax, v.vay, v.wa, bodies, &c.wa);
+        sb.scatter(v.vbx, v.vby, v.wb, bodies, &c.wb);
+    }
+    residual.max_element()
 }
 
 #[cfg(test)]

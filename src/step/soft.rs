@@ -27,10 +27,13 @@ impl Stepper for SoftStepper {
     fn step(&mut self, world: &mut World, cx: &StepContext, clock: &mut StageClock) -> StepStats {
         let s = world.settings;
         let (n, h) = (cx.substeps, cx.h);
+        let pool = world.pool();
+        let pool = pool.as_deref();
         // points out to the distance each pair can close in the step (speculative
         // contacts): a fast body meets what it would pass through
         let penetration = world.collide(cx.dt, cx.margin, Speculative::MarginOrMotion, clock);
-        self.soft.prepare(&world.bodies, &world.contacts, &s, h);
+        self.soft
+            .prepare(&world.bodies, &world.contacts, &s, h, pool);
         let joints = !world.joints.is_empty() || world.mouse.is_some();
         if joints {
             self.joints
@@ -59,7 +62,7 @@ impl Stepper for SoftStepper {
                     self.joints
                         .warm_start(&world.joints, &mut soft.bodies, &soft.inv_mass);
                 }
-                soft.warm_start();
+                soft.warm_start(pool);
             }
             for _ in 0..s.iterations {
                 let rj = if joints {
@@ -68,21 +71,21 @@ impl Stepper for SoftStepper {
                 } else {
                     0.0
                 };
-                let _ = soft.sweep::<true>().max(rj);
+                let _ = soft.sweep::<true>(pool).max(rj);
                 iterations += 1;
             }
             if joints {
                 self.joints
                     .damp(&world.joints, &mut soft.bodies, &soft.inv_mass);
             }
-            soft.integrate_positions(h);
+            soft.integrate_positions(h, pool);
             let rj = if joints {
                 self.joints
                     .sweep(&world.joints, &mut soft.bodies, &soft.inv_mass, false)
             } else {
                 0.0
             };
-            residual = soft.sweep::<false>().max(rj);
+            residual = soft.sweep::<false>(pool).max(rj);
             iterations += 1;
 
             if !uniform {
@@ -92,7 +95,7 @@ impl Stepper for SoftStepper {
         }
         self.soft.apply_restitution(s.restitution_threshold);
         self.soft.store_velocities(&mut world.bodies);
-        self.soft.store_impulses(&mut world.contacts);
+        self.soft.store_impulses(&mut world.contacts, pool);
         if joints {
             self.joints.store(&mut world.joints);
         }

@@ -1,0 +1,422 @@
+//! A small pool of worker threads for the step's parallel stages (narrow phase, the soft
+//! step's colours, integration), written for short, frequent jobs.
+//!
+//! A job is a closure and a number of blocks: each block is claimed by one thread (the
+//! caller, thread 0, claims too) and run once. The caller returns only when every block
+//! is done, so a job may borrow from the caller's stack. Claiming, not a fixed split,
+//! keeps a busy machine from stalling the step: a worker that the system has not
+//! scheduled yet claims nothing, and the caller does its share. Between jobs the workers
+//! spin for a few microseconds (a step posts a job per colour per sweep, a few hundred a
+//! step), then yield, then sleep until the next job.
+//!
+//! Results never depend on the thread count: the stages split only work whose items
+//! are independent (pairs in the narrow phase, constraints of one colour that share no
+//! moving body, bodies), and reductions are order-free (max) or done in a fixed order.
+
+use std::ops::Range;
+use std::sync::atomic::{AtomicBool, AtomicU32, AtomicU64, AtomicUsize, Ordering};
+use std::sync::{Arc, Mutex};
+use std::thread::JoinHandle;
+
+/// The most threads a pool runs (the caller included).
+pub const MAX_THREADS: usize = 64;
+
+/// Threads a new [`crate::World`] may use: 1 unless [`set_default_threads`] said
+/// otherwise (the command line sets it from `--threads`).
+static DEFAULT_THREADS: AtomicUsize = AtomicUsize::new(1);
+
+/// Threads a new world may use ([`crate::World::set_threads`] changes one world's).
+pub fn default_threads() -> usize {
+    DEFAULT_THREADS.load(Ordering::Relaxed)
+}
+
+/// Sets the threads every world made from now on may use (clamped to 1..=[`MAX_THREADS`]).
+pub fn set_default_threads(n: usize) {
+    DEFAULT_THREADS.store(n.clamp(1, MAX_THREADS), Ordering::Relaxed);
+}
+
+/// The number of threads `--threads` means by default: the machine's cores.
+pub fn available() -> usize {
+    std::thread::available_parallelism()
+        .map(|n| n.get())
+        .unwrap_or(1)
+        .min(MAX_THREADS)
+}
+
+/// A job as the workers see it: the closure with its lifetime erased, its epoch and its
+/// block count. The closure is alive while blocks of its epoch can still be claimed.
+#[derive(Clone, Copy)]
+struct Job {
+    epoch: u32,
+    f: *const (dyn Fn(usize, usize) + Sync),
+    blocks: usize,
+}
+
+// SAFETY: `f` is only called after a block of its epoch was claimed, and `Pool::blocks`
+// keeps the closure alive until every block it handed out has completed.
+unsafe impl Send for Job {}
+
+struct Shared {
+    /// The epoch of the latest job; a worker wakes when it changes.
+    epoch: AtomicU32,
+    job: Mutex<Option<Job>>,
+    /// Per thread's segment of the blocks: (epoch << 32) | next block. A block is claimed
+    /// by a compare-and-swap that checks the epoch, so a worker that comes late to a job
+    /// claims nothing of the next one.
+    claim: Vec<Slot>,
+    /// Blocks of the current job finished.
+    completed: AtomicUsize,
+    /// Per worker: it is (about to be) parked and needs an unpark for the next job.
+    parked: Vec<AtomicBool>,
+    quit: AtomicBool,
+    /// A job panicked on a worker: the caller panics too, once every block is done.
+    panicked: AtomicBool,
+}
+
+/// A claim counter on a cache line of its own.
+#[repr(align(64))]
+struct Slot(AtomicU64);
+
+impl Shared {
+    /// Claims the next block of job `epoch` for thread `t`: from its own segment first
+    /// (so each thread keeps to the same part of the data, colour after colour, and its
+    /// bodies stay in its cache), then from the others'. `None` when none is left.
+    fn claim(&self, t: usize, epoch: u32, blocks: usize) -> Option<usize> {
+        let n = self.claim.len();
+        (0..n).find_map(|k| {
+            let seg = (t + k) % n;
+            self.claim_in(seg, epoch, split(blocks, n, seg).end)
+        })
+    }
+
+    fn claim_in(&self, seg: usize, epoch: u32, end: usize) -> Option<usize> {
+        let slot = &self.claim[seg].0;
+        let mut v = slot.load(Ordering::Acquire);
+        loop {
+            let next = (v & 0xffff_ffff) as usize;
+            if (v >> 32) as u32 != epoch || next >= end {
+                return None;
+            }
+            match slot.compare_exchange_weak(v, v + 1, Ordering::AcqRel, Ordering::Acquire) {
+                Ok(_) => return Some(next),
+                Err(now) => v = now,
+            }
+        }
+    }
+}
+
+/// The i-th of `t` near-equal contiguous ranges of 0..len.
+fn split(len: usize, t: usize, i: usize) -> Range<usize> {
+    (len * i / t)..(len * (i + 1) / t)
+}
+
+/// Worker threads for the step's parallel stages; see the module docs.
+pub struct Pool {
+    shared: Arc<Shared>,
+    workers: Vec<JoinHandle<()>>,
+    /// One job at a time: worlds that share a pool (clones) take turns.
+    turn: Mutex<u32>,
+    /// Jobs of more than one block run so far.
+    jobs: AtomicU64,
+}
+
+impl std::fmt::Debug for Pool {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Pool")
+            .field("threads", &self.threads())
+            .finish()
+    }
+}
+
+/// Spins before a waiting thread starts yielding its core, and yields before it sleeps.
+const SPINS: u32 = 1 << 12;
+const YIELDS: u32 = 64;
+
+impl Pool {
+    /// A pool of `threads` threads in all: the caller and `threads - 1` workers
+    /// (`threads` is clamped to 1..=[`MAX_THREADS`]).
+    pub fn new(threads: usize) -> Pool {
+        let workers = threads.clamp(1, MAX_THREADS) - 1;
+        let shared = Arc::new(Shared {
+            epoch: AtomicU32::new(0),
+            job: Mutex::new(None),
+            claim: (0..=workers).map(|_| Slot(AtomicU64::new(0))).collect(),
+            completed: AtomicUsize::new(0),
+            parked: (0..workers).map(|_| AtomicBool::new(false)).collect(),
+            quit: AtomicBool::new(false),
+            panicked: AtomicBool::new(false),
+        });
+        let workers = (0..workers)
+            .map(|i| {
+                let shared = Arc::clone(&shared);
+                std::thread::Builder::new()
+                    .name(format!("sandbox2d-worker-{}", i + 1))
+                    .spawn(move || worker(&shared, i))
+                    .expect("spawn a worker thread")
+            })
+            .collect();
+        Pool {
+            shared,
+            workers,
+            turn: Mutex::new(0),
+            jobs: AtomicU64::new(0),
+        }
+    }
+
+    /// Threads in all, the caller included.
+    pub fn threads(&self) -> usize {
+        self.workers.len() + 1
+    }
+
+    /// Jobs of more than one block this pool has run (the ones its workers could share).
+    pub fn jobs(&self) -> u64 {
+        self.jobs.load(Ordering::Relaxed)
+    }
+
+    /// Runs `f(thread, block)` once for every block in 0..blocks, on whichever threads
+    /// claim them first (thread 0 is the caller, which claims too: a worker that is busy
+    /// elsewhere or asleep delays nothing). Returns when every block is done; a panic in
+    /// any of them is raised here.
+    pub fn blocks(&self, blocks: usize, f: &(dyn Fn(usize, usize) + Sync)) {
+        if self.workers.is_empty() || blocks <= 1 {
+            for b in 0..blocks {
+                f(0, b);
+            }
+            return;
+        }
+        let mut turn = self.turn.lock().unwrap_or_else(|e| e.into_inner());
+        self.jobs.fetch_add(1, Ordering::Relaxed);
+        *turn = turn.wrapping_add(1);
+        let epoch = *turn;
+        let s = &*self.shared;
+        // SAFETY: the lifetime is erased only for the workers' copy; a worker calls `f`
+        // only for a block of this epoch it claimed, and this function returns (or
+        // unwinds) only once every block of the epoch has completed.
+        let f_ptr: *const (dyn Fn(usize, usize) + Sync) = f;
+        let f_ptr: *const (dyn Fn(usize, usize) + Sync + 'static) =
+            unsafe { std::mem::transmute(f_ptr) };
+        s.completed.store(0, Ordering::SeqCst);
+        *s.job.lock().unwrap_or_else(|e| e.into_inner()) = Some(Job {
+            epoch,
+            f: f_ptr,
+            blocks,
+        });
+        for (seg, slot) in s.claim.iter().enumerate() {
+            let start = split(blocks, s.claim.len(), seg).start as u64;
+            slot.0
+                .store(((epoch as u64) << 32) | start, Ordering::SeqCst);
+        }
+        s.epoch.store(epoch, Ordering::SeqCst);
+        for (flag, w) in s.parked.iter().zip(&self.workers) {
+            if flag.swap(false, Ordering::SeqCst) {
+                w.thread().unpark();
+            }
+        }
+        let mut mine = Ok(());
+        while let Some(b) = s.claim(0, epoch, blocks) {
+            let r = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| f(0, b)));
+            if r.is_err() && mine.is_ok() {
+                mine = r;
+            }
+            s.completed.fetch_add(1, Ordering::AcqRel);
+        }
+        let mut tries = 0u32;
+        while s.completed.load(Ordering::Acquire) != blocks {
+            backoff(&mut tries);
+        }
+        if let Err(p) = mine {
+            std::panic::resume_unwind(p);
+        }
+        if s.panicked.swap(false, Ordering::SeqCst) {
+            panic!("a worker thread panicked");
+        }
+    }
+}
+
+/// Runs `f(thread, range)` over 0..len cut into blocks of `block` items, spread over
+/// the pool's threads (on the caller alone, as one range, without a pool or with one
+/// block). Returns the largest value any call returned (0 for an empty range).
+pub fn ranges_max(
+    pool: Option<&Pool>,
+    len: usize,
+    block: usize,
+    f: &(dyn Fn(usize, Range<usize>) -> f32 + Sync),
+) -> f32 {
+    let block = block.max(1);
+    let blocks = len.div_ceil(block);
+    let pool = match pool {
+        Some(p) if p.threads() > 1 && blocks > 1 => p,
+        _ => return f(0, 0..len),
+    };
+    let out: [AtomicU32; MAX_THREADS] =
+        std::array::from_fn(|_| AtomicU32::new(f32::NEG_INFINITY.to_bits()));
+    pool.blocks(blocks, &|t, b| {
+        let v = f(t, b * block..((b + 1) * block).min(len));
+        let was = f32::from_bits(out[t].load(Ordering::Relaxed));
+        out[t].store(was.max(v).to_bits(), Ordering::Relaxed);
+    });
+    out[..pool.threads()]
+        .iter()
+        .map(|v| f32::from_bits(v.load(Ordering::Relaxed)))
+        .fold(f32::NEG_INFINITY, f32::max)
+}
+
+/// Runs `f(thread, offset, chunk)` over `data` cut into chunks of `block` items, as
+/// [`ranges_max`] does over a range. Returns the largest value any call returned.
+pub fn chunks_mut<T: Send>(
+    pool: Option<&Pool>,
+    data: &mut [T],
+    block: usize,
+    f: &(dyn Fn(usize, usize, &mut [T]) -> f32 + Sync),
+) -> f32 {
+    let len = data.len();
+    if pool.is_none_or(|p| p.threads() == 1) || len <= block {
+        return f(0, 0, data);
+    }
+    let base = SyncPtr(data.as_mut_ptr());
+    ranges_max(pool, len, block, &|t, r| {
+        // SAFETY: the blocks are disjoint and inside 0..len, and `data` is borrowed
+        // mutably for the whole call.
+        let chunk = unsafe { std::slice::from_raw_parts_mut(base.get().add(r.start), r.len()) };
+        f(t, r.start, chunk)
+    })
+}
+
+/// A raw pointer the threads of one job share, each touching its own elements.
+struct SyncPtr<T>(*mut T);
+
+impl<T> Clone for SyncPtr<T> {
+    fn clone(&self) -> Self {
+        *self
+    }
+}
+
+impl<T> Copy for SyncPtr<T> {}
+
+// SAFETY: used only for jobs whose threads touch disjoint elements (see each use).
+unsafe impl<T: Send> Send for SyncPtr<T> {}
+unsafe impl<T: Send> Sync for SyncPtr<T> {}
+
+impl<T> SyncPtr<T> {
+    fn get(self) -> *mut T {
+        self.0
+    }
+}
+
+fn backoff(tries: &mut u32) {
+    if *tries < SPINS {
+        std::hint::spin_loop();
+    } else {
+        std::thread::yield_now();
+    }
+    *tries = tries.saturating_add(1);
+}
+
+fn worker(s: &Shared, index: usize) {
+    let mut seen = 0u32;
+    loop {
+        let mut tries = 0u32;
+        loop {
+            if s.quit.load(Ordering::Acquire) {
+                return;
+            }
+            if s.epoch.load(Ordering::Acquire) != seen {
+                break;
+            }
+            if tries < SPINS + YIELDS {
+                backoff(&mut tries);
+                continue;
+            }
+            // sleep until the next job: say so, look once more, then park (an unpark
+            // that comes between the look and the park makes the park return at once)
+            s.parked[index].store(true, Ordering::SeqCst);
+            if s.epoch.load(Ordering::SeqCst) == seen && !s.quit.load(Ordering::SeqCst) {
+                std::thread::park();
+            }
+            s.parked[index].store(false, Ordering::SeqCst);
+        }
+        let job = *s.job.lock().unwrap_or_else(|e| e.into_inner());
+        let Some(job) = job else {
+            seen = s.epoch.load(Ordering::Acquire);
+            continue;
+        };
+        seen = job.epoch;
+        while let Some(b) = s.claim(index + 1, job.epoch, job.blocks) {
+            // SAFETY: a block of this epoch was claimed, so `Pool::blocks` is still
+            // waiting for it and the closure is alive.
+            let f = unsafe { &*job.f };
+            if std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| f(index + 1, b))).is_err() {
+                s.panicked.store(true, Ordering::SeqCst);
+            }
+            s.completed.fetch_add(1, Ordering::AcqRel);
+        }
+    }
+}
+
+impl Drop for Pool {
+    fn drop(&mut self) {
+        self.shared.quit.store(true, Ordering::SeqCst);
+        for w in &self.workers {
+            w.thread().unpark();
+        }
+        for w in self.workers.drain(..) {
+            let _ = w.join();
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn every_block_runs_once_and_the_caller_waits_for_all() {
+        let pool = Pool::new(3);
+        assert_eq!(pool.threads(), 3);
+        for round in 0..300usize {
+            let hits: Vec<AtomicUsize> = (0..round % 40 + 1).map(|_| AtomicUsize::new(0)).collect();
+            pool.blocks(hits.len(), &|t, b| {
+                assert!(t < 3);
+                hits[b].fetch_add(1, Ordering::SeqCst);
+            });
+            assert!(hits.iter().all(|h| h.load(Ordering::SeqCst) == 1));
+            if round % 100 == 0 {
+                // let the workers fall asleep: the next job must still run every block
+                std::thread::sleep(std::time::Duration::from_millis(20));
+            }
+        }
+    }
+
+    #[test]
+    fn chunks_cover_the_slice_once_and_max_reduces() {
+        let pool = Pool::new(2);
+        let mut v = vec![0u32; 1001];
+        let m = chunks_mut(Some(&pool), &mut v, 10, &|_, off, c| {
+            for (i, x) in c.iter_mut().enumerate() {
+                *x += (off + i) as u32;
+            }
+            c.len() as f32
+        });
+        assert_eq!(m, 10.0);
+        assert!(v.iter().enumerate().all(|(i, &x)| x == i as u32));
+        let m = ranges_max(Some(&pool), 1001, 7, &|_, r| r.end as f32);
+        assert_eq!(m, 1001.0);
+        // without a pool the caller does it alone, as one range
+        let m = ranges_max(None, 10, 3, &|t, r| (t * 1000 + r.len()) as f32);
+        assert_eq!(m, 10.0);
+    }
+
+    #[test]
+    fn a_panic_in_a_block_reaches_the_caller_and_the_pool_goes_on() {
+        let pool = Pool::new(2);
+        let r = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
+            pool.blocks(64, &|_, b| assert!(b != 17, "block fails"));
+        }));
+        assert!(r.is_err());
+        let n = AtomicUsize::new(0);
+        pool.blocks(50, &|_, _| {
+            n.fetch_add(1, Ordering::SeqCst);
+        });
+        assert_eq!(n.load(Ordering::SeqCst), 50);
+    }
+}

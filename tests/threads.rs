@@ -1,0 +1,167 @@
+//! Both cores: a step split between threads gives the same bits as one thread, under
+//! every solver, with contacts, joints, restitution and sleeping.
+
+use sandbox2d::parallel::Pool;
+use sandbox2d::scene::load_str;
+use sandbox2d::solver::soft::SoftSolver;
+use sandbox2d::{SolverKind, SolverSettings, World};
+
+/// A pyramid of 435 boxes, a row of bouncing balls over it, and a 12 x 12 hinged grid
+/// hanging from two static cells: contacts (many colours), restitution and joints, with
+/// enough bodies for the worker threads to start.
+const SCENE: &str = r#"
+name = "threads"
+[world]
+gravity = [0.0, -10.0]
+
+[[body]]
+name = "ground"
+type = "static"
+shape = { box = [200.0, 2.0] }
+position = [0.0, -1.0]
+
+[[pyramid]]
+base = 29
+box = [1.0, 1.0]
+
+[[grid]]
+rows = 1
+columns = 20
+spacing = [1.5, 1.0]
+origin = [-14.0, 34.0]
+shape = { circle = 0.4 }
+restitution = 0.8
+
+[[grid]]
+rows = 12
+columns = 12
+spacing = [1.0, 1.0]
+origin = [40.0, 5.0]
+shape = { box = [0.6, 0.6] }
+joints = "hinge"
+static_cells = [[11, 0], [11, 11]]
+"#;
+
+fn world(kind: SolverKind, threads: usize) -> World {
+    let sc = load_str(SCENE, "threads.toml").expect("scene parses");
+    let mut w = World::from_def(&sc.world, SolverSettings::defaults(kind)).expect("builds");
+    w.set_threads(threads);
+    w
+}
+
+#[test]
+fn the_step_is_bit_identical_whatever_the_thread_count() {
+    for kind in [SolverKind::Soft, SolverKind::Pgs, SolverKind::Xpbd] {
+        let steps = if kind == SolverKind::Xpbd { 12 } else { 40 };
+        let mut one = world(kind, 1);
+        let mut hashes = Vec::new();
+        for _ in 0..steps {
+            one.step().unwrap();
+            hashes.push(one.state_hash());
+        }
+        assert_eq!(one.parallel_jobs(), 0, "{kind:?}: one thread runs no job");
+        assert!(
+            one.contacts().len() > 800,
+            "{} contacts",
+            one.contacts().len()
+        );
+        for threads in [2, 3] {
+            let mut many = world(kind, threads);
+            for (i, h) in hashes.iter().enumerate() {
+                many.step().unwrap();
+                assert_eq!(
+                    many.state_hash(),
+                    *h,
+                    "{kind:?}, {threads} threads: step {} differs",
+                    i + 1
+                );
+            }
+            assert!(
+                many.parallel_jobs() >= steps as u64,
+                "{kind:?}, {threads} threads: {} parallel jobs",
+                many.parallel_jobs()
+            );
+            // the contacts come back in the one-thread order, impulses and all
+            let (a, b) = (one.contacts(), many.contacts());
+            assert_eq!(a.len(), b.len());
+            for (x, y) in a.iter().zip(b) {
+                assert_eq!((x.a, x.b), (y.a, y.b));
+                for (p, q) in x.manifold.points().iter().zip(y.manifold.points()) {
+                    assert_eq!(p.normal_impulse.to_bits(), q.normal_impulse.to_bits());
+                }
+            }
+        }
+    }
+}
+
+#[test]
+fn a_pile_falls_asleep_the_same_way_on_two_threads() {
+    // a pyramid of 325 boxes under 8 substeps of 120 Hz contacts comes to rest and sleeps
+    let text = "name = \"pile\"\n[world]\ngravity = [0.0, -10.0]\n\
+                [[body]]\nname = \"ground\"\ntype = \"static\"\nshape = { box = [200.0, 2.0] }\nposition = [0.0, -1.0]\n\
+                [[pyramid]]\nbase = 25\n";
+    let settle = |threads| {
+        let sc = load_str(text, "pile.toml").unwrap();
+        let mut s = SolverSettings::soft();
+        (s.substeps, s.iterations, s.contact_hertz) = (8, 1, 120.0);
+        let mut w = World::from_def(&sc.world, s).unwrap();
+        w.set_threads(threads);
+        let mut asleep_at = None;
+        for i in 0..900 {
+            w.step().unwrap();
+            if asleep_at.is_none() && w.bodies.iter().filter(|b| b.asleep).count() > 300 {
+                asleep_at = Some(i);
+            }
+        }
+        (asleep_at, w.state_hash(), w.parallel_jobs())
+    };
+    let (at1, h1, _) = settle(1);
+    let (at2, h2, jobs) = settle(2);
+    assert!(at1.is_some(), "the pile sleeps within 15 s");
+    assert!(jobs > 0);
+    assert_eq!((at1, h1), (at2, h2));
+}
+
+#[test]
+fn a_soft_solve_split_between_threads_gives_the_same_bits() {
+    let mut w = world(SolverKind::Soft, 1);
+    for _ in 0..30 {
+        w.step().unwrap();
+    }
+    let pool = Pool::new(2);
+    let solve = |pool: Option<&Pool>| {
+        let mut s = SoftSolver::default();
+        let h = w.settings.dt / w.settings.substeps as f32;
+        s.prepare(&w.bodies, w.contacts(), &w.settings, h, pool);
+        s.warm_start(pool);
+        let mut r = 0.0;
+        for _ in 0..3 {
+            r = s.sweep::<true>(pool);
+        }
+        s.integrate_positions(h, pool);
+        r = r.max(s.sweep::<false>(pool));
+        let mut lam = Vec::new();
+        s.lambdas(&mut lam);
+        let bits: Vec<u32> = s.bodies[..w.bodies.len()]
+            .iter()
+            .flat_map(|b| [b.v.x, b.v.y, b.w, b.dp.x, b.dp.y, b.dtheta])
+            .chain(lam)
+            .chain([r])
+            .map(f32::to_bits)
+            .collect();
+        bits
+    };
+    let jobs = pool.jobs();
+    assert_eq!(solve(None), solve(Some(&pool)));
+    assert!(pool.jobs() > jobs, "the pool ran the solve's jobs");
+}
+
+#[test]
+fn threads_are_clamped_and_default_to_one() {
+    let mut w = world(SolverKind::Soft, 1);
+    assert_eq!(World::new(None, SolverSettings::soft()).threads(), 1);
+    w.set_threads(0);
+    assert_eq!(w.threads(), 1);
+    w.set_threads(10_000);
+    assert_eq!(w.threads(), sandbox2d::parallel::MAX_THREADS);
+}
