@@ -798,3 +798,76 @@ impl std::fmt::Display for Shard {
         write!(f, "{}/{}", self.index, self.count)
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn run_jobs_gives_the_results_in_item_order_whatever_order_they_finish_in() {
+        let items: Vec<u64> = (0..12).collect();
+        for jobs in [1, 3, 100] {
+            let mut seen = Vec::new();
+            // later items finish sooner
+            let (out, complete) = run_jobs(
+                &items,
+                jobs,
+                |&i| {
+                    std::thread::sleep(std::time::Duration::from_millis(2 * (12 - i)));
+                    i * 10
+                },
+                |i, &r| {
+                    seen.push((i, r));
+                    Ok::<(), ()>(())
+                },
+            )
+            .unwrap();
+            assert!(complete);
+            let want: Vec<Option<u64>> = items.iter().map(|i| Some(i * 10)).collect();
+            assert_eq!(out, want, "jobs {jobs}");
+            seen.sort();
+            let each_once: Vec<(usize, u64)> = (0..12).map(|i| (i, i as u64 * 10)).collect();
+            assert_eq!(seen, each_once, "jobs {jobs}");
+        }
+    }
+
+    #[test]
+    fn an_error_from_the_finished_callback_stops_the_jobs() {
+        let items: Vec<u32> = (0..50).collect();
+        let mut calls = 0;
+        let r = run_jobs(
+            &items,
+            2,
+            |&i| {
+                std::thread::sleep(std::time::Duration::from_millis(1));
+                i
+            },
+            |_, _| {
+                calls += 1;
+                if calls == 3 { Err("full") } else { Ok(()) }
+            },
+        );
+        assert_eq!(r, Err("full"));
+        assert_eq!(calls, 3, "no result is handed on after the error");
+    }
+
+    #[test]
+    fn shards_split_the_cases_by_index_and_bad_values_are_refused() {
+        let s = Shard::parse("2/3").unwrap();
+        assert_eq!((s.index, s.count), (2, 3));
+        assert_eq!(s.indices(8), vec![1, 4, 7]);
+        assert_eq!(s.file_name(), "results.shard-2-of-3.json");
+        assert_eq!(s.to_string(), "2/3");
+        // the shards of a split cover every case once
+        let mut all: Vec<usize> = (1..=3)
+            .flat_map(|i| Shard::parse(&format!("{i}/3")).unwrap().indices(10))
+            .collect();
+        all.sort();
+        assert_eq!(all, (0..10).collect::<Vec<_>>());
+        assert_eq!(Shard::parse("1/1").unwrap().indices(3), vec![0, 1, 2]);
+        for bad in ["0/3", "4/3", "x/y", "1/0", "3", "", "1/2/3", "-1/3", "1/-3"] {
+            let e = Shard::parse(bad).unwrap_err();
+            assert!(e.starts_with("--shard ") && !e.contains('\n'), "{bad}: {e}");
+        }
+    }
+}

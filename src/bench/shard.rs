@@ -463,3 +463,84 @@ pub fn merge(files: &[(String, String)]) -> Result<Merged, String> {
         rows: all,
     })
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::bench::Options;
+
+    #[test]
+    fn shard_files_carry_every_figure_bit_for_bit_and_merge_in_case_order() {
+        let key = RunKey {
+            suite: Suite::Quick,
+            filter: Some("pendulum".into()),
+            steps: Some(6),
+            repeats: None,
+        };
+        let opts = Options {
+            filter: key.filter.clone(),
+            steps: key.steps,
+            repeats: None,
+        };
+        let scenes = opts.scenes(Suite::Quick);
+        let cases = crate::bench::cases(&scenes);
+        let odd = [
+            0.1 + 0.2,
+            f64::NAN,
+            1e-300,
+            f64::INFINITY,
+            -7.25e12,
+            1.0 / 3.0,
+        ];
+        let rows: Vec<Row> = cases
+            .iter()
+            .enumerate()
+            .map(|(i, c)| Row {
+                scene: scenes[c.scene].name.clone(),
+                setting: c.setting,
+                outcome: if i == 5 {
+                    Outcome::Failed("no, \"quoted\"\nand a new line".into())
+                } else {
+                    let x = |k: usize| odd[(i + k) % odd.len()];
+                    Outcome::Ran(Measured {
+                        ms_per_step: x(0),
+                        stage_ms: [x(1), x(2), x(3), x(4), x(5)],
+                        steps: i as u64,
+                        penetration_max: x(1),
+                        penetration_mean: x(2),
+                        drift: x(3),
+                        joint_error: x(4),
+                        energy_drift: x(5),
+                        residual: x(0),
+                        verdict: if i % 4 == 1 {
+                            Verdict::Unstable("fell, far".into())
+                        } else {
+                            Verdict::Stable
+                        },
+                    })
+                },
+            })
+            .collect();
+        let file = |i: usize| {
+            let shard = Shard { index: i, count: 2 };
+            let part: Vec<(usize, &Row)> = shard
+                .indices(rows.len())
+                .into_iter()
+                .map(|k| (k, &rows[k]))
+                .collect();
+            (format!("s{i}"), scenes_json(&key, shard, rows.len(), &part))
+        };
+        let Merged::Scenes { rows: back, .. } = merge(&[file(2), file(1)]).unwrap() else {
+            panic!("not the scene suite")
+        };
+        assert_eq!(format!("{back:?}"), format!("{rows:?}"));
+        assert!(merge(&[file(2)]).unwrap_err().contains("shard 1/2 missing"));
+        let e = merge(&[file(1), file(1), file(2)]).unwrap_err();
+        assert!(e.contains("given twice"), "{e}");
+        assert!(
+            merge(&[("x".into(), "{}".into())])
+                .unwrap_err()
+                .starts_with("x: not a bench shard file")
+        );
+    }
+}
