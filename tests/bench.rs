@@ -407,3 +407,55 @@ fn merge_refuses_a_missing_duplicated_or_foreign_shard() {
     assert!(err.contains("no-such-shard.json: cannot read"), "{err}");
     assert!(!out.join("results.csv").exists());
 }
+
+#[test]
+fn extremes_shards_and_jobs_write_the_same_stability_table() {
+    // stability.md has no timings: every way of running the sweep writes the same bytes
+    let run = |name: &str, extra: &[&str]| {
+        let dir = tmp(name);
+        let out = sandbox2d()
+            .args(["bench", "--suite", "extremes", "--filter", "tunneling"])
+            .args(extra)
+            .arg("--out")
+            .arg(&dir)
+            .output()
+            .unwrap();
+        assert!(
+            out.status.success(),
+            "{extra:?}: {}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        dir
+    };
+    let _ = std::fs::remove_dir_all(tmp("ext-parts"));
+    let whole = run("ext-whole", &[]);
+    let threads = run("ext-jobs", &["--jobs", "3"]);
+    for i in 1..=3 {
+        run("ext-parts", &["--shard", &format!("{i}/3")]);
+    }
+    assert!(!tmp("ext-parts").join("stability.md").exists());
+    let merged = tmp("ext-merged");
+    let _ = std::fs::remove_dir_all(&merged);
+    let out = sandbox2d()
+        .args(["bench", "--merge"])
+        .arg(tmp("ext-parts"))
+        .arg("--out")
+        .arg(&merged)
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let table = std::fs::read_to_string(whole.join("stability.md")).unwrap();
+    assert!(table.contains("| tunneling | PGS 10 |"), "{table}");
+    for dir in [threads, merged] {
+        assert_eq!(
+            std::fs::read_to_string(dir.join("stability.md")).unwrap(),
+            table,
+            "{}",
+            dir.display()
+        );
+    }
+}
