@@ -184,6 +184,31 @@ struct BenchArgs {
     /// Timed repeats instead of each scene's own count.
     #[arg(long, hide = true)]
     repeats: Option<u32>,
+    /// Run this many cases (scene x setting) at once, one thread each. The rows and
+    /// their order are the same as with --jobs 1; only the timing columns differ.
+    /// Concurrent cases perturb each other's timings (they share cores, caches and
+    /// memory bandwidth, worst on a small machine), so the published figures are
+    /// measured with --jobs 1.
+    #[arg(long, value_name = "N", default_value_t = 1)]
+    jobs: usize,
+    /// Run only shard I of N (1-based, e.g. 2/3): the cases whose 0-based index in the
+    /// suite's full case list (scene by scene, each scene's settings in order; for
+    /// extremes: sweep, setting, value) is I-1 modulo N. Writes
+    /// results.shard-I-of-N.json into --out instead of the reports; --merge builds
+    /// them from all N shards.
+    #[arg(long, value_name = "I/N", allow_hyphen_values = true)]
+    shard: Option<String>,
+    /// Merge shard files (results.shard-I-of-N.json, or folders holding them) into the
+    /// results.csv, results.md and plots (or stability.md) that one unsharded run would
+    /// write into --out. Every shard of the run is needed, once; the suite, filter and
+    /// steps come from the shards.
+    #[arg(
+        long,
+        value_name = "FILE_OR_DIR",
+        num_args = 1..,
+        conflicts_with_all = ["suite", "filter", "steps", "repeats", "jobs", "shard"]
+    )]
+    merge: Vec<PathBuf>,
 }
 
 #[derive(Clone, Copy, ValueEnum)]
@@ -1382,28 +1407,39 @@ fn writable_dir(dir: &Path) -> Result<(), Failure> {
 }
 
 fn bench(a: &BenchArgs) -> Result<(), Failure> {
-    use sandbox2d::bench::{self, Suite, extremes};
+    use sandbox2d::bench::{self, Shard, Suite, extremes, shard};
+    if !a.merge.is_empty() {
+        return bench_merge(&a.merge, &a.out);
+    }
     if a.steps == Some(0) {
         return Err(Failure::input("--steps must be at least 1"));
     }
     if a.repeats == Some(0) {
         return Err(Failure::input("--repeats must be at least 1"));
     }
+    if a.jobs == 0 {
+        return Err(Failure::input("--jobs must be at least 1"));
+    }
+    let part = a
+        .shard
+        .as_deref()
+        .map(Shard::parse)
+        .transpose()
+        .map_err(Failure::input)?;
     let suite = match a.suite {
         SuiteArg::Quick => Suite::Quick,
         SuiteArg::Standard => Suite::Standard,
         SuiteArg::Extremes => Suite::Extremes,
     };
     let filter = a.filter.clone();
+    let key = shard::RunKey {
+        suite,
+        filter: filter.clone(),
+        steps: a.steps,
+        repeats: a.repeats,
+    };
     if suite == Suite::Extremes {
-        let sweeps: Vec<extremes::Sweep> = extremes::Sweep::ALL
-            .into_iter()
-            .filter(|s| {
-                filter
-                    .as_ref()
-                    .is_none_or(|f| s.name().contains(f.as_str()))
-            })
-            .collect();
+        let sweeps = extremes::sweeps(filter.as_deref());
         if sweeps.is_empty() {
             return Err(Failure::input(format!(
                 "--filter {:?} matches no sweep",
@@ -1411,20 +1447,48 @@ fn bench(a: &BenchArgs) -> Result<(), Failure> {
             )));
         }
         writable_dir(&a.out)?;
-        let total: usize = sweeps
-            .iter()
-            .map(|s| s.values().len() * extremes::settings(*s).len())
-            .sum();
-        let bar = bench_progress(total);
-        let results = extremes::run_all(&sweeps, |done, _, what| {
-            bar.set_position(done as u64);
-            bar.set_message(what.to_string());
-        });
+        let all = extremes::cases(&sweeps);
+        let picked: Vec<usize> = match part {
+            Some(p) => p.indices(all.len()),
+            None => (0..all.len()).collect(),
+        };
+        let cases: Vec<extremes::ExCase> = picked.iter().map(|&i| all[i]).collect();
+        let bar = bench_progress(cases.len());
+        let mut done = 0;
+        let (results, complete) = bench::run_jobs(
+            &cases,
+            a.jobs,
+            |c| c.run(),
+            |i, _| {
+                done += 1;
+                bar.set_position(done as u64);
+                bar.set_message(cases[i].label());
+                Ok::<(), Failure>(())
+            },
+        )?;
         bar.finish_and_clear();
-        let path = a.out.join("stability.md");
-        write_file(&path, &extremes::markdown(&results))?;
-        println!("wrote {}", path.display());
-        return Ok(());
+        if !complete {
+            return Err(Failure::interrupted("interrupted: nothing was written"));
+        }
+        let results: Vec<extremes::CaseResult> = results.into_iter().flatten().collect();
+        if let Some(p) = part {
+            let rows: Vec<_> = picked
+                .iter()
+                .zip(&cases)
+                .zip(&results)
+                .map(|((&i, c), r)| (i, c, r))
+                .collect();
+            let path = a.out.join(p.file_name());
+            write_file(&path, &shard::extremes_json(&key, p, all.len(), &rows))?;
+            println!(
+                "wrote {} (shard {p}: {} of {} cases)",
+                path.display(),
+                cases.len(),
+                all.len()
+            );
+            return Ok(());
+        }
+        return write_stability(&a.out, &extremes::assemble(&cases, results));
     }
     let opts = bench::Options {
         filter,
@@ -1440,57 +1504,160 @@ fn bench(a: &BenchArgs) -> Result<(), Failure> {
         )));
     }
     writable_dir(&a.out)?;
-    let total: usize = scenes.iter().map(|s| bench::scene_settings(s).len()).sum();
+    let all = bench::cases(&scenes);
+    let picked: Vec<usize> = match part {
+        Some(p) => p.indices(all.len()),
+        None => (0..all.len()).collect(),
+    };
+    let cases: Vec<bench::Case> = picked.iter().map(|&i| all[i]).collect();
+    let total = cases.len();
     let bar = bench_progress(total);
-    // Each finished case's row goes to results.partial.csv at once, so an interrupted
-    // (or failed) suite keeps what it measured; the complete results replace it at the end.
+    // Each finished case's row goes to results.partial.csv (a shard's to
+    // results.shard-I-of-N.partial.csv) at once, so an interrupted (or failed) suite
+    // keeps what it measured; the complete results replace it at the end.
     GRACEFUL.store(true, Ordering::Relaxed);
-    let partial_path = a.out.join("results.partial.csv");
+    let partial_path = a.out.join(match part {
+        Some(p) => format!("results.shard-{}-of-{}.partial.csv", p.index, p.count),
+        None => "results.partial.csv".to_string(),
+    });
     let mut partial = std::fs::File::create(&partial_path)
         .map_err(|e| Failure::input(format!("{}: cannot write: {e}", partial_path.display())))?;
     let partial_err =
         |e: std::io::Error| Failure::run(format!("{}: cannot write: {e}", partial_path.display()));
     writeln!(partial, "{}", bench::report::CSV_COLUMNS.join(",")).map_err(partial_err)?;
-    let (rows, complete) = bench::run_scenes_each(&scenes, &opts, |done, _, what, row| {
-        bar.set_position(done as u64);
-        bar.set_message(what.to_string());
-        let csv = bench::report::csv(std::slice::from_ref(row));
-        let line = csv.split_once('\n').map_or("", |(_, rest)| rest);
-        partial
-            .write_all(line.as_bytes())
-            .and_then(|()| partial.flush())
-            .map_err(partial_err)
-    })?;
+    let (rows, complete) =
+        bench::run_cases(&scenes, &opts, &cases, a.jobs, |done, _, what, row| {
+            bar.set_position(done as u64);
+            bar.set_message(what.to_string());
+            let csv = bench::report::csv(std::slice::from_ref(row));
+            let line = csv.split_once('\n').map_or("", |(_, rest)| rest);
+            partial
+                .write_all(line.as_bytes())
+                .and_then(|()| partial.flush())
+                .map_err(partial_err)
+        })?;
     bar.finish_and_clear();
     if !complete {
         return Err(Failure::interrupted(format!(
-            "interrupted: kept the {} finished case(s) of {total} in {}; results.csv, results.md and the plots were not written",
-            rows.len(),
-            partial_path.display()
+            "interrupted: kept the {} finished case(s) of {total} in {}; {} not written",
+            rows.iter().flatten().count(),
+            partial_path.display(),
+            if part.is_some() {
+                "the shard file was"
+            } else {
+                "results.csv, results.md and the plots were"
+            }
         )));
     }
+    let rows: Vec<bench::Row> = rows.into_iter().flatten().collect();
+    if let Some(p) = part {
+        let indexed: Vec<(usize, &bench::Row)> = picked.iter().copied().zip(&rows).collect();
+        let path = a.out.join(p.file_name());
+        write_file(&path, &shard::scenes_json(&key, p, all.len(), &indexed))?;
+        drop(partial);
+        let _ = std::fs::remove_file(&partial_path);
+        println!(
+            "wrote {} (shard {p}: {} of {} cases)",
+            path.display(),
+            rows.len(),
+            all.len()
+        );
+        return Ok(());
+    }
+    write_reports(&a.out, suite, &scenes, &rows)?;
+    drop(partial);
+    let _ = std::fs::remove_file(&partial_path);
+    Ok(())
+}
+
+/// Writes stability.md (the extremes suite's report) into `out`.
+fn write_stability(
+    out: &Path,
+    results: &[sandbox2d::bench::extremes::SweepResult],
+) -> Result<(), Failure> {
+    let path = out.join("stability.md");
+    write_file(&path, &sandbox2d::bench::extremes::markdown(results))?;
+    println!("wrote {}", path.display());
+    Ok(())
+}
+
+/// Writes a suite's reports into `out`: one plot per scene, results.csv, results.md.
+fn write_reports(
+    out: &Path,
+    suite: sandbox2d::bench::Suite,
+    scenes: &[sandbox2d::bench::BenchScene],
+    rows: &[sandbox2d::bench::Row],
+) -> Result<(), Failure> {
+    use sandbox2d::bench;
     let mut plots = Vec::new();
-    for sc in &scenes {
-        if let Some(svg) = bench::plot::svg(sc, &rows).map_err(Failure::run)? {
+    for sc in scenes {
+        if let Some(svg) = bench::plot::svg(sc, rows).map_err(Failure::run)? {
             let name = format!("{}.svg", sc.name);
-            write_file(&a.out.join(&name), &svg)?;
+            write_file(&out.join(&name), &svg)?;
             plots.push(name);
         }
     }
-    write_file(&a.out.join("results.csv"), &bench::report::csv(&rows))?;
+    write_file(&out.join("results.csv"), &bench::report::csv(rows))?;
     write_file(
-        &a.out.join("results.md"),
-        &bench::report::markdown(suite, &scenes, &rows, &plots),
+        &out.join("results.md"),
+        &bench::report::markdown(suite, scenes, rows, &plots),
     )?;
-    drop(partial);
-    let _ = std::fs::remove_file(&partial_path);
     println!(
         "wrote {}: results.csv, results.md and {} plot(s) ({} rows)",
-        a.out.display(),
+        out.display(),
         plots.len(),
         rows.len()
     );
     Ok(())
+}
+
+/// `bench --merge`: the shard files (or the shard files in the folders) given, merged
+/// into the reports of one unsharded run.
+fn bench_merge(inputs: &[PathBuf], out: &Path) -> Result<(), Failure> {
+    use sandbox2d::bench::shard::{self, Merged};
+    let mut paths = Vec::new();
+    for p in inputs {
+        if p.is_dir() {
+            let entries = std::fs::read_dir(p)
+                .map_err(|e| Failure::input(format!("{}: cannot read: {e}", p.display())))?;
+            let mut found: Vec<PathBuf> = entries
+                .filter_map(|e| e.ok().map(|e| e.path()))
+                .filter(|f| {
+                    f.file_name().and_then(|n| n.to_str()).is_some_and(|n| {
+                        n.starts_with("results.shard-")
+                            && n.ends_with(".json")
+                            && !n.ends_with(".partial.json")
+                    })
+                })
+                .collect();
+            if found.is_empty() {
+                return Err(Failure::input(format!(
+                    "{}: no shard files (results.shard-I-of-N.json) in this folder",
+                    p.display()
+                )));
+            }
+            found.sort();
+            paths.extend(found);
+        } else {
+            paths.push(p.clone());
+        }
+    }
+    let mut files = Vec::with_capacity(paths.len());
+    for p in &paths {
+        let text = std::fs::read_to_string(p)
+            .map_err(|e| Failure::input(format!("{}: cannot read: {e}", p.display())))?;
+        files.push((p.display().to_string(), text));
+    }
+    let merged = shard::merge(&files).map_err(Failure::input)?;
+    writable_dir(out)?;
+    match merged {
+        Merged::Extremes { results } => write_stability(out, &results),
+        Merged::Scenes {
+            suite,
+            scenes,
+            rows,
+        } => write_reports(out, suite, &scenes, &rows),
+    }
 }
 
 /// The most steps `tune` runs a setting for (each of some 40 settings runs them

@@ -219,3 +219,243 @@ fn energy_is_kinetic_plus_potential_above_the_floor() {
     assert!((e1 - e0 - expect).abs() < 1e-3, "{} vs {expect}", e1 - e0);
     assert!(w.bodies[b].position.y < 2.5);
 }
+
+mod common;
+use common::cli::{sandbox2d, tmp};
+
+/// Runs `sandbox2d bench` on the pendulum (36 settings, 1 repeat, 6 steps unless `extra`
+/// says) with `extra` flags into a fresh folder `name`; returns the folder and the one
+/// line printed.
+fn bench_pendulum(name: &str, extra: &[&str]) -> (std::path::PathBuf, String) {
+    let dir = tmp(name);
+    let _ = std::fs::remove_dir_all(&dir);
+    let out = sandbox2d()
+        .args(["bench", "--suite", "quick", "--filter", "pendulum"])
+        .args(["--repeats", "1"])
+        .args(if extra.contains(&"--steps") {
+            &[][..]
+        } else {
+            &["--steps", "6"][..]
+        })
+        .args(extra)
+        .arg("--out")
+        .arg(&dir)
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{extra:?}: {err}");
+    assert!(err.is_empty(), "{extra:?}: {err}");
+    let text = String::from_utf8(out.stdout).unwrap();
+    assert_eq!(text.lines().count(), 1, "{text}");
+    (dir, text)
+}
+
+/// results.csv without its timing columns (ms_*): every other column, row by row.
+fn csv_without_timings(dir: &std::path::Path) -> Vec<String> {
+    let csv = std::fs::read_to_string(dir.join("results.csv")).unwrap();
+    let header: Vec<&str> = csv.lines().next().unwrap().split(',').collect();
+    let keep: Vec<usize> = (0..header.len())
+        .filter(|&i| !header[i].starts_with("ms_"))
+        .collect();
+    assert!(keep.len() < header.len() && keep.len() > 10, "{header:?}");
+    csv.lines()
+        .map(|l| {
+            let cells: Vec<&str> = l.split(',').collect();
+            keep.iter()
+                .map(|&i| cells.get(i).copied().unwrap_or(""))
+                .collect::<Vec<_>>()
+                .join(",")
+        })
+        .collect()
+}
+
+/// results.md without its timing figures: the tables' ms/step and solve ms cells are
+/// blanked, and the "not dominated" lists (which rank by cost) left out.
+fn markdown_without_timings(dir: &std::path::Path) -> Vec<String> {
+    let md = std::fs::read_to_string(dir.join("results.md")).unwrap();
+    md.lines()
+        .filter(|l| !l.starts_with("- "))
+        .map(|l| {
+            if l.starts_with("| ") {
+                let mut cells: Vec<&str> = l.split('|').collect();
+                for c in cells.iter_mut().skip(2).take(2) {
+                    *c = "";
+                }
+                cells.join("|")
+            } else {
+                l.to_string()
+            }
+        })
+        .collect()
+}
+
+#[test]
+fn jobs_2_writes_the_same_rows_in_the_same_order_as_jobs_1() {
+    let (one, _) = bench_pendulum("jobs-1", &["--jobs", "1"]);
+    let (two, said) = bench_pendulum("jobs-2", &["--jobs", "2"]);
+    assert!(said.contains("(36 rows)"), "{said}");
+    let (a, b) = (csv_without_timings(&one), csv_without_timings(&two));
+    // the header and the 36 rows, the grid's order: PGS warm+split 1 sweep first
+    assert_eq!(a.len(), 37);
+    assert!(a[1].starts_with("pendulum,pgs,1,1,true,true,"), "{}", a[1]);
+    assert!(a[36].starts_with("pendulum,soft,2,32,"), "{}", a[36]);
+    assert_eq!(a, b);
+    let md = markdown_without_timings(&one);
+    assert!(md.iter().any(|l| l.starts_with("| xpbd 4 substeps |")));
+    assert_eq!(md, markdown_without_timings(&two));
+    assert!(two.join("pendulum.svg").exists());
+    assert!(!two.join("results.partial.csv").exists());
+}
+
+#[test]
+fn shards_merge_into_the_results_of_one_unsharded_run() {
+    let (whole, _) = bench_pendulum("shard-whole", &[]);
+    let (parts, said) = bench_pendulum("shard-parts", &["--shard", "1/2"]);
+    assert!(said.contains("shard 1/2: 18 of 36 cases"), "{said}");
+    let (again, _) = bench_pendulum("shard-parts-2", &["--shard", "2/2", "--jobs", "2"]);
+    // a shard writes its file, not the reports
+    let second = parts.join("results.shard-2-of-2.json");
+    std::fs::copy(again.join("results.shard-2-of-2.json"), &second).unwrap();
+    assert!(!parts.join("results.csv").exists());
+    assert!(!parts.join("results.md").exists());
+    let first = std::fs::read_to_string(parts.join("results.shard-1-of-2.json")).unwrap();
+    assert!(first.contains("\"case\": 0,") && !first.contains("\"case\": 1,"));
+    let merged = tmp("shard-merged");
+    let _ = std::fs::remove_dir_all(&merged);
+    // the shards in reverse order: the merged rows still come in the run's order
+    let out = sandbox2d()
+        .args(["bench", "--merge"])
+        .arg(&second)
+        .arg(parts.join("results.shard-1-of-2.json"))
+        .arg("--out")
+        .arg(&merged)
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(String::from_utf8_lossy(&out.stdout).contains("(36 rows)"));
+    assert_eq!(csv_without_timings(&whole), csv_without_timings(&merged));
+    assert_eq!(
+        markdown_without_timings(&whole),
+        markdown_without_timings(&merged)
+    );
+    assert!(merged.join("pendulum.svg").exists());
+    // a folder of shards merges the same
+    let from_dir = tmp("shard-merged-dir");
+    let _ = std::fs::remove_dir_all(&from_dir);
+    let out = sandbox2d()
+        .args(["bench", "--merge"])
+        .arg(&parts)
+        .arg("--out")
+        .arg(&from_dir)
+        .output()
+        .unwrap();
+    assert!(out.status.success());
+    assert_eq!(
+        std::fs::read_to_string(merged.join("results.csv")).unwrap(),
+        std::fs::read_to_string(from_dir.join("results.csv")).unwrap(),
+        "the same shards merge to the same bytes"
+    );
+}
+
+/// Runs `sandbox2d bench` expecting a refusal: exit 2 and one line, returned.
+fn refused(args: &[&str]) -> String {
+    let out = sandbox2d().args(args).output().unwrap();
+    let err = String::from_utf8(out.stderr).unwrap();
+    assert_eq!(out.status.code(), Some(2), "{args:?}: {err}");
+    assert_eq!(err.lines().count(), 1, "{args:?}: {err}");
+    assert!(err.starts_with("error: "), "{err}");
+    err
+}
+
+#[test]
+fn bad_shard_and_jobs_values_are_refused_with_one_line_and_exit_2() {
+    let dir = tmp("shard-bad");
+    let _ = std::fs::remove_dir_all(&dir);
+    let d = dir.to_str().unwrap();
+    for bad in ["0/3", "4/3", "x/y", "1/0", "3", "-1/3", "1/2/3", ""] {
+        let err = refused(&["bench", "--filter", "pendulum", "--shard", bad, "--out", d]);
+        assert!(err.starts_with("error: --shard"), "{bad}: {err}");
+    }
+    let err = refused(&["bench", "--filter", "pendulum", "--jobs", "0", "--out", d]);
+    assert!(err.contains("--jobs"), "{err}");
+    assert!(!dir.exists(), "refused before writing anything");
+}
+
+#[test]
+fn merge_refuses_a_missing_duplicated_or_foreign_shard() {
+    let (dir, _) = bench_pendulum("merge-bad", &["--shard", "1/3"]);
+    let (other, _) = bench_pendulum("merge-bad-steps", &["--shard", "2/3", "--steps", "7"]);
+    let one = dir.join("results.shard-1-of-3.json");
+    let out = tmp("merge-bad-out");
+    let _ = std::fs::remove_dir_all(&out);
+    let o = out.to_str().unwrap();
+    let (p1, p2) = (
+        one.to_str().unwrap(),
+        other.join("results.shard-2-of-3.json"),
+    );
+    let err = refused(&["bench", "--merge", p1, "--out", o]);
+    assert!(err.contains("shard 2/3, 3/3 missing"), "{err}");
+    let err = refused(&["bench", "--merge", p1, p1, "--out", o]);
+    assert!(err.contains("shard 1/3 is given twice"), "{err}");
+    let err = refused(&["bench", "--merge", p1, p2.to_str().unwrap(), "--out", o]);
+    assert!(err.contains("different runs: steps 7 vs 6"), "{err}");
+    let err = refused(&["bench", "--merge", "no-such-shard.json", "--out", o]);
+    assert!(err.contains("no-such-shard.json: cannot read"), "{err}");
+    assert!(!out.join("results.csv").exists());
+}
+
+#[test]
+fn extremes_shards_and_jobs_write_the_same_stability_table() {
+    // stability.md has no timings: every way of running the sweep writes the same bytes
+    let run = |name: &str, extra: &[&str]| {
+        let dir = tmp(name);
+        let out = sandbox2d()
+            .args(["bench", "--suite", "extremes", "--filter", "tunneling"])
+            .args(extra)
+            .arg("--out")
+            .arg(&dir)
+            .output()
+            .unwrap();
+        assert!(
+            out.status.success(),
+            "{extra:?}: {}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        dir
+    };
+    let _ = std::fs::remove_dir_all(tmp("ext-parts"));
+    let whole = run("ext-whole", &[]);
+    let threads = run("ext-jobs", &["--jobs", "3"]);
+    for i in 1..=3 {
+        run("ext-parts", &["--shard", &format!("{i}/3")]);
+    }
+    assert!(!tmp("ext-parts").join("stability.md").exists());
+    let merged = tmp("ext-merged");
+    let _ = std::fs::remove_dir_all(&merged);
+    let out = sandbox2d()
+        .args(["bench", "--merge"])
+        .arg(tmp("ext-parts"))
+        .arg("--out")
+        .arg(&merged)
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let table = std::fs::read_to_string(whole.join("stability.md")).unwrap();
+    assert!(table.contains("| tunneling | PGS 10 |"), "{table}");
+    for dir in [threads, merged] {
+        assert_eq!(
+            std::fs::read_to_string(dir.join("stability.md")).unwrap(),
+            table,
+            "{}",
+            dir.display()
+        );
+    }
+}

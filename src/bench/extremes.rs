@@ -728,41 +728,87 @@ impl SweepResult {
     }
 }
 
-/// Runs every sweep at every setting; `progress(done, total, what)` after each case.
-pub fn run_all(sweeps: &[Sweep], mut progress: impl FnMut(usize, usize, &str)) -> Vec<SweepResult> {
-    let total: usize = sweeps
-        .iter()
-        .map(|s| s.values().len() * settings(*s).len())
-        .sum();
-    let mut done = 0;
+/// One case of the extremes suite: a sweep's scene at one value with one setting.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ExCase {
+    pub sweep: Sweep,
+    pub setting: ExSetting,
+    pub value: f64,
+}
+
+impl ExCase {
+    /// `sweep / setting / value`, as the progress bar shows it.
+    pub fn label(&self) -> String {
+        format!(
+            "{} / {} / {}",
+            self.sweep.name(),
+            self.setting.label,
+            self.sweep.format_value(self.value)
+        )
+    }
+
+    /// Runs the case ([`check`]).
+    pub fn run(&self) -> CaseResult {
+        let r = check(self.sweep, self.value, &self.setting.setting);
+        log::debug!("extremes: {}: {r:?}", self.label());
+        r
+    }
+}
+
+/// The sweeps whose name contains `filter` (all without one), in table order.
+pub fn sweeps(filter: Option<&str>) -> Vec<Sweep> {
+    Sweep::ALL
+        .into_iter()
+        .filter(|s| filter.is_none_or(|f| s.name().contains(f)))
+        .collect()
+}
+
+/// Every case of the sweeps, in run order: by sweep, then setting, then value.
+pub fn cases(sweeps: &[Sweep]) -> Vec<ExCase> {
     let mut out = Vec::new();
     for &sweep in sweeps {
-        for ex in settings(sweep) {
-            let mut cases = Vec::new();
-            for v in sweep.values() {
-                let r = check(sweep, v, &ex.setting);
-                log::debug!("extremes: {} {} {v}: {r:?}", sweep.name(), ex.label);
-                cases.push((v, r));
-                done += 1;
-                progress(
-                    done,
-                    total,
-                    &format!(
-                        "{} / {} / {}",
-                        sweep.name(),
-                        ex.label,
-                        sweep.format_value(v)
-                    ),
-                );
+        for setting in settings(sweep) {
+            for value in sweep.values() {
+                out.push(ExCase {
+                    sweep,
+                    setting,
+                    value,
+                });
             }
-            out.push(SweepResult {
-                sweep,
-                setting: ex,
-                cases,
-            });
         }
     }
     out
+}
+
+/// Groups the results of `cases` (in the order [`cases`] gives, one result each) into
+/// one [`SweepResult`] per sweep and setting.
+pub fn assemble(cases: &[ExCase], results: Vec<CaseResult>) -> Vec<SweepResult> {
+    let mut out: Vec<SweepResult> = Vec::new();
+    for (c, r) in cases.iter().zip(results) {
+        match out.last_mut() {
+            Some(last) if last.sweep == c.sweep && last.setting == c.setting => {
+                last.cases.push((c.value, r));
+            }
+            _ => out.push(SweepResult {
+                sweep: c.sweep,
+                setting: c.setting,
+                cases: vec![(c.value, r)],
+            }),
+        }
+    }
+    out
+}
+
+/// Runs every sweep at every setting; `progress(done, total, what)` after each case.
+pub fn run_all(sweeps: &[Sweep], mut progress: impl FnMut(usize, usize, &str)) -> Vec<SweepResult> {
+    let cases = cases(sweeps);
+    let total = cases.len();
+    let mut results = Vec::with_capacity(total);
+    for (i, c) in cases.iter().enumerate() {
+        results.push(c.run());
+        progress(i + 1, total, &c.label());
+    }
+    assemble(&cases, results)
 }
 
 /// The header of the summary table (tests/extremes.rs reads the rows under it).

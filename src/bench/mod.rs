@@ -16,6 +16,7 @@ pub mod extremes;
 pub mod plot;
 pub mod report;
 pub mod scenes;
+pub mod shard;
 pub mod tune;
 
 use std::time::Instant;
@@ -623,26 +624,250 @@ pub fn run_scenes(
 pub fn run_scenes_each<E>(
     scenes: &[BenchScene],
     opts: &Options,
-    mut on_row: impl FnMut(usize, usize, &str, &Row) -> Result<(), E>,
+    on_row: impl FnMut(usize, usize, &str, &Row) -> Result<(), E>,
 ) -> Result<(Vec<Row>, bool), E> {
-    let total: usize = scenes.iter().map(|s| scene_settings(s).len()).sum();
-    let mut rows = Vec::new();
-    for sc in scenes {
-        let budget = opts.budget(sc);
-        for setting in scene_settings(sc) {
-            if crate::output::interrupted() {
-                return Ok((rows, false));
-            }
-            let what = format!("{} / {}", sc.name, setting.label());
-            log::debug!("bench: {what}");
-            let outcome = run_case(sc, &setting, &budget);
-            rows.push(Row {
+    let cases = cases(scenes);
+    let (rows, complete) = run_cases(scenes, opts, &cases, 1, on_row)?;
+    Ok((rows.into_iter().flatten().collect(), complete))
+}
+
+/// One case of a suite: a scene (its index in the suite's scenes) at one setting.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Case {
+    pub scene: usize,
+    pub setting: Setting,
+}
+
+/// Every case of the scenes, in run order: each scene's settings ([`scene_settings`]),
+/// scene after scene. A case's index in this list is what `--shard` splits on.
+pub fn cases(scenes: &[BenchScene]) -> Vec<Case> {
+    scenes
+        .iter()
+        .enumerate()
+        .flat_map(|(scene, sc)| {
+            scene_settings(sc)
+                .into_iter()
+                .map(move |setting| Case { scene, setting })
+        })
+        .collect()
+}
+
+/// Runs `cases` (of `scenes`) on `jobs` threads at once, handing each finished row to
+/// `on_row(done, total, what, row)` in the order they finish. Returns the rows in the
+/// order of `cases` (`None` for a case that did not run: the suite was interrupted)
+/// and whether every case ran; an error from `on_row` stops the suite and is returned.
+/// The rows do not depend on `jobs` (each case runs alone on its own world), only
+/// their timings do.
+pub fn run_cases<E>(
+    scenes: &[BenchScene],
+    opts: &Options,
+    cases: &[Case],
+    jobs: usize,
+    mut on_row: impl FnMut(usize, usize, &str, &Row) -> Result<(), E>,
+) -> Result<(Vec<Option<Row>>, bool), E> {
+    let total = cases.len();
+    let mut done = 0;
+    let what = |c: &Case| format!("{} / {}", scenes[c.scene].name, c.setting.label());
+    run_jobs(
+        cases,
+        jobs,
+        |c| {
+            let sc = &scenes[c.scene];
+            log::debug!("bench: {}", what(c));
+            Row {
                 scene: sc.name.clone(),
-                setting,
-                outcome,
+                setting: c.setting,
+                outcome: run_case(sc, &c.setting, &opts.budget(sc)),
+            }
+        },
+        |i, row| {
+            done += 1;
+            on_row(done, total, &what(&cases[i]), row)
+        },
+    )
+}
+
+/// Runs `run` on every item on `jobs` worker threads (1: on this thread, in order),
+/// handing each result to `finished(index, result)` on this thread as it comes. No item
+/// is started once [`crate::output::interrupted`] says so or `finished` has failed.
+/// Returns the results by item (`None`: not run) and whether every item ran.
+pub fn run_jobs<T: Sync, R: Send, E>(
+    items: &[T],
+    jobs: usize,
+    run: impl Fn(&T) -> R + Sync,
+    mut finished: impl FnMut(usize, &R) -> Result<(), E>,
+) -> Result<(Vec<Option<R>>, bool), E> {
+    use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
+    let mut out: Vec<Option<R>> = items.iter().map(|_| None).collect();
+    let jobs = jobs.clamp(1, items.len().max(1));
+    if jobs == 1 {
+        for (i, item) in items.iter().enumerate() {
+            if crate::output::interrupted() {
+                return Ok((out, false));
+            }
+            let r = run(item);
+            finished(i, &r)?;
+            out[i] = Some(r);
+        }
+        return Ok((out, true));
+    }
+    let next = AtomicUsize::new(0);
+    let stop = AtomicBool::new(false);
+    let (tx, rx) = std::sync::mpsc::channel::<(usize, R)>();
+    std::thread::scope(|s| {
+        for _ in 0..jobs {
+            let tx = tx.clone();
+            let (next, stop, run) = (&next, &stop, &run);
+            s.spawn(move || {
+                while !stop.load(Ordering::Relaxed) && !crate::output::interrupted() {
+                    let i = next.fetch_add(1, Ordering::Relaxed);
+                    let Some(item) = items.get(i) else { break };
+                    if tx.send((i, run(item))).is_err() {
+                        break;
+                    }
+                }
             });
-            on_row(rows.len(), total, &what, &rows[rows.len() - 1])?;
+        }
+        drop(tx);
+        // ends when every worker has finished (and dropped its sender)
+        for (i, r) in rx {
+            if let Err(e) = finished(i, &r) {
+                stop.store(true, Ordering::Relaxed);
+                return Err(e);
+            }
+            out[i] = Some(r);
+        }
+        Ok(())
+    })?;
+    let complete = out.iter().all(Option::is_some);
+    Ok((out, complete))
+}
+
+/// One part of a suite split across runs (`--shard i/n`): the cases whose index in the
+/// suite's full case list is `i - 1` modulo `n`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Shard {
+    /// 1-based: 1..=count.
+    pub index: usize,
+    pub count: usize,
+}
+
+impl Shard {
+    /// Parses `i/n` (1 <= i <= n); the error says what is wrong in a line.
+    pub fn parse(s: &str) -> Result<Shard, String> {
+        let bad = |why: String| format!("--shard {s:?}: {why}");
+        let (i, n) = s
+            .split_once('/')
+            .ok_or_else(|| bad("expected I/N such as 2/3 (shard I of N)".into()))?;
+        let num = |v: &str| -> Result<usize, String> {
+            v.trim().parse().map_err(|_| {
+                bad(format!(
+                    "{v:?} is not a whole number (expected I/N such as 2/3)"
+                ))
+            })
+        };
+        let (index, count) = (num(i)?, num(n)?);
+        if count == 0 {
+            return Err(bad("N must be at least 1".into()));
+        }
+        if !(1..=count).contains(&index) {
+            return Err(bad(format!("I must be 1..={count} (shards count from 1)")));
+        }
+        Ok(Shard { index, count })
+    }
+
+    /// Whether the case at `index` (0-based, in the suite's full case list) is in
+    /// this shard.
+    pub fn includes(&self, index: usize) -> bool {
+        index % self.count == self.index - 1
+    }
+
+    /// The indices of this shard's cases among `total`.
+    pub fn indices(&self, total: usize) -> Vec<usize> {
+        (0..total).filter(|&i| self.includes(i)).collect()
+    }
+
+    /// The file a shard run writes: `results.shard-I-of-N.json`.
+    pub fn file_name(&self) -> String {
+        format!("results.shard-{}-of-{}.json", self.index, self.count)
+    }
+}
+
+impl std::fmt::Display for Shard {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "{}/{}", self.index, self.count)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn run_jobs_gives_the_results_in_item_order_whatever_order_they_finish_in() {
+        let items: Vec<u64> = (0..12).collect();
+        for jobs in [1, 3, 100] {
+            let mut seen = Vec::new();
+            // later items finish sooner
+            let (out, complete) = run_jobs(
+                &items,
+                jobs,
+                |&i| {
+                    std::thread::sleep(std::time::Duration::from_millis(2 * (12 - i)));
+                    i * 10
+                },
+                |i, &r| {
+                    seen.push((i, r));
+                    Ok::<(), ()>(())
+                },
+            )
+            .unwrap();
+            assert!(complete);
+            let want: Vec<Option<u64>> = items.iter().map(|i| Some(i * 10)).collect();
+            assert_eq!(out, want, "jobs {jobs}");
+            seen.sort();
+            let each_once: Vec<(usize, u64)> = (0..12).map(|i| (i, i as u64 * 10)).collect();
+            assert_eq!(seen, each_once, "jobs {jobs}");
         }
     }
-    Ok((rows, true))
+
+    #[test]
+    fn an_error_from_the_finished_callback_stops_the_jobs() {
+        let items: Vec<u32> = (0..50).collect();
+        let mut calls = 0;
+        let r = run_jobs(
+            &items,
+            2,
+            |&i| {
+                std::thread::sleep(std::time::Duration::from_millis(1));
+                i
+            },
+            |_, _| {
+                calls += 1;
+                if calls == 3 { Err("full") } else { Ok(()) }
+            },
+        );
+        assert_eq!(r, Err("full"));
+        assert_eq!(calls, 3, "no result is handed on after the error");
+    }
+
+    #[test]
+    fn shards_split_the_cases_by_index_and_bad_values_are_refused() {
+        let s = Shard::parse("2/3").unwrap();
+        assert_eq!((s.index, s.count), (2, 3));
+        assert_eq!(s.indices(8), vec![1, 4, 7]);
+        assert_eq!(s.file_name(), "results.shard-2-of-3.json");
+        assert_eq!(s.to_string(), "2/3");
+        // the shards of a split cover every case once
+        let mut all: Vec<usize> = (1..=3)
+            .flat_map(|i| Shard::parse(&format!("{i}/3")).unwrap().indices(10))
+            .collect();
+        all.sort();
+        assert_eq!(all, (0..10).collect::<Vec<_>>());
+        assert_eq!(Shard::parse("1/1").unwrap().indices(3), vec![0, 1, 2]);
+        for bad in ["0/3", "4/3", "x/y", "1/0", "3", "", "1/2/3", "-1/3", "1/-3"] {
+            let e = Shard::parse(bad).unwrap_err();
+            assert!(e.starts_with("--shard ") && !e.contains('\n'), "{bad}: {e}");
+        }
+    }
 }

@@ -1,0 +1,546 @@
+//! A suite split across runs and put back together: `bench --shard i/n` writes its
+//! cases' rows to `results.shard-i-of-n.json` ([`scenes_json`], [`extremes_json`]);
+//! `bench --merge` reads every shard of a run ([`merge`]) and writes the reports an
+//! unsharded run would.
+//!
+//! A shard file names the run it belongs to (suite, filter, `--steps`, `--repeats`,
+//! the shard and the number of cases) and holds, per case, its index in the suite's
+//! full case list, what it ran (scene and setting, or sweep, setting and value) and
+//! every figure it measured; numbers are written in full (`{:e}`, which reads back
+//! bit for bit, NaN and infinities included), so the merged reports are those of one
+//! run.
+
+use serde::{Deserialize, Serialize};
+
+use super::extremes::{self, CaseResult, ExCase, SweepResult};
+use super::{BenchScene, Measured, Options, Outcome, Row, Shard, Suite, Verdict};
+
+/// The `format` field of a shard file.
+const FORMAT: &str = "sandbox2d bench shard";
+/// The `version` field; a file of another version is refused.
+const VERSION: u32 = 1;
+
+/// The run a shard belongs to: shards merge only with shards of the same run.
+#[derive(Clone, Debug, PartialEq)]
+pub struct RunKey {
+    pub suite: Suite,
+    pub filter: Option<String>,
+    /// `--steps`, when given.
+    pub steps: Option<u64>,
+    /// `--repeats`, when given.
+    pub repeats: Option<u32>,
+}
+
+/// What merging the shards of a run gives: what an unsharded run writes its reports from.
+#[derive(Clone, Debug)]
+pub enum Merged {
+    /// The quick or standard suite: its scenes and every row, in the run's order.
+    Scenes {
+        suite: Suite,
+        scenes: Vec<BenchScene>,
+        rows: Vec<Row>,
+    },
+    /// The extremes suite: every sweep and setting, in the run's order.
+    Extremes { results: Vec<SweepResult> },
+}
+
+#[derive(Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct Wire {
+    format: String,
+    version: u32,
+    suite: String,
+    filter: Option<String>,
+    steps: Option<u64>,
+    repeats: Option<u32>,
+    /// `i/n`
+    shard: String,
+    /// The number of cases of the whole run (every shard).
+    cases: usize,
+    #[serde(default)]
+    rows: Vec<WireRow>,
+    #[serde(default)]
+    extremes: Vec<WireCase>,
+}
+
+#[derive(Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct WireRow {
+    case: usize,
+    scene: String,
+    setting: String,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    failed: Option<String>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    measured: Option<WireMeasured>,
+}
+
+#[derive(Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct WireMeasured {
+    ms_per_step: String,
+    stage_ms: [String; 5],
+    steps: u64,
+    penetration_max: String,
+    penetration_mean: String,
+    drift: String,
+    joint_error: String,
+    energy_drift: String,
+    residual: String,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    unstable: Option<String>,
+}
+
+#[derive(Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct WireCase {
+    case: usize,
+    sweep: String,
+    setting: String,
+    value: String,
+    /// held, marginal or failed
+    result: String,
+    text: String,
+}
+
+/// A number in full: `{:e}` is the shortest text that reads back to the same bits.
+fn full(x: f64) -> String {
+    format!("{x:e}")
+}
+
+fn number(s: &str) -> Result<f64, String> {
+    s.parse().map_err(|_| format!("{s:?} is not a number"))
+}
+
+fn suite_of(name: &str) -> Option<Suite> {
+    [Suite::Quick, Suite::Standard, Suite::Extremes]
+        .into_iter()
+        .find(|s| s.name() == name)
+}
+
+fn header(key: &RunKey, shard: Shard, cases: usize) -> Wire {
+    Wire {
+        format: FORMAT.into(),
+        version: VERSION,
+        suite: key.suite.name().into(),
+        filter: key.filter.clone(),
+        steps: key.steps,
+        repeats: key.repeats,
+        shard: shard.to_string(),
+        cases,
+        rows: Vec::new(),
+        extremes: Vec::new(),
+    }
+}
+
+fn to_text(w: &Wire) -> String {
+    let mut s = serde_json::to_string_pretty(w).unwrap_or_default();
+    s.push('\n');
+    s
+}
+
+/// A shard file of the quick or standard suite: `rows` are (index in the full case
+/// list, row); `cases` is the length of that list.
+pub fn scenes_json(key: &RunKey, shard: Shard, cases: usize, rows: &[(usize, &Row)]) -> String {
+    let mut w = header(key, shard, cases);
+    w.rows = rows
+        .iter()
+        .map(|&(case, r)| {
+            let (failed, measured) = match &r.outcome {
+                Outcome::Failed(why) => (Some(why.clone()), None),
+                Outcome::Ran(m) => (
+                    None,
+                    Some(WireMeasured {
+                        ms_per_step: full(m.ms_per_step),
+                        stage_ms: m.stage_ms.map(full),
+                        steps: m.steps,
+                        penetration_max: full(m.penetration_max),
+                        penetration_mean: full(m.penetration_mean),
+                        drift: full(m.drift),
+                        joint_error: full(m.joint_error),
+                        energy_drift: full(m.energy_drift),
+                        residual: full(m.residual),
+                        unstable: match &m.verdict {
+                            Verdict::Stable => None,
+                            Verdict::Unstable(why) => Some(why.clone()),
+                        },
+                    }),
+                ),
+            };
+            WireRow {
+                case,
+                scene: r.scene.clone(),
+                setting: r.setting.label(),
+                failed,
+                measured,
+            }
+        })
+        .collect();
+    to_text(&w)
+}
+
+/// A shard file of the extremes suite: `rows` are (index in the full case list, case,
+/// result); `cases` is the length of that list.
+pub fn extremes_json(
+    key: &RunKey,
+    shard: Shard,
+    cases: usize,
+    rows: &[(usize, &ExCase, &CaseResult)],
+) -> String {
+    let mut w = header(key, shard, cases);
+    w.extremes = rows
+        .iter()
+        .map(|&(case, c, r)| {
+            let (result, text) = match r {
+                CaseResult::Held(t) => ("held", t),
+                CaseResult::Marginal(t) => ("marginal", t),
+                CaseResult::Failed(t) => ("failed", t),
+            };
+            WireCase {
+                case,
+                sweep: c.sweep.name().into(),
+                setting: c.setting.label.into(),
+                value: full(c.value),
+                result: result.into(),
+                text: text.clone(),
+            }
+        })
+        .collect();
+    to_text(&w)
+}
+
+fn outcome(r: WireRow) -> Result<Outcome, String> {
+    match (r.failed, r.measured) {
+        (Some(why), None) => Ok(Outcome::Failed(why)),
+        (None, Some(m)) => {
+            let mut stage_ms = [0.0; 5];
+            for (s, t) in stage_ms.iter_mut().zip(&m.stage_ms) {
+                *s = number(t)?;
+            }
+            Ok(Outcome::Ran(Measured {
+                ms_per_step: number(&m.ms_per_step)?,
+                stage_ms,
+                steps: m.steps,
+                penetration_max: number(&m.penetration_max)?,
+                penetration_mean: number(&m.penetration_mean)?,
+                drift: number(&m.drift)?,
+                joint_error: number(&m.joint_error)?,
+                energy_drift: number(&m.energy_drift)?,
+                residual: number(&m.residual)?,
+                verdict: m.unstable.map_or(Verdict::Stable, Verdict::Unstable),
+            }))
+        }
+        _ => Err("a row must have either \"failed\" or \"measured\"".into()),
+    }
+}
+
+fn case_result(c: &WireCase) -> Result<CaseResult, String> {
+    let t = c.text.clone();
+    match c.result.as_str() {
+        "held" => Ok(CaseResult::Held(t)),
+        "marginal" => Ok(CaseResult::Marginal(t)),
+        "failed" => Ok(CaseResult::Failed(t)),
+        other => Err(format!("unknown result {other:?}")),
+    }
+}
+
+/// Reads the shard files of one run, `(name, text)` each (the name is for messages),
+/// and puts their rows back in the order of the run's full case list. Refuses, with
+/// a one-line reason: a file that is not a shard file, shards of different runs (suite,
+/// filter, steps, repeats, shard count or case count), a shard given twice, a missing
+/// shard, and a row that is not the case its index names in this build's suite.
+pub fn merge(files: &[(String, String)]) -> Result<Merged, String> {
+    let mut parsed = Vec::with_capacity(files.len());
+    for (name, text) in files {
+        let w: Wire = serde_json::from_str(text)
+            .map_err(|e| format!("{name}: not a bench shard file: {e}"))?;
+        if w.format != FORMAT {
+            return Err(format!(
+                "{name}: not a bench shard file (format {:?})",
+                w.format
+            ));
+        }
+        if w.version != VERSION {
+            return Err(format!(
+                "{name}: shard file version {}, this build reads version {VERSION}",
+                w.version
+            ));
+        }
+        let shard = Shard::parse(&w.shard).map_err(|e| format!("{name}: {e}"))?;
+        parsed.push((name.as_str(), w, shard));
+    }
+    let Some((first_name, first, first_shard)) = parsed.first() else {
+        return Err("no shard files to merge".into());
+    };
+    for (name, w, shard) in &parsed[1..] {
+        let differ = |what: &str, a: String, b: String| {
+            Err(format!(
+                "{name} and {first_name} are shards of different runs: {what} {a} vs {b}"
+            ))
+        };
+        let opt = |o: &Option<String>| o.clone().map_or("none".into(), |f| format!("{f:?}"));
+        let num = |o: Option<u64>| o.map_or("default".into(), |n| n.to_string());
+        if w.suite != first.suite {
+            return differ("suite", w.suite.clone(), first.suite.clone());
+        }
+        if w.filter != first.filter {
+            return differ("filter", opt(&w.filter), opt(&first.filter));
+        }
+        if w.steps != first.steps {
+            return differ("steps", num(w.steps), num(first.steps));
+        }
+        if w.repeats != first.repeats {
+            return differ(
+                "repeats",
+                num(w.repeats.map(u64::from)),
+                num(first.repeats.map(u64::from)),
+            );
+        }
+        if shard.count != first_shard.count {
+            return differ(
+                "shard count",
+                shard.count.to_string(),
+                first_shard.count.to_string(),
+            );
+        }
+        if w.cases != first.cases {
+            return differ("case count", w.cases.to_string(), first.cases.to_string());
+        }
+    }
+    let n = first_shard.count;
+    let mut by_shard: Vec<Option<&str>> = vec![None; n];
+    for (name, _, shard) in &parsed {
+        if let Some(other) = by_shard[shard.index - 1] {
+            return Err(format!("shard {shard} is given twice: {other} and {name}"));
+        }
+        by_shard[shard.index - 1] = Some(name);
+    }
+    let missing: Vec<String> = (1..=n)
+        .filter(|i| by_shard[i - 1].is_none())
+        .map(|i| format!("{i}/{n}"))
+        .collect();
+    if !missing.is_empty() {
+        return Err(format!(
+            "shard {} missing: a run split {n} ways needs every shard once (got {})",
+            missing.join(", "),
+            parsed
+                .iter()
+                .map(|(_, _, s)| s.to_string())
+                .collect::<Vec<_>>()
+                .join(", ")
+        ));
+    }
+    let suite = suite_of(&first.suite)
+        .ok_or_else(|| format!("{first_name}: unknown suite {:?}", first.suite))?;
+    let filter = first.filter.clone();
+    let total = first.cases;
+    let count_check = |have: usize| -> Result<(), String> {
+        if have == total {
+            Ok(())
+        } else {
+            Err(format!(
+                "{first_name}: the run had {total} cases; this build's {} suite{} has {have} (merge with the build that ran the shards)",
+                suite.name(),
+                filter
+                    .as_ref()
+                    .map_or(String::new(), |f| format!(" with --filter {f:?}"))
+            ))
+        }
+    };
+    // a case's slot, checked: in range, in the file's shard, not seen before
+    let slot = |name: &str, shard: &Shard, case: usize, filled: bool| -> Result<(), String> {
+        if case >= total {
+            Err(format!(
+                "{name}: case {case} is past the run's {total} cases"
+            ))
+        } else if !shard.includes(case) {
+            Err(format!("{name}: case {case} is not in shard {shard}"))
+        } else if filled {
+            Err(format!("{name}: case {case} is given twice"))
+        } else {
+            Ok(())
+        }
+    };
+    let absent = |case: usize| {
+        format!(
+            "{}: case {case} of shard {}/{n} is missing (an interrupted shard run?)",
+            by_shard[case % n].unwrap_or("?"),
+            case % n + 1
+        )
+    };
+    if suite == Suite::Extremes {
+        let cases = extremes::cases(&extremes::sweeps(filter.as_deref()));
+        count_check(cases.len())?;
+        let mut results: Vec<Option<CaseResult>> = vec![None; total];
+        for (name, w, shard) in &parsed {
+            if !w.rows.is_empty() {
+                return Err(format!("{name}: scene rows in an extremes shard"));
+            }
+            for c in &w.extremes {
+                slot(
+                    name,
+                    shard,
+                    c.case,
+                    results.get(c.case).is_some_and(Option::is_some),
+                )?;
+                let want = &cases[c.case];
+                let value = number(&c.value).map_err(|e| format!("{name}: {e}"))?;
+                if c.sweep != want.sweep.name()
+                    || c.setting != want.setting.label
+                    || value.to_bits() != want.value.to_bits()
+                {
+                    return Err(format!(
+                        "{name}: case {} is {} / {} / {} here but {} in this build's suite",
+                        c.case,
+                        c.sweep,
+                        c.setting,
+                        c.value,
+                        want.label()
+                    ));
+                }
+                results[c.case] = Some(case_result(c).map_err(|e| format!("{name}: {e}"))?);
+            }
+        }
+        let mut all = Vec::with_capacity(total);
+        for (i, r) in results.into_iter().enumerate() {
+            all.push(r.ok_or_else(|| absent(i))?);
+        }
+        return Ok(Merged::Extremes {
+            results: extremes::assemble(&cases, all),
+        });
+    }
+    let opts = Options {
+        filter: filter.clone(),
+        steps: first.steps,
+        repeats: first.repeats,
+    };
+    let scenes = opts.scenes(suite);
+    let cases = super::cases(&scenes);
+    count_check(cases.len())?;
+    let mut rows: Vec<Option<Row>> = vec![None; total];
+    for (name, w, _) in &parsed {
+        if !w.extremes.is_empty() {
+            return Err(format!(
+                "{name}: extremes cases in a {} shard",
+                suite.name()
+            ));
+        }
+    }
+    for (name, w, shard) in parsed {
+        for r in w.rows {
+            slot(
+                name,
+                &shard,
+                r.case,
+                rows.get(r.case).is_some_and(Option::is_some),
+            )?;
+            let want = &cases[r.case];
+            let scene = &scenes[want.scene].name;
+            if r.scene != *scene || r.setting != want.setting.label() {
+                return Err(format!(
+                    "{name}: case {} is {} / {} here but {scene} / {} in this build's suite",
+                    r.case,
+                    r.scene,
+                    r.setting,
+                    want.setting.label()
+                ));
+            }
+            let case = r.case;
+            rows[case] = Some(Row {
+                scene: scene.clone(),
+                setting: want.setting,
+                outcome: outcome(r).map_err(|e| format!("{name}: case {case}: {e}"))?,
+            });
+        }
+    }
+    let mut all = Vec::with_capacity(total);
+    for (i, r) in rows.into_iter().enumerate() {
+        all.push(r.ok_or_else(|| absent(i))?);
+    }
+    Ok(Merged::Scenes {
+        suite,
+        scenes,
+        rows: all,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::bench::Options;
+
+    #[test]
+    fn shard_files_carry_every_figure_bit_for_bit_and_merge_in_case_order() {
+        let key = RunKey {
+            suite: Suite::Quick,
+            filter: Some("pendulum".into()),
+            steps: Some(6),
+            repeats: None,
+        };
+        let opts = Options {
+            filter: key.filter.clone(),
+            steps: key.steps,
+            repeats: None,
+        };
+        let scenes = opts.scenes(Suite::Quick);
+        let cases = crate::bench::cases(&scenes);
+        let odd = [
+            0.1 + 0.2,
+            f64::NAN,
+            1e-300,
+            f64::INFINITY,
+            -7.25e12,
+            1.0 / 3.0,
+        ];
+        let rows: Vec<Row> = cases
+            .iter()
+            .enumerate()
+            .map(|(i, c)| Row {
+                scene: scenes[c.scene].name.clone(),
+                setting: c.setting,
+                outcome: if i == 5 {
+                    Outcome::Failed("no, \"quoted\"\nand a new line".into())
+                } else {
+                    let x = |k: usize| odd[(i + k) % odd.len()];
+                    Outcome::Ran(Measured {
+                        ms_per_step: x(0),
+                        stage_ms: [x(1), x(2), x(3), x(4), x(5)],
+                        steps: i as u64,
+                        penetration_max: x(1),
+                        penetration_mean: x(2),
+                        drift: x(3),
+                        joint_error: x(4),
+                        energy_drift: x(5),
+                        residual: x(0),
+                        verdict: if i % 4 == 1 {
+                            Verdict::Unstable("fell, far".into())
+                        } else {
+                            Verdict::Stable
+                        },
+                    })
+                },
+            })
+            .collect();
+        let file = |i: usize| {
+            let shard = Shard { index: i, count: 2 };
+            let part: Vec<(usize, &Row)> = shard
+                .indices(rows.len())
+                .into_iter()
+                .map(|k| (k, &rows[k]))
+                .collect();
+            (format!("s{i}"), scenes_json(&key, shard, rows.len(), &part))
+        };
+        let Merged::Scenes { rows: back, .. } = merge(&[file(2), file(1)]).unwrap() else {
+            panic!("not the scene suite")
+        };
+        assert_eq!(format!("{back:?}"), format!("{rows:?}"));
+        assert!(merge(&[file(2)]).unwrap_err().contains("shard 1/2 missing"));
+        let e = merge(&[file(1), file(1), file(2)]).unwrap_err();
+        assert!(e.contains("given twice"), "{e}");
+        assert!(
+            merge(&[("x".into(), "{}".into())])
+                .unwrap_err()
+                .starts_with("x: not a bench shard file")
+        );
+    }
+}
