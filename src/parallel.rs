@@ -282,6 +282,40 @@ pub fn chunks_mut<T: Send>(
     })
 }
 
+/// Sets `dst` to the blocks' items one after another, in block order, each block copied
+/// by whichever thread claims it. `starts` is scratch (each block's first index).
+pub(crate) fn concat<T: Copy + Send>(
+    pool: Option<&Pool>,
+    blocks: &mut [Mutex<Vec<T>>],
+    starts: &mut Vec<usize>,
+    dst: &mut Vec<T>,
+) {
+    starts.clear();
+    let mut total = 0usize;
+    for m in blocks.iter_mut() {
+        starts.push(total);
+        total += m.get_mut().unwrap_or_else(|e| e.into_inner()).len();
+    }
+    dst.clear();
+    dst.reserve(total);
+    let base = SyncPtr(dst.as_mut_ptr());
+    let (blocks, starts) = (&*blocks, &*starts);
+    let copy = |b: usize| {
+        let src = blocks[b].lock().unwrap_or_else(|e| e.into_inner());
+        // SAFETY: block b's items go to starts[b]..starts[b] + len, inside the reserved
+        // capacity; the blocks' ranges do not overlap.
+        unsafe {
+            std::ptr::copy_nonoverlapping(src.as_ptr(), base.get().add(starts[b]), src.len())
+        };
+    };
+    match pool {
+        Some(p) if p.threads() > 1 => p.blocks(blocks.len(), &|_, b| copy(b)),
+        _ => (0..blocks.len()).for_each(copy),
+    }
+    // SAFETY: every item of 0..total was written above.
+    unsafe { dst.set_len(total) };
+}
+
 /// A raw pointer the threads of one job share, each touching its own elements.
 struct SyncPtr<T>(*mut T);
 

@@ -194,8 +194,10 @@ pub struct World {
     /// The worker threads, made at the first step that has work for them; clones share
     /// it (taking turns).
     pool: Option<Arc<Pool>>,
-    /// Per thread: the contacts its share of the narrow phase found (scratch).
+    /// Per block of pairs: the contacts the narrow phase found (scratch).
     narrow_out: NarrowScratch,
+    /// Each block's first contact (scratch).
+    narrow_starts: Vec<usize>,
 }
 
 /// Per-thread narrow-phase output buffers; a clone starts with none.
@@ -255,6 +257,7 @@ impl World {
             threads: parallel::default_threads(),
             pool: None,
             narrow_out: NarrowScratch::default(),
+            narrow_starts: Vec::new(),
         }
     }
 
@@ -880,11 +883,12 @@ impl World {
                     out.clear();
                     narrow.run(range, &mut out)
                 });
-                self.contacts.clear();
-                for o in outs {
-                    self.contacts
-                        .extend_from_slice(&o.lock().unwrap_or_else(|e| e.into_inner()));
-                }
+                parallel::concat(
+                    Some(pool),
+                    &mut self.narrow_out.0[..blocks],
+                    &mut self.narrow_starts,
+                    &mut self.contacts,
+                );
                 deepest
             }
             _ => narrow.run(0..narrow.pairs.len(), &mut self.contacts),
