@@ -885,6 +885,8 @@ fn simulate(a: &SimulateArgs) -> Result<(), Failure> {
                 "joint_damping_ratio": settings.joint_damping_ratio,
             },
             "steps": summary.steps,
+            // threads the steps could use, and whether they did (a small world runs on one)
+            "threads": { "allowed": world.threads(), "parallel_jobs": world.parallel_jobs() },
             "bodies": world.bodies.len(),
             "ms_per_step": { "median": median, "mean": mean, "p95": p95 },
             "contacts": { "mean": summary.contacts_mean, "max": summary.contacts_max },
@@ -932,9 +934,11 @@ fn simulate(a: &SimulateArgs) -> Result<(), Failure> {
             );
         }
         println!(
-            "steps        {} ({} bodies)",
+            "steps        {} ({} bodies, {} thread{})",
             summary.steps,
-            world.bodies.len()
+            world.bodies.len(),
+            world.threads(),
+            if world.threads() == 1 { "" } else { "s" }
         );
         println!("ms/step      median {median:.3}  mean {mean:.3}  p95 {p95:.3}");
         println!(

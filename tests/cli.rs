@@ -1359,3 +1359,40 @@ fn render_compare_writes_side_by_side_frames() {
     assert!(gif.exists());
     assert!(stdout.contains("--solver pgs --iterations 4"), "{stdout}");
 }
+
+#[test]
+fn threads_give_the_same_bits_and_bad_counts_are_refused() {
+    // a pile big enough for the worker threads (the pool starts from 256 bodies)
+    let scene = tmp("threads_pile.toml");
+    std::fs::write(
+        &scene,
+        "name = \"pile\"\n[world]\ngravity = [0.0, -10.0]\n\
+         [[body]]\nname = \"ground\"\ntype = \"static\"\nshape = { box = [100.0, 2.0] }\nposition = [0.0, -1.0]\n\
+         [[pyramid]]\nbase = 25\n",
+    )
+    .unwrap();
+    let run = |threads: &str| {
+        let out = sandbox2d()
+            .args(["simulate", scene.to_str().unwrap(), "--steps", "20", "--json"])
+            .args(["--threads", threads])
+            .output()
+            .unwrap();
+        assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+        serde_json::from_slice::<serde_json::Value>(&out.stdout).unwrap()
+    };
+    let (one, two) = (run("1"), run("2"));
+    assert_eq!(one["threads"]["allowed"], 1);
+    assert_eq!(one["threads"]["parallel_jobs"], 0);
+    assert_eq!(two["threads"]["allowed"], 2);
+    assert!(two["threads"]["parallel_jobs"].as_u64().unwrap() > 20, "{two}");
+    assert_eq!(one["state_hash"], two["state_hash"]);
+    for bad in ["0", "65", "x"] {
+        let out = sandbox2d()
+            .args(["simulate", "stack", "--steps", "1", "--threads", bad])
+            .output()
+            .unwrap();
+        assert_eq!(out.status.code(), Some(2), "--threads {bad}");
+        assert!(out.stdout.is_empty());
+        assert!(String::from_utf8_lossy(&out.stderr).contains("--threads"));
+    }
+}
