@@ -51,7 +51,8 @@ enum Command {
     #[cfg(feature = "render")]
     Run(RunArgs),
     /// Measure what each solver setting costs and how right it is: results.csv,
-    /// results.md and one plot per scene (or stability.md for --suite extremes) in --out.
+    /// results.md and one plot per scene (or stability.md for --suite extremes, scaling.csv,
+    /// scaling.md and scaling.svg for --suite scaling) in --out.
     Bench(BenchArgs),
     /// Pick the most accurate solver setting that fits a budget in ms per step: runs the
     /// bench's grid on the scene, then a finer pass around each solver's best, and prints the
@@ -179,7 +180,7 @@ struct BenchArgs {
     /// Directory for the results (created if missing).
     #[arg(long)]
     out: PathBuf,
-    /// Only the scenes (or sweeps) whose name contains this.
+    /// Only the scenes (or sweeps, or scaling sizes such as 5k) whose name contains this.
     #[arg(long)]
     filter: Option<String>,
     /// Steps per run instead of each scene's own count (for quick checks).
@@ -192,14 +193,14 @@ struct BenchArgs {
     /// their order are the same as with --jobs 1; only the timing columns differ.
     /// Concurrent cases perturb each other's timings (they share cores, caches and
     /// memory bandwidth, worst on a small machine), so the published figures are
-    /// measured with --jobs 1.
+    /// measured with --jobs 1. Not for --suite scaling.
     #[arg(long, value_name = "N", default_value_t = 1)]
     jobs: usize,
     /// Run only shard I of N (1-based, e.g. 2/3): the cases whose 0-based index in the
     /// suite's full case list (scene by scene, each scene's settings in order; for
     /// extremes: sweep, setting, value) is I-1 modulo N. Writes
     /// results.shard-I-of-N.json into --out instead of the reports; --merge builds
-    /// them from all N shards.
+    /// them from all N shards. Not for --suite scaling.
     #[arg(long, value_name = "I/N", allow_hyphen_values = true)]
     shard: Option<String>,
     /// Merge shard files (results.shard-I-of-N.json, or folders holding them) into the
