@@ -51,7 +51,8 @@ enum Command {
     #[cfg(feature = "render")]
     Run(RunArgs),
     /// Measure what each solver setting costs and how right it is: results.csv,
-    /// results.md and one plot per scene (or stability.md for --suite extremes) in --out.
+    /// results.md and one plot per scene (or stability.md for --suite extremes, scaling.csv,
+    /// scaling.md and scaling.svg for --suite scaling) in --out.
     Bench(BenchArgs),
     /// Pick the most accurate solver setting that fits a budget in ms per step: runs the
     /// bench's grid on the scene, then a finer pass around each solver's best, and prints the
@@ -164,18 +165,22 @@ enum SuiteArg {
     Quick,
     Standard,
     Extremes,
+    Scaling,
 }
 
 #[derive(Args)]
 struct BenchArgs {
     /// Which scenes: quick (a couple of minutes), standard (under 15), extremes (the
-    /// stability sweeps).
+    /// stability sweeps), scaling (the benchmark pyramid at 1k, 5k, 20k and 80k boxes on
+    /// 1 and 2 threads, and every core above 2: scaling.csv, scaling.md, scaling.svg; a
+    /// few minutes; --filter picks sizes by label, e.g. 5k; it sets its own thread counts
+    /// (--threads does not apply) and refuses --jobs and --shard).
     #[arg(long, value_enum, default_value = "quick")]
     suite: SuiteArg,
     /// Directory for the results (created if missing).
     #[arg(long)]
     out: PathBuf,
-    /// Only the scenes (or sweeps) whose name contains this.
+    /// Only the scenes (or sweeps, or scaling sizes such as 5k) whose name contains this.
     #[arg(long)]
     filter: Option<String>,
     /// Steps per run instead of each scene's own count (for quick checks).
@@ -188,14 +193,14 @@ struct BenchArgs {
     /// their order are the same as with --jobs 1; only the timing columns differ.
     /// Concurrent cases perturb each other's timings (they share cores, caches and
     /// memory bandwidth, worst on a small machine), so the published figures are
-    /// measured with --jobs 1.
+    /// measured with --jobs 1. Not for --suite scaling.
     #[arg(long, value_name = "N", default_value_t = 1)]
     jobs: usize,
     /// Run only shard I of N (1-based, e.g. 2/3): the cases whose 0-based index in the
     /// suite's full case list (scene by scene, each scene's settings in order; for
     /// extremes: sweep, setting, value) is I-1 modulo N. Writes
     /// results.shard-I-of-N.json into --out instead of the reports; --merge builds
-    /// them from all N shards.
+    /// them from all N shards. Not for --suite scaling.
     #[arg(long, value_name = "I/N", allow_hyphen_values = true)]
     shard: Option<String>,
     /// Merge shard files (results.shard-I-of-N.json, or folders holding them) into the
@@ -1434,6 +1439,7 @@ fn bench(a: &BenchArgs) -> Result<(), Failure> {
         SuiteArg::Quick => Suite::Quick,
         SuiteArg::Standard => Suite::Standard,
         SuiteArg::Extremes => Suite::Extremes,
+        SuiteArg::Scaling => return bench_scaling(a, part.is_some()),
     };
     let filter = a.filter.clone();
     let key = shard::RunKey {
@@ -1571,6 +1577,79 @@ fn bench(a: &BenchArgs) -> Result<(), Failure> {
     write_reports(&a.out, suite, &scenes, &rows)?;
     drop(partial);
     let _ = std::fs::remove_file(&partial_path);
+    Ok(())
+}
+
+/// `bench --suite scaling`: the pyramid at each size and thread count, one run at a
+/// time (its timings are what it reports), then scaling.csv, scaling.md, scaling.svg.
+fn bench_scaling(a: &BenchArgs, sharded: bool) -> Result<(), Failure> {
+    use sandbox2d::bench::scaling;
+    if sharded || a.jobs != 1 {
+        return Err(Failure::input(
+            "--suite scaling runs one case at a time (it times threads against each other): --jobs and --shard do not apply",
+        ));
+    }
+    let sizes = scaling::sizes(a.filter.as_deref());
+    if sizes.is_empty() {
+        return Err(Failure::input(format!(
+            "--filter {:?} matches no size of the scaling suite (1k, 5k, 20k, 80k)",
+            a.filter.clone().unwrap_or_default()
+        )));
+    }
+    writable_dir(&a.out)?;
+    let cores = sandbox2d::parallel::available();
+    let threads = scaling::thread_counts(cores);
+    let repeats = a.repeats.unwrap_or(scaling::REPEATS);
+    let runs = scaling::runs(&sizes, &threads, repeats);
+    let bar = bench_progress(runs.len());
+    let mut defs = Vec::new();
+    let mut timed = Vec::with_capacity(runs.len());
+    for (i, r) in runs.iter().enumerate() {
+        if output::interrupted() {
+            return Err(Failure::interrupted("interrupted: nothing was written"));
+        }
+        bar.set_message(r.label(repeats));
+        let def = match defs.iter().find(|(b, _)| *b == r.size.base) {
+            Some((_, d)) => d,
+            None => {
+                let d = scaling::scene(r.size.base).map_err(Failure::run)?;
+                defs.push((r.size.base, d));
+                &defs[defs.len() - 1].1
+            }
+        };
+        let steps = a.steps.unwrap_or(r.size.steps);
+        let warmup = scaling::WARMUP_STEPS.min(steps);
+        log::debug!("bench: {}", r.label(repeats));
+        let t = scaling::run_one(def, r.threads, warmup, steps)
+            .map_err(|e| Failure::run(format!("{}: {e}", r.label(repeats))))?;
+        timed.push(t);
+        bar.set_position(i as u64 + 1);
+    }
+    bar.finish_and_clear();
+    let rows = scaling::assemble(&runs, &timed, &threads);
+    let mut command = String::from("sandbox2d bench --suite scaling");
+    if let Some(f) = &a.filter {
+        command.push_str(&format!(" --filter {f}"));
+    }
+    if let Some(s) = a.steps {
+        command.push_str(&format!(" --steps {s}"));
+    }
+    if let Some(r) = a.repeats {
+        command.push_str(&format!(" --repeats {r}"));
+    }
+    command.push_str(&format!(" --out {}", a.out.display()));
+    let svg = scaling::svg(&rows).map_err(Failure::run)?;
+    write_file(&a.out.join("scaling.svg"), &svg)?;
+    write_file(&a.out.join("scaling.csv"), &scaling::csv(&rows))?;
+    write_file(
+        &a.out.join("scaling.md"),
+        &scaling::markdown(&rows, repeats, cores, &command),
+    )?;
+    println!(
+        "wrote {}: scaling.csv, scaling.md and scaling.svg ({} rows)",
+        a.out.display(),
+        rows.len()
+    );
     Ok(())
 }
 

@@ -459,3 +459,67 @@ fn extremes_shards_and_jobs_write_the_same_stability_table() {
         );
     }
 }
+
+#[test]
+fn the_scaling_suite_times_1_and_2_threads_to_the_same_bits() {
+    let dir = tmp("scaling-1k");
+    let _ = std::fs::remove_dir_all(&dir);
+    let out = sandbox2d()
+        .args(["bench", "--suite", "scaling", "--filter", "1k"])
+        .args(["--steps", "3", "--repeats", "2"])
+        .arg("--out")
+        .arg(&dir)
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{err}");
+    assert!(err.is_empty(), "{err}");
+    let said = String::from_utf8(out.stdout).unwrap();
+    assert!(said.contains("scaling.csv"), "{said}");
+    let csv = std::fs::read_to_string(dir.join("scaling.csv")).unwrap();
+    let header: Vec<&str> = csv.lines().next().unwrap().split(',').collect();
+    let col = |name: &str| header.iter().position(|h| *h == name).expect(name);
+    let rows: Vec<Vec<&str>> = csv
+        .lines()
+        .skip(1)
+        .map(|l| l.split(',').collect())
+        .collect();
+    let threads: Vec<&str> = rows.iter().map(|r| r[col("threads")]).collect();
+    assert!(threads.starts_with(&["1", "2"]), "{csv}");
+    for r in &rows {
+        assert_eq!(r[col("size")], "1k", "{csv}");
+        assert_eq!(r[col("bodies")], "1035", "{csv}");
+        assert_eq!(r[col("steps")], "3", "{csv}");
+        let ms: f64 = r[col("ms_per_step")].parse().unwrap();
+        assert!(ms > 0.0 && ms.is_finite(), "{csv}");
+        let contacts: f64 = r[col("contacts")].parse().unwrap();
+        assert!(contacts > 1000.0, "a standing pyramid touches: {csv}");
+        assert_eq!(r[col("state_hash")], rows[0][col("state_hash")], "{csv}");
+        assert_eq!(r[col("same_bits")], "yes", "{csv}");
+    }
+    assert_eq!(rows[0][col("speedup")], "1.0000", "{csv}");
+    let md = std::fs::read_to_string(dir.join("scaling.md")).unwrap();
+    assert!(
+        md.contains("| 1k | 1035 | 2 | 3 |") && md.contains("- 1k: "),
+        "{md}"
+    );
+    let svg = std::fs::read_to_string(dir.join("scaling.svg")).unwrap();
+    assert!(
+        svg.starts_with("<svg") && svg.contains("2 threads"),
+        "{svg}"
+    );
+}
+
+#[test]
+fn the_scaling_suite_refuses_jobs_shard_and_an_unknown_size() {
+    let dir = tmp("scaling-bad");
+    let _ = std::fs::remove_dir_all(&dir);
+    let d = dir.to_str().unwrap();
+    let err = refused(&["bench", "--suite", "scaling", "--jobs", "2", "--out", d]);
+    assert!(err.contains("--jobs"), "{err}");
+    let err = refused(&["bench", "--suite", "scaling", "--shard", "1/2", "--out", d]);
+    assert!(err.contains("--shard"), "{err}");
+    let err = refused(&["bench", "--suite", "scaling", "--filter", "3k", "--out", d]);
+    assert!(err.contains("3k"), "{err}");
+    assert!(!dir.exists(), "refused before writing anything");
+}

@@ -10,11 +10,13 @@
 //! stable verdict. A case that blows up is stopped early and reported unstable.
 //!
 //! [`report`] writes `results.csv` and `results.md`, [`plot`] one SVG per scene, and
-//! [`extremes`] the one-thing-at-a-time stability sweeps behind `stability.md`.
+//! [`extremes`] the one-thing-at-a-time stability sweeps behind `stability.md`;
+//! [`scaling`] times the benchmark pyramid from 1k to 80k boxes on 1 and 2 threads.
 
 pub mod extremes;
 pub mod plot;
 pub mod report;
+pub mod scaling;
 pub mod scenes;
 pub mod shard;
 pub mod tune;
