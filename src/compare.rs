@@ -136,6 +136,22 @@ pub fn figure_lines(f: &Figures) -> [String; 2] {
     ]
 }
 
+/// `text` cut into lines of at most `width` characters at spaces (a word longer than
+/// `width` gets a line of its own), so a pane's label fits its pane.
+pub fn wrap(text: &str, width: usize) -> Vec<String> {
+    let mut lines: Vec<String> = Vec::new();
+    for word in text.split_whitespace() {
+        match lines.last_mut() {
+            Some(line) if line.chars().count() + 1 + word.chars().count() <= width => {
+                line.push(' ');
+                line.push_str(word);
+            }
+            _ => lines.push(word.to_owned()),
+        }
+    }
+    lines
+}
+
 /// Splits a `--compare` value into words at whitespace (no quoting: no setting's value
 /// holds a space).
 pub fn split_words(s: &str) -> Vec<String> {
@@ -145,6 +161,18 @@ pub fn split_words(s: &str) -> Vec<String> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_label_wraps_at_spaces_to_the_width() {
+        let lines = wrap("--solver pgs --substeps 1 --iterations 10", 16);
+        assert_eq!(lines, ["--solver pgs", "--substeps 1", "--iterations 10"]);
+        assert!(lines.iter().all(|l| l.len() <= 16));
+        assert_eq!(
+            wrap("--joint-damping-ratio 5", 8),
+            ["--joint-damping-ratio", "5"]
+        );
+        assert_eq!(wrap("a b c", 80), ["a b c"]);
+    }
 
     #[test]
     fn figure_lines_show_dashes_where_a_figure_does_not_apply() {

@@ -1373,18 +1373,31 @@ fn threads_give_the_same_bits_and_bad_counts_are_refused() {
     .unwrap();
     let run = |threads: &str| {
         let out = sandbox2d()
-            .args(["simulate", scene.to_str().unwrap(), "--steps", "20", "--json"])
+            .args([
+                "simulate",
+                scene.to_str().unwrap(),
+                "--steps",
+                "20",
+                "--json",
+            ])
             .args(["--threads", threads])
             .output()
             .unwrap();
-        assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
         serde_json::from_slice::<serde_json::Value>(&out.stdout).unwrap()
     };
     let (one, two) = (run("1"), run("2"));
     assert_eq!(one["threads"]["allowed"], 1);
     assert_eq!(one["threads"]["parallel_jobs"], 0);
     assert_eq!(two["threads"]["allowed"], 2);
-    assert!(two["threads"]["parallel_jobs"].as_u64().unwrap() > 20, "{two}");
+    assert!(
+        two["threads"]["parallel_jobs"].as_u64().unwrap() > 20,
+        "{two}"
+    );
     assert_eq!(one["state_hash"], two["state_hash"]);
     for bad in ["0", "65", "x"] {
         let out = sandbox2d()

@@ -433,6 +433,77 @@ impl Session {
     }
 }
 
+/// The most panes side by side (`--compare` takes 2 to 4).
+pub const MAX_PANES: usize = 4;
+
+/// A pane's label for settings made in the panel: the flags that turn the scene's own
+/// settings (`base`) into them, or "the scene's settings".
+pub fn settings_label(s: &SolverSettings, base: &SolverSettings) -> String {
+    let mut flags: Vec<String> = Vec::new();
+    let mut flag = |name: &str, differs: bool, value: String| {
+        if differs {
+            flags.push(format!("--{name} {value}"));
+        }
+    };
+    let on = |b: bool| if b { "on" } else { "off" }.to_string();
+    flag("solver", s.kind != base.kind, s.kind.name().to_string());
+    flag("dt", s.dt != base.dt, format!("{}", s.dt));
+    flag(
+        "substeps",
+        s.substeps != base.substeps,
+        s.substeps.to_string(),
+    );
+    flag(
+        "iterations",
+        s.iterations != base.iterations,
+        s.iterations.to_string(),
+    );
+    flag("slop", s.slop != base.slop, format!("{}", s.slop));
+    flag(
+        "warm-start",
+        s.warm_start != base.warm_start,
+        on(s.warm_start),
+    );
+    // each solver's own settings only under that solver
+    let (pgs, soft) = (s.kind == SolverKind::Pgs, s.kind == SolverKind::Soft);
+    flag(
+        "split-impulse",
+        pgs && s.split_impulse != base.split_impulse,
+        on(s.split_impulse),
+    );
+    flag(
+        "block-solve",
+        s.block_solve != base.block_solve,
+        on(s.block_solve),
+    );
+    flag("sleep", s.sleep != base.sleep, on(s.sleep));
+    flag(
+        "baumgarte",
+        pgs && s.baumgarte != base.baumgarte,
+        format!("{}", s.baumgarte),
+    );
+    flag(
+        "contact-hertz",
+        soft && s.contact_hertz != base.contact_hertz,
+        format!("{}", s.contact_hertz),
+    );
+    flag(
+        "joint-hertz",
+        soft && s.joint_hertz != base.joint_hertz,
+        format!("{}", s.joint_hertz),
+    );
+    flag(
+        "joint-damping-ratio",
+        soft && s.joint_damping_ratio != base.joint_damping_ratio,
+        format!("{}", s.joint_damping_ratio),
+    );
+    if flags.is_empty() {
+        "the scene's settings".into()
+    } else {
+        flags.join(" ")
+    }
+}
+
 /// `run --compare`: the panes after the first, each its own session on the same scene
 /// with its own solver flags. The first pane is the window's [`Session`]; these follow
 /// it: they step as many times as it does, and a grab, spawn, drag, emitter or reset
@@ -524,6 +595,41 @@ impl Compare {
         for o in &mut self.others {
             o.spawn(kind, at);
         }
+    }
+
+    /// The panel's "add a pane": a pane with `first`'s current (panel) settings, going on
+    /// from `first`'s world as it is now, labelled by those settings. Refused beyond
+    /// [`MAX_PANES`] panes.
+    pub fn add_pane(compare: &mut Option<Compare>, first: &Session) -> Result<(), String> {
+        let panes = compare.as_ref().map_or(1, Compare::panes);
+        if panes >= MAX_PANES {
+            return Err(format!("{MAX_PANES} panes at most"));
+        }
+        let mut pane = Session::new(first.scene.clone(), first.cli_overrides)?;
+        pane.world = first.world.clone();
+        pane.settings = first.settings;
+        pane.apply_settings();
+        if let Some(e) = pane.error.take() {
+            return Err(e);
+        }
+        pane.energy_start = first.energy_start;
+        pane.time_scale = first.time_scale;
+        pane.paused = first.paused;
+        pane.overlays = first.overlays;
+        // labelled by what differs from the scene's own settings (and the command line's)
+        let base = first
+            .scene
+            .world
+            .solver
+            .merged(first.cli_overrides)
+            .resolve();
+        let c = compare.get_or_insert_with(|| Compare {
+            labels: vec![settings_label(&first.world.settings, &base)],
+            others: Vec::new(),
+        });
+        c.labels.push(settings_label(&pane.settings, &base));
+        c.others.push(pane);
+        Ok(())
     }
 
     /// Resets each other pane.
@@ -845,5 +951,40 @@ mod tests {
         );
         assert_eq!(s.world.step_count(), 0);
         let _ = std::fs::remove_dir_all(&dir);
+    }
+
+    #[test]
+    fn the_panel_adds_panes_that_go_on_from_the_world_as_it_is() {
+        let mut first = session();
+        for _ in 0..30 {
+            first.step_once();
+        }
+        let mut compare = None;
+        Compare::add_pane(&mut compare, &first).unwrap();
+        let c = compare.as_mut().unwrap();
+        assert_eq!(c.panes(), 2);
+        assert_eq!(c.labels.len(), 2);
+        // the command line's --iterations 7 is part of the base: nothing differs
+        assert_eq!(c.labels, ["the scene's settings", "the scene's settings"]);
+        // the same world, the same settings: it goes on in lock step, bit for bit
+        assert_eq!(c.others[0].world.state_hash(), first.world.state_hash());
+        assert_eq!(c.others[0].world.step_count(), first.world.step_count());
+        for _ in 0..20 {
+            first.step_once();
+        }
+        c.follow(&first, 20);
+        assert_eq!(c.others[0].world.state_hash(), first.world.state_hash());
+        // then other settings in the panel: the next pane runs them, the others keep theirs
+        first.switch_solver(SolverKind::Pgs);
+        Compare::add_pane(&mut compare, &first).unwrap();
+        let c = compare.as_ref().unwrap();
+        assert_eq!(c.panes(), 3);
+        assert_eq!(c.others[1].world.settings.kind, SolverKind::Pgs);
+        assert_eq!(c.others[0].world.settings.kind, SolverKind::Soft);
+        assert!(c.labels[2].starts_with("--solver pgs"), "{:?}", c.labels);
+        Compare::add_pane(&mut compare, &first).unwrap();
+        let e = Compare::add_pane(&mut compare, &first).unwrap_err();
+        assert!(e.contains("4 panes at most"), "{e}");
+        assert_eq!(compare.as_ref().unwrap().panes(), 4);
     }
 }

@@ -12,6 +12,8 @@ use crate::scene;
 pub struct PanelActions {
     /// Reset the camera to the scene's (a new scene was loaded, or reset pressed).
     pub reset_camera: bool,
+    /// Add a pane with the panel's settings, from the world as it is.
+    pub add_pane: bool,
 }
 
 /// Frame-rate figures the window measures, shown in the panel.
@@ -198,6 +200,17 @@ fn contents(ui: &mut Ui, s: &mut Session, frame: FrameStats, actions: &mut Panel
     }
     if s.settings != before {
         s.apply_settings();
+    }
+    if ui
+        .button("add a pane with these settings")
+        .on_hover_text(
+            "a pane beside the others, going on from this world as it is now with the \
+             settings above (4 panes at most); set other settings here afterwards to \
+             compare them",
+        )
+        .clicked()
+    {
+        actions.add_pane = true;
     }
     ui.add(
         egui::Slider::new(&mut s.time_scale, 0.05..=4.0)

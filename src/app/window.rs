@@ -24,6 +24,9 @@ use crate::render::{Renderer, save_png};
 const EMITTER_RADIUS_PX: f32 = 110.0;
 /// Colour of the drag spring and the emitter's ring.
 const TOOL_COLOR: [u8; 4] = [255, 255, 255, 200];
+/// What the panel's frame and margins add to its width (px).
+const PANEL_FRAME_PX: f32 = 32.0;
+
 /// The line between `--compare` panes.
 const DIVIDER_COLOR: [u8; 4] = [200, 200, 210, 255];
 /// `run --compare` labels: text and the box behind it.
@@ -112,6 +115,9 @@ pub(super) struct App {
     labels_next: Option<Instant>,
     /// Scratch: a label line's font-pixel runs.
     runs: Vec<[u32; 3]>,
+    /// With panes: the first pane's settings when its label was last written (the
+    /// panel edits them; the label then follows).
+    first_settings: Option<crate::defs::SolverSettings>,
 }
 
 impl App {
@@ -127,6 +133,7 @@ impl App {
             labels: Vec::new(),
             labels_next: None,
             runs: Vec::new(),
+            first_settings: None,
             gpu: None,
             mouse: Mouse::default(),
             fatal: None,
@@ -242,21 +249,40 @@ impl App {
     /// Where pane `k` is drawn: its world moved right by `k` panes' width (m) under
     /// the window's one camera.
     fn pane_offset(&self, k: usize) -> Vec2 {
-        let pw = (self.camera.size[0] / self.panes() as u32).max(1) as f32;
+        let (_, pw) = self.pane_area();
         Vec2::new(k as f32 * pw / self.camera.pixels_per_meter, 0.0)
+    }
+
+    /// With `--compare`: the panes share the window right of the panel (when it is
+    /// shown). Returns the first pane's left edge and a pane's width (px).
+    fn pane_area(&self) -> (f32, f32) {
+        let w = self.camera.size[0] as f32;
+        let left = if self.panel_visible && self.panes() > 1 {
+            // the panel's width and its frame
+            (self.panel_px() + PANEL_FRAME_PX).min(0.5 * w)
+        } else {
+            0.0
+        };
+        let pw = ((w - left) / self.panes() as f32).floor().max(1.0);
+        (left, pw)
     }
 
     /// The scene's camera for the window, framing the area right of the panel.
     fn reset_camera(&mut self) {
         let n = self.panes();
         if n > 1 {
-            // Compare: the scene framed in the first pane, the window's camera moved
-            // right so the panes sit side by side (the panel, if shown, lies over them).
+            // Compare: the scene framed in the first pane, the window's camera moved so
+            // the panes sit side by side right of the panel
             let [w, h] = self.camera.size;
-            let pw = (w / n as u32).max(1);
-            let mut cam = scene_camera(&self.session.scene.camera, [pw, h], &self.session.world);
+            let (left, pw) = self.pane_area();
+            let mut cam = scene_camera(
+                &self.session.scene.camera,
+                [pw as u32, h],
+                &self.session.world,
+            );
             cam.size = [w, h];
-            cam.center.x += 0.5 * (n - 1) as f32 * pw as f32 / cam.pixels_per_meter;
+            // the first pane's centre is at x = left + pw / 2 on the screen
+            cam.center.x += (0.5 * w as f32 - left - 0.5 * pw) / cam.pixels_per_meter;
             self.camera = cam;
             return;
         }
@@ -444,8 +470,9 @@ impl App {
             let ppm = self.camera.pixels_per_meter;
             let left = self.camera.center.x - 0.5 * w as f32 / ppm;
             let half_h = h as f32 / ppm;
+            let (area_left, _) = self.pane_area();
             for k in 1..self.panes() {
-                let x = left + self.pane_offset(k).x;
+                let x = left + area_left / ppm + self.pane_offset(k).x;
                 let cy = self.camera.center.y;
                 self.list.push_line(
                     Vec2::new(x, cy - half_h),
@@ -660,11 +687,37 @@ impl App {
         }
         self.frames += 1;
 
+        if actions.add_pane {
+            match Compare::add_pane(&mut self.compare, &self.session) {
+                Ok(()) => {
+                    self.session.note = Some(format!("{} panes", self.panes()));
+                    // the panes share the width: frame the scene in the first again
+                    self.reset_camera();
+                    self.labels_next = None;
+                    if let Some(g) = &self.gpu {
+                        g.window.set_title(&self.title());
+                    }
+                }
+                Err(e) => self.session.error = Some(format!("add a pane: {e}")),
+            }
+        }
+        if let Some(c) = self.compare.as_mut() {
+            let now = self.session.world.settings;
+            if self.first_settings.is_some_and(|was| was != now) {
+                let s = &self.session;
+                let base = s.scene.world.solver.merged(s.cli_overrides).resolve();
+                c.labels[0] = super::session::settings_label(&now, &base);
+                self.labels_next = None;
+                if let Some(g) = &self.gpu {
+                    g.window.set_title(&self.title());
+                }
+            }
+            self.first_settings = Some(now);
+        }
         if actions.reset_camera {
             self.reset_camera();
             if let Some(g) = &self.gpu {
-                g.window
-                    .set_title(&format!("sandbox2d - {}", self.session.scene.name));
+                g.window.set_title(&self.title());
             }
         }
 
@@ -711,11 +764,15 @@ impl App {
             return;
         };
         if self.labels_next.is_none_or(|t| now >= t) || self.labels.len() != c.panes() {
+            // the settings wrapped to the pane's width, then the figures
+            let (_, pw) = self.pane_area();
+            let cell = (crate::render::font::CELL_W * LABEL_SCALE) as f32;
+            let width = ((pw - 2.0 * LABEL_MARGIN_PX - 8.0) / cell).floor().max(8.0) as usize;
             self.labels = std::iter::once(&self.session)
                 .chain(&c.others)
                 .zip(&c.labels)
                 .map(|(s, label)| {
-                    let mut lines = vec![label.clone()];
+                    let mut lines = crate::compare::wrap(label, width);
                     lines.extend(crate::compare::figure_lines(&s.figures()));
                     lines
                 })
@@ -727,10 +784,10 @@ impl App {
         let left = self.camera.center.x - 0.5 * w as f32 / ppm;
         let top = self.camera.center.y + 0.5 * h as f32 / ppm;
         let to_world = |x: f32, y: f32| Vec2::new(left + x / ppm, top - y / ppm);
-        let pw = (w / self.panes() as u32).max(1) as f32;
+        let (area_left, pw) = self.pane_area();
         let s = LABEL_SCALE as f32;
         for (k, lines) in self.labels.iter().enumerate() {
-            let x0 = k as f32 * pw + LABEL_MARGIN_PX;
+            let x0 = area_left + k as f32 * pw + LABEL_MARGIN_PX;
             let y0 = LABEL_MARGIN_PX;
             let [tw, th] = crate::render::font::text_size(lines, LABEL_SCALE);
             let pad = 4.0;
@@ -780,8 +837,8 @@ impl App {
         if n == 1 {
             return at;
         }
-        let pw = (self.camera.size[0] / n as u32).max(1) as f32;
-        let k = ((self.mouse.cursor.x / pw).floor().max(0.0) as usize).min(n - 1);
+        let (left, pw) = self.pane_area();
+        let k = (((self.mouse.cursor.x - left) / pw).floor().max(0.0) as usize).min(n - 1);
         at - self.pane_offset(k)
     }
 
@@ -897,8 +954,16 @@ impl App {
                 self.panel_dirty = true;
             }
             Key::Character(c) if c.eq_ignore_ascii_case("h") => {
+                let (left, pw) = self.pane_area();
                 self.panel_visible = !self.panel_visible;
                 self.panel_dirty = true;
+                if self.panes() > 1 {
+                    // the panes now share another width: keep the first pane's centre
+                    // on its scene
+                    let (left2, pw2) = self.pane_area();
+                    let moved = (left2 + 0.5 * pw2) - (left + 0.5 * pw);
+                    self.camera.center.x -= moved / self.camera.pixels_per_meter;
+                }
             }
             _ => {}
         }
