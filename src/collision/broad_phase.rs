@@ -26,6 +26,8 @@ pub struct BroadPhase {
     pair_start: Vec<u32>,
     pairs_tmp: Vec<Pair>,
     large: Vec<u32>,
+    /// Per body: its index in `large`, or u32::MAX (scratch).
+    large_rank: Vec<u32>,
     sizes: Vec<f32>,
     /// Candidate pairs from the last [`BroadPhase::find_pairs`], sorted.
     pub pairs: Vec<Pair>,
@@ -118,14 +120,23 @@ impl BroadPhase {
             self.pairs_sorted(aabbs, moves, &can_collide, inv);
         }
 
+        // per body: its place in `large` (u32::MAX if it is not large)
+        self.large_rank.clear();
+        if !self.large.is_empty() {
+            self.large_rank.resize(aabbs.len(), u32::MAX);
+            for (k, &l) in self.large.iter().enumerate() {
+                self.large_rank[l as usize] = k as u32;
+            }
+        }
         for (k, &l) in self.large.iter().enumerate() {
             let bl = &aabbs[l as usize];
             for (i, b) in aabbs.iter().enumerate() {
-                let i = i as u32;
-                // a large-large pair is tested once, from the earlier large body
-                if i == l || (self.large[..=k].contains(&i)) {
+                // a large-large pair is tested once, from the earlier large body (and a
+                // body not with itself): skip the large bodies up to this one
+                if self.large_rank[i] <= k as u32 {
                     continue;
                 }
+                let i = i as u32;
                 if !(moves[l as usize] || moves[i as usize]) || !bl.overlaps(b) {
                     continue;
                 }
@@ -394,6 +405,10 @@ mod tests {
             let s = 0.2 + rnd() * 2.0;
             boxes.push(aabb(x, y, x + s, y + s * rnd()));
         }
+        // two more large boxes, moving, that overlap each other, the ground and many
+        // small ones: each large-large pair is found once
+        boxes.push(aabb(-30.0, -1.0, 30.0, 1.0));
+        boxes.push(aabb(-10.0, -5.0, 10.0, 25.0));
         let moves: Vec<bool> = (0..boxes.len()).map(|i| i != 0).collect();
         let mut bp = BroadPhase::default();
         bp.find_pairs(&boxes, &moves, |_, _| true);
@@ -405,6 +420,7 @@ mod tests {
                 }
             }
         }
+        assert!(brute.contains(&(301, 302)) && brute.contains(&(0, 301)));
         assert_eq!(bp.pairs, brute);
     }
 
