@@ -308,26 +308,56 @@ impl DrawList {
     /// Appends `other`'s items moved by `offset` (m): a compare pane drawn beside
     /// another in one list (the background and outline width are kept).
     pub fn append_translated(&mut self, other: &DrawList, offset: Vec2) {
-        let base = self.polygon_points.len();
-        self.boxes.extend(other.boxes.iter().map(|r| Rect {
-            center: r.center + offset,
-            ..*r
-        }));
-        self.circles.extend(other.circles.iter().map(|c| Circle {
-            center: c.center + offset,
-            ..*c
-        }));
-        self.polygon_points
-            .extend(other.polygon_points.iter().map(|p| *p + offset));
-        self.polygons.extend(other.polygons.iter().map(|p| Polygon {
-            points: p.points.start + base..p.points.end + base,
-            ..p.clone()
-        }));
-        self.lines.extend(other.lines.iter().map(|l| Line {
-            a: l.a + offset,
-            b: l.b + offset,
-            ..*l
-        }));
+        self.append_within(other, offset, f32::NEG_INFINITY..f32::INFINITY);
+    }
+
+    /// [`Self::append_translated`], keeping only the items whose centre lands (once
+    /// moved) at an x inside `x` (m): a compare pane's bodies stay in their pane (a body
+    /// that left it is not drawn over the neighbour; one across the divider overhangs it
+    /// by less than half its size). Polygons go by the mean of their points, lines by
+    /// their midpoint.
+    pub fn append_within(&mut self, other: &DrawList, offset: Vec2, x: std::ops::Range<f32>) {
+        let keep = |p: Vec2| x.contains(&(p.x + offset.x));
+        self.boxes
+            .extend(other.boxes.iter().filter(|r| keep(r.center)).map(|r| Rect {
+                center: r.center + offset,
+                ..*r
+            }));
+        self.circles.extend(
+            other
+                .circles
+                .iter()
+                .filter(|c| keep(c.center))
+                .map(|c| Circle {
+                    center: c.center + offset,
+                    ..*c
+                }),
+        );
+        for p in &other.polygons {
+            let points = &other.polygon_points[p.points.clone()];
+            let mean = points.iter().copied().sum::<Vec2>() / points.len().max(1) as f32;
+            if !keep(mean) {
+                continue;
+            }
+            let base = self.polygon_points.len();
+            self.polygon_points
+                .extend(points.iter().map(|q| *q + offset));
+            self.polygons.push(Polygon {
+                points: base..base + points.len(),
+                ..p.clone()
+            });
+        }
+        self.lines.extend(
+            other
+                .lines
+                .iter()
+                .filter(|l| keep(0.5 * (l.a + l.b)))
+                .map(|l| Line {
+                    a: l.a + offset,
+                    b: l.b + offset,
+                    ..*l
+                }),
+        );
     }
 
     /// Empties the lists, keeping their allocations, the background and outline width.
@@ -446,6 +476,53 @@ impl DrawList {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_pane_keeps_only_the_items_whose_centre_lands_inside_it() {
+        let (f, o) = ([200, 0, 0, 255], [0, 0, 0, 255]);
+        let mut pane = DrawList::new();
+        pane.push_box(Vec2::new(0.5, 0.0), 1.0, 1.0, 0.0, f, o);
+        pane.push_box(Vec2::new(2.5, 0.0), 1.0, 1.0, 0.0, f, o);
+        pane.push_circle(Vec2::new(1.5, 0.0), 0.4, None, f, o);
+        pane.push_circle(Vec2::new(-0.5, 0.0), 0.4, None, f, o);
+        // a triangle around x = 3 (outside), one around x = 1 (inside)
+        let tri = |x: f32| {
+            [
+                Vec2::new(x - 0.5, 0.0),
+                Vec2::new(x + 0.5, 0.0),
+                Vec2::new(x, 1.0),
+            ]
+        };
+        pane.push_polygon(tri(3.0), f, o);
+        pane.push_polygon(tri(1.0), f, o);
+        pane.push_line(Vec2::new(-1.0, 0.0), Vec2::new(1.4, 0.0), 1.0, o);
+        pane.push_line(Vec2::new(1.0, 0.0), Vec2::new(5.0, 0.0), 1.0, o);
+
+        let mut all = DrawList::new();
+        all.append_within(&pane, Vec2::new(10.0, 0.0), 10.0..12.0);
+        let xs = |v: Vec<f32>| v;
+        assert_eq!(xs(all.boxes.iter().map(|b| b.center.x).collect()), [10.5]);
+        assert_eq!(xs(all.circles.iter().map(|c| c.center.x).collect()), [11.5]);
+        assert_eq!(all.polygons.len(), 1);
+        let kept = all.points_of(&all.polygons[0]);
+        assert_eq!(kept, tri(11.0));
+        assert_eq!(all.lines.len(), 1);
+        assert_eq!(all.lines[0].a.x, 9.0);
+
+        // without a range everything moves over
+        let mut moved = DrawList::new();
+        moved.append_translated(&pane, Vec2::new(10.0, 0.0));
+        assert_eq!(
+            (
+                moved.boxes.len(),
+                moved.circles.len(),
+                moved.polygons.len(),
+                moved.lines.len()
+            ),
+            (2, 2, 2, 2)
+        );
+        assert_eq!(moved.points_of(&moved.polygons[1]), tri(11.0));
+    }
 
     fn cam() -> Camera {
         Camera::new(Vec2::new(1.5, 4.0), 40.0, [1280, 720])

@@ -451,9 +451,15 @@ impl App {
             self.list.clear();
             let worlds =
                 std::iter::once(&self.session.world).chain(c.others.iter().map(|o| &o.world));
+            // each pane's items only inside its own part of the window (world x)
+            let (area_left, pw) = self.pane_area();
+            let ppm = self.camera.pixels_per_meter;
+            let left = self.camera.center.x - 0.5 * self.camera.size[0] as f32 / ppm;
             for (k, world) in worlds.enumerate() {
                 fill_world_draw_list(&mut self.pane_list, world, &overlays);
-                self.list.append_translated(&self.pane_list, offsets[k]);
+                let x0 = left + (area_left + k as f32 * pw) / ppm;
+                self.list
+                    .append_within(&self.pane_list, offsets[k], x0..x0 + pw / ppm);
             }
             self.list.background = self.pane_list.background;
             self.list.outline_width_px = self.pane_list.outline_width_px;
