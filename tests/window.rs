@@ -83,3 +83,57 @@ fn window_opens_under_xvfb_and_draws_the_scene() {
         world.len()
     );
 }
+
+#[test]
+fn every_compare_pane_draws_its_scene_beside_the_panel() {
+    // three panes right of the panel: each must show its pyramid (a pane whose items
+    // were all culled, or drawn under the panel, would be blank)
+    if std::env::var("SANDBOX2D_WINDOW_TEST").as_deref() != Ok("1") {
+        eprintln!("SKIPPED: set SANDBOX2D_WINDOW_TEST=1 to open a window under xvfb-run");
+        return;
+    }
+    let Some(xvfb) = xvfb_run() else {
+        panic!("SANDBOX2D_WINDOW_TEST=1 but xvfb-run is not on the PATH (apt-get install xvfb)");
+    };
+    let dir = std::env::temp_dir().join(format!("sandbox2d-window-cmp-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let shot = dir.join("panes.png");
+    let _ = std::fs::remove_file(&shot);
+    let out = Command::new(xvfb)
+        .args(["-a", "-s", "-screen 0 1600x900x24"])
+        .arg(env!("CARGO_BIN_EXE_sandbox2d"))
+        .args(["run", "pyramid", "--frames", "30"])
+        .args(["--compare", "--solver soft", "--compare", "--solver pgs"])
+        .args(["--compare", "--solver xpbd", "--screenshot"])
+        .arg(&shot)
+        .current_dir(&dir)
+        .output()
+        .unwrap();
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{stdout}\n{stderr}");
+    let img = image::open(&shot)
+        .unwrap_or_else(|e| panic!("{}: {e}\n{stdout}\n{stderr}", shot.display()))
+        .to_rgba8();
+    let (w, h) = img.dimensions();
+    let background = *img.get_pixel(w - 1, h - 1);
+    // the panes share the window right of the panel (about 300 px); below the labels
+    let (x0, y0) = (310u32, 120u32);
+    let pw = (w - x0) / 3;
+    for k in 0..3 {
+        let (a, b) = (x0 + k * pw, x0 + (k + 1) * pw);
+        let mut drawn = 0usize;
+        let mut all = 0usize;
+        for y in y0..h {
+            for x in a..b {
+                all += 1;
+                drawn += usize::from(*img.get_pixel(x, y) != background);
+            }
+        }
+        assert!(
+            drawn * 50 >= all,
+            "pane {} (x {a}..{b}): only {drawn} of {all} pixels drawn",
+            k + 1
+        );
+    }
+}

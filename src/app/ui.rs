@@ -3,7 +3,7 @@
 
 use egui::{Color32, Pos2, Rect, Sense, Stroke, Ui, Vec2 as EVec2};
 
-use super::session::{HISTORY_SECONDS, Session};
+use super::session::{HISTORY_SECONDS, Sample, Session};
 use crate::defs::SolverKind;
 use crate::scene;
 
@@ -58,20 +58,37 @@ pub fn scene_label(source: &str) -> String {
 pub const PANEL_WIDTH: f32 = 260.0;
 
 /// Draws the panel on the left of `ui`; returns what the window should do.
-pub fn panel(ui: &mut Ui, s: &mut Session, frame: FrameStats) -> PanelActions {
+///
+/// `others` are the panes after the first (`--compare`, or added from the panel): their
+/// figures go into the same plots, a line per pane.
+pub fn panel(ui: &mut Ui, s: &mut Session, others: &[Session], frame: FrameStats) -> PanelActions {
     let mut actions = PanelActions::default();
     egui::Panel::left("sandbox2d_panel")
         .default_size(PANEL_WIDTH)
         .resizable(false)
         .show(ui, |ui| {
             egui::ScrollArea::vertical().show(ui, |ui| {
-                contents(ui, s, frame, &mut actions);
+                contents(ui, s, others, frame, &mut actions);
             });
         });
     actions
 }
 
-fn contents(ui: &mut Ui, s: &mut Session, frame: FrameStats, actions: &mut PanelActions) {
+/// Each pane's line in the plots, left to right, when there is more than one pane.
+const PANE_COLORS: [Color32; 4] = [
+    Color32::from_rgb(90, 200, 255),
+    Color32::from_rgb(255, 120, 90),
+    Color32::from_rgb(140, 230, 120),
+    Color32::from_rgb(230, 200, 70),
+];
+
+fn contents(
+    ui: &mut Ui,
+    s: &mut Session,
+    others: &[Session],
+    frame: FrameStats,
+    actions: &mut PanelActions,
+) {
     ui.heading("sandbox2d");
     // the keys first, folded, so that they never fall off the bottom of a short window
     egui::CollapsingHeader::new("controls")
@@ -237,10 +254,10 @@ fn contents(ui: &mut Ui, s: &mut Session, frame: FrameStats, actions: &mut Panel
     });
 
     ui.separator();
-    stats(ui, s, frame);
+    stats(ui, s, others, frame);
 }
 
-fn stats(ui: &mut Ui, s: &Session, frame: FrameStats) {
+fn stats(ui: &mut Ui, s: &Session, others: &[Session], frame: FrameStats) {
     let last = s.last().copied().unwrap_or_default();
     let n = s.history.len().max(1) as f32;
     let mean_ms = s.history.iter().map(|x| x.ms).fold(0.0f32, |a, b| a + b) / n;
@@ -262,6 +279,12 @@ fn stats(ui: &mut Ui, s: &Session, frame: FrameStats) {
             row("sim time", format!("{:.2} s", s.world.time()));
             row("ms / step", format!("{:.3} (mean {mean_ms:.3})", last.ms));
             row("contacts", last.contacts.to_string());
+            // the soft step's constraint colours (what its threads split)
+            if let Some(st) = s.world.stepper_as::<crate::step::soft::SoftStepper>()
+                && last.contacts > 0
+            {
+                row("colours", st.soft.color_count().to_string());
+            }
             row("sweeps / step", last.iterations.to_string());
             row("residual", format!("{:.2e}", last.residual));
             row("penetration", format!("{:.4} m", last.penetration));
@@ -273,38 +296,54 @@ fn stats(ui: &mut Ui, s: &Session, frame: FrameStats) {
         &FRAME_PHASES,
         &frame.phase_ms,
     );
+    // one line per pane: this panel's pane first, then the others left to right
+    let panes: Vec<&Session> = std::iter::once(s).chain(others).collect();
+    let series = |f: &dyn Fn(&Sample) -> Option<f32>| -> Vec<Vec<f32>> {
+        panes
+            .iter()
+            .map(|p| p.history.iter().filter_map(f).collect())
+            .collect()
+    };
+    if panes.len() > 1 {
+        ui.horizontal_wrapped(|ui| {
+            ui.small("lines, pane by pane:");
+            for (k, c) in PANE_COLORS.iter().enumerate().take(panes.len()) {
+                ui.colored_label(*c, format!("{}", k + 1));
+            }
+        });
+    }
     plot(
         ui,
         "ms / step",
-        s.history.iter().map(|x| x.ms),
+        &series(&|x| Some(x.ms)),
         Color32::from_rgb(90, 200, 255),
     );
-    if !s.world.joints().is_empty() {
+    if panes.iter().any(|p| !p.world.joints().is_empty()) {
         plot(
             ui,
             "joint error (m)",
-            s.history.iter().map(|x| x.joint_error),
+            &series(&|x| Some(x.joint_error)),
             Color32::from_rgb(230, 200, 70),
         );
     }
     plot(
         ui,
         "|energy drift| (relative)",
-        s.history.iter().map(|x| x.energy_drift.abs() as f32),
+        &series(&|x| Some(x.energy_drift.abs() as f32)),
         Color32::from_rgb(200, 120, 255),
     );
     plot(
         ui,
         "deepest penetration (m)",
-        s.history.iter().map(|x| x.penetration),
+        &series(&|x| Some(x.penetration)),
         Color32::from_rgb(255, 170, 80),
     );
-    if s.history.iter().any(|x| x.mlcp_residual.is_some()) {
-        let sampled: Vec<f32> = s.history.iter().filter_map(|x| x.mlcp_residual).collect();
+    let residual = series(&|x| x.mlcp_residual);
+    if residual.iter().any(|r| !r.is_empty()) {
         plot(
             ui,
             "residual vs converged MLCP (relative)",
-            sampled.into_iter(),
+            &residual,
             Color32::from_rgb(120, 230, 200),
         );
     }
@@ -363,20 +402,26 @@ fn shares<const N: usize>(parts: &[f32; N]) -> [f32; N] {
     parts.map(|v| v.max(0.0) / total)
 }
 
-/// A small line plot of `values` (oldest first) scaled from 0 to their maximum, under a
-/// label with the maximum.
-fn plot(ui: &mut Ui, label: &str, values: impl ExactSizeIterator<Item = f32>, color: Color32) {
+/// A small line plot of each of `lines` (oldest first), all scaled from 0 to their
+/// common maximum, under a label with the maximum: one line in `color`, or with several
+/// (one per pane) each in its pane's colour.
+fn plot(ui: &mut Ui, label: &str, lines: &[Vec<f32>], color: Color32) {
     let width = ui.available_width().max(120.0);
-    let n = values.len();
-    let values: Vec<f32> = values.collect();
-    let max = values.iter().copied().fold(0.0f32, f32::max);
+    let max = lines.iter().flatten().copied().fold(0.0f32, f32::max);
     ui.small(format!(
         "{label}, last {HISTORY_SECONDS:.0} s (max {max:.3})"
     ));
     let (response, painter) = ui.allocate_painter(EVec2::new(width, 48.0), Sense::hover());
     let rect: Rect = response.rect;
     painter.rect_filled(rect, 2.0, Color32::from_gray(28));
-    if n >= 2 && max > 0.0 {
+    if max <= 0.0 {
+        return;
+    }
+    for (k, values) in lines.iter().enumerate() {
+        let n = values.len();
+        if n < 2 {
+            continue;
+        }
         let points: Vec<Pos2> = values
             .iter()
             .enumerate()
@@ -386,7 +431,12 @@ fn plot(ui: &mut Ui, label: &str, values: impl ExactSizeIterator<Item = f32>, co
                 Pos2::new(x, y)
             })
             .collect();
-        painter.line(points, Stroke::new(1.5, color));
+        let c = if lines.len() == 1 {
+            color
+        } else {
+            PANE_COLORS[k % PANE_COLORS.len()]
+        };
+        painter.line(points, Stroke::new(1.5, c));
     }
 }
 

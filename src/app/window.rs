@@ -445,6 +445,8 @@ impl App {
             ..self.session.overlays
         };
         let offsets: Vec<Vec2> = (0..self.panes()).map(|k| self.pane_offset(k)).collect();
+        // (before `compare` is taken out below: the area depends on the pane count)
+        let (area_left, pw) = self.pane_area();
         if let Some(c) = self.compare.take() {
             // Compare: each pane's list moved into place, then the tools in each pane
             // and a divider between panes (a body may spill over it).
@@ -452,7 +454,6 @@ impl App {
             let worlds =
                 std::iter::once(&self.session.world).chain(c.others.iter().map(|o| &o.world));
             // each pane's items only inside its own part of the window (world x)
-            let (area_left, pw) = self.pane_area();
             let ppm = self.camera.pixels_per_meter;
             let left = self.camera.center.x - 0.5 * self.camera.size[0] as f32 / ppm;
             for (k, world) in worlds.enumerate() {
@@ -532,8 +533,9 @@ impl App {
             let raw = g.egui_state.take_egui_input(&g.window);
             let ctx = g.egui_state.egui_ctx().clone();
             let session = &mut self.session;
+            let others = self.compare.as_ref().map_or(&[][..], |c| &c.others[..]);
             let mut out = ctx.run_ui(raw, |ui| {
-                actions = ui::panel(ui, session, frame_stats);
+                actions = ui::panel(ui, session, others, frame_stats);
             });
             g.egui_state
                 .handle_platform_output(&g.window, std::mem::take(&mut out.platform_output));
