@@ -15,39 +15,50 @@ fn xvfb_run() -> Option<PathBuf> {
         .find(|p| p.is_file())
 }
 
-#[test]
-fn window_opens_under_xvfb_and_draws_the_scene() {
+/// Runs `sandbox2d run ARGS --screenshot FILE` under xvfb-run and returns the
+/// screenshot and stdout; `None` (after saying why) unless `SANDBOX2D_WINDOW_TEST=1`.
+fn screenshot(name: &str, args: &[&str]) -> Option<(image::RgbaImage, String)> {
     if std::env::var("SANDBOX2D_WINDOW_TEST").as_deref() != Ok("1") {
         eprintln!("SKIPPED: set SANDBOX2D_WINDOW_TEST=1 to open a window under xvfb-run");
-        return;
+        return None;
     }
     let Some(xvfb) = xvfb_run() else {
         panic!("SANDBOX2D_WINDOW_TEST=1 but xvfb-run is not on the PATH (apt-get install xvfb)");
     };
     let dir = std::env::temp_dir().join(format!("sandbox2d-window-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
-    let shot = dir.join("shot.png");
+    let shot = dir.join(name);
     let _ = std::fs::remove_file(&shot);
     let out = Command::new(xvfb)
         .args(["-a", "-s", "-screen 0 1600x900x24"])
         .arg(env!("CARGO_BIN_EXE_sandbox2d"))
-        .args(["run", "pyramid", "--frames", "30", "--screenshot"])
+        .arg("run")
+        .args(args)
+        .arg("--screenshot")
         .arg(&shot)
         .current_dir(&dir)
         .output()
         .unwrap();
-    let stdout = String::from_utf8_lossy(&out.stdout);
+    let stdout = String::from_utf8_lossy(&out.stdout).into_owned();
     let stderr = String::from_utf8_lossy(&out.stderr);
     assert!(out.status.success(), "{stdout}\n{stderr}");
+    let img = image::open(&shot)
+        .unwrap_or_else(|e| panic!("{}: {e}\n{stdout}\n{stderr}", shot.display()))
+        .to_rgba8();
+    Some((img, stdout))
+}
+
+#[test]
+fn window_opens_under_xvfb_and_draws_the_scene() {
+    let Some((img, stdout)) = screenshot("shot.png", &["pyramid", "--frames", "30"]) else {
+        return;
+    };
     // The window opened: no headless fallback, and the frame rate was measured.
     assert!(!stdout.contains("no display"), "{stdout}");
     assert!(
         stdout.contains("30 frames") && stdout.contains("fps"),
         "{stdout}"
     );
-    let img = image::open(&shot)
-        .unwrap_or_else(|e| panic!("{}: {e}\n{stdout}\n{stderr}", shot.display()))
-        .to_rgba8();
     assert_eq!(img.dimensions(), (1280, 720), "the window's size in pixels");
     // The world area: right of the side panel (260 points wide at 1 pixel a point,
     // on the left), so the panel's own widgets and text cannot make a blank world pass.
@@ -88,33 +99,20 @@ fn window_opens_under_xvfb_and_draws_the_scene() {
 fn every_compare_pane_draws_its_scene_beside_the_panel() {
     // three panes right of the panel: each must show its pyramid (a pane whose items
     // were all culled, or drawn under the panel, would be blank)
-    if std::env::var("SANDBOX2D_WINDOW_TEST").as_deref() != Ok("1") {
-        eprintln!("SKIPPED: set SANDBOX2D_WINDOW_TEST=1 to open a window under xvfb-run");
+    let args = [
+        "pyramid",
+        "--frames",
+        "30",
+        "--compare",
+        "--solver soft",
+        "--compare",
+        "--solver pgs",
+        "--compare",
+        "--solver xpbd",
+    ];
+    let Some((img, _)) = screenshot("panes.png", &args) else {
         return;
-    }
-    let Some(xvfb) = xvfb_run() else {
-        panic!("SANDBOX2D_WINDOW_TEST=1 but xvfb-run is not on the PATH (apt-get install xvfb)");
     };
-    let dir = std::env::temp_dir().join(format!("sandbox2d-window-cmp-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    let shot = dir.join("panes.png");
-    let _ = std::fs::remove_file(&shot);
-    let out = Command::new(xvfb)
-        .args(["-a", "-s", "-screen 0 1600x900x24"])
-        .arg(env!("CARGO_BIN_EXE_sandbox2d"))
-        .args(["run", "pyramid", "--frames", "30"])
-        .args(["--compare", "--solver soft", "--compare", "--solver pgs"])
-        .args(["--compare", "--solver xpbd", "--screenshot"])
-        .arg(&shot)
-        .current_dir(&dir)
-        .output()
-        .unwrap();
-    let stdout = String::from_utf8_lossy(&out.stdout);
-    let stderr = String::from_utf8_lossy(&out.stderr);
-    assert!(out.status.success(), "{stdout}\n{stderr}");
-    let img = image::open(&shot)
-        .unwrap_or_else(|e| panic!("{}: {e}\n{stdout}\n{stderr}", shot.display()))
-        .to_rgba8();
     let (w, h) = img.dimensions();
     let background = *img.get_pixel(w - 1, h - 1);
     // the panes share the window right of the panel (about 300 px); below the labels
