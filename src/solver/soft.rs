@@ -15,6 +15,11 @@
 //! bias speed capped by `max_push_speed`. Contacts against a body the solver does not move
 //! (static, kinematic) use twice the frequency, as they carry no second body's compliance.
 //!
+//! Masses far apart: an island (bodies joined by contacts) of at most 24 points where
+//! some contact joins masses 10 or more apart is solved exactly after each sweep, and
+//! its soft rows leak no more of their load than keeps them within a slop past the slop
+//! (`direct`): a box of 1e4 times the mass of the two it stands on holds within 6 mm.
+//!
 //! Friction is left out of the biased sweeps: solved against the push-out speeds there,
 //! it let the flanks of the 100-row pyramid creep outwards (the top box went 3.9 m
 //! sideways in 500 steps at 60 Hz; 0.05 m without).
@@ -33,6 +38,8 @@ use crate::defs::SolverSettings;
 use crate::math::{Rot, Vec2, cross, cross_sv};
 use crate::parallel::{self, MAX_THREADS, Pool};
 use glam::Vec4;
+
+mod direct;
 
 /// Test hooks, per thread (tests running side by side do not see each other's): which
 /// build of the sweeps runs, and whether lanes are packed. Not for use outside tests.
@@ -116,14 +123,18 @@ pub struct Softness {
 impl Softness {
     /// omega = 2 pi f, a1 = 2 zeta + h omega, a2 = h omega a1, a3 = 1 / (1 + a2).
     pub fn new(hertz: f32, zeta: f32, h: f32) -> Softness {
-        if hertz <= 0.0 {
+        Softness::from_omega(2.0 * std::f32::consts::PI * hertz, zeta, h)
+    }
+
+    /// The same from the angular frequency omega (rad/s).
+    pub fn from_omega(omega: f32, zeta: f32, h: f32) -> Softness {
+        if omega <= 0.0 {
             return Softness {
                 bias_rate: 0.0,
                 mass_scale: 1.0,
                 impulse_scale: 0.0,
             };
         }
-        let omega = 2.0 * std::f32::consts::PI * hertz;
         let a1 = 2.0 * zeta + h * omega;
         let a2 = h * omega * a1;
         let a3 = 1.0 / (1.0 + a2);
@@ -435,6 +446,12 @@ pub struct SoftSolver {
     max_push: f32,
     /// Whether some contact of the step has restitution.
     restitution: bool,
+    /// Islands of widely differing masses, solved exactly after each sweep.
+    direct: direct::DirectIslands,
+    /// Per contact: whether its island is solved exactly.
+    direct_contact: Vec<bool>,
+    /// Union-find parents by body (finding those islands).
+    parent: Vec<u32>,
 }
 
 impl SoftSolver {
@@ -523,6 +540,7 @@ impl SoftSolver {
         let hertz = s.contact_hertz.min(0.25 * self.inv_h);
         let soft_dynamic = Softness::new(hertz, s.contact_damping_ratio, h);
         let soft_static = Softness::new(2.0 * hertz, s.contact_damping_ratio, h);
+        let omega = 2.0 * std::f32::consts::PI * hertz;
 
         // where each contact goes, and which contact each lane holds
         self.slot.clear();
@@ -538,6 +556,7 @@ impl SoftSolver {
             self.slot.push(at);
             self.lane_contact[at as usize] = i as u32;
         }
+        self.find_direct(contacts);
         // every wide constraint is written whole below: old contents do not matter
         self.wide.resize(n_wide, WideConstraint::empty(rest, sink));
         self.cold.resize(n_wide, WideCold::default());
@@ -549,6 +568,10 @@ impl SoftSolver {
             moves: &self.moves,
             soft_dynamic,
             soft_static,
+            omega2_dynamic: omega * omega,
+            omega2_static: 4.0 * omega * omega,
+            load_scale: 1.0 / (h * s.slop.max(MIN_LOAD_DEPTH)),
+            direct: &self.direct_contact,
             warm_start: s.warm_start,
             rest,
             sink,
@@ -569,6 +592,94 @@ impl SoftSolver {
                 if any { 1.0 } else { 0.0 }
             });
         self.restitution = restitution > 0.0;
+        self.build_direct(contacts);
+    }
+
+    /// Marks the contacts of islands to solve exactly (`direct`): bodies joined by
+    /// contacts between moving bodies, with some contact joining masses
+    /// `direct::MASS_RATIO` apart or more, and at most `direct::MAX_POINTS` points.
+    fn find_direct(&mut self, contacts: &[Contact]) {
+        self.direct_contact.clear();
+        self.direct.clear();
+        let (moves, inv_mass) = (&self.moves, &self.inv_mass);
+        let lopsided = |c: &Contact| {
+            let (a, b) = (c.a as usize, c.b as usize);
+            let (ia, ib) = (inv_mass[a].0, inv_mass[b].0);
+            moves[a]
+                && moves[b]
+                && ia > 0.0
+                && ib > 0.0
+                && (ia / ib).max(ib / ia) >= direct::MASS_RATIO
+        };
+        if !contacts.iter().any(lopsided) {
+            return;
+        }
+        let nb = self.moves.len();
+        self.parent.clear();
+        self.parent.extend(0..nb as u32);
+        fn root(parent: &mut [u32], mut i: u32) -> u32 {
+            while parent[i as usize] != i {
+                let up = parent[parent[i as usize] as usize];
+                parent[i as usize] = up;
+                i = up;
+            }
+            i
+        }
+        for c in contacts {
+            if self.moves[c.a as usize] && self.moves[c.b as usize] {
+                let (ra, rb) = (root(&mut self.parent, c.a), root(&mut self.parent, c.b));
+                // the smaller index is the root: the islands do not depend on order
+                let (lo, hi) = (ra.min(rb), ra.max(rb));
+                self.parent[hi as usize] = lo;
+            }
+        }
+        // per island root: points, and whether some contact is lopsided
+        let mut points = vec![0u32; nb];
+        let mut flagged = vec![false; nb];
+        let mut roots = Vec::with_capacity(contacts.len());
+        for c in contacts {
+            let body = if self.moves[c.a as usize] { c.a } else { c.b };
+            let r = root(&mut self.parent, body);
+            points[r as usize] += c.manifold.count as u32;
+            flagged[r as usize] |= lopsided(c);
+            roots.push(r);
+        }
+        self.direct_contact.extend(
+            roots
+                .iter()
+                .map(|&r| flagged[r as usize] && points[r as usize] as usize <= direct::MAX_POINTS),
+        );
+        // keep the roots for `build_direct`
+        self.parent.clear();
+        self.parent.extend(roots);
+    }
+
+    /// Builds the exactly solved islands from the filled wide constraints.
+    fn build_direct(&mut self, contacts: &[Contact]) {
+        if !self.direct_contact.iter().any(|&d| d) {
+            return;
+        }
+        // islands in order of their first contact; lanes in contact order
+        let mut order: Vec<u32> = Vec::new();
+        let mut lanes: Vec<Vec<(u32, u8, u8)>> = Vec::new();
+        for (i, c) in contacts.iter().enumerate() {
+            if !self.direct_contact[i] {
+                continue;
+            }
+            let r = self.parent[i];
+            let at = self.slot[i];
+            let lane = (at / 4, (at % 4) as u8, c.manifold.count as u8);
+            match order.iter().position(|&o| o == r) {
+                Some(j) => lanes[j].push(lane),
+                None => {
+                    order.push(r);
+                    lanes.push(vec![lane]);
+                }
+            }
+        }
+        for l in &lanes {
+            self.direct.add_island(l, &self.wide, &self.moves);
+        }
     }
 
     /// Copies the bodies' velocities in (after the world integrated forces into them).
@@ -633,9 +744,21 @@ impl SoftSolver {
             avx2: use_avx2(),
         };
         let bodies = BodyPtr::new(&mut self.bodies, self.sink);
-        self.for_colors(pool, &|t, chunk| {
+        let r = self.for_colors(pool, &|t, chunk| {
             sweep_range::<BIAS>(chunk, bodies.for_thread(t), &k)
-        })
+        });
+        if self.direct.is_empty() {
+            return r;
+        }
+        let d = self.direct.solve::<BIAS>(
+            &mut self.wide,
+            &mut self.bodies,
+            self.inv_h,
+            self.slop,
+            self.max_push,
+            self.restitution,
+        );
+        r.max(d)
     }
 
     /// Runs `f(thread, constraints)` over every wide constraint, colour after colour:
@@ -844,6 +967,14 @@ struct Fill<'a> {
     moves: &'a [bool],
     soft_dynamic: Softness,
     soft_static: Softness,
+    /// omega^2 of the two (rad^2/s^2)
+    omega2_dynamic: f32,
+    omega2_static: f32,
+    /// 1 / (h depth): a contact whose load would hold it `depth` deeper than the slop
+    /// at its own frequency is stiffened until it does not (see `wide`)
+    load_scale: f32,
+    /// Per contact: solved exactly (`direct`), so its leak is load-aware.
+    direct: &'a [bool],
     warm_start: bool,
     rest: u32,
     sink: u32,
@@ -865,11 +996,15 @@ impl Fill<'_> {
             let ((ima, iia), (imb, iib)) =
                 (self.inv_mass[c.a as usize], self.inv_mass[c.b as usize]);
             let (ma, mb) = (self.moves[c.a as usize], self.moves[c.b as usize]);
-            let soft = if ma && mb {
-                self.soft_dynamic
+            let (soft, omega2) = if ma && mb {
+                (self.soft_dynamic, self.omega2_dynamic)
             } else {
-                self.soft_static
+                (self.soft_static, self.omega2_static)
             };
+            // omega^2 the load needs: at rest a soft row holds its load F = lambda / h at
+            // a depth F / (m_n omega^2) past the slop (m_n = 1 / K), so a point carrying
+            // more than m_n omega^2 depth sinks further: its frequency rises to hold it
+            let mut need = 0.0f32;
             let n = c.manifold.normal;
             let t = Vec2::new(n.y, -n.x);
             w.a[k] = c.a;
@@ -883,9 +1018,6 @@ impl Fill<'_> {
             w.m.iia[k] = iia;
             w.m.imb[k] = imb;
             w.m.iib[k] = iib;
-            w.bias_rate[k] = soft.bias_rate;
-            w.mass_scale[k] = soft.mass_scale;
-            w.impulse_scale[k] = soft.impulse_scale;
             for (i, cp) in c.manifold.points().iter().enumerate() {
                 let (ra, rb) = (cp.anchor_a, cp.anchor_b);
                 let rna = cross(ra, n);
@@ -911,7 +1043,26 @@ impl Fill<'_> {
                 p.tangent_mass[k] = if kt > 0.0 { 1.0 / kt } else { 0.0 };
                 p.normal_impulse[k] = ni;
                 p.tangent_impulse[k] = ti;
+                need = need.max(ni * kn * self.load_scale);
             }
+            // need > omega^2 only under a load some times a body's own weight (a heavy
+            // body on light ones, the foot of a tall stack)
+            let direct = self
+                .direct
+                .get(self.lane_contact[wi * 4 + k] as usize)
+                .copied()
+                .unwrap_or(false);
+            let soft = if direct && need > omega2 {
+                Softness {
+                    impulse_scale: soft.impulse_scale * (omega2 / need),
+                    ..soft
+                }
+            } else {
+                soft
+            };
+            w.bias_rate[k] = soft.bias_rate;
+            w.mass_scale[k] = soft.mass_scale;
+            w.impulse_scale[k] = soft.impulse_scale;
         }
         w
     }
@@ -936,6 +1087,9 @@ impl Fill<'_> {
         cold
     }
 }
+
+/// The depth past the slop a contact's load may hold it at, when the slop is less.
+const MIN_LOAD_DEPTH: f32 = 1e-3;
 
 /// Wide constraints a thread claims at a time (about a microsecond of work).
 const WIDE_BLOCK: usize = 32;
