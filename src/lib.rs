@@ -45,6 +45,6 @@ pub use defs::*;
 pub use draw::{Camera, DrawList};
 pub use joint::{Joint, JointId, MouseJoint};
 pub use world::{
-    BuildError, ContactEvent, EventKind, RayHit, StateError, StepError, StepStats, World,
-    WorldState,
+    BodyKey, BuildError, ContactEvent, EventKind, JointKey, RayHit, RemoveError, StateError,
+    StepError, StepStats, World, WorldState,
 };

@@ -17,11 +17,13 @@ use crate::solver::joint_rows::apply_drives;
 use crate::step::{Stage, StageClock, StepContext, Stepper, new_stepper};
 use std::sync::{Arc, Mutex};
 
+mod edit;
 mod events;
 mod measure;
 mod query;
 mod state;
 
+pub use edit::{BodyKey, JointKey, RemoveError};
 pub use events::{ContactEvent, EventKind};
 pub use measure::{FAR_FROM_ORIGIN, far_from_origin};
 pub use query::RayHit;
@@ -194,6 +196,9 @@ pub struct World {
     /// The worker threads, made at the first step that has work for them; clones share
     /// it (taking turns).
     pool: Option<Arc<Pool>>,
+    /// Keys of the bodies and joints, by index ([`World::body_key`]).
+    body_keys: edit::Keys,
+    joint_keys: edit::Keys,
     /// Per block of pairs: the contacts the narrow phase found (scratch).
     narrow_out: NarrowScratch,
     /// Each block's first contact (scratch).
@@ -256,6 +261,8 @@ impl World {
             origin: glam::DVec2::ZERO,
             threads: parallel::default_threads(),
             pool: None,
+            body_keys: edit::Keys::default(),
+            joint_keys: edit::Keys::default(),
             narrow_out: NarrowScratch::default(),
             narrow_starts: Vec::new(),
         }
@@ -365,6 +372,7 @@ impl World {
             ));
         }
         self.joints.push(joint);
+        self.sync_keys();
         if !def.collide_connected {
             let pair = (a.min(b) as u32, a.max(b) as u32);
             if let Err(at) = self.no_collide.binary_search(&pair) {
@@ -441,6 +449,7 @@ impl World {
             self.record_events = true;
         }
         self.bodies.push(body);
+        self.sync_keys();
         Ok(self.bodies.len() - 1)
     }
 
@@ -676,6 +685,7 @@ impl World {
     /// Advances the world by one step of `settings.dt` (in `settings.substeps` substeps)
     /// with the solver `settings.kind`.
     pub fn step(&mut self) -> Result<(), StepError> {
+        self.sync_keys();
         let kind = self.settings.kind;
         let mut stepper = match self.stepper.take() {
             Some(st) if st.kind() == kind => st,

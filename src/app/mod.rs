@@ -5,7 +5,7 @@
 //! Controls: left drag on a body pulls it with the mouse joint ([`input::drag_body`]); left
 //! drag on empty space pans; the wheel zooms about the cursor; the right button held
 //! pushes bodies away from the cursor; middle click or ctrl+click spawns a box,
-//! shift+click a circle; space pauses, S steps, R resets, H hides or shows the panel; F
+//! shift+click a circle; Delete or Backspace removes the body under the cursor; space pauses, S steps, R resets, H hides or shows the panel; F
 //! fits the view to the bodies, C follows the body last grabbed, Esc and Q quit.
 //!
 //! [`run`] returns [`AppError::NoDisplay`] when there is no display to open a window

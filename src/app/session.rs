@@ -407,6 +407,33 @@ impl Session {
         true
     }
 
+    /// Removes the body under `world_point` (any kind, the ground too), with its joints:
+    /// what it held falls. Returns whether a body was there.
+    pub fn delete_at(&mut self, world_point: Vec2) -> bool {
+        let Some(body) = input::body_at(&self.world, world_point) else {
+            return false;
+        };
+        let Some(key) = self.world.body_key(body) else {
+            return false;
+        };
+        if self.world.remove_body(key).is_err() {
+            return false;
+        }
+        // the grab follows its body down an index, or ends with it
+        self.drag = match self.drag {
+            Some(d) if d.body == body => None,
+            Some(d) if d.body > body => Some(Drag {
+                body: d.body - 1,
+                ..d
+            }),
+            d => d,
+        };
+        if self.drag.is_none() {
+            self.world.set_mouse(None);
+        }
+        true
+    }
+
     /// Spawns a body at `at`, sized like the scene's typical body.
     pub fn spawn(&mut self, kind: SpawnKind, at: Vec2) {
         let moving: Vec<f32> = self
@@ -597,6 +624,13 @@ impl Compare {
         }
     }
 
+    /// Removes the body under `at` in each other pane.
+    pub fn delete_at(&mut self, at: Vec2) {
+        for o in &mut self.others {
+            o.delete_at(at);
+        }
+    }
+
     /// The panel's "add a pane": a pane with `first`'s current (panel) settings, going on
     /// from `first`'s world as it is now, labelled by those settings. Refused beyond
     /// [`MAX_PANES`] panes.
@@ -654,6 +688,33 @@ mod tests {
             },
         )
         .unwrap()
+    }
+
+    #[test]
+    fn delete_removes_the_body_under_the_cursor_and_the_grab_follows_its_body() {
+        // the stack of 15: grab the top box, delete the bottom one: 15 bodies left
+        // (ground + 14), the grab still holds the top box (one index down), and the
+        // boxes above the gap fall
+        let mut s = session();
+        let n = s.world.bodies.len();
+        let top = n - 1;
+        let top_at = s.world.bodies[top].position;
+        assert!(s.grab(top_at));
+        let bottom = s.world.bodies[1].position;
+        assert!(s.delete_at(bottom));
+        assert_eq!(s.world.bodies.len(), n - 1);
+        assert_eq!(s.drag.map(|d| d.body), Some(top - 1));
+        assert!(!s.delete_at(Vec2::new(1e4, 1e4)), "nothing there");
+        s.drag = None;
+        s.world.set_mouse(None);
+        let y = s.world.bodies[1].position.y;
+        for _ in 0..10 {
+            assert!(s.step_once());
+        }
+        assert!(
+            s.world.bodies[1].position.y < y - 0.1,
+            "the box above the gap falls"
+        );
     }
 
     #[test]

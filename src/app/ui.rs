@@ -100,6 +100,7 @@ fn contents(
             ui.small("right button held: push bodies away");
             ui.small("middle click / ctrl+click: spawn a box");
             ui.small("shift+click: spawn a circle");
+            ui.small("Delete / Backspace: remove the body under the cursor");
             ui.small("space: pause, S: step, R: reset, H: hide this panel");
             ui.small("F: fit the view, C: follow the grabbed body, Esc / Q: quit");
             ui.small("ctrl+S: save the state to sandbox2d_state.json, ctrl+L: reload it");

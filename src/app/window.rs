@@ -937,6 +937,17 @@ impl App {
                     None => self.selected,
                 };
             }
+            Key::Named(NamedKey::Delete | NamedKey::Backspace) => {
+                let at = self.cursor_world();
+                if self.session.delete_at(at) {
+                    if let Some(c) = self.compare.as_mut() {
+                        c.delete_at(at);
+                    }
+                    // indices moved: forget the body followed or last grabbed
+                    (self.follow, self.selected) = (None, None);
+                    self.panel_dirty = true;
+                }
+            }
             Key::Named(NamedKey::Space) => self.session.paused = !self.session.paused,
             Key::Character(c) if c.eq_ignore_ascii_case("s") => {
                 self.session.paused = true;

@@ -323,6 +323,9 @@ impl World {
         self.sleeping_contacts = s.sleeping_contacts.clone();
         self.old_contacts.clear();
         self.joints = s.joints.clone();
+        // keys from before the restore name nothing in it
+        self.body_keys.renew(self.bodies.len());
+        self.joint_keys.renew(self.joints.len());
         self.mouse = s.mouse;
         self.no_collide = s.no_collide.clone();
         self.filtered = self
