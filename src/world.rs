@@ -166,6 +166,11 @@ pub struct World {
     /// Islands to wake (scratch).
     to_wake: Vec<u32>,
     pub(crate) joints: Vec<Joint>,
+    /// Joints whose bodies all sleep (or do not move), with their index, taken out of
+    /// `joints` for the solve of one step (see `park_sleeping_joints`).
+    parked: Vec<(usize, Joint)>,
+    /// The joints that stay in the solve (scratch of the parking).
+    joints_scratch: Vec<Joint>,
     pub(crate) mouse: Option<MouseJoint>,
     /// Body pairs joined by a joint that must not collide, sorted.
     no_collide: Vec<(u32, u32)>,
@@ -246,6 +251,8 @@ impl World {
             least_rest: Vec::new(),
             to_wake: Vec::new(),
             joints: Vec::new(),
+            parked: Vec::new(),
+            joints_scratch: Vec::new(),
             mouse: None,
             no_collide: Vec::new(),
             filtered: false,
@@ -694,6 +701,7 @@ impl World {
         let cx = StepContext::new(&self.settings);
         let mut clock = StageClock::start();
         let mut stats = stepper.step(self, &cx, &mut clock);
+        self.unpark_joints();
         clock.fill(&mut stats);
         self.stats = stats;
         self.stepper = Some(stepper);
@@ -794,6 +802,7 @@ impl World {
                 break;
             }
         }
+        self.park_sleeping_joints();
         if !self.bodies.iter().any(is_mover) {
             // all at rest: last step's contacts are kept aside, nothing is looked for
             self.sleeping_contacts.append(&mut self.contacts);
@@ -943,6 +952,52 @@ impl World {
         }
     }
 
+    /// Takes the joints whose bodies all sleep or do not move out of `joints` for this
+    /// step's solve: a sleeping island's joints cost nothing, and their warm-started
+    /// impulses (which balanced a gravity the sleeping bodies no longer get) do not push
+    /// the island awake. Called after the wake passes; `unpark_joints` puts them back in
+    /// order after the solve.
+    fn park_sleeping_joints(&mut self) {
+        let bodies = &self.bodies;
+        let resting = |i: usize| {
+            let b = &bodies[i];
+            b.asleep || b.body_type == BodyType::Static || (!b.is_dynamic() && !is_mover(b))
+        };
+        if !self.joints.iter().any(|j| resting(j.a) && resting(j.b)) {
+            return;
+        }
+        let mut keep = std::mem::take(&mut self.joints_scratch);
+        keep.clear();
+        for (i, j) in self.joints.drain(..).enumerate() {
+            if resting(j.a) && resting(j.b) {
+                self.parked.push((i, j));
+            } else {
+                keep.push(j);
+            }
+        }
+        self.joints_scratch = std::mem::replace(&mut self.joints, keep);
+    }
+
+    /// Puts the parked joints back where they were.
+    fn unpark_joints(&mut self) {
+        if self.parked.is_empty() {
+            return;
+        }
+        let mut all = std::mem::take(&mut self.joints_scratch);
+        all.clear();
+        let mut awake = self.joints.drain(..);
+        let mut parked = self.parked.drain(..).peekable();
+        let total = awake.len() + parked.len();
+        for i in 0..total {
+            match parked.peek() {
+                Some((at, _)) if *at == i => all.push(parked.next().unwrap().1),
+                _ => all.extend(awake.next()),
+            }
+        }
+        drop(awake);
+        self.joints_scratch = std::mem::replace(&mut self.joints, all);
+    }
+
     /// One pass of waking: every sleeping island that an awake dynamic body's (or a
     /// moving kinematic body's) box reaches, or whose body was pushed, set moving or
     /// given a force since it fell asleep. Returns whether any woke.
@@ -1008,7 +1063,8 @@ impl World {
     /// After a step: a dynamic body slower than 0.05 m/s and 2 degrees/s (Box2D's
     /// thresholds) for 0.5 s is at rest; an island of bodies joined by touching contacts
     /// and joints falls asleep when all of its bodies are. Bodies held by the mouse, with
-    /// a constant force or a joint, or touching a moving kinematic body stay awake.
+    /// a constant force, on a joint with a turning motor or a drive, or touching a
+    /// moving kinematic body stay awake.
     fn update_sleep(&mut self) {
         const LINEAR: f32 = 0.05;
         const ANGULAR: f32 = 2.0 * std::f32::consts::PI / 180.0;
@@ -1046,12 +1102,13 @@ impl World {
         if let Some(m) = self.mouse {
             self.bodies[m.body].sleep_time = 0.0;
         }
-        // jointed bodies stay awake: the joint solvers do not skip sleeping bodies yet,
-        // so a sleeping body's joint would push it (its warm-started impulse without the
-        // gravity it balanced) and wake it the next step
+        // a joint that drives its bodies keeps them awake: a turning motor, a drive
+        // force or torque (a servo at its target rests, and may sleep)
         for j in &self.joints {
-            self.bodies[j.a].sleep_time = 0.0;
-            self.bodies[j.b].sleep_time = 0.0;
+            if j.drive != 0.0 || j.motor.is_some_and(|m| m.speed != 0.0) {
+                self.bodies[j.a].sleep_time = 0.0;
+                self.bodies[j.b].sleep_time = 0.0;
+            }
         }
         for c in &self.contacts {
             let (ba, bb) = (&self.bodies[c.a as usize], &self.bodies[c.b as usize]);
