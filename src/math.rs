@@ -134,6 +134,26 @@ impl Aabb {
     }
 }
 
+/// Union-find over indices (`parent[i] == i` at a root), with path halving: the root of
+/// `i`'s set.
+pub(crate) fn uf_root(parent: &mut [u32], mut i: u32) -> u32 {
+    while parent[i as usize] != i {
+        let up = parent[parent[i as usize] as usize];
+        parent[i as usize] = up;
+        i = up;
+    }
+    i
+}
+
+/// Joins the sets of `a` and `b`; the smaller root becomes the root, so the sets and
+/// their roots do not depend on the order of the joins.
+pub(crate) fn uf_union(parent: &mut [u32], a: u32, b: u32) {
+    let (ra, rb) = (uf_root(parent, a), uf_root(parent, b));
+    if ra != rb {
+        parent[ra.max(rb) as usize] = ra.min(rb);
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -9,7 +9,7 @@ use crate::defs::{
     BodyDef, BodyModel, BodyType, DragDef, ForceDef, JointDef, SolverSettings, WorldDef,
 };
 use crate::joint::{Joint, JointId, MouseJoint};
-use crate::math::{Aabb, Rot, Vec2, cross};
+use crate::math::{Aabb, Rot, Vec2, cross, uf_root, uf_union};
 use crate::parallel::{self, Pool};
 use crate::shape::{Shape, ShapeError};
 use crate::solver::contact_cache::{CacheCursor, Contact, match_points};
@@ -1134,24 +1134,10 @@ impl World {
         let parent = &mut self.islands;
         parent.clear();
         parent.extend(0..n as u32);
-        fn find(parent: &mut [u32], mut i: u32) -> u32 {
-            while parent[i as usize] != i {
-                let p = parent[parent[i as usize] as usize];
-                parent[i as usize] = p;
-                i = p;
-            }
-            i
-        }
         let bodies = &self.bodies;
         let joins = |a: usize, b: usize| bodies[a].is_dynamic() && bodies[b].is_dynamic();
-        let union = |parent: &mut Vec<u32>, a: usize, b: usize| {
-            let (ra, rb) = (find(parent, a as u32), find(parent, b as u32));
-            if ra != rb {
-                // the smaller index is the root: the same islands whatever the order
-                let (lo, hi) = (ra.min(rb), ra.max(rb));
-                parent[hi as usize] = lo;
-            }
-        };
+        let union =
+            |parent: &mut Vec<u32>, a: usize, b: usize| uf_union(parent, a as u32, b as u32);
         let touch = self.settings.slop.max(0.005);
         for c in &self.contacts {
             let (a, b) = (c.a as usize, c.b as usize);
@@ -1170,7 +1156,7 @@ impl World {
         least.resize(n, f32::INFINITY);
         for (i, b) in bodies.iter().enumerate() {
             if b.is_dynamic() && !b.asleep {
-                let r = find(parent, i as u32) as usize;
+                let r = uf_root(parent, i as u32) as usize;
                 least[r] = least[r].min(b.sleep_time);
             }
         }
@@ -1179,7 +1165,7 @@ impl World {
             if !b.is_dynamic() || b.asleep {
                 continue;
             }
-            let r = find(&mut self.islands, i as u32);
+            let r = uf_root(&mut self.islands, i as u32);
             if least[r as usize] >= TIME_TO_SLEEP {
                 let b = &mut self.bodies[i];
                 b.asleep = true;

@@ -35,7 +35,7 @@ use super::contact_cache::Contact;
 use super::pgs::SolveStats;
 use crate::body::Body;
 use crate::defs::SolverSettings;
-use crate::math::{Rot, Vec2, cross, cross_sv};
+use crate::math::{Rot, Vec2, cross, cross_sv, uf_root, uf_union};
 use crate::parallel::{self, MAX_THREADS, Pool};
 use glam::Vec4;
 
@@ -450,8 +450,12 @@ pub struct SoftSolver {
     direct: direct::DirectIslands,
     /// Per contact: whether its island is solved exactly.
     direct_contact: Vec<bool>,
-    /// Union-find parents by body (finding those islands).
+    /// Union-find parents by body (finding those islands), and per root its points
+    /// and whether a lopsided contact joins it; per contact its island's root (scratch).
     parent: Vec<u32>,
+    root_points: Vec<u32>,
+    root_flagged: Vec<bool>,
+    roots: Vec<u32>,
 }
 
 impl SoftSolver {
@@ -617,41 +621,30 @@ impl SoftSolver {
         let nb = self.moves.len();
         self.parent.clear();
         self.parent.extend(0..nb as u32);
-        fn root(parent: &mut [u32], mut i: u32) -> u32 {
-            while parent[i as usize] != i {
-                let up = parent[parent[i as usize] as usize];
-                parent[i as usize] = up;
-                i = up;
-            }
-            i
-        }
         for c in contacts {
             if self.moves[c.a as usize] && self.moves[c.b as usize] {
-                let (ra, rb) = (root(&mut self.parent, c.a), root(&mut self.parent, c.b));
-                // the smaller index is the root: the islands do not depend on order
-                let (lo, hi) = (ra.min(rb), ra.max(rb));
-                self.parent[hi as usize] = lo;
+                uf_union(&mut self.parent, c.a, c.b);
             }
         }
         // per island root: points, and whether some contact is lopsided
-        let mut points = vec![0u32; nb];
-        let mut flagged = vec![false; nb];
-        let mut roots = Vec::with_capacity(contacts.len());
+        let (points, flagged) = (&mut self.root_points, &mut self.root_flagged);
+        points.clear();
+        points.resize(nb, 0);
+        flagged.clear();
+        flagged.resize(nb, false);
+        self.roots.clear();
         for c in contacts {
             let body = if self.moves[c.a as usize] { c.a } else { c.b };
-            let r = root(&mut self.parent, body);
+            let r = uf_root(&mut self.parent, body);
             points[r as usize] += c.manifold.count as u32;
             flagged[r as usize] |= lopsided(c);
-            roots.push(r);
+            self.roots.push(r);
         }
         self.direct_contact.extend(
-            roots
+            self.roots
                 .iter()
                 .map(|&r| flagged[r as usize] && points[r as usize] as usize <= direct::MAX_POINTS),
         );
-        // keep the roots for `build_direct`
-        self.parent.clear();
-        self.parent.extend(roots);
     }
 
     /// Builds the exactly solved islands from the filled wide constraints.
@@ -660,22 +653,21 @@ impl SoftSolver {
             return;
         }
         // islands in order of their first contact; lanes in contact order
-        let mut order: Vec<u32> = Vec::new();
+        let island_of = &mut self.root_points;
+        island_of.fill(u32::MAX);
         let mut lanes: Vec<Vec<(u32, u8, u8)>> = Vec::new();
         for (i, c) in contacts.iter().enumerate() {
             if !self.direct_contact[i] {
                 continue;
             }
-            let r = self.parent[i];
+            let r = self.roots[i] as usize;
             let at = self.slot[i];
             let lane = (at / 4, (at % 4) as u8, c.manifold.count as u8);
-            match order.iter().position(|&o| o == r) {
-                Some(j) => lanes[j].push(lane),
-                None => {
-                    order.push(r);
-                    lanes.push(vec![lane]);
-                }
+            if island_of[r] == u32::MAX {
+                island_of[r] = lanes.len() as u32;
+                lanes.push(Vec::new());
             }
+            lanes[island_of[r] as usize].push(lane);
         }
         for l in &lanes {
             self.direct.add_island(l, &self.wide, &self.moves);
