@@ -35,6 +35,22 @@ pub enum ShapeDef {
     Box { width: f32, height: f32 },
     /// A convex polygon: the convex hull of these local points (m).
     Polygon { points: Vec<Vec2> },
+    /// A capsule along the body's local x axis: `length` end to end (m, more than
+    /// `2 radius`), half circles of `radius` at its ends.
+    Capsule { length: f32, radius: f32 },
+    /// A box of outer size `width` x `height` (m) whose corners are rounded by `radius`
+    /// (0: sharp; less than half the smaller side).
+    RoundedBox {
+        width: f32,
+        height: f32,
+        radius: f32,
+    },
+    /// The convex hull of `points` (m) with its outline moved out by `radius` (m) and
+    /// its corners rounded.
+    RoundedPolygon { points: Vec<Vec2>, radius: f32 },
+    /// A segment between two local points (m), of no thickness: it has no area, so only
+    /// a static or kinematic body can have one (terrain, walls).
+    Segment { a: Vec2, b: Vec2 },
 }
 
 /// An RGBA colour, 8 bits a channel, sRGB.

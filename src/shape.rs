@@ -10,14 +10,20 @@ pub const MAX_POLYGON_VERTICES: usize = 16;
 /// Points closer than this (m) are welded into one when the hull is built.
 const WELD_DISTANCE: f32 = 1e-4;
 
-/// A convex polygon, counter-clockwise, with its outward edge normals.
-/// Edge i runs from vertex i to vertex i + 1.
+/// A convex polygon, counter-clockwise, with its outward edge normals, and a rounding
+/// radius: the shape is every point within `radius` of the polygon (its core). Edge i
+/// runs from vertex i to vertex i + 1.
+///
+/// Two vertices make a segment (normals on both sides): with a radius, a capsule; with
+/// none, a segment of no thickness (static or kinematic bodies only: it has no area).
 #[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 #[serde(into = "PolygonRepr", try_from = "PolygonRepr")]
 pub struct Polygon {
     pub vertices: [Vec2; MAX_POLYGON_VERTICES],
     pub normals: [Vec2; MAX_POLYGON_VERTICES],
     pub count: usize,
+    /// Rounding radius (m); 0 for sharp corners.
+    pub radius: f32,
 }
 
 /// A polygon as a saved state holds it: only the vertices and normals in use.
@@ -25,6 +31,8 @@ pub struct Polygon {
 struct PolygonRepr {
     vertices: Vec<Vec2>,
     normals: Vec<Vec2>,
+    #[serde(default)]
+    radius: f32,
 }
 
 impl From<Polygon> for PolygonRepr {
@@ -32,6 +40,7 @@ impl From<Polygon> for PolygonRepr {
         PolygonRepr {
             vertices: p.verts().to_vec(),
             normals: p.normals[..p.count].to_vec(),
+            radius: p.radius,
         }
     }
 }
@@ -41,16 +50,23 @@ impl TryFrom<PolygonRepr> for Polygon {
 
     fn try_from(r: PolygonRepr) -> Result<Self, String> {
         let n = r.vertices.len();
-        if !(3..=MAX_POLYGON_VERTICES).contains(&n) || r.normals.len() != n {
+        if !(2..=MAX_POLYGON_VERTICES).contains(&n) || r.normals.len() != n {
             return Err(format!(
-                "a polygon needs 3 to {MAX_POLYGON_VERTICES} vertices and as many normals, got {n} and {}",
+                "a polygon needs 2 to {MAX_POLYGON_VERTICES} vertices and as many normals, got {n} and {}",
                 r.normals.len()
+            ));
+        }
+        if !(r.radius >= 0.0 && r.radius.is_finite()) {
+            return Err(format!(
+                "a polygon's radius must be finite and >= 0, got {}",
+                r.radius
             ));
         }
         let mut p = Polygon {
             vertices: [Vec2::ZERO; MAX_POLYGON_VERTICES],
             normals: [Vec2::ZERO; MAX_POLYGON_VERTICES],
             count: n,
+            radius: r.radius,
         };
         p.vertices[..n].copy_from_slice(&r.vertices);
         p.normals[..n].copy_from_slice(&r.normals);
@@ -75,12 +91,28 @@ impl Polygon {
         ])
     }
 
+    /// The segment from `a` to `b` rounded by `radius` (0: a bare segment): two
+    /// vertices, edge 0 from `a` to `b` with its normal on the right of `b - a`, edge 1
+    /// back with the opposite normal.
+    pub fn segment(a: Vec2, b: Vec2, radius: f32) -> Polygon {
+        Polygon {
+            radius,
+            ..Polygon::from_ccw(&[a, b])
+        }
+    }
+
+    /// The polygon with its corners rounded by `radius` (the outline moves out by it).
+    pub fn rounded(&self, radius: f32) -> Polygon {
+        Polygon { radius, ..*self }
+    }
+
     /// From counter-clockwise convex points (at most [`MAX_POLYGON_VERTICES`]).
     fn from_ccw(points: &[Vec2]) -> Polygon {
         let mut p = Polygon {
             vertices: [Vec2::ZERO; MAX_POLYGON_VERTICES],
             normals: [Vec2::ZERO; MAX_POLYGON_VERTICES],
             count: points.len(),
+            radius: 0.0,
         };
         for (i, &v) in points.iter().enumerate() {
             p.vertices[i] = v;
@@ -139,6 +171,136 @@ impl Polygon {
     }
 }
 
+impl Polygon {
+    /// Area, centroid and second moment about the centroid per unit density, of the
+    /// whole shape: the core polygon, a band of width `radius` outside each edge, and a
+    /// circular sector at each vertex (the sectors' angles add up to a full turn).
+    fn rounded_area_centroid_inertia(&self) -> (f32, Vec2, f32) {
+        let r = self.radius;
+        if r == 0.0 {
+            if self.count < 3 {
+                return (0.0, Vec2::ZERO, 0.0); // a bare segment
+            }
+            return self.area_centroid_inertia();
+        }
+        // sums over the parts: mass, first moment and second moment about the origin
+        let (mut mass, mut first, mut second) = (0.0f32, Vec2::ZERO, 0.0f32);
+        let mut add = |m: f32, c: Vec2, j_c: f32| {
+            mass += m;
+            first += m * c;
+            second += j_c + m * c.length_squared();
+        };
+        if self.count >= 3 {
+            let (a, c, j) = self.area_centroid_inertia();
+            add(a, c, j);
+        }
+        let n = self.count;
+        for i in 0..n {
+            let (v1, v2) = (self.vertices[i], self.vertices[(i + 1) % n]);
+            let normal = self.normals[i];
+            // the band outside edge i: a rectangle l x r
+            let l = v1.distance(v2);
+            add(
+                l * r,
+                0.5 * (v1 + v2) + 0.5 * r * normal,
+                l * r * (l * l + r * r) / 12.0,
+            );
+            // the sector at v2, from this edge's normal to the next one's (counter-clockwise)
+            let next = self.normals[(i + 1) % n];
+            let mut angle = cross(normal, next).atan2(normal.dot(next));
+            if angle < 0.0 {
+                angle += std::f32::consts::TAU; // a half turn met as -pi (a capsule's end)
+            }
+            if angle <= 0.0 {
+                continue;
+            }
+            let half = 0.5 * angle;
+            let area = half * r * r;
+            // centroid 4 r sin(half) / (3 angle) from the apex along the bisector
+            let d = 4.0 * r * half.sin() / (3.0 * angle);
+            let (s, c) = half.sin_cos();
+            let bisector = Vec2::new(c * normal.x - s * normal.y, s * normal.x + c * normal.y);
+            // polar moment about the apex: area r^2 / 2
+            let j_apex = 0.5 * area * r * r;
+            add(area, v2 + d * bisector, j_apex - area * d * d);
+        }
+        let c = first / mass;
+        (mass, c, second - mass * c.length_squared())
+    }
+
+    /// The closest point of the core polygon to `p` (all in the polygon's frame), and
+    /// whether `p` lies inside the core.
+    fn closest_core_point(&self, p: Vec2) -> (Vec2, bool) {
+        let n = self.count;
+        let inside = n >= 3
+            && self
+                .verts()
+                .iter()
+                .zip(&self.normals[..n])
+                .all(|(v, nn)| nn.dot(p - *v) <= 0.0);
+        if inside {
+            return (p, true);
+        }
+        let mut best = self.vertices[0];
+        let mut best_d = f32::MAX;
+        for i in 0..n {
+            let q = closest_on_segment(self.vertices[i], self.vertices[(i + 1) % n], p).0;
+            let d = q.distance_squared(p);
+            if d < best_d {
+                best_d = d;
+                best = q;
+            }
+        }
+        (best, false)
+    }
+}
+
+/// The point of the segment `a`-`b` closest to `p`, and its parameter in [0, 1].
+#[inline]
+pub fn closest_on_segment(a: Vec2, b: Vec2, p: Vec2) -> (Vec2, f32) {
+    let e = b - a;
+    let ee = e.dot(e);
+    let t = if ee > 0.0 {
+        ((p - a).dot(e) / ee).clamp(0.0, 1.0)
+    } else {
+        0.0
+    };
+    (a + t * e, t)
+}
+
+/// Where the segment `origin + t d`, t in [0, 1], first meets the segment `a`-`b`
+/// coming from the side `normal` points to: `t`.
+fn ray_segment(origin: Vec2, d: Vec2, a: Vec2, b: Vec2, normal: Vec2) -> Option<f32> {
+    let den = normal.dot(d);
+    if den >= 0.0 {
+        return None; // parallel or leaving
+    }
+    let t = normal.dot(a - origin) / den;
+    if !(0.0..=1.0).contains(&t) {
+        return None;
+    }
+    let e = b - a;
+    let u = (origin + t * d - a).dot(e);
+    (0.0..=e.dot(e)).contains(&u).then_some(t)
+}
+
+/// Where the segment `origin + t d`, t in [0, 1], enters the circle at `center`.
+fn ray_circle(origin: Vec2, d: Vec2, center: Vec2, radius: f32) -> Option<f32> {
+    let o = origin - center;
+    let dd = d.dot(d);
+    let c = o.dot(o) - radius * radius;
+    if dd <= 0.0 || c <= 0.0 {
+        return None;
+    }
+    let b = o.dot(d);
+    let disc = b * b - dd * c;
+    if b >= 0.0 || disc < 0.0 {
+        return None;
+    }
+    let t = c / (-b + disc.sqrt());
+    (0.0..=1.0).contains(&t).then_some(t)
+}
+
 /// Why a shape could not be built.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum ShapeError {
@@ -148,6 +310,8 @@ pub enum ShapeError {
     TooManyVertices(usize),
     #[error("{0} must be > 0, got {1}")]
     NotPositive(&'static str, f32),
+    #[error("{0}")]
+    Invalid(String),
 }
 
 /// Andrew's monotone chain; returns the hull counter-clockwise without collinear points.
@@ -234,6 +398,76 @@ impl Shape {
                 }
                 Ok((Shape::Polygon(poly.translated(-c)), c))
             }
+            ShapeDef::Capsule { length, radius } => {
+                if !(*radius > 0.0 && radius.is_finite()) {
+                    return Err(ShapeError::NotPositive("capsule radius", *radius));
+                }
+                if !(*length > 2.0 * radius && length.is_finite()) {
+                    return Err(ShapeError::Invalid(format!(
+                        "capsule length must be more than twice its radius ({}), got {length}",
+                        2.0 * radius
+                    )));
+                }
+                let half = 0.5 * length - radius;
+                Ok((
+                    Shape::Polygon(Polygon::segment(
+                        Vec2::new(-half, 0.0),
+                        Vec2::new(half, 0.0),
+                        *radius,
+                    )),
+                    Vec2::ZERO,
+                ))
+            }
+            ShapeDef::RoundedBox {
+                width,
+                height,
+                radius,
+            } => {
+                let (sharp, c) = Shape::from_def(&ShapeDef::Box {
+                    width: *width,
+                    height: *height,
+                })?;
+                if *radius == 0.0 {
+                    return Ok((sharp, c));
+                }
+                if !(*radius > 0.0 && 2.0 * radius < width.min(*height)) {
+                    return Err(ShapeError::Invalid(format!(
+                        "box radius must be >= 0 and less than half the smaller side ({}), got {radius}",
+                        0.5 * width.min(*height)
+                    )));
+                }
+                let core = Polygon::new_box(width - 2.0 * radius, height - 2.0 * radius);
+                Ok((Shape::Polygon(core.rounded(*radius)), Vec2::ZERO))
+            }
+            ShapeDef::RoundedPolygon { points, radius } => {
+                if !(*radius >= 0.0 && radius.is_finite()) {
+                    return Err(ShapeError::Invalid(format!(
+                        "polygon radius must be finite and >= 0, got {radius}"
+                    )));
+                }
+                let (sharp, c) = Shape::from_def(&ShapeDef::Polygon {
+                    points: points.clone(),
+                })?;
+                let Shape::Polygon(core) = sharp else {
+                    unreachable!("a polygon def builds a polygon")
+                };
+                let rounded = core.rounded(*radius);
+                // the bands and sectors shift the centroid a little off the core's
+                let (_, dc, _) = rounded.rounded_area_centroid_inertia();
+                Ok((Shape::Polygon(rounded.translated(-dc)), c + dc))
+            }
+            ShapeDef::Segment { a, b } => {
+                if !(a.is_finite() && b.is_finite()) || a.distance(*b) < WELD_DISTANCE {
+                    return Err(ShapeError::Invalid(format!(
+                        "segment needs two distinct finite ends, got {a} and {b}"
+                    )));
+                }
+                let mid = 0.5 * (*a + *b);
+                Ok((
+                    Shape::Polygon(Polygon::segment(*a - mid, *b - mid, 0.0)),
+                    mid,
+                ))
+            }
         }
     }
 
@@ -241,7 +475,7 @@ impl Shape {
     pub fn area(&self) -> f32 {
         match self {
             Shape::Circle { radius } => std::f32::consts::PI * radius * radius,
-            Shape::Polygon(p) => p.area_centroid_inertia().0,
+            Shape::Polygon(p) => p.rounded_area_centroid_inertia().0,
         }
     }
 
@@ -258,7 +492,7 @@ impl Shape {
                 }
             }
             Shape::Polygon(p) => {
-                let (area, c, j) = p.area_centroid_inertia();
+                let (area, c, j) = p.rounded_area_centroid_inertia();
                 MassData {
                     mass: density * area,
                     center: c,
@@ -273,11 +507,15 @@ impl Shape {
     pub fn contains_local(&self, p: Vec2) -> bool {
         match self {
             Shape::Circle { radius } => p.length_squared() <= radius * radius,
-            Shape::Polygon(poly) => poly
+            Shape::Polygon(poly) if poly.radius == 0.0 && poly.count >= 3 => poly
                 .verts()
                 .iter()
                 .zip(&poly.normals[..poly.count])
                 .all(|(v, n)| n.dot(p - *v) <= 0.0),
+            Shape::Polygon(poly) => {
+                let (q, inside) = poly.closest_core_point(p);
+                inside || q.distance_squared(p) <= poly.radius * poly.radius
+            }
         }
     }
 
@@ -306,6 +544,38 @@ impl Shape {
                 }
                 let n = (origin + d * t).normalize_or_zero();
                 Some((t, n))
+            }
+            Shape::Polygon(poly) if poly.radius > 0.0 || poly.count < 3 => {
+                // The shape is the union of the core, a band outside each edge and a
+                // disk at each vertex: the ray enters it where it first enters one of
+                // the bands' outer sides or one of the disks.
+                if poly.radius > 0.0 && self.contains_local(origin) {
+                    return None;
+                }
+                let r = poly.radius;
+                let mut best: Option<(f32, Vec2)> = None;
+                let mut keep = |t: f32, n: Vec2| {
+                    if best.is_none_or(|(bt, _)| t < bt) {
+                        best = Some((t, n));
+                    }
+                };
+                let n = poly.count;
+                for i in 0..n {
+                    let (a, b, nn) = (
+                        poly.vertices[i],
+                        poly.vertices[(i + 1) % n],
+                        poly.normals[i],
+                    );
+                    if let Some(t) = ray_segment(origin, d, a + r * nn, b + r * nn, nn) {
+                        keep(t, nn);
+                    }
+                    if r > 0.0
+                        && let Some(t) = ray_circle(origin, d, a, r)
+                    {
+                        keep(t, (origin + t * d - a).normalize_or_zero());
+                    }
+                }
+                best
             }
             Shape::Polygon(poly) => {
                 // Cyrus-Beck: clip [0, 1] by each edge's half-plane n.(x - v) <= 0
@@ -351,6 +621,10 @@ impl Shape {
                     b.min = b.min.min(w);
                     b.max = b.max.max(w);
                 }
+                if p.radius > 0.0 {
+                    b.min -= Vec2::splat(p.radius);
+                    b.max += Vec2::splat(p.radius);
+                }
                 b
             }
         }
@@ -369,7 +643,7 @@ impl Shape {
                     lo = lo.min(d);
                     hi = hi.max(d);
                 }
-                hi - lo
+                hi - lo + 2.0 * p.radius
             }
         }
     }
@@ -378,7 +652,7 @@ impl Shape {
     pub fn radius(&self) -> f32 {
         match self {
             Shape::Circle { radius } => *radius,
-            Shape::Polygon(p) => p.verts().iter().fold(0.0f32, |m, v| m.max(v.length())),
+            Shape::Polygon(p) => p.verts().iter().fold(0.0f32, |m, v| m.max(v.length())) + p.radius,
         }
     }
 }
@@ -464,5 +738,197 @@ mod tests {
         );
         assert!(Shape::from_def(&ShapeDef::Circle { radius: 0.0 }).is_err());
         assert!(Shape::from_def(&ShapeDef::Circle { radius: f32::NAN }).is_err());
+    }
+
+    /// Mass, centroid and polar moment by sampling the shape on a fine grid (an
+    /// integration independent of the closed forms).
+    fn sampled(shape: &Shape, half: f32, n: usize) -> (f32, Vec2, f32) {
+        let cell = 2.0 * half / n as f32;
+        let (mut m, mut first, mut second) = (0.0f64, [0.0f64; 2], 0.0f64);
+        for i in 0..n {
+            for j in 0..n {
+                let p = Vec2::new(
+                    -half + (i as f32 + 0.5) * cell,
+                    -half + (j as f32 + 0.5) * cell,
+                );
+                if shape.contains_local(p) {
+                    let a = (cell * cell) as f64;
+                    m += a;
+                    first[0] += a * p.x as f64;
+                    first[1] += a * p.y as f64;
+                    second += a * p.length_squared() as f64;
+                }
+            }
+        }
+        let c = Vec2::new((first[0] / m) as f32, (first[1] / m) as f32);
+        (m as f32, c, (second - m * c.length_squared() as f64) as f32)
+    }
+
+    #[test]
+    fn capsule_mass_and_inertia_against_the_closed_form() {
+        // a rectangle L x 2r and two half disks whose centroids sit 4r / (3 pi) past
+        // the segment's ends
+        let (length, r) = (3.0f32, 0.4f32);
+        let (s, c) = Shape::from_def(&ShapeDef::Capsule { length, radius: r }).unwrap();
+        assert_eq!(c, Vec2::ZERO);
+        let l = length - 2.0 * r; // the straight part
+        let pi = std::f32::consts::PI;
+        let (m_rect, m_disk) = (l * 2.0 * r, pi * r * r);
+        let d = 4.0 * r / (3.0 * pi);
+        let inertia =
+            m_rect * (l * l + 4.0 * r * r) / 12.0 + m_disk * (0.5 * r * r + 0.25 * l * l + l * d);
+        let md = s.mass_data(1.0);
+        assert!(close(md.mass, m_rect + m_disk, 1e-5), "{}", md.mass);
+        assert!(
+            close(md.inertia, inertia, 1e-4),
+            "{} vs {inertia}",
+            md.inertia
+        );
+        assert!(md.center.length() < 1e-5);
+        assert!(close(s.area(), m_rect + m_disk, 1e-5));
+        assert!(close(s.radius(), 0.5 * length, 1e-6));
+    }
+
+    #[test]
+    fn rounded_box_and_polygon_mass_properties_match_a_sampled_integral() {
+        // a rounded box: area w h - (4 - pi) r^2
+        let (w, h, r) = (2.0f32, 1.0f32, 0.25f32);
+        let (s, _) = Shape::from_def(&ShapeDef::RoundedBox {
+            width: w,
+            height: h,
+            radius: r,
+        })
+        .unwrap();
+        let area = w * h - (4.0 - std::f32::consts::PI) * r * r;
+        let md = s.mass_data(1.0);
+        assert!(close(md.mass, area, 1e-5), "{} vs {area}", md.mass);
+        let (m, c, j) = sampled(&s, 1.2, 1200);
+        assert!(close(md.mass, m, 2e-3), "{} vs sampled {m}", md.mass);
+        assert!(c.length() < 1e-3 && md.center.length() < 1e-5);
+        assert!(close(md.inertia, j, 3e-3), "{} vs sampled {j}", md.inertia);
+        // a rounded right triangle: its centroid moves off the core's, and the shape is
+        // re-centred on it
+        let pts = vec![Vec2::ZERO, Vec2::new(2.0, 0.0), Vec2::new(0.0, 1.0)];
+        let (s, origin) = Shape::from_def(&ShapeDef::RoundedPolygon {
+            points: pts,
+            radius: 0.2,
+        })
+        .unwrap();
+        let md = s.mass_data(1.0);
+        let (m, c, j) = sampled(&s, 2.0, 1600);
+        assert!(close(md.mass, m, 2e-3), "{} vs sampled {m}", md.mass);
+        assert!(
+            c.length() < 2e-3,
+            "sampled centroid {c} should be the body origin"
+        );
+        assert!(close(md.inertia, j, 3e-3), "{} vs sampled {j}", md.inertia);
+        // area = core + perimeter r + pi r^2
+        let perimeter = 3.0 + 5f32.sqrt();
+        let area = 1.0 + perimeter * 0.2 + std::f32::consts::PI * 0.04;
+        assert!(close(md.mass, area, 1e-5));
+        // the core's centroid was (2/3, 1/3); the rounding pulls it towards the long sides
+        assert!((origin - Vec2::new(2.0 / 3.0, 1.0 / 3.0)).length() < 0.1);
+    }
+
+    #[test]
+    fn rounded_shapes_refuse_bad_sizes_and_a_segment_has_no_mass() {
+        let capsule = |length, radius| Shape::from_def(&ShapeDef::Capsule { length, radius });
+        assert!(
+            capsule(1.0, 0.5).is_err(),
+            "a capsule must be longer than 2r"
+        );
+        assert!(capsule(1.0, 0.0).is_err());
+        assert!(capsule(f32::NAN, 0.1).is_err());
+        let rounded = |radius| {
+            Shape::from_def(&ShapeDef::RoundedBox {
+                width: 1.0,
+                height: 0.4,
+                radius,
+            })
+        };
+        assert!(
+            rounded(0.2).is_err(),
+            "radius must be under half the smaller side"
+        );
+        assert!(rounded(-0.1).is_err());
+        assert_eq!(
+            rounded(0.0).unwrap().0,
+            Shape::Polygon(Polygon::new_box(1.0, 0.4))
+        );
+        let seg = ShapeDef::Segment {
+            a: Vec2::new(1.0, 1.0),
+            b: Vec2::new(3.0, 1.0),
+        };
+        let (s, c) = Shape::from_def(&seg).unwrap();
+        assert_eq!(c, Vec2::new(2.0, 1.0));
+        assert_eq!(s.mass_data(1.0).mass, 0.0);
+        assert!(
+            Shape::from_def(&ShapeDef::Segment {
+                a: Vec2::ONE,
+                b: Vec2::ONE
+            })
+            .is_err()
+        );
+    }
+
+    #[test]
+    fn rays_enter_capsules_and_segments_where_the_outline_is() {
+        let (s, _) = Shape::from_def(&ShapeDef::Capsule {
+            length: 2.0,
+            radius: 0.5,
+        })
+        .unwrap();
+        // straight down onto the flat side: y = 0.5
+        let (t, n) = s
+            .ray_cast_local(Vec2::new(0.2, 3.0), Vec2::new(0.0, -5.0))
+            .unwrap();
+        assert!((t - 0.5).abs() < 1e-6 && (n - Vec2::Y).length() < 1e-6);
+        // along the axis onto the end cap: x = 1
+        let (t, n) = s
+            .ray_cast_local(Vec2::new(-5.0, 0.0), Vec2::new(10.0, 0.0))
+            .unwrap();
+        assert!((t - 0.4).abs() < 1e-6 && (n + Vec2::X).length() < 1e-6);
+        // at height 0.3 onto the cap: x = 0.5 + sqrt(0.25 - 0.09) = 0.9
+        let (t, n) = s
+            .ray_cast_local(Vec2::new(5.0, 0.3), Vec2::new(-10.0, 0.0))
+            .unwrap();
+        assert!((t - 0.41).abs() < 1e-5, "{t}");
+        assert!((n - Vec2::new(0.8, 0.6)).length() < 1e-5, "{n}");
+        // passing beside the cap, or from inside: nothing
+        assert!(
+            s.ray_cast_local(Vec2::new(5.0, 0.55), Vec2::new(-10.0, 0.0))
+                .is_none()
+        );
+        assert!(s.ray_cast_local(Vec2::ZERO, Vec2::new(3.0, 0.0)).is_none());
+        assert!(s.contains_local(Vec2::new(0.95, 0.2)));
+        assert!(!s.contains_local(Vec2::new(0.95, 0.4)));
+        // a bare segment is hit from either side, never beside its ends
+        let (seg, _) = Shape::from_def(&ShapeDef::Segment {
+            a: Vec2::new(-1.0, 0.0),
+            b: Vec2::new(1.0, 0.0),
+        })
+        .unwrap();
+        for (o, d, want) in [
+            (
+                Vec2::new(0.5, 2.0),
+                Vec2::new(0.0, -4.0),
+                Some((0.5, Vec2::Y)),
+            ),
+            (
+                Vec2::new(0.5, -1.0),
+                Vec2::new(0.0, 4.0),
+                Some((0.25, -Vec2::Y)),
+            ),
+            (Vec2::new(1.5, 2.0), Vec2::new(0.0, -4.0), None),
+        ] {
+            let got = seg.ray_cast_local(o, d);
+            match (got, want) {
+                (Some((t, n)), Some((wt, wn))) => {
+                    assert!((t - wt).abs() < 1e-6 && (n - wn).length() < 1e-6, "{got:?}")
+                }
+                (None, None) => {}
+                _ => panic!("{o} + {d}: {got:?}, want {want:?}"),
+            }
+        }
     }
 }

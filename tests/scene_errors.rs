@@ -754,6 +754,7 @@ fn every_builtin_parses_and_has_a_description() {
         "ragdoll",
         "rope",
         "sensor_gate",
+        "shapes",
         "stack",
         "vacuum_vs_fluid",
     ];
@@ -1648,4 +1649,89 @@ fn a_hinged_grid_joins_each_cell_to_its_left_and_lower_neighbours() {
         .collect();
     // row 1, column 0 is body 1 * 2 + 0
     assert_eq!(statics, ["grid0_2"]);
+}
+
+#[test]
+fn capsule_no_longer_than_twice_its_radius() {
+    check(
+        &body("shape = { capsule = { length = 1.0, radius = 0.5 } }"),
+        3,
+        32,
+        &["capsule length", "more than twice its radius", "got 1"],
+    );
+}
+
+#[test]
+fn capsule_with_a_zero_radius() {
+    check(
+        &body("shape = { capsule = { length = 1.0, radius = 0.0 } }"),
+        3,
+        46,
+        &["capsule radius must be > 0"],
+    );
+}
+
+#[test]
+fn radius_on_a_circle() {
+    check(
+        &body("shape = { circle = 1.0, radius = 0.1 }"),
+        3,
+        34,
+        &["`radius` rounds a box or a polygon", "circle"],
+    );
+}
+
+#[test]
+fn box_radius_of_half_its_side() {
+    check(
+        &body("shape = { box = [1.0, 0.4], radius = 0.2 }"),
+        3,
+        38,
+        &["less than half its smaller side", "got 0.2"],
+    );
+}
+
+#[test]
+fn segment_on_a_dynamic_body() {
+    check(
+        &body("shape = { segment = [[0, 0], [1, 0]] }"),
+        3,
+        9,
+        &["a segment has no area", "static or kinematic"],
+    );
+}
+
+#[test]
+fn segment_with_three_points() {
+    check(
+        &body("type = \"static\"\nshape = { segment = [[0, 0], [1, 0], [2, 0]] }"),
+        4,
+        21,
+        &["segment needs exactly 2 points", "got 3"],
+    );
+}
+
+#[test]
+fn rounded_shapes_load() {
+    let text = "name = \"t\"\n[[body]]\nshape = { capsule = { length = 1.0, radius = 0.2 } }\n\
+                [[body]]\nname = \"b\"\nshape = { box = [1, 1], radius = 0.1 }\n\
+                [[body]]\nname = \"p\"\nshape = { polygon = [[0, 0], [1, 0], [0, 1]], radius = 0.1 }\n\
+                [[body]]\nname = \"s\"\ntype = \"static\"\nshape = { segment = [[0, 0], [1, 0]] }\n";
+    let scene = load_str(text, "ok.toml").unwrap();
+    let kinds: Vec<String> = scene
+        .world
+        .bodies
+        .iter()
+        .map(|b| {
+            format!("{:?}", b.shape)
+                .split(' ')
+                .next()
+                .unwrap()
+                .to_owned()
+        })
+        .collect();
+    assert_eq!(
+        kinds,
+        ["Capsule", "RoundedBox", "RoundedPolygon", "Segment"]
+    );
 }

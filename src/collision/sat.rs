@@ -1,5 +1,7 @@
 //! The narrow phase by the separating axis theorem: polygon-polygon (reference and
 //! incident faces, clipping, up to 2 points), circle-polygon and circle-circle.
+//! Rounded polygons and capsules (a polygon with a radius) collide through their
+//! cores, with the closest features deciding the normal where the cores are apart.
 //!
 //! Points are kept while their separation is below `margin` (speculative contacts), so a
 //! resting contact survives tiny bounces and its cached lambdas keep warm-starting.
@@ -15,7 +17,12 @@ const FACE_SWITCH_TOLERANCE: f32 = 0.0005;
 /// The manifold between two shapes placed by their transforms, normal from A to B.
 pub fn collide(sa: &Shape, xa: &Transform, sb: &Shape, xb: &Transform, margin: f32) -> Manifold {
     match (sa, sb) {
-        (Shape::Polygon(pa), Shape::Polygon(pb)) => collide_polygons(pa, xa, pb, xb, margin),
+        (Shape::Polygon(pa), Shape::Polygon(pb))
+            if pa.radius == 0.0 && pb.radius == 0.0 && pa.count >= 3 && pb.count >= 3 =>
+        {
+            collide_polygons(pa, xa, pb, xb, margin)
+        }
+        (Shape::Polygon(pa), Shape::Polygon(pb)) => collide_rounded(pa, xa, pb, xb, margin),
         (Shape::Polygon(pa), Shape::Circle { radius }) => {
             collide_polygon_circle(pa, xa, xb.p, *radius, margin)
         }
@@ -104,7 +111,8 @@ pub fn collide_polygon_circle(
             best = i;
         }
     }
-    if best_sep > radius + margin {
+    let rp = pa.radius;
+    if best_sep > radius + rp + margin {
         return m;
     }
     let v1 = pa.vertices[best];
@@ -120,12 +128,21 @@ pub fn collide_polygon_circle(
     } else {
         (pa.normals[best], best_sep, best as u32)
     };
-    let sep = dist - radius;
+    let sep = if rp == 0.0 {
+        dist - radius
+    } else {
+        dist - radius - rp
+    };
     if sep > margin {
         return m;
     }
-    // midpoint between the polygon surface (c - n dist) and the circle surface (c - n r)
-    let local = c - normal * (0.5 * (dist + radius));
+    // midpoint between the polygon surface (c - n (dist - rp)) and the circle surface
+    // (c - n r)
+    let local = if rp == 0.0 {
+        c - normal * (0.5 * (dist + radius))
+    } else {
+        c - normal * (0.5 * (dist - rp + radius))
+    };
     let nw = xa.q.rotate(normal);
     let pw = xa.apply(local);
     m.normal = nw;
@@ -265,6 +282,208 @@ fn collide_polygons_n<const CAP: usize>(
     m
 }
 
+/// Cores closer than this (m) are treated as touching: the closest-feature direction is
+/// not used (it could not be normalised safely).
+const CORE_TOUCH: f32 = 1e-5;
+
+/// The closest-feature normal replaces the reference face's when they differ by more
+/// than about 2.6 degrees (cosine below this).
+const FACE_COS: f32 = 0.999;
+
+/// The closest points of the segments `p1`-`q1` and `p2`-`q2`: (s, t, point on the
+/// first, point on the second), s and t in [0, 1].
+fn closest_segments(p1: Vec2, q1: Vec2, p2: Vec2, q2: Vec2) -> (f32, f32, Vec2, Vec2) {
+    let (d1, d2, r) = (q1 - p1, q2 - p2, p1 - p2);
+    let (a, e, f) = (d1.dot(d1), d2.dot(d2), d2.dot(r));
+    let (s, t);
+    if a <= 1e-12 && e <= 1e-12 {
+        (s, t) = (0.0, 0.0);
+    } else if a <= 1e-12 {
+        (s, t) = (0.0, (f / e).clamp(0.0, 1.0));
+    } else {
+        let c = d1.dot(r);
+        if e <= 1e-12 {
+            (s, t) = ((-c / a).clamp(0.0, 1.0), 0.0);
+        } else {
+            let b = d1.dot(d2);
+            let den = a * e - b * b;
+            // parallel segments: any s will do; take the middle of the overlap below
+            let s0 = if den > 1e-12 * a * e {
+                ((b * f - c * e) / den).clamp(0.0, 1.0)
+            } else {
+                0.5
+            };
+            let t0 = (b * s0 + f) / e;
+            if t0 < 0.0 {
+                (s, t) = ((-c / a).clamp(0.0, 1.0), 0.0);
+            } else if t0 > 1.0 {
+                (s, t) = (((b - c) / a).clamp(0.0, 1.0), 1.0);
+            } else {
+                (s, t) = (s0, t0);
+            }
+        }
+    }
+    (s, t, p1 + s * d1, p2 + t * d2)
+}
+
+/// Two polygons where either is rounded or is a segment (capsules, rounded boxes,
+/// terrain segments). Works in A's frame on the cores: the reference and incident
+/// faces are chosen as for sharp polygons, then, when the cores are apart, the closest
+/// points of those two edges decide: along the reference normal the incident edge is
+/// clipped as usual (up to 2 points, each `radius` sum less separated); in any other
+/// direction (a corner or a capsule's end meeting the other shape's rounded corner) one
+/// point along the line between the closest points.
+pub fn collide_rounded(
+    pa: &Polygon,
+    xa: &Transform,
+    pb: &Polygon,
+    xb: &Transform,
+    margin: f32,
+) -> Manifold {
+    let mut m = Manifold::default();
+    let radius = pa.radius + pb.radius;
+    let rel = xa.inv_mul(xb);
+    let mut vb = [Vec2::ZERO; MAX_POLYGON_VERTICES];
+    let mut nb = [Vec2::ZERO; MAX_POLYGON_VERTICES];
+    for i in 0..pb.count {
+        vb[i] = rel.apply(pb.vertices[i]);
+        nb[i] = rel.q.rotate(pb.normals[i]);
+    }
+    let va = pa.verts();
+    let na = &pa.normals[..pa.count];
+    let vb = &vb[..pb.count];
+    let nb = &nb[..pb.count];
+
+    let (edge_a, sep_a) = max_separation(va, na, vb);
+    if sep_a > radius + margin {
+        return m;
+    }
+    let (edge_b, sep_b) = max_separation(vb, nb, va);
+    if sep_b > radius + margin {
+        return m;
+    }
+    let flipped = sep_b > sep_a + FACE_SWITCH_TOLERANCE;
+    let (rv, rn, iv, inn, ref_edge, r_ref, r_inc) = if flipped {
+        (vb, nb, va, na, edge_b, pb.radius, pa.radius)
+    } else {
+        (va, na, vb, nb, edge_a, pa.radius, pb.radius)
+    };
+    let n = rn[ref_edge];
+    let mut inc = 0;
+    let mut min_dot = f32::MAX;
+    for (i, &ni) in inn.iter().enumerate() {
+        let d = n.dot(ni);
+        if d < min_dot {
+            min_dot = d;
+            inc = i;
+        }
+    }
+    let inc2 = (inc + 1) % iv.len();
+    let ref2 = (ref_edge + 1) % rv.len();
+    let (r1, r2) = (rv[ref_edge], rv[ref2]);
+    let flip_bit: u32 = if flipped { 1 << 31 } else { 0 };
+    // A's frame -> world, with the normal turned to point from A to B
+    let sign = if flipped { -1.0 } else { 1.0 };
+
+    // the closest features when the cores are apart
+    let mut single = None;
+    if radius > 0.0 && sep_a.max(sep_b) > -CORE_TOUCH {
+        let (s, t, p, q) = closest_segments(r1, r2, iv[inc], iv[inc2]);
+        let d = q - p;
+        let dist = d.length();
+        if dist > radius + margin {
+            return m;
+        }
+        if dist > CORE_TOUCH {
+            let dir = d / dist;
+            let vertex = |u: f32, lo: usize, hi: usize| if u < 0.5 { lo } else { hi };
+            let id = flip_bit
+                | (1 << 30)
+                | ((vertex(s, ref_edge, ref2) as u32) << 8)
+                | vertex(t, inc, inc2) as u32;
+            single = Some((p, q, dir, dist, id));
+            if dir.dot(n) < FACE_COS {
+                let (p, q, dir, dist, id) = single.take().unwrap();
+                push_single(
+                    &mut m,
+                    xa,
+                    xb,
+                    p,
+                    q,
+                    dir * sign,
+                    dist - radius,
+                    r_ref,
+                    r_inc,
+                    id,
+                );
+                return m;
+            }
+        }
+    }
+
+    let t = (r2 - r1).normalize();
+    let vertex_id = |v: usize| flip_bit | ((ref_edge as u32) << 8) | v as u32;
+    let mut seg = [(iv[inc], vertex_id(inc)), (iv[inc2], vertex_id(inc2))];
+    let clipped = clip(&mut seg, -t, -t.dot(r1)) && clip(&mut seg, t, t.dot(r2));
+    if !clipped {
+        // the incident edge lies past the reference edge's ends: a capsule end to end
+        // with another, or a corner past a face
+        if let Some((p, q, dir, dist, id)) = single {
+            push_single(
+                &mut m,
+                xa,
+                xb,
+                p,
+                q,
+                dir * sign,
+                dist - radius,
+                r_ref,
+                r_inc,
+                id,
+            );
+        }
+        return m;
+    }
+    m.normal = xa.q.rotate(n * sign);
+    for &(p, id) in &seg {
+        let core_sep = n.dot(p - r1);
+        let sep = core_sep - radius;
+        if sep > margin {
+            continue;
+        }
+        // midway between the incident surface (p - n r_inc) and the reference surface
+        // (p - n core_sep + n r_ref)
+        let mid = p - n * (0.5 * (core_sep - r_ref + r_inc));
+        let pw = xa.apply(mid);
+        m.points[m.count] = point(pw, xa, xb, sep, id);
+        m.count += 1;
+    }
+    m
+}
+
+/// One contact point between the closest core points `p` (reference) and `q`
+/// (incident), in A's frame, `dir` from the reference to the incident core, `normal`
+/// from A to B.
+#[allow(clippy::too_many_arguments)]
+fn push_single(
+    m: &mut Manifold,
+    xa: &Transform,
+    xb: &Transform,
+    p: Vec2,
+    q: Vec2,
+    normal: Vec2,
+    sep: f32,
+    r_ref: f32,
+    r_inc: f32,
+    id: FeatureId,
+) {
+    let dir = (q - p).normalize_or_zero();
+    let mid = 0.5 * ((p + dir * r_ref) + (q - dir * r_inc));
+    m.normal = xa.q.rotate(normal);
+    m.points[0] = point(xa.apply(mid), xa, xb, sep, id);
+    m.count = 1;
+}
+
 /// Clips a segment to the half-plane normal.p <= offset; a clipped end keeps its id.
 /// Returns false when nothing is left.
 #[inline]
@@ -285,4 +504,155 @@ fn clip(seg: &mut [(Vec2, FeatureId); 2], normal: Vec2, offset: f32) -> bool {
         seg[1].0 = p;
     }
     true
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::defs::ShapeDef;
+    use crate::math::Rot;
+
+    fn shape(def: ShapeDef) -> Shape {
+        Shape::from_def(&def).unwrap().0
+    }
+
+    fn at(x: f32, y: f32, angle: f32) -> Transform {
+        Transform {
+            p: Vec2::new(x, y),
+            q: Rot::from_angle(angle),
+        }
+    }
+
+    fn capsule(length: f32, radius: f32) -> Shape {
+        shape(ShapeDef::Capsule { length, radius })
+    }
+
+    #[test]
+    fn a_capsule_lying_on_a_box_touches_at_two_points_a_gap_apart() {
+        let ground = shape(ShapeDef::Box {
+            width: 10.0,
+            height: 1.0,
+        });
+        let cap = capsule(2.0, 0.25);
+        let gap = 0.01;
+        // box top at y = 0.5; capsule centre 0.25 + gap above it
+        let m = collide(
+            &ground,
+            &at(0.0, 0.0, 0.0),
+            &cap,
+            &at(0.3, 0.75 + gap, 0.0),
+            0.05,
+        );
+        assert_eq!(m.count, 2);
+        assert!((m.normal - Vec2::Y).length() < 1e-6);
+        let mut xs = vec![];
+        for p in m.points() {
+            assert!((p.separation - gap).abs() < 1e-5, "{}", p.separation);
+            assert!((p.point.y - (0.5 + 0.5 * gap)).abs() < 1e-5);
+            xs.push(p.point.x);
+        }
+        xs.sort_by(f32::total_cmp);
+        // under the ends of the straight part: 0.3 -+ 0.75
+        assert!(
+            (xs[0] + 0.45).abs() < 1e-5 && (xs[1] - 1.05).abs() < 1e-5,
+            "{xs:?}"
+        );
+        // the same the other way round: normal from the capsule to the box
+        let m = collide(
+            &cap,
+            &at(0.3, 0.75 + gap, 0.0),
+            &ground,
+            &at(0.0, 0.0, 0.0),
+            0.05,
+        );
+        assert_eq!(m.count, 2);
+        assert!((m.normal + Vec2::Y).length() < 1e-6);
+        // out of reach: nothing
+        let far = collide(&ground, &at(0.0, 0.0, 0.0), &cap, &at(0.3, 0.9, 0.0), 0.05);
+        assert_eq!(far.count, 0);
+    }
+
+    #[test]
+    fn capsules_end_to_end_and_a_capsule_end_on_a_circle_touch_along_the_centre_line() {
+        let cap = capsule(2.0, 0.25);
+        // in line along x: caps' tips at x = 1 and x = 1 + gap
+        for gap in [0.02f32, -0.01] {
+            let m = collide(
+                &cap,
+                &at(0.0, 0.0, 0.0),
+                &cap,
+                &at(2.0 + gap, 0.0, 0.0),
+                0.05,
+            );
+            assert_eq!(m.count, 1, "gap {gap}");
+            assert!((m.normal - Vec2::X).length() < 1e-5, "{}", m.normal);
+            assert!((m.points[0].separation - gap).abs() < 1e-5);
+            assert!((m.points[0].point - Vec2::new(1.0 + 0.5 * gap, 0.0)).length() < 1e-5);
+        }
+        // a capsule tilted by 90 degrees, its lower cap 0.03 above a circle
+        let ball = Shape::Circle { radius: 0.5 };
+        let m = collide(
+            &cap,
+            &at(0.0, 1.53, std::f32::consts::FRAC_PI_2),
+            &ball,
+            &at(0.0, 0.0, 0.0),
+            0.05,
+        );
+        assert_eq!(m.count, 1);
+        assert!((m.normal + Vec2::Y).length() < 1e-5);
+        assert!((m.points[0].separation - 0.03).abs() < 1e-5);
+    }
+
+    #[test]
+    fn rounded_corners_meet_along_the_line_between_their_centres() {
+        let rb = shape(ShapeDef::RoundedBox {
+            width: 1.0,
+            height: 1.0,
+            radius: 0.2,
+        });
+        // corner centres at (0.3, 0.3) and (1.3, 0.3 + d) - ... : place B diagonal so its
+        // (-0.3, -0.3) corner centre is at (0.3 + a, 0.3 + a) from A's
+        let a = 0.3f32;
+        let m = collide(
+            &rb,
+            &at(0.0, 0.0, 0.0),
+            &rb,
+            &at(0.6 + a, 0.6 + a, 0.0),
+            0.1,
+        );
+        assert_eq!(m.count, 1);
+        let dir = Vec2::new(1.0, 1.0).normalize();
+        assert!((m.normal - dir).length() < 1e-5, "{}", m.normal);
+        let want = a * 2f32.sqrt() - 0.4;
+        assert!((m.points[0].separation - want).abs() < 1e-5);
+        // face to face a sharp box's way: two points, separation = the gap
+        let m = collide(&rb, &at(0.0, 0.0, 0.0), &rb, &at(0.2, 1.01, 0.0), 0.1);
+        assert_eq!(m.count, 2);
+        for p in m.points() {
+            assert!((p.separation - 0.01).abs() < 1e-5);
+        }
+    }
+
+    #[test]
+    fn a_box_on_a_segment_touches_at_its_two_bottom_corners() {
+        let seg = shape(ShapeDef::Segment {
+            a: Vec2::new(-3.0, 0.0),
+            b: Vec2::new(3.0, 0.0),
+        });
+        let b = shape(ShapeDef::Box {
+            width: 1.0,
+            height: 1.0,
+        });
+        for (y, n) in [(0.49f32, Vec2::Y), (-0.49, -Vec2::Y)] {
+            let m = collide(&seg, &at(0.0, 0.0, 0.0), &b, &at(1.0, y, 0.0), 0.05);
+            assert_eq!(m.count, 2, "box at y = {y}");
+            assert!((m.normal - n).length() < 1e-6);
+            for p in m.points() {
+                assert!((p.separation + 0.01).abs() < 1e-5);
+            }
+        }
+        // past the segment's end: nothing
+        let m = collide(&seg, &at(0.0, 0.0, 0.0), &b, &at(3.6, 0.49, 0.0), 0.05);
+        assert_eq!(m.count, 0);
+    }
 }

@@ -326,6 +326,23 @@ pub fn push_body_colored(list: &mut DrawList, body: &Body, fill: Color, dim: boo
             let angle = (body.model != BodyModel::Particle).then_some(body.angle);
             list.push_circle(body.position, *radius, angle, fill, outline);
         }
+        Shape::Polygon(poly) if poly.radius > 0.0 => {
+            let start = list.polygon_points.len();
+            rounded_outline(poly, &mut list.polygon_points);
+            for p in &mut list.polygon_points[start..] {
+                *p = xf.apply(*p);
+            }
+            let end = list.polygon_points.len();
+            list.polygons.push(crate::draw::Polygon {
+                points: start..end,
+                fill,
+                outline,
+            });
+        }
+        Shape::Polygon(poly) if poly.count < 3 => {
+            let (a, b) = (xf.apply(poly.vertices[0]), xf.apply(poly.vertices[1]));
+            list.push_line(a, b, 2.0 * list.outline_width_px, fill);
+        }
         Shape::Polygon(poly) => match rect_of(poly.verts()) {
             Some((center, half_size, axis)) => list.boxes.push(Rect {
                 center: xf.apply(center),
@@ -338,6 +355,28 @@ pub fn push_body_colored(list: &mut DrawList, body: &Body, fill: Color, dim: boo
                 list.push_polygon(poly.verts().iter().map(|&v| xf.apply(v)), fill, outline);
             }
         },
+    }
+}
+
+/// Appends the outline of a rounded polygon (or capsule), counter-clockwise, in its
+/// own frame: each corner's arc in steps of at most 15 degrees.
+pub fn rounded_outline(poly: &crate::shape::Polygon, out: &mut Vec<Vec2>) {
+    let n = poly.count;
+    let r = poly.radius;
+    for i in 0..n {
+        // the arc at vertex i runs from the previous edge's normal to this edge's
+        let from = poly.normals[(i + n - 1) % n];
+        let to = poly.normals[i];
+        let mut angle = crate::math::cross(from, to).atan2(from.dot(to));
+        if angle < 0.0 {
+            angle += std::f32::consts::TAU;
+        }
+        let steps = ((angle / 15f32.to_radians()).ceil() as usize).max(1);
+        for k in 0..=steps {
+            let (s, c) = (angle * k as f32 / steps as f32).sin_cos();
+            let dir = Vec2::new(c * from.x - s * from.y, s * from.x + c * from.y);
+            out.push(poly.vertices[i] + r * dir);
+        }
     }
 }
 

@@ -56,6 +56,7 @@ const SCENES: &[(&str, &str)] = &[
         "sensor_gate",
         include_str!("../../assets/scenes/sensor_gate.toml"),
     ),
+    ("shapes", include_str!("../../assets/scenes/shapes.toml")),
     ("stack", include_str!("../../assets/scenes/stack.toml")),
     (
         "vacuum_vs_fluid",
@@ -84,6 +85,7 @@ const NAMES: &[&str] = &[
     "ragdoll",
     "rope",
     "sensor_gate",
+    "shapes",
     "stack",
     "vacuum_vs_fluid",
 ];

@@ -113,6 +113,18 @@ pub(crate) struct FileShape {
     pub box_: Option<S<V2>>,
     pub circle: Option<S<f32>>,
     pub polygon: Option<S<Vec<S<V2>>>>,
+    pub capsule: Option<S<FileCapsule>>,
+    pub segment: Option<S<Vec<S<V2>>>>,
+    /// Rounds a box's or a polygon's corners.
+    pub radius: Option<S<f32>>,
+}
+
+/// `capsule = { length = L, radius = r }`.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(crate) struct FileCapsule {
+    pub length: S<f32>,
+    pub radius: S<f32>,
 }
 
 /// `[[body]]`.

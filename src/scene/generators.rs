@@ -265,7 +265,13 @@ pub(crate) fn grid(
     let body_type = ctx.body_type(who, g.type_.as_ref())?;
     let model = ctx.body_model(who, g.model.as_ref())?;
     let shape = ctx.shape(who, &g.shape)?;
-    ctx.particle_shape(who, model, &shape, g.shape.span())?;
+    ctx.shape_fits(
+        who,
+        model,
+        body_type == BodyType::Dynamic,
+        &shape,
+        g.shape.span(),
+    )?;
     let m = ctx.material(
         who,
         body_type == BodyType::Dynamic,
@@ -422,6 +428,7 @@ pub(crate) fn chain(
             let ew = ew.as_str();
             let f = e.get_ref();
             let shape = ctx.shape(ew, &f.shape)?;
+            ctx.shape_fits(ew, BodyModel::Rigid, true, &shape, f.shape.span())?;
             let em = ctx.material(
                 ew,
                 true,
@@ -504,6 +511,16 @@ pub(crate) fn chain(
                 .iter()
                 .map(|p| -p.x)
                 .fold(f32::NEG_INFINITY, f32::max),
+            ShapeDef::Capsule { length, .. } => length / 2.0,
+            ShapeDef::RoundedBox { width, .. } => width / 2.0,
+            ShapeDef::RoundedPolygon { points, radius } => {
+                points
+                    .iter()
+                    .map(|p| -p.x)
+                    .fold(f32::NEG_INFINITY, f32::max)
+                    + radius
+            }
+            ShapeDef::Segment { a, b } => (-a.x).max(-b.x),
         };
         let tip = at(links as f32 * len);
         let center = tip + d * back;

@@ -237,31 +237,69 @@ impl Ctx<'_> {
     /// A shape table with exactly one of `box`, `circle`, `polygon`, checked.
     /// Sizes must be > 0 whatever the body's type: a shape with no extent cannot collide.
     pub fn shape(&self, who: &str, s: &S<FileShape>) -> R<ShapeDef> {
+        const KINDS: &str = "`box`, `circle`, `polygon`, `capsule`, `segment`";
         let f = s.get_ref();
         let given: Vec<&str> = [
             f.box_.as_ref().map(|_| "box"),
             f.circle.as_ref().map(|_| "circle"),
             f.polygon.as_ref().map(|_| "polygon"),
+            f.capsule.as_ref().map(|_| "capsule"),
+            f.segment.as_ref().map(|_| "segment"),
         ]
         .into_iter()
         .flatten()
         .collect();
         if given.len() != 1 {
             let what = if given.is_empty() {
-                "shape has none of `box`, `circle`, `polygon`; give exactly one".to_owned()
+                format!("shape has none of {KINDS}; give exactly one")
             } else {
                 format!(
-                    "shape has {}; give exactly one of `box`, `circle`, `polygon`",
+                    "shape has {}; give exactly one of {KINDS}",
                     given.join(" and ")
                 )
             };
             return Err(self.err(s.span(), format!("{who}: {what}")));
         }
+        let radius = match &f.radius {
+            None => None,
+            Some(r) => {
+                if f.box_.is_none() && f.polygon.is_none() {
+                    return Err(self.err(
+                        r.span(),
+                        format!(
+                            "{who}: `radius` rounds a box or a polygon; a {} takes none",
+                            given[0]
+                        ),
+                    ));
+                }
+                let v = self.finite(who, "radius", r)?;
+                if v < 0.0 {
+                    return Err(self.err(r.span(), format!("{who}: radius must be >= 0, got {v}")));
+                }
+                Some((v, r.span()))
+            }
+        };
         if let Some(b) = &f.box_ {
             let size = self.size(who, "box", b)?;
-            return Ok(ShapeDef::Box {
+            let Some((r, span)) = radius else {
+                return Ok(ShapeDef::Box {
+                    width: size.x,
+                    height: size.y,
+                });
+            };
+            let half = 0.5 * size.x.min(size.y);
+            if r >= half {
+                return Err(self.err(
+                    span,
+                    format!(
+                        "{who}: a box's radius must be less than half its smaller side ({half}), got {r}"
+                    ),
+                ));
+            }
+            return Ok(ShapeDef::RoundedBox {
                 width: size.x,
                 height: size.y,
+                radius: r,
             });
         }
         if let Some(c) = &f.circle {
@@ -274,8 +312,61 @@ impl Ctx<'_> {
             }
             return Ok(ShapeDef::Circle { radius: r });
         }
+        if let Some(c) = &f.capsule {
+            let c = c.get_ref();
+            let r = self.finite(who, "capsule radius", &c.radius)?;
+            if r <= 0.0 {
+                return Err(self.err(
+                    c.radius.span(),
+                    format!("{who}: capsule radius must be > 0, got {r}"),
+                ));
+            }
+            let l = self.finite(who, "capsule length", &c.length)?;
+            if !(l > 2.0 * r) {
+                return Err(self.err(
+                    c.length.span(),
+                    format!(
+                        "{who}: capsule length (end to end) must be more than twice its radius ({}), got {l}",
+                        2.0 * r
+                    ),
+                ));
+            }
+            return Ok(ShapeDef::Capsule {
+                length: l,
+                radius: r,
+            });
+        }
+        if let Some(g) = &f.segment {
+            let ends = g.get_ref();
+            if ends.len() != 2 {
+                return Err(self.err(
+                    g.span(),
+                    format!(
+                        "{who}: segment needs exactly 2 points [[x1, y1], [x2, y2]], got {}",
+                        ends.len()
+                    ),
+                ));
+            }
+            let a = self.vec2(who, "segment end", &ends[0])?;
+            let b = self.vec2(who, "segment end", &ends[1])?;
+            if a.distance(b) < 1e-4 {
+                return Err(self.err(
+                    g.span(),
+                    format!("{who}: segment's ends must be at least 1e-4 m apart, got {a} and {b}"),
+                ));
+            }
+            return Ok(ShapeDef::Segment { a, b });
+        }
         match &f.polygon {
-            Some(p) => self.polygon(who, p),
+            Some(p) => {
+                let def = self.polygon(who, p)?;
+                match (def, radius) {
+                    (ShapeDef::Polygon { points }, Some((r, _))) if r > 0.0 => {
+                        Ok(ShapeDef::RoundedPolygon { points, radius: r })
+                    }
+                    (def, _) => Ok(def),
+                }
+            }
             None => Err(self.err(s.span(), format!("{who}: shape is empty"))),
         }
     }
@@ -417,18 +508,32 @@ impl Ctx<'_> {
         })
     }
 
-    /// A particle has translation only: it needs a circle.
-    pub fn particle_shape(
+    /// A particle has translation only: it needs a circle; a segment has no area, so
+    /// no dynamic body can have one.
+    pub fn shape_fits(
         &self,
         who: &str,
         model: BodyModel,
+        dynamic: bool,
         shape: &ShapeDef,
         span: Range<usize>,
     ) -> R<()> {
+        if dynamic && matches!(shape, ShapeDef::Segment { .. }) {
+            return Err(self.err(
+                span,
+                format!(
+                    "{who}: a segment has no area, so only a static or kinematic body can have one (a dynamic body could use a capsule)"
+                ),
+            ));
+        }
         let kind = match shape {
             ShapeDef::Circle { .. } => return Ok(()),
             ShapeDef::Box { .. } => "a box",
             ShapeDef::Polygon { .. } => "a polygon",
+            ShapeDef::Capsule { .. } => "a capsule",
+            ShapeDef::RoundedBox { .. } => "a box",
+            ShapeDef::RoundedPolygon { .. } => "a polygon",
+            ShapeDef::Segment { .. } => "a segment",
         };
         if model == BodyModel::Particle {
             Err(self.err(
@@ -503,7 +608,13 @@ impl Ctx<'_> {
         let body_type = self.body_type(who, b.type_.as_ref())?;
         let model = self.body_model(who, b.model.as_ref())?;
         let shape = self.shape(who, &b.shape)?;
-        self.particle_shape(who, model, &shape, b.shape.span())?;
+        self.shape_fits(
+            who,
+            model,
+            body_type == BodyType::Dynamic,
+            &shape,
+            b.shape.span(),
+        )?;
         let m = self.material(
             who,
             body_type == BodyType::Dynamic,

@@ -162,7 +162,7 @@ impl WorldState {
         let n = self.bodies.len();
         for (i, b) in self.bodies.iter().enumerate() {
             if let Shape::Polygon(p) = &b.shape
-                && !(3..=MAX_POLYGON_VERTICES).contains(&p.count)
+                && !(2..=MAX_POLYGON_VERTICES).contains(&p.count)
             {
                 return bad(format!(
                     "body {:?} (#{i}) is a polygon of {} vertices",
