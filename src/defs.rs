@@ -51,6 +51,18 @@ pub enum ShapeDef {
     /// A segment between two local points (m), of no thickness: it has no area, so only
     /// a static or kinematic body can have one (terrain, walls).
     Segment { a: Vec2, b: Vec2 },
+    /// One segment `a`-`b` of a polyline (terrain), with the far ends of its neighbours
+    /// (`prev` before `a`, `next` after `b`; `None` at an open end): shapes slide
+    /// across its joints without catching on them. `one_sided`: only shapes on the left
+    /// of `a` -> `b` collide with it (above, for a polyline drawn left to right). Static
+    /// or kinematic bodies only; the scene file's `[[polyline]]` makes a row of them.
+    ChainSegment {
+        a: Vec2,
+        b: Vec2,
+        prev: Option<Vec2>,
+        next: Option<Vec2>,
+        one_sided: bool,
+    },
 }
 
 /// An RGBA colour, 8 bits a channel, sRGB.

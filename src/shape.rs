@@ -347,6 +347,30 @@ fn convex_hull(points: &[Vec2]) -> Vec<Vec2> {
     hull
 }
 
+/// One segment of a polyline, in its body's frame: the segment `a`-`b` and its
+/// neighbours' far ends (ghost vertices), which decide which contact normals are real.
+/// At a flat or concave joint only this segment's face normal is, so a box sliding
+/// across the joint is not caught by the next segment's end; at a convex joint normals
+/// between the two faces' are, and the joint's contact belongs to the segment before it.
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct ChainSegment {
+    pub a: Vec2,
+    pub b: Vec2,
+    /// The previous segment's start (`None`: `a` is an open end).
+    pub prev: Option<Vec2>,
+    /// The next segment's end (`None`: `b` is an open end).
+    pub next: Option<Vec2>,
+    /// Only the side left of `a` -> `b` collides.
+    pub one_sided: bool,
+}
+
+impl ChainSegment {
+    /// The unit normal on the left of `a` -> `b` (the solid side is on the right).
+    pub fn left_normal(&self) -> Vec2 {
+        (self.b - self.a).perp().normalize()
+    }
+}
+
 /// A collision shape in the body frame, centred so the body origin is the centre of mass.
 // Kept inline (Copy, no box): a polygon is the common case and the solvers read it hot.
 #[allow(clippy::large_enum_variant)]
@@ -354,6 +378,7 @@ fn convex_hull(points: &[Vec2]) -> Vec<Vec2> {
 pub enum Shape {
     Circle { radius: f32 },
     Polygon(Polygon),
+    Chain(ChainSegment),
 }
 
 /// Mass, centroid and rotational inertia of a shape.
@@ -468,6 +493,33 @@ impl Shape {
                     mid,
                 ))
             }
+            ShapeDef::ChainSegment {
+                a,
+                b,
+                prev,
+                next,
+                one_sided,
+            } => {
+                let apart = |p: &Vec2, q: Vec2| p.is_finite() && p.distance(q) >= WELD_DISTANCE;
+                let ghosts_ok = prev.as_ref().is_none_or(|p| apart(p, *a))
+                    && next.as_ref().is_none_or(|p| apart(p, *b));
+                if !(a.is_finite() && apart(b, *a) && ghosts_ok) {
+                    return Err(ShapeError::Invalid(format!(
+                        "polyline segment needs distinct finite points, got {a} and {b} (neighbours {prev:?}, {next:?})"
+                    )));
+                }
+                let mid = 0.5 * (*a + *b);
+                Ok((
+                    Shape::Chain(ChainSegment {
+                        a: *a - mid,
+                        b: *b - mid,
+                        prev: prev.map(|p| p - mid),
+                        next: next.map(|p| p - mid),
+                        one_sided: *one_sided,
+                    }),
+                    mid,
+                ))
+            }
         }
     }
 
@@ -476,6 +528,7 @@ impl Shape {
         match self {
             Shape::Circle { radius } => std::f32::consts::PI * radius * radius,
             Shape::Polygon(p) => p.rounded_area_centroid_inertia().0,
+            Shape::Chain(_) => 0.0,
         }
     }
 
@@ -499,6 +552,11 @@ impl Shape {
                     inertia: density * j,
                 }
             }
+            Shape::Chain(_) => MassData {
+                mass: 0.0,
+                center: Vec2::ZERO,
+                inertia: 0.0,
+            },
         }
     }
 
@@ -516,6 +574,7 @@ impl Shape {
                 let (q, inside) = poly.closest_core_point(p);
                 inside || q.distance_squared(p) <= poly.radius * poly.radius
             }
+            Shape::Chain(_) => false,
         }
     }
 
@@ -544,6 +603,15 @@ impl Shape {
                 }
                 let n = (origin + d * t).normalize_or_zero();
                 Some((t, n))
+            }
+            Shape::Chain(c) => {
+                // the face the ray comes from (only the left one when one-sided)
+                let n = c.left_normal();
+                let faces: &[(Vec2, Vec2, Vec2)] = &[(c.a, c.b, n), (c.b, c.a, -n)];
+                let faces = if c.one_sided { &faces[..1] } else { faces };
+                faces
+                    .iter()
+                    .find_map(|&(a, b, n)| ray_segment(origin, d, a, b, n).map(|t| (t, n)))
             }
             Shape::Polygon(poly) if poly.radius > 0.0 || poly.count < 3 => {
                 // The shape is the union of the core, a band outside each edge and a
@@ -627,6 +695,13 @@ impl Shape {
                 }
                 b
             }
+            Shape::Chain(c) => {
+                let (a, b) = (xf.apply(c.a), xf.apply(c.b));
+                Aabb {
+                    min: a.min(b),
+                    max: a.max(b),
+                }
+            }
         }
     }
 
@@ -645,6 +720,10 @@ impl Shape {
                 }
                 hi - lo + 2.0 * p.radius
             }
+            Shape::Chain(c) => {
+                let perp = xf.q.inv_rotate(Vec2::new(-dir.y, dir.x));
+                (c.b - c.a).dot(perp).abs()
+            }
         }
     }
 
@@ -653,6 +732,7 @@ impl Shape {
         match self {
             Shape::Circle { radius } => *radius,
             Shape::Polygon(p) => p.verts().iter().fold(0.0f32, |m, v| m.max(v.length())) + p.radius,
+            Shape::Chain(c) => c.a.length().max(c.b.length()),
         }
     }
 }

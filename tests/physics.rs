@@ -220,6 +220,7 @@ fn separation(sa: &Shape, xa: &Transform, sb: &Shape, xb: &Transform) -> f32 {
         match s {
             Shape::Polygon(p) => p.verts().iter().map(|v| x.apply(*v)).collect(),
             Shape::Circle { .. } => Vec::new(),
+            Shape::Chain(c) => vec![x.apply(c.a), x.apply(c.b)],
         }
     };
     let face_separation = |a: &[Vec2], b: &[Vec2]| -> f32 {

@@ -1735,3 +1735,33 @@ fn rounded_shapes_load() {
         ["Capsule", "RoundedBox", "RoundedPolygon", "Segment"]
     );
 }
+
+#[test]
+fn polyline_with_one_point() {
+    check(
+        "name = \"t\"\n[[polyline]]\npoints = [[0, 0]]\n",
+        3,
+        10,
+        &["polyline0", "at least 2 points", "got 1"],
+    );
+}
+
+#[test]
+fn polyline_with_a_repeated_point() {
+    check(
+        "name = \"t\"\n[[polyline]]\npoints = [[0, 0], [1, 0], [1, 0]]\n",
+        3,
+        27,
+        &["point 2", "at least 1e-4 m apart"],
+    );
+}
+
+#[test]
+fn dynamic_polyline() {
+    check(
+        "name = \"t\"\n[[polyline]]\npoints = [[0, 0], [1, 0]]\ntype = \"dynamic\"\n",
+        4,
+        8,
+        &["no area", "static or kinematic"],
+    );
+}

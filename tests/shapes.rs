@@ -216,3 +216,92 @@ fn four_capsules_stacked_on_their_sides_stand_on_a_segment() {
         );
     }
 }
+
+/// A frictionless box sliding at `v0` along a flat floor of `n` segments 0.5 m long
+/// (a `[[polyline]]`, or plain `segment` bodies with no neighbours when `plain`):
+/// the most its speed drops below `v0` over 2 s, as a fraction of `v0`.
+fn slide_over_seams(kind: SolverKind, plain: bool) -> f32 {
+    let n = 60;
+    let v0 = 4.0f32;
+    let mut text = String::from("name = \"floor\"\n[world]\ngravity = [0.0, -9.81]\n");
+    if plain {
+        for i in 0..n {
+            let x = -5.0 + 0.5 * i as f32;
+            text += &format!(
+                "[[body]]\nname = \"s{i}\"\ntype = \"static\"\nfriction = 0.0\n\
+                 shape = {{ segment = [[{x}, 0.0], [{}, 0.0]] }}\n",
+                x + 0.5
+            );
+        }
+    } else {
+        let pts: Vec<String> = (0..=n)
+            .map(|i| format!("[{}, 0.0]", -5.0 + 0.5 * i as f32))
+            .collect();
+        text += &format!(
+            "[[polyline]]\nfriction = 0.0\npoints = [{}]\n",
+            pts.join(", ")
+        );
+    }
+    text += &format!(
+        "[[body]]\nname = \"box\"\nfriction = 0.0\nshape = {{ box = [0.4, 0.4] }}\n\
+         position = [-4.5, 0.2]\nvelocity = [{v0}, 0.0]\n"
+    );
+    let sc = sandbox2d::scene::load_str(&text, "floor.toml").expect("loads");
+    let mut w = World::from_def(&sc.world, settings(kind)).expect("builds");
+    let b = w.body_index("box").unwrap();
+    let mut worst = 0.0f32;
+    for _ in 0..120 {
+        w.step().unwrap();
+        worst = worst.max(v0 - w.bodies[b].velocity.x);
+    }
+    worst / v0
+}
+
+#[test]
+fn a_box_slides_across_a_polyline_of_many_segments_without_snagging() {
+    for kind in [SolverKind::Soft, SolverKind::Pgs, SolverKind::Xpbd] {
+        let loss = slide_over_seams(kind, false);
+        eprintln!("{kind:?}: polyline, speed lost {:.4}%", 100.0 * loss);
+        assert!(
+            loss < 0.01,
+            "{kind:?}: the box lost {:.2}% of its speed crossing the joints",
+            100.0 * loss
+        );
+    }
+    // the same floor as unconnected segments catches the box on their ends: what the
+    // ghost vertices prevent
+    let plain = slide_over_seams(SolverKind::Soft, true);
+    eprintln!("Soft: plain segments, speed lost {:.2}%", 100.0 * plain);
+    assert!(
+        plain > 0.01,
+        "plain segments lost only {:.3}%: the test would not tell a snag",
+        100.0 * plain
+    );
+}
+
+#[test]
+fn a_one_sided_polyline_lets_a_ball_up_through_and_holds_it_on_top() {
+    let text = "name = \"t\"\n[world]\ngravity = [0.0, -9.81]\n\
+                [[polyline]]\none_sided = true\n\
+                points = [[-3.0, 0.0], [0.0, 0.0], [3.0, 0.0]]\n\
+                [[body]]\nname = \"ball\"\nshape = { circle = 0.2 }\n\
+                position = [0.5, -1.0]\nvelocity = [0.0, 8.0]\n";
+    let sc = sandbox2d::scene::load_str(text, "t.toml").unwrap();
+    for kind in [SolverKind::Soft, SolverKind::Pgs, SolverKind::Xpbd] {
+        let mut w = World::from_def(&sc.world, settings(kind)).unwrap();
+        let b = w.body_index("ball").unwrap();
+        // up through the line: v^2 = 64 - 2 g (y + 1) never meets it going up
+        let mut top = f32::MIN;
+        for _ in 0..240 {
+            w.step().unwrap();
+            top = top.max(w.bodies[b].position.y);
+        }
+        let apex = -1.0 + 64.0 / (2.0 * G);
+        assert!(
+            (top - apex).abs() < 0.05,
+            "{kind:?}: rose to {top}, free flight gives {apex}"
+        );
+        let y = w.bodies[b].position.y;
+        assert!((y - 0.2).abs() < 0.01, "{kind:?}: rests at {y}, not on top");
+    }
+}

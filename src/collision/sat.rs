@@ -7,8 +7,9 @@
 //! resting contact survives tiny bounces and its cached lambdas keep warm-starting.
 
 use super::{ContactPoint, FeatureId, Manifold};
+use crate::math::cross;
 use crate::math::{Transform, Vec2};
-use crate::shape::{MAX_POLYGON_VERTICES, Polygon, Shape};
+use crate::shape::{ChainSegment, MAX_POLYGON_VERTICES, Polygon, Shape};
 
 /// A reference face of B is chosen over A's only when it separates better by this much (m),
 /// so the choice does not flicker between nearly equal faces.
@@ -17,6 +18,13 @@ const FACE_SWITCH_TOLERANCE: f32 = 0.0005;
 /// The manifold between two shapes placed by their transforms, normal from A to B.
 pub fn collide(sa: &Shape, xa: &Transform, sb: &Shape, xb: &Transform, margin: f32) -> Manifold {
     match (sa, sb) {
+        (Shape::Chain(_), Shape::Chain(_)) => Manifold::default(),
+        (Shape::Chain(c), other) => collide_chain(c, xa, other, xb, margin),
+        (other, Shape::Chain(c)) => {
+            let mut m = collide_chain(c, xb, other, xa, margin);
+            flip(&mut m, xa, xb);
+            m
+        }
         (Shape::Polygon(pa), Shape::Polygon(pb))
             if pa.radius == 0.0 && pb.radius == 0.0 && pa.count >= 3 && pb.count >= 3 =>
         {
@@ -482,6 +490,132 @@ fn push_single(
     m.normal = xa.q.rotate(normal);
     m.points[0] = point(xa.apply(mid), xa, xb, sep, id);
     m.count = 1;
+}
+
+/// A shape against one segment of a polyline (A), normal from the segment to the
+/// shape. The plain segment's manifold is kept when its normal is the segment's face
+/// normal, or lies between the two faces' normals at a convex joint (the joint's
+/// contact then belongs to the segment before it). Any other normal at a joint is a
+/// ghost: at a flat or concave joint the shape is met along the face normal only (so a
+/// box sliding across the joint is not stopped by the next segment's end), and past the
+/// neighbour's normal the neighbour holds the shape. A one-sided segment ignores a shape
+/// whose centre is behind it.
+pub fn collide_chain(
+    c: &ChainSegment,
+    xa: &Transform,
+    other: &Shape,
+    xb: &Transform,
+    margin: f32,
+) -> Manifold {
+    let seg = Shape::Polygon(Polygon::segment(c.a, c.b, 0.0));
+    let left = c.left_normal();
+    let center = xa.inv_apply(xb.p);
+    let behind = left.dot(center - c.a) < 0.0;
+    if c.one_sided && behind {
+        return Manifold::default();
+    }
+    let m = collide(&seg, xa, other, xb, margin);
+    if m.count == 0 {
+        return m;
+    }
+    let front = if behind { -left } else { left };
+    let n = xa.q.inv_rotate(m.normal);
+    if n.dot(front) >= FACE_COS {
+        return m;
+    }
+    let e = c.b - c.a;
+    let at_a = n.dot(e) < 0.0;
+    let (before, after) = if at_a {
+        let Some(g) = c.prev else { return m };
+        (c.a - g, e)
+    } else {
+        let Some(g) = c.next else { return m };
+        (e, g - c.b)
+    };
+    // the neighbour's face normal on the same side, and the joint's turn seen from it
+    let neighbour = if at_a { before } else { after };
+    let n_nb = neighbour.perp().normalize() * if behind { -1.0 } else { 1.0 };
+    let turn = cross(before, after) * if behind { -1.0 } else { 1.0 };
+    let convex = turn < -1e-6 * before.length() * after.length();
+    if convex {
+        // inside the cone from this face's normal to the neighbour's?
+        let span = cross(front, n_nb);
+        let inside = cross(front, n) * span >= 0.0 && cross(n, n_nb) * span >= 0.0;
+        if inside && !at_a {
+            return m;
+        }
+        return Manifold::default();
+    }
+    face_contact(c.a, c.b, front, xa, other, xb, margin)
+}
+
+/// `other` met along the segment `a`-`b`'s face normal `front` only (A's frame): a
+/// circle whose centre lies over the segment, or a polygon's incident edge clipped to
+/// the segment's ends.
+fn face_contact(
+    a: Vec2,
+    b: Vec2,
+    front: Vec2,
+    xa: &Transform,
+    other: &Shape,
+    xb: &Transform,
+    margin: f32,
+) -> Manifold {
+    let mut m = Manifold::default();
+    match other {
+        Shape::Circle { radius } => {
+            let c = xa.inv_apply(xb.p);
+            let e = b - a;
+            let u = (c - a).dot(e);
+            if !(0.0..=e.dot(e)).contains(&u) {
+                return m;
+            }
+            let d = front.dot(c - a);
+            let sep = d - radius;
+            if sep > margin {
+                return m;
+            }
+            m.normal = xa.q.rotate(front);
+            let p = xa.apply(c - front * (0.5 * (d + radius)));
+            m.points[0] = point(p, xa, xb, sep, 1 << 29);
+            m.count = 1;
+        }
+        Shape::Polygon(poly) => {
+            let rel = xa.inv_mul(xb);
+            let mut inc = 0;
+            let mut min_dot = f32::MAX;
+            for i in 0..poly.count {
+                let d = front.dot(rel.q.rotate(poly.normals[i]));
+                if d < min_dot {
+                    min_dot = d;
+                    inc = i;
+                }
+            }
+            let inc2 = (inc + 1) % poly.count;
+            let t = (b - a).normalize();
+            let id = |v: usize| (1u32 << 29) | v as u32;
+            let mut seg = [
+                (rel.apply(poly.vertices[inc]), id(inc)),
+                (rel.apply(poly.vertices[inc2]), id(inc2)),
+            ];
+            if !(clip(&mut seg, -t, -t.dot(a)) && clip(&mut seg, t, t.dot(b))) {
+                return m;
+            }
+            m.normal = xa.q.rotate(front);
+            for &(p, id) in &seg {
+                let core_sep = front.dot(p - a);
+                let sep = core_sep - poly.radius;
+                if sep > margin {
+                    continue;
+                }
+                let mid = p - front * (0.5 * (core_sep + poly.radius));
+                m.points[m.count] = point(xa.apply(mid), xa, xb, sep, id);
+                m.count += 1;
+            }
+        }
+        Shape::Chain(_) => {}
+    }
+    m
 }
 
 /// Clips a segment to the half-plane normal.p <= offset; a clipped end keeps its id.

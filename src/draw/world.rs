@@ -339,6 +339,10 @@ pub fn push_body_colored(list: &mut DrawList, body: &Body, fill: Color, dim: boo
                 outline,
             });
         }
+        Shape::Chain(c) => {
+            let (a, b) = (xf.apply(c.a), xf.apply(c.b));
+            list.push_line(a, b, 2.0 * list.outline_width_px, fill);
+        }
         Shape::Polygon(poly) if poly.count < 3 => {
             let (a, b) = (xf.apply(poly.vertices[0]), xf.apply(poly.vertices[1]));
             list.push_line(a, b, 2.0 * list.outline_width_px, fill);

@@ -52,6 +52,23 @@ pub(crate) struct FileScene {
     pub grid: Vec<S<FileGrid>>,
     #[serde(default)]
     pub chain: Vec<S<FileChain>>,
+    #[serde(default)]
+    pub polyline: Vec<S<FilePolyline>>,
+}
+
+/// `[[polyline]]`: terrain, one static (or kinematic) segment body per pair of points.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(crate) struct FilePolyline {
+    pub points: S<Vec<S<V2>>>,
+    pub origin: Option<S<P2>>,
+    #[serde(rename = "type")]
+    pub type_: Option<S<String>>,
+    pub one_sided: Option<S<bool>>,
+    pub friction: Option<S<f32>>,
+    pub restitution: Option<S<f32>>,
+    pub color: Option<S<String>>,
+    pub filter: Option<S<FileFilter>>,
 }
 
 /// `[world]`.

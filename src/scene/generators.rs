@@ -238,6 +238,91 @@ pub(crate) fn stack(
     Ok(())
 }
 
+/// `[[polyline]]`: points p0, p1, ... make segment bodies `polyline{k}_{i}` from p_i to
+/// p_i+1 (each placed at its midpoint), each knowing its neighbours' far ends so shapes
+/// slide across the joints.
+pub(crate) fn polyline(
+    ctx: &Ctx,
+    t: &S<FilePolyline>,
+    k: usize,
+    categories: &[String],
+    bodies: &mut Bodies,
+) -> R<()> {
+    let who = format!("polyline{k}");
+    let who = who.as_str();
+    let g = t.get_ref();
+    let given = g.points.get_ref();
+    if given.len() < 2 {
+        return Err(ctx.err(
+            g.points.span(),
+            format!(
+                "{who}: a polyline needs at least 2 points, got {}",
+                given.len()
+            ),
+        ));
+    }
+    check_total(ctx, who, given.len() as u64 - 1, bodies, g.points.span())?;
+    let mut points = Vec::with_capacity(given.len());
+    for (i, q) in given.iter().enumerate() {
+        let p = ctx.vec2(who, "polyline point", q)?;
+        if let Some(&last) = points.last()
+            && p.distance(last) < 1e-4
+        {
+            return Err(ctx.err(
+                q.span(),
+                format!(
+                    "{who}: point {i} is {} m from the one before it; consecutive points must be at least 1e-4 m apart",
+                    p.distance(last)
+                ),
+            ));
+        }
+        points.push(p);
+    }
+    let origin = ctx.opt_point(who, "origin", g.origin.as_ref(), Vec2::ZERO)?;
+    // a polyline is static unless it says otherwise
+    let body_type = match &g.type_ {
+        None => BodyType::Static,
+        Some(v) => match ctx.body_type(who, Some(v))? {
+            BodyType::Dynamic => {
+                return Err(ctx.err(
+                    v.span(),
+                    format!("{who}: a polyline has no area, so it must be static or kinematic"),
+                ));
+            }
+            other => other,
+        },
+    };
+    let one_sided = g.one_sided.as_ref().is_some_and(|v| *v.get_ref());
+    let m = ctx.material(
+        who,
+        false,
+        None,
+        None,
+        g.friction.as_ref(),
+        g.restitution.as_ref(),
+        g.color.as_ref(),
+    )?;
+    let filter = ctx.filter(who, g.filter.as_ref(), categories)?;
+    let places = Places::all(g.points.span());
+    let n = points.len();
+    for i in 0..n - 1 {
+        let shape = ShapeDef::ChainSegment {
+            a: points[i],
+            b: points[i + 1],
+            prev: (i > 0).then(|| points[i - 1]),
+            next: (i + 2 < n).then(|| points[i + 2]),
+            one_sided,
+        };
+        let body = BodyDef {
+            body_type,
+            filter,
+            ..dynamic_body(format!("{who}_{i}"), shape, origin, &m)
+        };
+        bodies.push(ctx, body, t.span(), &places)?;
+    }
+    Ok(())
+}
+
 /// `[[grid]]`: the body of row r, column c at origin + (c spacing.x, r spacing.y),
 /// row by row (r outer), index i = r columns + c.
 pub(crate) fn grid(
@@ -520,7 +605,7 @@ pub(crate) fn chain(
                     .fold(f32::NEG_INFINITY, f32::max)
                     + radius
             }
-            ShapeDef::Segment { a, b } => (-a.x).max(-b.x),
+            ShapeDef::Segment { a, b } | ShapeDef::ChainSegment { a, b, .. } => (-a.x).max(-b.x),
         };
         let tip = at(links as f32 * len);
         let center = tip + d * back;

@@ -143,6 +143,7 @@ enum Maker {
     Stack(usize),
     Grid(usize),
     Chain(usize),
+    Polyline(usize),
 }
 
 /// Turns the parsed file into a [`Scene`], checking every value.
@@ -199,6 +200,12 @@ fn build(ctx: &Ctx, f: FileScene) -> R<Scene> {
             .enumerate()
             .map(|(k, t)| (t.span().start, Maker::Chain(k))),
     );
+    makers.extend(
+        f.polyline
+            .iter()
+            .enumerate()
+            .map(|(k, t)| (t.span().start, Maker::Polyline(k))),
+    );
     makers.sort_by_key(|(start, _)| *start);
 
     // Filter categories by name, in file order: "default" (every body without one) first.
@@ -209,6 +216,7 @@ fn build(ctx: &Ctx, f: FileScene) -> R<Scene> {
         Maker::Stack(k) => f.stack[k].get_ref().filter.as_ref(),
         Maker::Grid(k) => f.grid[k].get_ref().filter.as_ref(),
         Maker::Chain(k) => f.chain[k].get_ref().filter.as_ref(),
+        Maker::Polyline(k) => f.polyline[k].get_ref().filter.as_ref(),
     };
     for (_, maker) in &makers {
         let category = filter_of(maker);
@@ -271,6 +279,9 @@ fn build(ctx: &Ctx, f: FileScene) -> R<Scene> {
                 let mut made = Vec::new();
                 generators::grid(ctx, &f.grid[k], k, &categories, &mut bodies, &mut made)?;
                 joints.extend(made.into_iter().map(|j| (*start, j)));
+            }
+            Maker::Polyline(k) => {
+                generators::polyline(ctx, &f.polyline[k], k, &categories, &mut bodies)?
             }
             Maker::Chain(k) => {
                 let mut made = Vec::new();

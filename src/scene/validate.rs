@@ -518,7 +518,12 @@ impl Ctx<'_> {
         shape: &ShapeDef,
         span: Range<usize>,
     ) -> R<()> {
-        if dynamic && matches!(shape, ShapeDef::Segment { .. }) {
+        if dynamic
+            && matches!(
+                shape,
+                ShapeDef::Segment { .. } | ShapeDef::ChainSegment { .. }
+            )
+        {
             return Err(self.err(
                 span,
                 format!(
@@ -533,7 +538,7 @@ impl Ctx<'_> {
             ShapeDef::Capsule { .. } => "a capsule",
             ShapeDef::RoundedBox { .. } => "a box",
             ShapeDef::RoundedPolygon { .. } => "a polygon",
-            ShapeDef::Segment { .. } => "a segment",
+            ShapeDef::Segment { .. } | ShapeDef::ChainSegment { .. } => "a segment",
         };
         if model == BodyModel::Particle {
             Err(self.err(
