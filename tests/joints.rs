@@ -635,3 +635,113 @@ compliance = 1e-3
         );
     }
 }
+
+/// A ball of radius 0.1 m at rest 1 m below a static anchor at the origin, on a rope of
+/// max length 2 m; `solver` is extra `[solver]` lines.
+fn rope_scene(solver: &str) -> String {
+    format!(
+        r#"name = "rope"
+[world]
+gravity = [0.0, -9.81]
+[solver]
+{solver}
+[[body]]
+name = "anchor"
+type = "static"
+shape = {{ circle = 0.05 }}
+[[body]]
+name = "ball"
+shape = {{ circle = 0.1 }}
+position = [0.0, -1.0]
+density = 100.0
+[[joint]]
+type = "rope"
+bodies = ["anchor", "ball"]
+anchors = [[0.0, 0.0], [0.0, -1.0]]
+length = 2.0
+"#
+    )
+}
+
+#[test]
+fn a_rope_in_a_scene_is_joint_def_rope() {
+    let sc = load_str(&rope_scene(""), "rope.toml").expect("parses");
+    let (a, b) = (Vec2::ZERO, Vec2::new(0.0, -1.0));
+    let want = sandbox2d::JointDef::rope(0, 1, a, b, 2.0);
+    assert_eq!(sc.world.joints, vec![want.clone()]);
+    assert_eq!(want.kind, sandbox2d::JointKind::Distance);
+    assert_eq!(want.limits, Some([0.0, 2.0]));
+    // without `length` the max length is the anchors' distance at creation
+    let toml = rope_scene("").replace("length = 2.0\n", "");
+    let sc = load_str(&toml, "rope.toml").expect("parses");
+    assert_eq!(sc.world.joints[0].limits, Some([0.0, 1.0]));
+}
+
+#[test]
+fn a_ball_on_a_slack_rope_falls_freely() {
+    // Released at rest 1 m below the anchor on a 2 m rope, the ball falls freely,
+    // y(t) = y0 - g t^2 / 2, until it has fallen 1 m (t = sqrt(2 / g)). The step is
+    // 1/2000 s, so the integrators' O(h/t) lag is at most 0.5% from t = 0.1 s on;
+    // from then until just before the rope is taut the fall must be within 1%.
+    let (g, y0) = (9.81f32, -1.0f32);
+    for kind in SolverKind::ALL {
+        let mut w = world(&rope_scene("dt = 0.0005"), kind);
+        let ball = id(&w, "ball");
+        let dt = w.settings.dt;
+        let mut checked = 0;
+        for k in 1.. {
+            w.step().expect("steps");
+            let t = k as f32 * dt;
+            let want = g * t * t / 2.0;
+            if want > 0.97 {
+                break;
+            }
+            let p = w.bodies[ball].position;
+            assert!(
+                p.x.abs() < 1e-4,
+                "{kind:?}: drifted sideways to x = {}",
+                p.x
+            );
+            if t >= 0.1 {
+                let fall = y0 - p.y;
+                assert!(
+                    (fall - want).abs() <= 0.01 * want,
+                    "{kind:?}: at t = {t} s fell {fall} m, free fall says {want} m"
+                );
+                checked += 1;
+            }
+        }
+        assert!(checked > 500, "{kind:?}: {checked} samples");
+    }
+}
+
+#[test]
+fn a_taut_rope_never_stretches_past_its_length() {
+    // The same ball under each solver's default step: once the rope is taut (after
+    // sqrt(2 / g) = 0.45 s) the anchor distance stays within 1% (2 cm) of the 2 m
+    // max length for 5 s, and in the last second the ball hangs on the taut rope.
+    for kind in SolverKind::ALL {
+        let mut w = world(&rope_scene(""), kind);
+        let ball = id(&w, "ball");
+        let dt = w.settings.dt;
+        let steps = (5.0 / dt).round() as usize;
+        let (mut longest, mut taut) = (0.0f32, false);
+        for k in 0..steps {
+            w.step().expect("steps");
+            let d = w.bodies[ball].position.length();
+            taut |= d >= 1.99;
+            longest = longest.max(d);
+            if (k + 1) as f32 * dt >= 4.0 {
+                assert!(
+                    (d - 2.0).abs() <= 0.02,
+                    "{kind:?}: hanging at {d} m in the last second, want 2 m"
+                );
+            }
+        }
+        assert!(taut, "{kind:?}: the rope never went taut");
+        assert!(
+            longest <= 2.02,
+            "{kind:?}: stretched to {longest} m, max length 2 m"
+        );
+    }
+}

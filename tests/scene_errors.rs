@@ -400,6 +400,67 @@ fn key_that_does_not_apply_to_the_joint_type() {
 }
 
 #[test]
+fn rope_refuses_limits() {
+    check(
+        &joint("type = \"rope\"\nbodies = [\"a\", \"b\"]\nlimits = [0, 1]"),
+        11,
+        10,
+        &[
+            "rope joint \"a\"-\"b\"",
+            "`limits` does not apply to a rope joint",
+            "max length",
+        ],
+    );
+}
+
+#[test]
+fn rope_refuses_the_keys_it_does_not_take() {
+    for (line, key) in [
+        ("anchor = [0, 0]", "anchor"),
+        ("axis = [1, 0]", "axis"),
+        ("motor = { speed = 1, max_force = 2 }", "motor"),
+        ("servo = { target = 1 }", "servo"),
+        ("compliance = 1e-3", "compliance"),
+    ] {
+        let col = line.find('=').unwrap() + 3;
+        check(
+            &joint(&format!(
+                "type = \"rope\"\nbodies = [\"a\", \"b\"]\nlength = 1\n{line}"
+            )),
+            12,
+            col,
+            &[&format!("`{key}` does not apply to a rope joint")],
+        );
+    }
+}
+
+#[test]
+fn rope_length_not_positive() {
+    for (v, got) in [("0.0", "got 0"), ("-1.5", "got -1.5")] {
+        check(
+            &joint(&format!(
+                "type = \"rope\"\nbodies = [\"a\", \"b\"]\nlength = {v}"
+            )),
+            11,
+            10,
+            &["rope joint", "length must be > 0", got],
+        );
+    }
+}
+
+#[test]
+fn rope_of_zero_length_at_creation() {
+    // no `length`: the default is the anchors' distance, here the two bodies' centres,
+    // which coincide
+    check(
+        &joint("type = \"rope\"\nbodies = [\"a\", \"b\"]"),
+        10,
+        10,
+        &["rope joint", "length must be > 0", "give `length`"],
+    );
+}
+
+#[test]
 fn hinge_motor_takes_max_torque() {
     check(
         &joint("type = \"hinge\"\nbodies = [\"a\", \"b\"]\nmotor = { speed = 1, max_force = 2 }"),

@@ -952,18 +952,20 @@ pub(crate) fn check_body(
 }
 
 /// Builds `joint` between the bodies it names as the world will, and refuses one whose
-/// derived values (length, anchor offsets) are not finite, at `span`.
+/// derived values (length, anchor offsets) are not finite, at `span`. Returns the
+/// joint's length as built (`None` if its bodies could not be made, which their own
+/// checks refuse first).
 pub(crate) fn check_joint(
     ctx: &Ctx,
     bodies: &Bodies,
     who: &str,
     joint: &JointDef,
     span: Range<usize>,
-) -> R<()> {
+) -> R<Option<f32>> {
     let make = |i: usize| World::make_body(&bodies.defs[i], bodies.gravity);
     let (Ok(a), Ok(b)) = (make(joint.bodies[0]), make(joint.bodies[1])) else {
         // both were checked when they were added
-        return Ok(());
+        return Ok(None);
     };
     let pair = JointDef {
         bodies: [0, 1],
@@ -971,7 +973,7 @@ pub(crate) fn check_joint(
     };
     let j = crate::joint::Joint::from_def(&pair, &[a, b]);
     match crate::world::joint_not_finite(&j) {
-        None => Ok(()),
+        None => Ok(Some(j.length)),
         Some(what) => Err(ctx.err(
             span,
             format!("{who}: the joint's {what} is not finite (its bodies or anchors are too far apart for f32)"),
@@ -990,18 +992,19 @@ pub(crate) fn force(ctx: &Ctx, bodies: &Bodies, f: &FileForce) -> R<ForceDef> {
 }
 
 /// A `[[joint]]` table. Keys that do not apply to the joint's type are refused
-/// rather than ignored.
+/// rather than ignored. A `rope` is a distance joint with limits [0, length].
 pub(crate) fn joint(ctx: &Ctx, bodies: &Bodies, j: &FileJoint) -> R<JointDef> {
     use JointKind::*;
-    let kind = ctx.choice(
+    let (kind, rope) = ctx.choice(
         "joint",
         "type",
         &j.type_,
         &[
-            ("distance", Distance),
-            ("hinge", Hinge),
-            ("prismatic", Prismatic),
-            ("weld", Weld),
+            ("distance", (Distance, false)),
+            ("hinge", (Hinge, false)),
+            ("prismatic", (Prismatic, false)),
+            ("weld", (Weld, false)),
+            ("rope", (Distance, true)),
         ],
     )?;
     let kind_name = j.type_.get_ref().as_str();
@@ -1033,7 +1036,11 @@ pub(crate) fn joint(ctx: &Ctx, bodies: &Bodies, j: &FileJoint) -> R<JointDef> {
     not_for(
         span_of(j.anchor.as_ref().map(|v| v.span()), kind != Distance),
         "anchor",
-        " (a distance joint takes `anchors`)",
+        if rope {
+            " (a rope takes `anchors`)"
+        } else {
+            " (a distance joint takes `anchors`)"
+        },
     )?;
     not_for(
         span_of(j.anchors.as_ref().map(|v| v.span()), kind == Distance),
@@ -1051,9 +1058,20 @@ pub(crate) fn joint(ctx: &Ctx, bodies: &Bodies, j: &FileJoint) -> R<JointDef> {
         "",
     )?;
     not_for(
-        span_of(j.limits.as_ref().map(|v| v.span()), kind != Weld),
+        span_of(j.limits.as_ref().map(|v| v.span()), kind != Weld && !rope),
         "limits",
-        "",
+        if rope {
+            " (its `length` is the max length; it is slack below)"
+        } else {
+            ""
+        },
+    )?;
+    // A rope's max length is a hard limit: the limit rows of PGS and the soft step
+    // are rigid, so a compliance would not mean the same under every solver.
+    not_for(
+        span_of(j.compliance.as_ref().map(|v| v.span()), !rope),
+        "compliance",
+        " (a rope is rigid at its max length)",
     )?;
     let driven = kind == Hinge || kind == Prismatic;
     not_for(
@@ -1169,7 +1187,7 @@ pub(crate) fn joint(ctx: &Ctx, bodies: &Bodies, j: &FileJoint) -> R<JointDef> {
         }
         None => DampingDef::default(),
     };
-    let def = JointDef {
+    let mut def = JointDef {
         kind,
         bodies: [ia, ib],
         anchor,
@@ -1192,6 +1210,21 @@ pub(crate) fn joint(ctx: &Ctx, bodies: &Bodies, j: &FileJoint) -> R<JointDef> {
         .map(|v| v.span())
         .or(j.anchor.as_ref().map(|v| v.span()))
         .unwrap_or(j.bodies.span());
-    check_joint(ctx, bodies, who, &def, span)?;
+    let built = check_joint(ctx, bodies, who, &def, span.clone())?;
+    if rope {
+        // `length` (checked > 0 above) or the anchors' distance at creation (`built`
+        // is only `None` for bodies already refused).
+        let max = length.or(built).unwrap_or(0.0);
+        if max <= 0.0 {
+            return Err(ctx.err(
+                span,
+                format!(
+                    "{who}: a rope's length must be > 0, got {max} (its anchors are at one point at creation; give `length`)"
+                ),
+            ));
+        }
+        def.length = Some(max);
+        def.limits = Some([0.0, max]);
+    }
     Ok(def)
 }
