@@ -263,9 +263,9 @@ impl JointDef {
 
     /// A rope between the world points `pa` on `a` and `pb` on `b`: the anchors are never
     /// more than `max_length` apart, and below it the rope is slack (it pulls, never
-    /// pushes). A distance joint with limits [0, `max_length`]; `max_length` should be
-    /// > 0. Like [`JointDef::distance`] it is rigid at its limit, with no damping, and
-    /// the two bodies do not collide.
+    /// pushes). A distance joint with limits [0, `max_length`], for a `max_length`
+    /// above 0. Like [`JointDef::distance`] it is rigid at its limit, with no damping,
+    /// and the two bodies do not collide.
     pub fn rope(a: usize, b: usize, pa: Vec2, pb: Vec2, max_length: f32) -> JointDef {
         JointDef {
             length: Some(max_length),
