@@ -15,7 +15,7 @@ use crate::defs::{SolverKind, SolverOverrides, SolverSettings};
 use crate::draw::world::Overlays;
 use crate::output::AtomicFile;
 use crate::scene::{self, Scene};
-use crate::world::{World, WorldState};
+use crate::world::{RayHit, World, WorldState};
 
 /// At most this many steps per frame catch up with real time (the rest is dropped, so
 /// a slow frame slows the simulation rather than snowballing).
@@ -80,6 +80,31 @@ pub struct Emitter {
     pub radius: f32,
 }
 
+/// The ray tool (T): a segment from where the cursor was when T was pressed to where it
+/// is now, cast into the world ([`World::ray_cast_closest`], every body) each frame.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Ray {
+    /// Where the ray starts (world).
+    pub origin: Vec2,
+    /// Where it ends: the cursor (world).
+    pub end: Vec2,
+    /// The nearest body it enters, as last cast.
+    pub hit: Option<RayHit>,
+}
+
+impl Ray {
+    /// Where the ray is drawn to: the hit point, else its end.
+    pub fn reach(&self) -> Vec2 {
+        self.hit.map_or(self.end, |h| h.point)
+    }
+
+    /// Distance from the origin to the hit point (m), if it hit.
+    pub fn distance(&self) -> Option<f32> {
+        self.hit
+            .map(|h| h.fraction * self.origin.distance(self.end))
+    }
+}
+
 /// Acceleration (m/s^2) the emitter gives a body at its centre.
 pub const EMITTER_ACCELERATION: f32 = 60.0;
 
@@ -107,6 +132,8 @@ pub struct Session {
     pub drag: Option<Drag>,
     /// The force emitter, while held.
     pub emitter: Option<Emitter>,
+    /// The ray tool, while on (T).
+    pub ray: Option<Ray>,
     /// Recent step figures, oldest first.
     pub history: VecDeque<Sample>,
     /// The world's energy when the scene was loaded or reset (J).
@@ -141,6 +168,7 @@ impl Session {
             },
             drag: None,
             emitter: None,
+            ray: None,
             history: VecDeque::new(),
             energy_start,
             accumulator: 0.0,
@@ -434,6 +462,60 @@ impl Session {
         true
     }
 
+    /// T: turns the ray tool on, from `at` (the cursor, world) and ending there until
+    /// [`Session::aim_ray`] moves its end, or off.
+    pub fn toggle_ray(&mut self, at: Vec2) {
+        self.ray = match self.ray {
+            Some(_) => None,
+            None => Some(Ray {
+                origin: at,
+                end: at,
+                hit: None,
+            }),
+        };
+        self.cast_ray();
+    }
+
+    /// Moves the ray's end to `end` (the cursor, world) and casts it again.
+    pub fn aim_ray(&mut self, end: Vec2) {
+        if let Some(r) = self.ray.as_mut() {
+            r.end = end;
+        }
+        self.cast_ray();
+    }
+
+    /// Casts the ray (if on) into the world as it is now: the nearest body it enters
+    /// between its origin and its end, any body (`Filter::default()`).
+    pub fn cast_ray(&mut self) {
+        if let Some(r) = self.ray.as_mut() {
+            // a ray of no length (T just pressed) has no direction: it hits nothing
+            r.hit = if r.origin.distance(r.end) < 1e-6 {
+                None
+            } else {
+                self.world.ray_cast_closest(
+                    r.origin,
+                    r.end - r.origin,
+                    &crate::defs::Filter::default(),
+                )
+            };
+        }
+    }
+
+    /// The panel's line for the ray tool: the hit body's name and its distance from the
+    /// origin, or "no hit"; `None` while the tool is off.
+    pub fn ray_text(&self) -> Option<String> {
+        let r = self.ray?;
+        Some(
+            match (
+                r.hit.and_then(|h| self.world.bodies.get(h.body)),
+                r.distance(),
+            ) {
+                (Some(b), Some(d)) => format!("ray: hits {:?} at {d:.3} m", b.name),
+                _ => "ray: no hit".to_string(),
+            },
+        )
+    }
+
     /// Spawns a body at `at`, sized like the scene's typical body.
     pub fn spawn(&mut self, kind: SpawnKind, at: Vec2) {
         let moving: Vec<f32> = self
@@ -688,6 +770,45 @@ mod tests {
             },
         )
         .unwrap()
+    }
+
+    #[test]
+    fn the_ray_tool_reports_the_box_below_and_the_distance_to_its_top_face() {
+        // the stack of 15 one-metre boxes: a ray from 3 m above the top box's top face
+        // (0.2 m off its centre line) straight down to below its centre enters it
+        // through the top face, 3 m away, with the normal straight up
+        let mut s = session();
+        let top = s.world.bodies.len() - 1;
+        let def = s.scene.world.bodies[top].clone();
+        let crate::defs::ShapeDef::Box { height, .. } = def.shape.clone() else {
+            panic!("the stack is boxes")
+        };
+        let face = def.position.y + height / 2.0;
+        let x = def.position.x + 0.2;
+        let name = def.name.clone();
+        assert!(s.ray_text().is_none(), "off until T");
+        s.toggle_ray(Vec2::new(x, face + 3.0));
+        assert_eq!(s.ray_text().as_deref(), Some("ray: no hit"), "zero length");
+        s.aim_ray(Vec2::new(x, def.position.y - 0.1));
+        let r = s.ray.expect("on");
+        let hit = r.hit.expect("hits the top box");
+        assert_eq!(hit.body, top);
+        assert!((r.distance().unwrap() - 3.0).abs() < 1e-4, "{r:?}");
+        assert!((hit.point - Vec2::new(x, face)).length() < 1e-4, "{r:?}");
+        assert!((hit.normal - Vec2::Y).length() < 1e-4, "{r:?}");
+        assert_eq!(r.reach(), hit.point);
+        assert_eq!(
+            s.ray_text().as_deref(),
+            Some(format!("ray: hits {name:?} at 3.000 m").as_str())
+        );
+        // aimed at empty sky: no hit, drawn to the cursor
+        let sky = Vec2::new(x + 30.0, face + 3.0);
+        s.aim_ray(sky);
+        assert_eq!(s.ray.unwrap().hit, None);
+        assert_eq!(s.ray.unwrap().reach(), sky);
+        assert_eq!(s.ray_text().as_deref(), Some("ray: no hit"));
+        s.toggle_ray(sky);
+        assert!(s.ray.is_none() && s.ray_text().is_none(), "T again: off");
     }
 
     #[test]

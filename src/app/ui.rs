@@ -101,6 +101,7 @@ fn contents(
             ui.small("middle click / ctrl+click: spawn a box");
             ui.small("shift+click: spawn a circle");
             ui.small("Delete / Backspace: remove the body under the cursor");
+            ui.small("T: ray tool on / off: a ray from the cursor to where it goes");
             ui.small("space: pause, S: step, R: reset, H: hide this panel");
             ui.small("F: fit the view, C: follow the grabbed body, Esc / Q: quit");
             ui.small("ctrl+S: save the state to sandbox2d_state.json, ctrl+L: reload it");
@@ -253,6 +254,11 @@ fn contents(
             ui.selectable_value(&mut s.overlays.tint, t, name);
         }
     });
+
+    if let Some(text) = s.ray_text() {
+        ui.separator();
+        ui.label(text);
+    }
 
     ui.separator();
     stats(ui, s, others, frame);

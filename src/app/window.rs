@@ -24,6 +24,11 @@ use crate::render::{Renderer, save_png};
 const EMITTER_RADIUS_PX: f32 = 110.0;
 /// Colour of the drag spring and the emitter's ring.
 const TOOL_COLOR: [u8; 4] = [255, 255, 255, 200];
+/// The ray tool (T): the ray, and its hit point and normal.
+const RAY_COLOR: [u8; 4] = [255, 230, 90, 230];
+const RAY_HIT_COLOR: [u8; 4] = [255, 80, 200, 255];
+/// Length of the drawn hit normal (px).
+const RAY_NORMAL_PX: f32 = 40.0;
 /// What the panel's frame and margins add to its width (px).
 const PANEL_FRAME_PX: f32 = 32.0;
 
@@ -440,6 +445,10 @@ impl App {
     fn frame(&mut self, event_loop: &ActiveEventLoop) {
         let now = Instant::now();
         self.follow_camera();
+        if self.session.ray.is_some() {
+            // the bodies (or the camera under a still cursor) moved: cast again
+            self.session.aim_ray(self.cursor_world());
+        }
         let overlays = Overlays {
             pixels_per_meter: Some(self.camera.pixels_per_meter),
             ..self.session.overlays
@@ -835,6 +844,20 @@ impl App {
             self.list
                 .push_circle(e.center, e.radius, None, [255, 255, 255, 18], TOOL_COLOR);
         }
+        if let Some(r) = self.session.ray {
+            // the ray up to what it hits (or the cursor), the hit point, and the
+            // surface's normal there, 40 px long
+            let (dot, _) = crate::draw::world::mark_sizes_px(Some(self.camera.pixels_per_meter));
+            self.list.push_line(r.origin, r.reach(), 1.5, RAY_COLOR);
+            self.list.push_line(r.origin, r.origin, dot, RAY_COLOR);
+            if let Some(h) = r.hit {
+                let normal = h.normal * (RAY_NORMAL_PX / self.camera.pixels_per_meter);
+                self.list
+                    .push_line(h.point, h.point + normal, 2.0, RAY_HIT_COLOR);
+                self.list
+                    .push_line(h.point, h.point, 2.0 * dot, RAY_HIT_COLOR);
+            }
+        }
     }
 
     /// The world point under the cursor; with `--compare`, in the pane it is over (the
@@ -905,6 +928,10 @@ impl App {
         if let Some(e) = self.session.emitter.as_mut() {
             e.center = at;
         }
+        if self.session.ray.is_some() {
+            self.session.aim_ray(at);
+            self.panel_dirty = true;
+        }
     }
 
     fn key(&mut self, key: &Key, event_loop: &ActiveEventLoop) {
@@ -966,6 +993,11 @@ impl App {
             }
             Key::Character(c) if c.eq_ignore_ascii_case("v") => {
                 self.session.overlays.tint = self.session.overlays.tint.next();
+                self.panel_dirty = true;
+            }
+            Key::Character(c) if c.eq_ignore_ascii_case("t") => {
+                // the ray tool: from the cursor now to wherever it goes
+                self.session.toggle_ray(self.cursor_world());
                 self.panel_dirty = true;
             }
             Key::Character(c) if c.eq_ignore_ascii_case("z") => {
