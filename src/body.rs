@@ -64,6 +64,10 @@ pub struct Body {
     /// The island it fell asleep with (woken together).
     #[serde(default)]
     pub(crate) island: u32,
+    /// A compound body's parts (then `shape` is [`Shape::Compound`]); empty for a body
+    /// of one shape.
+    #[serde(default)]
+    pub parts: Vec<crate::compound::Part>,
 }
 
 impl Body {

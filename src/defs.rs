@@ -63,6 +63,49 @@ pub enum ShapeDef {
         next: Option<Vec2>,
         one_sided: bool,
     },
+    /// A compound body: several convex parts (circles, boxes, polygons, capsules, each
+    /// optionally rounded) fixed in one rigid frame, at most [`MAX_PARTS`]. Its mass,
+    /// centre of mass and inertia come from the parts (parallel axis theorem); each part
+    /// collides on its own, with its own friction, restitution and filter.
+    Compound { parts: Vec<PartDef> },
+}
+
+/// The most parts a compound body has.
+pub const MAX_PARTS: usize = 32;
+
+/// One part of a compound body ([`ShapeDef::Compound`]): a shape placed in the body's
+/// frame, and the material it has there.
+#[derive(Clone, Debug, PartialEq)]
+pub struct PartDef {
+    /// The part's shape in its own frame (not a segment, a polyline or a compound).
+    pub shape: ShapeDef,
+    /// Where the part's frame origin lies in the body's description frame (m).
+    pub offset: Vec2,
+    /// The part frame's rotation in the body frame (rad).
+    pub angle: f32,
+    /// kg/m^2; `None`: the body's density. A given body `mass` scales every part alike.
+    pub density: Option<f32>,
+    /// `None`: the body's.
+    pub friction: Option<f32>,
+    /// `None`: the body's.
+    pub restitution: Option<f32>,
+    /// `None`: the body's.
+    pub filter: Option<Filter>,
+}
+
+impl PartDef {
+    /// A part of shape `shape` at `offset`, unrotated, with the body's material.
+    pub fn new(shape: ShapeDef, offset: Vec2) -> Self {
+        PartDef {
+            shape,
+            offset,
+            angle: 0.0,
+            density: None,
+            friction: None,
+            restitution: None,
+            filter: None,
+        }
+    }
 }
 
 /// An RGBA colour, 8 bits a channel, sRGB.

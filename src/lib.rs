@@ -21,6 +21,7 @@ pub mod bench;
 pub mod body;
 pub mod collision;
 pub mod compare;
+pub mod compound;
 pub mod defs;
 pub mod draw;
 pub mod joint;

@@ -34,6 +34,15 @@ impl Rot {
         Vec2::new(self.c * v.x + self.s * v.y, -self.s * v.x + self.c * v.y)
     }
 
+    /// R_self R_other: `other` applied first, then `self`.
+    #[inline]
+    pub fn then_rot(self, other: Rot) -> Rot {
+        Rot {
+            c: self.c * other.c - self.s * other.s,
+            s: self.s * other.c + self.c * other.s,
+        }
+    }
+
     /// R_self^T R_other: the rotation of `other` seen from `self`'s frame.
     #[inline]
     pub fn inv_mul(self, other: Rot) -> Rot {
@@ -68,6 +77,15 @@ impl Transform {
     #[inline]
     pub fn inv_apply(&self, v: Vec2) -> Vec2 {
         self.q.inv_rotate(v - self.p)
+    }
+
+    /// self * other: a frame given in `self`'s frame, placed in the world.
+    #[inline]
+    pub fn compose(&self, other: &Transform) -> Transform {
+        Transform {
+            p: self.apply(other.p),
+            q: self.q.then_rot(other.q),
+        }
     }
 
     /// self^-1 * other: `other` expressed in `self`'s frame.

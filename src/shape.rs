@@ -376,9 +376,18 @@ impl ChainSegment {
 #[allow(clippy::large_enum_variant)]
 #[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub enum Shape {
-    Circle { radius: f32 },
+    Circle {
+        radius: f32,
+    },
     Polygon(Polygon),
     Chain(ChainSegment),
+    /// A compound body's marker: the parts are [`crate::Body::parts`]; `radius` bounds
+    /// them all about the centre of mass. The shape's own queries answer for that disk
+    /// (a box, an extent) or for nothing (area, mass, containment, rays); the body's
+    /// ([`crate::Body::aabb`], `contains_local`, `ray_cast_local`) look at the parts.
+    Compound {
+        radius: f32,
+    },
 }
 
 /// Mass, centroid and rotational inertia of a shape.
@@ -520,6 +529,9 @@ impl Shape {
                     mid,
                 ))
             }
+            ShapeDef::Compound { .. } => Err(ShapeError::Invalid(
+                "a compound's parts are built with its body (World::make_body)".into(),
+            )),
         }
     }
 
@@ -528,7 +540,7 @@ impl Shape {
         match self {
             Shape::Circle { radius } => std::f32::consts::PI * radius * radius,
             Shape::Polygon(p) => p.rounded_area_centroid_inertia().0,
-            Shape::Chain(_) => 0.0,
+            Shape::Chain(_) | Shape::Compound { .. } => 0.0,
         }
     }
 
@@ -552,7 +564,7 @@ impl Shape {
                     inertia: density * j,
                 }
             }
-            Shape::Chain(_) => MassData {
+            Shape::Chain(_) | Shape::Compound { .. } => MassData {
                 mass: 0.0,
                 center: Vec2::ZERO,
                 inertia: 0.0,
@@ -574,7 +586,7 @@ impl Shape {
                 let (q, inside) = poly.closest_core_point(p);
                 inside || q.distance_squared(p) <= poly.radius * poly.radius
             }
-            Shape::Chain(_) => false,
+            Shape::Chain(_) | Shape::Compound { .. } => false,
         }
     }
 
@@ -604,6 +616,7 @@ impl Shape {
                 let n = (origin + d * t).normalize_or_zero();
                 Some((t, n))
             }
+            Shape::Compound { .. } => None,
             Shape::Chain(c) => {
                 // the face the ray comes from (only the left one when one-sided)
                 let n = c.left_normal();
@@ -677,7 +690,7 @@ impl Shape {
     #[inline]
     pub fn aabb(&self, xf: &Transform) -> Aabb {
         match self {
-            Shape::Circle { radius } => Aabb {
+            Shape::Circle { radius } | Shape::Compound { radius } => Aabb {
                 min: xf.p - Vec2::splat(*radius),
                 max: xf.p + Vec2::splat(*radius),
             },
@@ -708,7 +721,7 @@ impl Shape {
     /// The shape's width across the unit direction `dir` (world frame), for drag.
     pub fn extent_across(&self, xf: &Transform, dir: Vec2) -> f32 {
         match self {
-            Shape::Circle { radius } => 2.0 * radius,
+            Shape::Circle { radius } | Shape::Compound { radius } => 2.0 * radius,
             Shape::Polygon(p) => {
                 let perp = Vec2::new(-dir.y, dir.x);
                 let local = xf.q.inv_rotate(perp);
@@ -730,7 +743,7 @@ impl Shape {
     /// The largest distance from the centre of mass to any point of the shape.
     pub fn radius(&self) -> f32 {
         match self {
-            Shape::Circle { radius } => *radius,
+            Shape::Circle { radius } | Shape::Compound { radius } => *radius,
             Shape::Polygon(p) => p.verts().iter().fold(0.0f32, |m, v| m.max(v.length())) + p.radius,
             Shape::Chain(c) => c.a.length().max(c.b.length()),
         }

@@ -6,7 +6,7 @@ use crate::body::{Body, BodyId};
 use crate::collision::broad_phase::BroadPhase;
 use crate::collision::sat;
 use crate::defs::{
-    BodyDef, BodyModel, BodyType, DragDef, ForceDef, JointDef, SolverSettings, WorldDef,
+    BodyDef, BodyModel, BodyType, DragDef, ForceDef, JointDef, ShapeDef, SolverSettings, WorldDef,
 };
 use crate::joint::{Joint, JointId, MouseJoint};
 use crate::math::{Aabb, Rot, Vec2, cross, uf_root, uf_union};
@@ -481,11 +481,33 @@ impl World {
         finite("angular_velocity", def.angular_velocity.is_finite())?;
         finite("friction", def.friction.is_finite())?;
         finite("restitution", def.restitution.is_finite())?;
-        let (shape, centroid) =
-            Shape::from_def(&def.shape).map_err(|source| BuildError::Shape {
-                name: name.clone(),
-                source,
-            })?;
+        let shape_error = |source| BuildError::Shape {
+            name: name.clone(),
+            source,
+        };
+        // a compound's parts, and their mass data at the body's density
+        let compound = match &def.shape {
+            ShapeDef::Compound { parts } => Some(
+                crate::compound::build(
+                    parts,
+                    def.density,
+                    def.friction,
+                    def.restitution,
+                    def.filter,
+                )
+                .map_err(shape_error)?,
+            ),
+            _ => None,
+        };
+        let (shape, centroid) = match &compound {
+            Some((parts, md)) => (
+                Shape::Compound {
+                    radius: crate::compound::bounding_radius(parts),
+                },
+                md.center,
+            ),
+            None => Shape::from_def(&def.shape).map_err(shape_error)?,
+        };
         let particle = def.model == BodyModel::Particle;
         if particle && !matches!(shape, Shape::Circle { .. }) {
             return Err(BuildError::ParticleShape(name));
@@ -500,7 +522,15 @@ impl World {
         if dynamic {
             // Which value to blame for a mass that is not usable: the given mass, else the
             // shape when its area is what under- or overflows, else the density.
-            let unit = shape.mass_data(1.0);
+            let unit = match &compound {
+                // the parts' own densities, scaled so the body's is 1
+                Some((_, md)) => crate::shape::MassData {
+                    mass: md.mass / def.density,
+                    center: md.center,
+                    inertia: md.inertia / def.density,
+                },
+                None => shape.mass_data(1.0),
+            };
             let area_ok = unit.mass.is_finite() && unit.mass > 0.0 && unit.inertia.is_finite();
             let md = match def.mass {
                 Some(m) => {
@@ -526,7 +556,10 @@ impl World {
                             value: def.density,
                         });
                     }
-                    shape.mass_data(def.density)
+                    match &compound {
+                        Some((_, md)) => *md,
+                        None => shape.mass_data(def.density),
+                    }
                 }
             };
             let blame = if area_ok {
@@ -584,7 +617,15 @@ impl World {
             friction: def.friction,
             restitution: def.restitution,
             color: def.color,
-            filter: def.filter,
+            // a compound's parts filter pair by pair in the narrow phase; the broad phase
+            // sees their common filter, or lets every pair through when they differ
+            filter: match &compound {
+                Some((parts, _)) if parts.iter().any(|p| p.filter != parts[0].filter) => {
+                    crate::defs::Filter::default()
+                }
+                Some((parts, _)) => parts[0].filter,
+                None => def.filter,
+            },
             sensor: def.sensor,
             force: Vec2::ZERO,
             torque: 0.0,
@@ -593,6 +634,7 @@ impl World {
             asleep: false,
             sleep_time: 0.0,
             island: 0,
+            parts: compound.map(|(parts, _)| parts).unwrap_or_default(),
         };
         if dynamic {
             // the terms of World::energy, in the same precision
@@ -829,7 +871,7 @@ impl World {
         for b in &self.bodies {
             filtered |= b.filter != crate::defs::Filter::default();
             sensors |= b.sensor;
-            let bb = b.shape.aabb(&b.transform());
+            let bb = b.aabb();
             // the most any point of the body moves in h: h (|v| + |w| r)
             let r = 0.5 * (bb.max - bb.min).length();
             self.reach
@@ -1021,8 +1063,7 @@ impl World {
             self.aabbs.clear();
             self.dynamic.clear();
             for b in &self.bodies {
-                self.aabbs
-                    .push(swept_box(b, b.shape.aabb(&b.transform()), h, margin));
+                self.aabbs.push(swept_box(b, b.aabb(), h, margin));
                 // the movers look for sleepers; sleepers and static bodies are looked up
                 self.dynamic.push(is_mover(b));
             }
@@ -1264,6 +1305,31 @@ impl Narrow<'_> {
                 Speculative::MarginPlusMotion => self.margin + ra + rb,
                 Speculative::MarginOrMotion => self.margin.max(ra + rb),
             };
+            if !(ba.parts.is_empty() && bb.parts.is_empty()) {
+                // a compound: one manifold per pair of touching parts
+                let old = cache.find_all(a, b);
+                crate::compound::collide_bodies(
+                    ba,
+                    bb,
+                    pair_margin,
+                    |mut m, friction, restitution| {
+                        for o in old {
+                            match_points(&o.manifold, &mut m);
+                        }
+                        for p in m.points() {
+                            deepest = deepest.max(-p.separation);
+                        }
+                        out.push(Contact {
+                            a,
+                            b,
+                            manifold: m,
+                            friction,
+                            restitution,
+                        });
+                    },
+                );
+                continue;
+            }
             let mut m = sat::collide(
                 &ba.shape,
                 &ba.transform(),

@@ -221,6 +221,7 @@ fn separation(sa: &Shape, xa: &Transform, sb: &Shape, xb: &Transform) -> f32 {
             Shape::Polygon(p) => p.verts().iter().map(|v| x.apply(*v)).collect(),
             Shape::Circle { .. } => Vec::new(),
             Shape::Chain(c) => vec![x.apply(c.a), x.apply(c.b)],
+            Shape::Compound { .. } => unreachable!("the SAT cases here are single shapes"),
         }
     };
     let face_separation = |a: &[Vec2], b: &[Vec2]| -> f32 {

@@ -802,6 +802,7 @@ fn every_builtin_parses_and_has_a_description() {
         "bridge",
         "car",
         "chain",
+        "compound",
         "double_pendulum",
         "friction_ramp",
         "joint_grid",
@@ -1825,4 +1826,90 @@ fn dynamic_polyline() {
         8,
         &["no area", "static or kinematic"],
     );
+}
+
+// compound bodies: `shapes = [...]`
+
+#[test]
+fn shape_and_shapes_together_are_refused_at_shapes() {
+    check(
+        &body("shape = { circle = 1 }\nshapes = [{ circle = 1 }]"),
+        4,
+        10,
+        &["`shape`", "`shapes`", "not both"],
+    );
+}
+
+#[test]
+fn an_empty_shapes_list_is_refused() {
+    check(&body("shapes = []"), 3, 10, &["1 to 32 parts", "got 0"]);
+}
+
+#[test]
+fn a_segment_part_is_refused() {
+    check(
+        &body("shapes = [{ box = [1, 1] }, { segment = [[0, 0], [1, 0]] }]"),
+        3,
+        41,
+        &["part 2", "segment", "capsule"],
+    );
+}
+
+#[test]
+fn a_sensor_part_is_refused() {
+    check(
+        &body("shapes = [{ box = [1, 1], sensor = true }]"),
+        3,
+        36,
+        &["part 1", "`sensor`", "whole body"],
+    );
+}
+
+#[test]
+fn a_part_with_two_shapes_is_refused_at_the_part() {
+    check(
+        &body("shapes = [{ box = [1, 1] }, { circle = 1, box = [1, 1] }]"),
+        3,
+        29,
+        &["part 2", "box and circle", "exactly one"],
+    );
+}
+
+#[test]
+fn a_part_density_of_zero_is_refused() {
+    check(
+        &body("shapes = [{ box = [1, 1], density = 0 }]"),
+        3,
+        37,
+        &["part 1", "density must be > 0", "got 0"],
+    );
+}
+
+#[test]
+fn a_part_filter_naming_an_unknown_category_is_refused() {
+    check(
+        &body("shapes = [{ box = [1, 1], filter = { mask = [\"nowhere\"] } }]"),
+        3,
+        46,
+        &["part 1", "unknown category", "nowhere"],
+    );
+}
+
+#[test]
+fn a_particle_compound_is_refused() {
+    check(
+        &body("model = \"particle\"\nshapes = [{ circle = 1 }]"),
+        4,
+        10,
+        &["particle", "circle shape", "compound"],
+    );
+}
+
+#[test]
+fn a_part_filter_category_counts_as_a_scene_category() {
+    // the category named only by a part is known to the other body's mask
+    let text = "name = \"t\"\n[[body]]\nname = \"a\"\nshapes = [{ circle = 1, filter = { category = \"spikes\" } }]\n[[body]]\nname = \"b\"\nshape = { circle = 1 }\nposition = [5, 0]\nfilter = { mask = [\"spikes\"] }\n";
+    let scene = load_str(text, "ok.toml").unwrap_or_else(|e| panic!("{e}"));
+    let b = &scene.world.bodies[1];
+    assert_eq!(b.filter.mask, 1 << 1, "spikes is the second category");
 }

@@ -18,6 +18,8 @@ const FACE_SWITCH_TOLERANCE: f32 = 0.0005;
 /// The manifold between two shapes placed by their transforms, normal from A to B.
 pub fn collide(sa: &Shape, xa: &Transform, sb: &Shape, xb: &Transform, margin: f32) -> Manifold {
     match (sa, sb) {
+        // compounds collide part by part (crate::compound::collide_bodies)
+        (Shape::Compound { .. }, _) | (_, Shape::Compound { .. }) => Manifold::default(),
         (Shape::Chain(_), Shape::Chain(_)) => Manifold::default(),
         (Shape::Chain(c), other) => collide_chain(c, xa, other, xb, margin),
         (other, Shape::Chain(c)) => {
@@ -563,6 +565,7 @@ fn face_contact(
 ) -> Manifold {
     let mut m = Manifold::default();
     match other {
+        Shape::Compound { .. } => {}
         Shape::Circle { radius } => {
             let c = xa.inv_apply(xb.p);
             let e = b - a;

@@ -321,10 +321,33 @@ pub fn push_body_colored(list: &mut DrawList, body: &Body, fill: Color, dim: boo
     }
     let outline = outline_for(fill);
     let xf = body.transform();
-    match &body.shape {
+    if !body.parts.is_empty() {
+        // a compound: each part in the body's colour
+        for p in &body.parts {
+            let pxf = xf.compose(&p.local());
+            let angle = pxf.q.s.atan2(pxf.q.c);
+            push_shape(list, &p.shape, &pxf, Some(angle), fill, outline);
+        }
+        return;
+    }
+    let angle = (body.model != BodyModel::Particle).then_some(body.angle);
+    push_shape(list, &body.shape, &xf, angle, fill, outline);
+}
+
+/// Adds one shape placed by `xf`; a circle gets a radius line at `angle` (none for a
+/// particle).
+fn push_shape(
+    list: &mut DrawList,
+    shape: &Shape,
+    xf: &crate::math::Transform,
+    angle: Option<f32>,
+    fill: Color,
+    outline: Color,
+) {
+    match shape {
+        Shape::Compound { .. } => {}
         Shape::Circle { radius } => {
-            let angle = (body.model != BodyModel::Particle).then_some(body.angle);
-            list.push_circle(body.position, *radius, angle, fill, outline);
+            list.push_circle(xf.p, *radius, angle, fill, outline);
         }
         Shape::Polygon(poly) if poly.radius > 0.0 => {
             let start = list.polygon_points.len();
@@ -402,7 +425,7 @@ pub fn rect_of(verts: &[Vec2]) -> Option<(Vec2, Vec2, Vec2)> {
 /// Adds each body's bounding box as four lines.
 pub fn push_aabbs(list: &mut DrawList, world: &World) {
     for b in &world.bodies {
-        let bb = b.shape.aabb(&b.transform());
+        let bb = b.aabb();
         let c = [
             bb.min,
             Vec2::new(bb.max.x, bb.min.y),
@@ -530,7 +553,7 @@ pub fn world_bounds(world: &World) -> Option<(Vec2, Vec2)> {
         let mut lo = Vec2::splat(f32::INFINITY);
         let mut hi = Vec2::splat(f32::NEG_INFINITY);
         for b in world.bodies.iter().filter(|b| filter(b)) {
-            let bb = b.shape.aabb(&b.transform());
+            let bb = b.aabb();
             lo = lo.min(bb.min);
             hi = hi.max(bb.max);
         }
@@ -548,7 +571,7 @@ pub fn world_bounds(world: &World) -> Option<(Vec2, Vec2)> {
         .iter()
         .filter(|b| b.body_type == BodyType::Static)
     {
-        let bb = b.shape.aabb(&b.transform());
+        let bb = b.aabb();
         let clo = bb.min.max(glo);
         let chi = bb.max.min(ghi);
         if clo.x <= chi.x && clo.y <= chi.y {

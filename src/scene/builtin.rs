@@ -17,6 +17,10 @@ const SCENES: &[(&str, &str)] = &[
     ("car", include_str!("../../assets/scenes/car.toml")),
     ("chain", include_str!("../../assets/scenes/chain.toml")),
     (
+        "compound",
+        include_str!("../../assets/scenes/compound.toml"),
+    ),
+    (
         "double_pendulum",
         include_str!("../../assets/scenes/double_pendulum.toml"),
     ),
@@ -72,6 +76,7 @@ const NAMES: &[&str] = &[
     "bridge",
     "car",
     "chain",
+    "compound",
     "double_pendulum",
     "friction_ramp",
     "joint_grid",

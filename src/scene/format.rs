@@ -123,7 +123,7 @@ pub(crate) struct FileCamera {
 }
 
 /// `shape = { box = [w, h] }` | `{ circle = r }` | `{ polygon = [[x, y], ...] }`.
-#[derive(Debug, Deserialize)]
+#[derive(Debug, Clone, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub(crate) struct FileShape {
     #[serde(rename = "box")]
@@ -136,8 +136,29 @@ pub(crate) struct FileShape {
     pub radius: Option<S<f32>>,
 }
 
+/// One part of `shapes = [...]`: a shape's keys, where it sits in the body, and its
+/// own material.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(crate) struct FilePart {
+    #[serde(rename = "box")]
+    pub box_: Option<S<V2>>,
+    pub circle: Option<S<f32>>,
+    pub polygon: Option<S<Vec<S<V2>>>>,
+    pub capsule: Option<S<FileCapsule>>,
+    pub segment: Option<S<Vec<S<V2>>>>,
+    pub radius: Option<S<f32>>,
+    pub offset: Option<S<V2>>,
+    pub angle: Option<S<f32>>,
+    pub density: Option<S<f32>>,
+    pub friction: Option<S<f32>>,
+    pub restitution: Option<S<f32>>,
+    pub filter: Option<S<FileFilter>>,
+    pub sensor: Option<S<bool>>,
+}
+
 /// `capsule = { length = L, radius = r }`.
-#[derive(Debug, Deserialize)]
+#[derive(Debug, Clone, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub(crate) struct FileCapsule {
     pub length: S<f32>,
@@ -152,7 +173,9 @@ pub(crate) struct FileBody {
     #[serde(rename = "type")]
     pub type_: Option<S<String>>,
     pub model: Option<S<String>>,
-    pub shape: S<FileShape>,
+    /// One shape; or `shapes`, the parts of a compound body.
+    pub shape: Option<S<FileShape>>,
+    pub shapes: Option<S<Vec<S<FilePart>>>>,
     pub position: Option<S<P2>>,
     pub angle: Option<S<f32>>,
     pub velocity: Option<S<V2>>,
@@ -167,7 +190,7 @@ pub(crate) struct FileBody {
 }
 
 /// `filter = { category = "debris", mask = ["ground", "debris"], group = -1 }`.
-#[derive(Debug, Deserialize)]
+#[derive(Debug, Clone, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub(crate) struct FileFilter {
     pub category: Option<S<String>>,

@@ -606,6 +606,8 @@ pub(crate) fn chain(
                     + radius
             }
             ShapeDef::Segment { a, b } | ShapeDef::ChainSegment { a, b, .. } => (-a.x).max(-b.x),
+            // a chain's end is one shape (`ctx.shape` makes no compound)
+            ShapeDef::Compound { .. } => 0.0,
         };
         let tip = at(links as f32 * len);
         let center = tip + d * back;

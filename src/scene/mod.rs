@@ -210,19 +210,31 @@ fn build(ctx: &Ctx, f: FileScene) -> R<Scene> {
 
     // Filter categories by name, in file order: "default" (every body without one) first.
     let mut categories = vec!["default".to_string()];
-    let filter_of = |maker: &Maker| match *maker {
-        Maker::Body(k) => f.body[k].get_ref().filter.as_ref(),
-        Maker::Pyramid(k) => f.pyramid[k].get_ref().filter.as_ref(),
-        Maker::Stack(k) => f.stack[k].get_ref().filter.as_ref(),
-        Maker::Grid(k) => f.grid[k].get_ref().filter.as_ref(),
-        Maker::Chain(k) => f.chain[k].get_ref().filter.as_ref(),
-        Maker::Polyline(k) => f.polyline[k].get_ref().filter.as_ref(),
+    // a body's filter, then its parts' (a compound's), in file order
+    let filters_of = |maker: &Maker| match *maker {
+        Maker::Body(k) => {
+            let b = f.body[k].get_ref();
+            let parts = b
+                .shapes
+                .as_ref()
+                .map_or(&[][..], |p| p.get_ref().as_slice());
+            b.filter
+                .iter()
+                .chain(parts.iter().filter_map(|p| p.get_ref().filter.as_ref()))
+                .collect::<Vec<_>>()
+        }
+        Maker::Pyramid(k) => f.pyramid[k].get_ref().filter.iter().collect(),
+        Maker::Stack(k) => f.stack[k].get_ref().filter.iter().collect(),
+        Maker::Grid(k) => f.grid[k].get_ref().filter.iter().collect(),
+        Maker::Chain(k) => f.chain[k].get_ref().filter.iter().collect(),
+        Maker::Polyline(k) => f.polyline[k].get_ref().filter.iter().collect(),
     };
-    for (_, maker) in &makers {
-        let category = filter_of(maker);
-        if let Some(c) = category.and_then(|x| x.get_ref().category.as_ref())
-            && !categories.contains(c.get_ref())
-        {
+    for c in makers
+        .iter()
+        .flat_map(|(_, maker)| filters_of(maker))
+        .filter_map(|x| x.get_ref().category.as_ref())
+    {
+        if !categories.contains(c.get_ref()) {
             if categories.len() == MAX_CATEGORIES {
                 return Err(ctx.err(
                     c.span(),
@@ -255,16 +267,22 @@ fn build(ctx: &Ctx, f: FileScene) -> R<Scene> {
                 if name.is_empty() {
                     return Err(ctx.err(span, "body name must not be empty"));
                 }
-                let body = ctx.body(t.get_ref(), name, &categories)?;
+                let body = ctx.body(t.get_ref(), name, &categories, t.span())?;
                 let b = t.get_ref();
                 let at = |v: Option<std::ops::Range<usize>>| v.unwrap_or(t.span());
+                let shape_span = b
+                    .shape
+                    .as_ref()
+                    .map(|s| s.span())
+                    .or(b.shapes.as_ref().map(|s| s.span()))
+                    .unwrap_or(t.span());
                 let places = validate::Places {
-                    shape: b.shape.span(),
+                    shape: shape_span.clone(),
                     mass: b
                         .mass
                         .as_ref()
                         .or(b.density.as_ref())
-                        .map_or(b.shape.span(), |v| v.span()),
+                        .map_or(shape_span, |v| v.span()),
                     position: at(b.position.as_ref().map(|v| v.span())),
                     velocity: at(b.velocity.as_ref().map(|v| v.span())),
                     angular_velocity: at(b.angular_velocity.as_ref().map(|v| v.span())),

@@ -371,6 +371,99 @@ impl Ctx<'_> {
         }
     }
 
+    /// `shapes = [ { box = [w, h], offset = [x, y], angle = a, density = d }, ... ]`: a
+    /// compound's parts, 1 to [`MAX_PARTS`], each a shape (no segment) with where it sits
+    /// in the body and what it is made of (absent keys: the body's).
+    fn parts(&self, who: &str, parts: &S<Vec<S<FilePart>>>, categories: &[String]) -> R<ShapeDef> {
+        let list = parts.get_ref();
+        if list.is_empty() || list.len() > MAX_PARTS {
+            return Err(self.err(
+                parts.span(),
+                format!(
+                    "{who}: `shapes` takes 1 to {MAX_PARTS} parts, got {}",
+                    list.len()
+                ),
+            ));
+        }
+        let mut out = Vec::with_capacity(list.len());
+        for (i, p) in list.iter().enumerate() {
+            let pw = format!("{who} part {}", i + 1);
+            let pw = pw.as_str();
+            let f = p.get_ref();
+            if let Some(s) = &f.segment {
+                return Err(self.err(
+                    s.span(),
+                    format!("{pw}: a part needs an area; a segment has none (use a capsule)"),
+                ));
+            }
+            if let Some(s) = &f.sensor {
+                return Err(self.err(
+                    s.span(),
+                    format!(
+                        "{pw}: `sensor` applies to a whole body, not to one part (make the body a sensor, or a separate sensor body)"
+                    ),
+                ));
+            }
+            let shape = self.shape(
+                pw,
+                &S::new(
+                    p.span(),
+                    FileShape {
+                        box_: f.box_.clone(),
+                        circle: f.circle.clone(),
+                        polygon: f.polygon.clone(),
+                        capsule: f.capsule.clone(),
+                        segment: None,
+                        radius: f.radius.clone(),
+                    },
+                ),
+            )?;
+            let density = match &f.density {
+                Some(d) => {
+                    let x = self.finite(pw, "density", d)?;
+                    if x <= 0.0 {
+                        return Err(
+                            self.err(d.span(), format!("{pw}: density must be > 0, got {x}"))
+                        );
+                    }
+                    Some(x)
+                }
+                None => None,
+            };
+            let friction = match &f.friction {
+                Some(v) => {
+                    let x = self.non_negative(pw, "friction", v)?;
+                    if x > MAX_FRICTION {
+                        return Err(self.err(
+                            v.span(),
+                            format!("{pw}: friction must be at most {MAX_FRICTION:e}, got {x}"),
+                        ));
+                    }
+                    Some(x)
+                }
+                None => None,
+            };
+            out.push(PartDef {
+                shape,
+                offset: self.opt_vec2(pw, "offset", f.offset.as_ref(), Vec2::ZERO)?,
+                angle: self.opt(f.angle.as_ref(), 0.0, |v| self.finite(pw, "angle", v))?,
+                density,
+                friction,
+                restitution: f
+                    .restitution
+                    .as_ref()
+                    .map(|v| self.unit(pw, "restitution", v))
+                    .transpose()?,
+                filter: f
+                    .filter
+                    .as_ref()
+                    .map(|v| self.filter(pw, Some(v), categories))
+                    .transpose()?,
+            });
+        }
+        Ok(ShapeDef::Compound { parts: out })
+    }
+
     /// A polygon: finite points, at least 3 distinct, a convex hull with area.
     fn polygon(&self, who: &str, p: &S<Vec<S<V2>>>) -> R<ShapeDef> {
         let given = p.get_ref().len();
@@ -539,6 +632,7 @@ impl Ctx<'_> {
             ShapeDef::RoundedBox { .. } => "a box",
             ShapeDef::RoundedPolygon { .. } => "a polygon",
             ShapeDef::Segment { .. } | ShapeDef::ChainSegment { .. } => "a segment",
+            ShapeDef::Compound { .. } => "a compound",
         };
         if model == BodyModel::Particle {
             Err(self.err(
@@ -607,18 +701,44 @@ impl Ctx<'_> {
     }
 
     /// A `[[body]]` table, named `name`; `categories` are the scene's filter categories.
-    pub fn body(&self, b: &FileBody, name: String, categories: &[String]) -> R<BodyDef> {
+    /// `table` is where the table is, for a shape that is missing.
+    pub fn body(
+        &self,
+        b: &FileBody,
+        name: String,
+        categories: &[String],
+        table: Range<usize>,
+    ) -> R<BodyDef> {
         let who = format!("body {name:?}");
         let who = who.as_str();
         let body_type = self.body_type(who, b.type_.as_ref())?;
         let model = self.body_model(who, b.model.as_ref())?;
-        let shape = self.shape(who, &b.shape)?;
+        let (shape, shape_span) = match (&b.shape, &b.shapes) {
+            (Some(s), None) => (self.shape(who, s)?, s.span()),
+            (None, Some(parts)) => (self.parts(who, parts, categories)?, parts.span()),
+            (Some(_), Some(parts)) => {
+                return Err(self.err(
+                    parts.span(),
+                    format!(
+                        "{who}: give `shape` (one shape) or `shapes` (a compound's parts), not both"
+                    ),
+                ));
+            }
+            (None, None) => {
+                return Err(self.err(
+                    table,
+                    format!(
+                        "{who}: missing field `shape` (one shape) or `shapes` (a compound's parts)"
+                    ),
+                ));
+            }
+        };
         self.shape_fits(
             who,
             model,
             body_type == BodyType::Dynamic,
             &shape,
-            b.shape.span(),
+            shape_span,
         )?;
         let m = self.material(
             who,

@@ -53,6 +53,18 @@ impl<'a> CacheCursor<'a> {
             _ => None,
         }
     }
+
+    /// Every manifold of last step's pair (a, b): one per pair of touching parts when a
+    /// body is a compound. Pairs must be asked in increasing order.
+    #[inline]
+    pub fn find_all(&mut self, a: u32, b: u32) -> &'a [Contact] {
+        while self.at < self.old.len() && (self.old[self.at].a, self.old[self.at].b) < (a, b) {
+            self.at += 1;
+        }
+        let rest = &self.old[self.at..];
+        let n = rest.iter().take_while(|c| c.a == a && c.b == b).count();
+        &rest[..n]
+    }
 }
 
 #[cfg(test)]

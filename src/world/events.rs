@@ -101,6 +101,14 @@ impl World {
             }
         }
         now.sort_by_key(|(p, _)| *p);
+        // a compound touches a body through several parts: one touch, impulses summed
+        now.dedup_by(|later, kept| {
+            let same = later.0 == kept.0;
+            if same {
+                kept.1 += later.1;
+            }
+            same
+        });
         let pairs: Vec<(u32, u32)> = now.iter().map(|(p, _)| *p).collect();
         let mut ends = Vec::new();
         let mut begins = Vec::new();
@@ -138,14 +146,23 @@ impl World {
                 if other.body_type == crate::defs::BodyType::Static {
                     continue;
                 }
-                let m = crate::collision::sat::collide(
-                    &ba.shape,
-                    &ba.transform(),
-                    &bb.shape,
-                    &bb.transform(),
-                    0.0,
-                );
-                if m.points().iter().any(|p| p.separation <= 0.0) {
+                let mut overlap = false;
+                if ba.parts.is_empty() && bb.parts.is_empty() {
+                    let m = crate::collision::sat::collide(
+                        &ba.shape,
+                        &ba.transform(),
+                        &bb.shape,
+                        &bb.transform(),
+                        0.0,
+                    );
+                    overlap = m.points().iter().any(|p| p.separation <= 0.0);
+                } else {
+                    // a compound senses (or is sensed) by any of its parts
+                    crate::compound::collide_bodies(ba, bb, 0.0, |m, _, _| {
+                        overlap |= m.points().iter().any(|p| p.separation <= 0.0);
+                    });
+                }
+                if overlap {
                     sensing.push((a.min(b), a.max(b)));
                 }
             }

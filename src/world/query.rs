@@ -36,7 +36,7 @@ impl World {
             .iter()
             .enumerate()
             .filter(|(_, b)| sees(filter, b))
-            .filter(|(_, b)| b.shape.contains_local(b.transform().inv_apply(p)))
+            .filter(|(_, b)| b.contains_local(b.transform().inv_apply(p)))
             .map(|(i, _)| i)
             .collect()
     }
@@ -48,7 +48,7 @@ impl World {
             .iter()
             .enumerate()
             .filter(|(_, b)| sees(filter, b))
-            .filter(|(_, b)| b.shape.aabb(&b.transform()).overlaps(aabb))
+            .filter(|(_, b)| b.aabb().overlaps(aabb))
             .map(|(i, _)| i)
             .collect()
     }
@@ -67,7 +67,7 @@ impl World {
                 // in the body's frame; the direction is only turned
                 let o = xf.inv_apply(origin);
                 let d = xf.q.inv_rotate(translation);
-                let (t, n) = b.shape.ray_cast_local(o, d)?;
+                let (t, n) = b.ray_cast_local(o, d)?;
                 Some(RayHit {
                     body: i,
                     point: origin + translation * t,

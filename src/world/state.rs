@@ -247,7 +247,11 @@ impl WorldState {
                     s.name, w.name
                 ));
             }
-            if s.shape != w.shape || s.body_type != w.body_type || s.model != w.model {
+            if s.shape != w.shape
+                || s.parts != w.parts
+                || s.body_type != w.body_type
+                || s.model != w.model
+            {
                 return mismatch(format!(
                     "body {:?} has another shape or type in the state than in the scene",
                     s.name

@@ -1,0 +1,261 @@
+//! Compound bodies: several convex parts fixed in one rigid frame.
+//!
+//! A compound body's [`Body::shape`] is the marker [`Shape::Compound`] (its bounding
+//! radius); its parts are [`Body::parts`], each a shape placed in the body frame (whose
+//! origin is the centre of mass of all the parts) with its own friction, restitution and
+//! filter. Mass, centre of mass and inertia come from the parts: each part's mass
+//! `density * area` at its centroid, and the inertia about the common centre of mass by
+//! the parallel axis theorem, `I = sum(I_i + m_i |c_i - c|^2)`.
+//!
+//! Each pair of parts collides on its own and makes its own manifold; a pair of bodies
+//! may so have several contacts, one per pair of touching parts, told apart by the part
+//! indices in their feature ids ([`part_feature_bits`]).
+
+use crate::body::Body;
+use crate::collision::{Manifold, sat};
+use crate::defs::{Filter, MAX_PARTS, PartDef, ShapeDef};
+use crate::math::{Aabb, Rot, Transform, Vec2};
+use crate::shape::{MassData, Shape, ShapeError};
+
+/// One part of a compound body, in the body frame.
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct Part {
+    /// Centred on the part's own centroid.
+    pub shape: Shape,
+    /// Where the part's centroid lies in the body frame (from the centre of mass, m).
+    pub offset: Vec2,
+    /// The part's rotation in the body frame.
+    pub rot: Rot,
+    pub friction: f32,
+    pub restitution: f32,
+    pub filter: Filter,
+}
+
+impl Part {
+    /// The part's frame in the body frame.
+    #[inline]
+    pub fn local(&self) -> Transform {
+        Transform {
+            p: self.offset,
+            q: self.rot,
+        }
+    }
+}
+
+/// The parts a description makes, placed about their common centre of mass, with the
+/// mass data (`center`: the centre of mass in the description's frame) for `density`
+/// where a part gives none. The body's friction, restitution and filter fill what a
+/// part leaves out.
+pub fn build(
+    parts: &[PartDef],
+    density: f32,
+    friction: f32,
+    restitution: f32,
+    filter: Filter,
+) -> Result<(Vec<Part>, MassData), ShapeError> {
+    if parts.is_empty() {
+        return Err(ShapeError::Invalid(
+            "a compound needs at least one part".into(),
+        ));
+    }
+    if parts.len() > MAX_PARTS {
+        return Err(ShapeError::Invalid(format!(
+            "a compound has at most {MAX_PARTS} parts, got {}",
+            parts.len()
+        )));
+    }
+    let mut out = Vec::with_capacity(parts.len());
+    let mut masses = Vec::with_capacity(parts.len());
+    for (i, p) in parts.iter().enumerate() {
+        if matches!(
+            p.shape,
+            ShapeDef::Segment { .. } | ShapeDef::ChainSegment { .. } | ShapeDef::Compound { .. }
+        ) {
+            return Err(ShapeError::Invalid(format!(
+                "part {} of a compound must be a circle, box, polygon or capsule",
+                i + 1
+            )));
+        }
+        if !(p.offset.is_finite() && p.angle.is_finite()) {
+            return Err(ShapeError::Invalid(format!(
+                "part {} has a position or angle that is not finite",
+                i + 1
+            )));
+        }
+        let (shape, c) = Shape::from_def(&p.shape)?;
+        let rot = Rot::from_angle(p.angle);
+        let d = p.density.unwrap_or(density);
+        masses.push(shape.mass_data(d));
+        out.push(Part {
+            shape,
+            // the part's centroid in the description frame, until the centre is known
+            offset: p.offset + rot.rotate(c),
+            rot,
+            friction: p.friction.unwrap_or(friction),
+            restitution: p.restitution.unwrap_or(restitution),
+            filter: p.filter.unwrap_or(filter),
+        });
+    }
+    let mass: f32 = masses.iter().map(|m| m.mass).sum();
+    // the centre of mass; with no mass (a density of 0 on a static body), the centroid
+    // of the areas
+    let weights: Vec<f32> = if mass > 0.0 && mass.is_finite() {
+        masses.iter().map(|m| m.mass).collect()
+    } else {
+        out.iter().map(|p| p.shape.area()).collect()
+    };
+    let total: f32 = weights.iter().sum();
+    let center = out
+        .iter()
+        .zip(&weights)
+        .fold(Vec2::ZERO, |s, (p, w)| s + p.offset * *w)
+        / total;
+    let mut inertia = 0.0;
+    for (p, m) in out.iter_mut().zip(&masses) {
+        p.offset -= center;
+        // parallel axis theorem
+        inertia += m.inertia + m.mass * p.offset.length_squared();
+    }
+    Ok((
+        out,
+        MassData {
+            mass,
+            center,
+            inertia,
+        },
+    ))
+}
+
+/// The largest distance from the centre of mass to any point of the parts (m).
+pub fn bounding_radius(parts: &[Part]) -> f32 {
+    parts
+        .iter()
+        .map(|p| p.offset.length() + p.shape.radius())
+        .fold(0.0, f32::max)
+}
+
+/// The bits a contact point's feature id gains from the parts that made it: part `i`
+/// of body A in bits 16..22, part `j` of body B in bits 22..28 (the SAT ids use bits
+/// 0..16 and 29..32).
+#[inline]
+pub fn part_feature_bits(i: usize, j: usize) -> u32 {
+    ((i as u32) << 16) | ((j as u32) << 22)
+}
+
+/// What a body collides with: its one shape placed by its transform, or each of its
+/// parts, with the material of each.
+pub struct Collider {
+    pub shape: Shape,
+    pub xf: Transform,
+    pub friction: f32,
+    pub restitution: f32,
+    pub filter: Filter,
+}
+
+/// Calls `f(index, collider)` for each part of `body` (its one shape: index 0).
+#[inline]
+pub fn for_each_collider(body: &Body, mut f: impl FnMut(usize, Collider)) {
+    let xf = body.transform();
+    if body.parts.is_empty() {
+        f(
+            0,
+            Collider {
+                shape: body.shape,
+                xf,
+                friction: body.friction,
+                restitution: body.restitution,
+                filter: body.filter,
+            },
+        );
+    } else {
+        for (i, p) in body.parts.iter().enumerate() {
+            f(
+                i,
+                Collider {
+                    shape: p.shape,
+                    xf: xf.compose(&p.local()),
+                    friction: p.friction,
+                    restitution: p.restitution,
+                    filter: p.filter,
+                },
+            );
+        }
+    }
+}
+
+/// The manifolds between two bodies of which one at least is a compound: one per pair
+/// of parts that touch (within `margin`) and whose filters let them, each with its
+/// mixed friction and restitution. Anchors are from each body's centre of mass; the
+/// feature ids carry the part indices.
+pub fn collide_bodies(ba: &Body, bb: &Body, margin: f32, mut out: impl FnMut(Manifold, f32, f32)) {
+    for_each_collider(ba, |i, ca| {
+        for_each_collider(bb, |j, cb| {
+            if !ca.filter.collides(&cb.filter) {
+                return;
+            }
+            let mut m = sat::collide(&ca.shape, &ca.xf, &cb.shape, &cb.xf, margin);
+            if m.count == 0 {
+                return;
+            }
+            let bits = part_feature_bits(i, j);
+            for p in &mut m.points[..m.count] {
+                p.anchor_a = p.point - ba.position;
+                p.anchor_b = p.point - bb.position;
+                p.id |= bits;
+            }
+            // mu = sqrt(mu_a mu_b), e = max(e_a, e_b), as for single shapes
+            out(
+                m,
+                (ca.friction * cb.friction).sqrt(),
+                ca.restitution.max(cb.restitution),
+            );
+        });
+    });
+}
+
+impl Body {
+    /// The world box around the body's shape or all of its parts.
+    pub fn aabb(&self) -> Aabb {
+        let xf = self.transform();
+        if self.parts.is_empty() {
+            return self.shape.aabb(&xf);
+        }
+        let mut bb: Option<Aabb> = None;
+        for p in &self.parts {
+            let b = p.shape.aabb(&xf.compose(&p.local()));
+            bb = Some(bb.map_or(b, |a| a.union(&b)));
+        }
+        bb.unwrap_or_else(|| self.shape.aabb(&xf))
+    }
+
+    /// Whether the body-frame point `p` is inside the shape or one of the parts.
+    pub fn contains_local(&self, p: Vec2) -> bool {
+        if self.parts.is_empty() {
+            return self.shape.contains_local(p);
+        }
+        self.parts
+            .iter()
+            .any(|part| part.shape.contains_local(part.local().inv_apply(p)))
+    }
+
+    /// Where a body-frame ray `origin + t d`, t in [0, 1], first enters the shape or
+    /// one of the parts: (t, outward normal in the body frame).
+    pub fn ray_cast_local(&self, origin: Vec2, d: Vec2) -> Option<(f32, Vec2)> {
+        if self.parts.is_empty() {
+            return self.shape.ray_cast_local(origin, d);
+        }
+        let mut best: Option<(f32, Vec2)> = None;
+        for part in &self.parts {
+            let xf = part.local();
+            let hit = part
+                .shape
+                .ray_cast_local(xf.inv_apply(origin), xf.q.inv_rotate(d));
+            if let Some((t, n)) = hit
+                && best.is_none_or(|(bt, _)| t < bt)
+            {
+                best = Some((t, xf.q.rotate(n)));
+            }
+        }
+        best
+    }
+}
