@@ -1202,6 +1202,14 @@ pub(crate) fn joint(ctx: &Ctx, bodies: &Bodies, j: &FileJoint) -> R<JointDef> {
         })?,
         damping,
         collide_connected: j.collide_connected.as_ref().is_some_and(|v| *v.get_ref()),
+        spring: None,
+        offset: None,
+        angle: None,
+        max_force: 0.0,
+        max_torque: 0.0,
+        correction: 0.0,
+        ground_anchors: None,
+        ratio: 1.0,
     };
     // A length at creation comes from the anchors, or from the bodies' positions.
     let span = j
