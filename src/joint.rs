@@ -162,7 +162,7 @@ impl Joint {
             (None, Some(p)) => (p, p),
             // no anchor given: b's centre of mass (distance: both centres)
             (None, None) => match def.kind {
-                JointKind::Distance => (ba.position, bb.position),
+                JointKind::Distance | JointKind::Pulley => (ba.position, bb.position),
                 _ => (bb.position, bb.position),
             },
         };

@@ -1006,3 +1006,74 @@ fn a_motor_joint_pushes_no_harder_than_its_max_force() {
         );
     }
 }
+
+#[test]
+fn the_new_joints_in_a_scene_are_their_joint_defs() {
+    let scene = |joint: &str| {
+        let text = format!(
+            "name = \"t\"\n[[body]]\nname = \"a\"\nshape = {{ circle = 0.5 }}\n\
+             [[body]]\nname = \"b\"\nshape = {{ circle = 0.5 }}\nposition = [2, 1]\n\
+             [[joint]]\nbodies = [\"a\", \"b\"]\n{joint}\n"
+        );
+        load_str(&text, "t.toml").expect("parses").world.joints[0].clone()
+    };
+    use sandbox2d::{JointDef, MotorDef};
+    // wheel: the axis defaults to straight up
+    let got =
+        scene("type = \"wheel\"\nanchor = [2, 1]\nspring = { hertz = 4, damping_ratio = 0.7 }");
+    assert_eq!(
+        got,
+        JointDef::wheel(0, 1, Vec2::new(2.0, 1.0), Vec2::Y, 4.0, 0.7)
+    );
+    let got = scene(
+        "type = \"wheel\"\nanchor = [2, 1]\naxis = [1, 0]\nspring = { hertz = 4, damping_ratio = 0 }\n\
+         motor = { speed = -3, max_torque = 20 }\nlimits = [-0.1, 0.2]",
+    );
+    let mut want = JointDef::wheel(0, 1, Vec2::new(2.0, 1.0), Vec2::X, 4.0, 0.0);
+    want.motor = Some(MotorDef {
+        speed: -3.0,
+        max_force: 20.0,
+    });
+    want.limits = Some([-0.1, 0.2]);
+    assert_eq!(got, want);
+    // motor joint: offset and angle default to those at creation (None), correction 0.3
+    let got = scene("type = \"motor\"\nmax_force = 10\nmax_torque = 2");
+    assert_eq!(got, JointDef::motor_joint(0, 1, 10.0, 2.0));
+    let got = scene(
+        "type = \"motor\"\nmax_force = 10\nmax_torque = 2\noffset = [1, 0.5]\nangle = 0.7\ncorrection = 0.5",
+    );
+    let mut want = JointDef::motor_joint(0, 1, 10.0, 2.0);
+    (want.offset, want.angle, want.correction) = (Some(Vec2::new(1.0, 0.5)), Some(0.7), 0.5);
+    assert_eq!(got, want);
+    // pulley: ratio defaults to 1
+    let got = scene(
+        "type = \"pulley\"\nground_anchors = [[0, 5], [2, 5]]\nanchors = [[0, 0.5], [2, 1.5]]",
+    );
+    let (g, p) = (
+        [Vec2::new(0.0, 5.0), Vec2::new(2.0, 5.0)],
+        [Vec2::new(0.0, 0.5), Vec2::new(2.0, 1.5)],
+    );
+    assert_eq!(got, JointDef::pulley(0, 1, g, p, 1.0));
+    let got = scene(
+        "type = \"pulley\"\nground_anchors = [[0, 5], [2, 5]]\nanchors = [[0, 0.5], [2, 1.5]]\nratio = 2.5",
+    );
+    assert_eq!(got, JointDef::pulley(0, 1, g, p, 2.5));
+}
+
+#[test]
+fn a_pulley_without_anchors_hangs_from_the_centres() {
+    // the default anchors are the bodies' centres: length 4 + 2 x 4 = 12 at creation,
+    // and the world's joint keeps it
+    let text = "name = \"t\"\n[[body]]\nname = \"a\"\nshape = { circle = 0.5 }\n\
+                [[body]]\nname = \"b\"\nshape = { circle = 0.5 }\nposition = [2, 1]\n\
+                [[joint]]\ntype = \"pulley\"\nbodies = [\"a\", \"b\"]\n\
+                ground_anchors = [[0, 4], [2, 5]]\nratio = 2\n";
+    let sc = load_str(text, "t.toml").expect("parses");
+    let w = World::from_def(&sc.world, Default::default()).expect("builds");
+    let j = &w.joints()[0];
+    assert_eq!(j.length, 12.0);
+    assert_eq!(
+        j.world_anchors(&w.bodies),
+        (Vec2::ZERO, Vec2::new(2.0, 1.0))
+    );
+}
