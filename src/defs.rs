@@ -223,6 +223,24 @@ pub enum JointKind {
     Hinge,
     Prismatic,
     Weld,
+    /// b (a wheel) slides along an axis fixed in a (a chassis) on a suspension spring,
+    /// turns freely (or by a motor) and stays on the axis's line.
+    Wheel,
+    /// Drives b towards a target offset and angle relative to a, with bounded force
+    /// and torque.
+    Motor,
+    /// Two bodies hung from two ground points: length_a + ratio length_b <= constant.
+    Pulley,
+}
+
+/// A joint's spring (the wheel joint's suspension): k = m_eff (2 pi hertz)^2,
+/// c = 2 m_eff damping_ratio (2 pi hertz), m_eff the row's effective mass.
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct SpringDef {
+    /// Hz, > 0.
+    pub hertz: f32,
+    /// 1 = critical, >= 0.
+    pub damping_ratio: f32,
 }
 
 /// A motor: drive the joint's speed, with a bounded force or torque.
@@ -270,6 +288,22 @@ pub struct JointDef {
     pub compliance: f32,
     pub damping: DampingDef,
     pub collide_connected: bool,
+    /// The wheel joint's suspension along its axis.
+    pub spring: Option<SpringDef>,
+    /// Motor joint: b's target position relative to a's (centres of mass), in a's frame;
+    /// `None` = the offset at creation.
+    pub offset: Option<Vec2>,
+    /// Motor joint: target theta_b - theta_a (rad); `None` = the angle at creation.
+    pub angle: Option<f32>,
+    /// Motor joint: largest force (N) and torque (N m) it applies.
+    pub max_force: f32,
+    pub max_torque: f32,
+    /// Motor joint: the share of the position error it corrects per step, in [0, 1].
+    pub correction: f32,
+    /// Pulley: the two ground points (world), the ropes' fixed ends.
+    pub ground_anchors: Option<[Vec2; 2]>,
+    /// Pulley: length_a + ratio length_b is kept at most its value at creation; > 0.
+    pub ratio: f32,
 }
 
 impl JointDef {
@@ -289,6 +323,14 @@ impl JointDef {
             compliance: 0.0,
             damping: DampingDef::default(),
             collide_connected: false,
+            spring: None,
+            offset: None,
+            angle: None,
+            max_force: 0.0,
+            max_torque: 0.0,
+            correction: 0.0,
+            ground_anchors: None,
+            ratio: 1.0,
         }
     }
 
@@ -314,6 +356,65 @@ impl JointDef {
             length: Some(max_length),
             limits: Some([0.0, max_length]),
             ..JointDef::distance(a, b, pa, pb)
+        }
+    }
+
+    /// A wheel joint: `b` (the wheel) keeps its point `anchor` (world, at creation; usually
+    /// the wheel's centre) on the line through it along `axis` (world, at creation; fixed
+    /// in `a`, the chassis), sprung along that axis by a spring of `hertz` (> 0) and
+    /// `damping_ratio` about where it is at creation, and turns freely. Add `motor`
+    /// (on the wheel's rotation, rad/s and N m) or `limits` (on the offset along the axis,
+    /// m) to the returned def as wanted.
+    pub fn wheel(
+        a: usize,
+        b: usize,
+        anchor: Vec2,
+        axis: Vec2,
+        hertz: f32,
+        damping_ratio: f32,
+    ) -> JointDef {
+        JointDef {
+            kind: JointKind::Wheel,
+            axis: Some(axis),
+            spring: Some(SpringDef {
+                hertz,
+                damping_ratio,
+            }),
+            ..JointDef::hinge(a, b, anchor)
+        }
+    }
+
+    /// A motor joint: drives `b` towards the offset and relative angle it has to `a` at
+    /// creation (set `offset` and `angle` on the returned def for other targets), with at
+    /// most `max_force` (N) and `max_torque` (N m), correcting 0.3 of the error per step.
+    pub fn motor_joint(a: usize, b: usize, max_force: f32, max_torque: f32) -> JointDef {
+        JointDef {
+            kind: JointKind::Motor,
+            anchor: None,
+            max_force,
+            max_torque,
+            correction: 0.3,
+            ..JointDef::hinge(a, b, Vec2::ZERO)
+        }
+    }
+
+    /// A pulley: the rope from the ground point `ground[0]` to `anchors[0]` (world, on `a`)
+    /// and the one from `ground[1]` to `anchors[1]` (on `b`) keep
+    /// length_a + `ratio` length_b at most its value at creation. Rigid, it only pulls.
+    pub fn pulley(
+        a: usize,
+        b: usize,
+        ground: [Vec2; 2],
+        anchors: [Vec2; 2],
+        ratio: f32,
+    ) -> JointDef {
+        JointDef {
+            kind: JointKind::Pulley,
+            anchor: None,
+            anchors: Some(anchors),
+            ground_anchors: Some(ground),
+            ratio,
+            ..JointDef::hinge(a, b, anchors[0])
         }
     }
 }

@@ -1,5 +1,6 @@
 //! Joints: distance (attach, rope), hinge (limits, servo, motor), prismatic (limits,
-//! servo, motor), weld, and the mouse joint that drags a body towards a point.
+//! servo, motor), weld, wheel (suspension spring, motor, limits), motor joint, pulley,
+//! and the mouse joint that drags a body towards a point.
 //!
 //! A joint is stored in its bodies' frames (anchors and axis relative to each body's
 //! centre of mass), so it follows the bodies. Both solvers read the same [`Joint`]:
@@ -8,7 +9,7 @@
 //! Physics joint notes).
 
 use crate::body::Body;
-use crate::defs::{DampingDef, JointDef, JointKind, MotorDef, ServoDef};
+use crate::defs::{DampingDef, JointDef, JointKind, MotorDef, ServoDef, SpringDef};
 use crate::math::{Rot, Vec2, cross};
 
 /// Index of a joint in its world, in creation order.
@@ -44,6 +45,27 @@ pub struct Joint {
     pub drive: f32,
     /// PGS lambdas (N s) kept for warm starting, by row slot (see `Slot`).
     pub(crate) impulses: [f32; SLOTS],
+    /// Wheel: the suspension spring along the axis.
+    #[serde(default)]
+    pub spring: Option<SpringDef>,
+    /// Motor joint: largest force (N) and torque (N m); the share of the error
+    /// corrected per (sub)step. Its target offset is `local_a` (b's centre of mass in
+    /// a's frame, from a's), its target angle `ref_angle`.
+    #[serde(default)]
+    pub max_force: f32,
+    #[serde(default)]
+    pub max_torque: f32,
+    #[serde(default)]
+    pub correction: f32,
+    /// Pulley: the ground points (world); `length` is length_a + ratio length_b at most.
+    #[serde(default)]
+    pub ground: [Vec2; 2],
+    #[serde(default = "one")]
+    pub ratio: f32,
+}
+
+fn one() -> f32 {
+    1.0
 }
 
 /// The rows a joint may have, for storing their lambdas between steps.
@@ -57,6 +79,8 @@ pub(crate) mod slot {
     pub const UPPER: usize = 5;
     pub const MOTOR: usize = 6;
     pub const SERVO: usize = 7;
+    /// The wheel joint's suspension spring (a wheel has no servo).
+    pub const SPRING: usize = 7;
 }
 
 /// Drags one body's point towards a world target with a damped spring (the window's mouse).
@@ -88,6 +112,33 @@ pub fn wrap_angle(a: f32) -> f32 {
     x
 }
 
+/// A pulley's two ropes: arms, unit directions (ground to anchor) and lengths.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct PulleyRopes {
+    pub ra: Vec2,
+    pub rb: Vec2,
+    pub ua: Vec2,
+    pub ub: Vec2,
+    pub len_a: f32,
+    pub len_b: f32,
+}
+
+impl PulleyRopes {
+    /// From the arms and the vectors ground point to anchor (ea, eb).
+    #[inline]
+    pub fn new(ra: Vec2, rb: Vec2, ea: Vec2, eb: Vec2) -> PulleyRopes {
+        let (len_a, len_b) = (ea.length(), eb.length());
+        PulleyRopes {
+            ra,
+            rb,
+            ua: if len_a > 1e-9 { ea / len_a } else { Vec2::Y },
+            ub: if len_b > 1e-9 { eb / len_b } else { Vec2::Y },
+            len_a,
+            len_b,
+        }
+    }
+}
+
 /// Where a joint's parts are now: world arms from the centres of mass to the anchors,
 /// the anchor gap d = p_b - p_a, the axis (prismatic) and the relative angle.
 #[derive(Clone, Copy, Debug)]
@@ -111,12 +162,13 @@ impl Joint {
             (None, Some(p)) => (p, p),
             // no anchor given: b's centre of mass (distance: both centres)
             (None, None) => match def.kind {
-                JointKind::Distance => (ba.position, bb.position),
+                JointKind::Distance | JointKind::Pulley => (ba.position, bb.position),
                 _ => (bb.position, bb.position),
             },
         };
         let axis = def.axis.unwrap_or(Vec2::X).normalize_or(Vec2::X);
-        Joint {
+        let ground = def.ground_anchors.unwrap_or([wa, wb]);
+        let mut j = Joint {
             kind: def.kind,
             a: def.bodies[0],
             b: def.bodies[1],
@@ -133,7 +185,56 @@ impl Joint {
             collide_connected: def.collide_connected,
             drive: 0.0,
             impulses: [0.0; SLOTS],
+            spring: None,
+            max_force: 0.0,
+            max_torque: 0.0,
+            correction: 0.0,
+            ground: [Vec2::ZERO; 2],
+            ratio: 1.0,
+        };
+        match def.kind {
+            JointKind::Wheel => {
+                j.servo = None;
+                j.spring = def.spring;
+            }
+            JointKind::Motor => {
+                // the target: b's centre in a's frame, and theta_b - theta_a
+                j.local_a = def
+                    .offset
+                    .unwrap_or_else(|| ba.rot.inv_rotate(bb.position - ba.position));
+                j.local_b = Vec2::ZERO;
+                j.ref_angle = def.angle.unwrap_or(j.ref_angle);
+                j.max_force = def.max_force;
+                j.max_torque = def.max_torque;
+                j.correction = def.correction;
+                (j.servo, j.motor, j.limits) = (None, None, None);
+            }
+            JointKind::Pulley => {
+                j.ground = ground;
+                j.ratio = def.ratio;
+                j.length = def
+                    .length
+                    .unwrap_or(wa.distance(ground[0]) + def.ratio * wb.distance(ground[1]));
+                (j.servo, j.motor, j.limits) = (None, None, None);
+            }
+            _ => {}
         }
+        j
+    }
+
+    /// A pulley's ropes now: for each side the unit direction from its ground point to
+    /// its anchor and its length, with the world arms (ra, rb).
+    #[inline]
+    pub(crate) fn pulley_ropes(&self, bodies: &[Body]) -> PulleyRopes {
+        let (ba, bb) = (&bodies[self.a], &bodies[self.b]);
+        let ra = ba.rot.rotate(self.local_a);
+        let rb = bb.rot.rotate(self.local_b);
+        PulleyRopes::new(
+            ra,
+            rb,
+            ba.position + ra - self.ground[0],
+            bb.position + rb - self.ground[1],
+        )
     }
 
     /// The joint's geometry now.
@@ -152,6 +253,7 @@ impl Joint {
     }
 
     /// World positions of the two anchors (for drawing).
+    /// A motor joint's are b's target point and b's centre; a pulley's its bodies' anchors.
     pub fn world_anchors(&self, bodies: &[Body]) -> (Vec2, Vec2) {
         let f = self.frame(bodies);
         let pa = bodies[self.a].position + f.ra;
@@ -160,11 +262,17 @@ impl Joint {
 
     /// How far the joint is from holding (m): the anchor separation of a hinge or weld,
     /// the length error (or range violation) of a distance joint, the off-axis offset
-    /// plus the range violation of a prismatic joint.
+    /// plus the range violation of a prismatic or wheel joint, the stretch of a pulley
+    /// past its length; 0 for a motor joint (a bounded drive, not a constraint).
     pub fn position_error(&self, bodies: &[Body]) -> f32 {
         let f = self.frame(bodies);
         let outside = |x: f32, [lo, hi]: [f32; 2]| (lo - x).max(x - hi).max(0.0);
         match self.kind {
+            JointKind::Motor => 0.0,
+            JointKind::Pulley => {
+                let p = self.pulley_ropes(bodies);
+                (p.len_a + self.ratio * p.len_b - self.length).max(0.0)
+            }
             JointKind::Hinge | JointKind::Weld => f.d.length(),
             JointKind::Distance => {
                 let len = f.d.length();
@@ -173,7 +281,7 @@ impl Joint {
                     None => (len - self.length).abs(),
                 }
             }
-            JointKind::Prismatic => {
+            JointKind::Prismatic | JointKind::Wheel => {
                 let off = f.axis.perp().dot(f.d).abs();
                 off + self.limits.map_or(0.0, |l| outside(f.axis.dot(f.d), l))
             }
@@ -189,7 +297,7 @@ impl Joint {
                 .limits
                 .map_or(0.0, |[lo, hi]| (lo - f.angle).max(f.angle - hi).max(0.0)),
             JointKind::Weld | JointKind::Prismatic => f.angle.abs(),
-            JointKind::Distance => 0.0,
+            JointKind::Distance | JointKind::Wheel | JointKind::Motor | JointKind::Pulley => 0.0,
         }
     }
 
@@ -272,6 +380,62 @@ impl Joint {
                     lambdas,
                     Some(([f.ra + f.d, f.rb, f.axis], [ra0 + d0, rb0, axis0])),
                 );
+            }
+            JointKind::Wheel => {
+                let f = self.frame(bodies);
+                // on the line: C = perp . d, rigid (or compliant)
+                let perp = f.axis.perp();
+                linear_correction(
+                    bodies,
+                    self.a,
+                    self.b,
+                    [f.ra + f.d, f.rb, perp],
+                    [ra0 + d0, rb0, axis0.perp()],
+                    perp.dot(f.d),
+                    soft,
+                    &mut lambdas[slot::AXIAL],
+                );
+                let f = self.frame(bodies);
+                let t = f.axis.dot(f.d);
+                let now = [f.ra + f.d, f.rb, f.axis];
+                let then = [ra0 + d0, rb0, axis0];
+                // the suspension: C = axis . d with compliance 1 / k, k = m_eff omega^2
+                // (its damping is applied in the velocity pass)
+                if let Some(sp) = self.spring
+                    && sp.hertz > 0.0
+                {
+                    let w = effective_inverse_mass(bodies, self.a, self.b, now);
+                    if w > 0.0 {
+                        let omega = std::f32::consts::TAU * sp.hertz;
+                        let alpha = w / (omega * omega);
+                        linear_correction(
+                            bodies,
+                            self.a,
+                            self.b,
+                            now,
+                            then,
+                            t,
+                            alpha / (h * h),
+                            &mut lambdas[slot::SPRING],
+                        );
+                    }
+                }
+                let f = self.frame(bodies);
+                self.project_range(
+                    bodies,
+                    f.axis.dot(f.d),
+                    lambdas,
+                    Some(([f.ra + f.d, f.rb, f.axis], then)),
+                );
+            }
+            // a bounded drive: XPBD applies it in the velocity pass
+            JointKind::Motor => {}
+            JointKind::Pulley => {
+                let p = self.pulley_ropes(bodies);
+                let c = p.len_a + self.ratio * p.len_b - self.length;
+                if c > 0.0 {
+                    pulley_correction(bodies, self.a, self.b, &p, self.ratio, c);
+                }
             }
             JointKind::Distance => {
                 let f = self.frame(bodies);
@@ -372,6 +536,40 @@ pub(crate) fn linear_correction(
     let p = dl * n0;
     move_body(&mut bodies[a], -ima * p, -iia * cross(ra0, p));
     move_body(&mut bodies[b], imb * p, iib * cross(rb0, p));
+}
+
+/// 1 / m_eff of a linear row along n between arms ra and rb (`now` = [ra, rb, n]).
+#[inline]
+pub(crate) fn effective_inverse_mass(bodies: &[Body], a: usize, b: usize, now: [Vec2; 3]) -> f32 {
+    let [ra, rb, n] = now;
+    let (ba, bb) = (&bodies[a], &bodies[b]);
+    let (rna, rnb) = (cross(ra, n), cross(rb, n));
+    ba.inv_mass + ba.inv_inertia * rna * rna + bb.inv_mass + bb.inv_inertia * rnb * rnb
+}
+
+/// XPBD correction of a pulley stretched by c > 0 (C = len_a + r len_b - length): each
+/// anchor is pulled towards its ground point, b's with the ratio's leverage.
+#[inline]
+pub(crate) fn pulley_correction(
+    bodies: &mut [Body],
+    a: usize,
+    b: usize,
+    p: &PulleyRopes,
+    ratio: f32,
+    c: f32,
+) {
+    let (ima, iia) = (bodies[a].inv_mass, bodies[a].inv_inertia);
+    let (imb, iib) = (bodies[b].inv_mass, bodies[b].inv_inertia);
+    let (rua, rub) = (cross(p.ra, p.ua), cross(p.rb, p.ub));
+    let w = ima + iia * rua * rua + ratio * ratio * (imb + iib * rub * rub);
+    if w <= 0.0 {
+        return;
+    }
+    // dC/dx_a = u_a, dC/dx_b = r u_b
+    let dl = -c / w;
+    let (pa, pb) = (dl * p.ua, dl * ratio * p.ub);
+    move_body(&mut bodies[a], ima * pa, iia * cross(p.ra, pa));
+    move_body(&mut bodies[b], imb * pb, iib * cross(p.rb, pb));
 }
 
 /// XPBD: a rigid point constraint (hinge, weld) is projected with alpha~ = this x

@@ -363,13 +363,41 @@ impl World {
         {
             return bad(format!("length must be >= 0, got {l}"));
         }
-        let finite = [def.anchor, def.axis]
+        let finite = [def.anchor, def.axis, def.offset]
             .iter()
             .flatten()
             .chain(def.anchors.iter().flatten())
+            .chain(def.ground_anchors.iter().flatten())
             .all(|v| v.is_finite());
-        if !finite {
-            return bad("anchors and axis must be finite".into());
+        if !finite || !def.angle.is_none_or(f32::is_finite) {
+            return bad("anchors, axis, offset and angle must be finite".into());
+        }
+        if let Some(sp) = def.spring
+            && !(sp.hertz > 0.0 && sp.hertz.is_finite() && sp.damping_ratio >= 0.0)
+        {
+            return bad(format!(
+                "spring needs hertz > 0 and damping_ratio >= 0, got {} and {}",
+                sp.hertz, sp.damping_ratio
+            ));
+        }
+        match def.kind {
+            crate::defs::JointKind::Motor
+                if !(def.max_force >= 0.0
+                    && def.max_torque >= 0.0
+                    && (0.0..=1.0).contains(&def.correction)) =>
+            {
+                return bad(format!(
+                    "a motor joint needs max_force, max_torque >= 0 and correction in [0, 1], got {}, {}, {}",
+                    def.max_force, def.max_torque, def.correction
+                ));
+            }
+            crate::defs::JointKind::Pulley if def.ground_anchors.is_none() => {
+                return bad("a pulley needs ground anchors".into());
+            }
+            crate::defs::JointKind::Pulley if !(def.ratio > 0.0 && def.ratio.is_finite()) => {
+                return bad(format!("a pulley's ratio must be > 0, got {}", def.ratio));
+            }
+            _ => {}
         }
         let joint = Joint::from_def(def, &self.bodies);
         if let Some(what) = joint_not_finite(&joint) {

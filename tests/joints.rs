@@ -745,3 +745,335 @@ fn a_taut_rope_never_stretches_past_its_length() {
         );
     }
 }
+
+/// Bodies only (no joints), gravity `g` down: `bodies` is `[[body]]` tables.
+fn bodies_world(g: f32, bodies: &str, kind: SolverKind) -> World {
+    world(
+        &format!("name = \"t\"\n[world]\ngravity = [0.0, {}]\n{bodies}", -g),
+        kind,
+    )
+}
+
+const GROUND_AND_WHEEL: &str = r#"[[body]]
+name = "ground"
+type = "static"
+shape = { circle = 0.05 }
+[[body]]
+name = "wheel"
+shape = { circle = 0.3 }
+mass = 2.0
+"#;
+
+#[test]
+fn a_wheel_suspension_oscillates_at_its_frequency() {
+    // A 2 kg wheel on a wheel joint to a static body, axis (0.6, 0.8), spring 1 Hz,
+    // damping ratio 0, no gravity, started at 0.5 m/s along the axis and 3 rad/s: its
+    // offset along the axis oscillates with period 1 / f = 1 s (the anchor is the wheel's
+    // centre, so m_eff = m), it stays on the axis's line, and it keeps turning freely.
+    let (hertz, axis) = (1.0f32, Vec2::new(0.6, 0.8));
+    for kind in SolverKind::ALL {
+        let mut w = bodies_world(0.0, GROUND_AND_WHEEL, kind);
+        let def = sandbox2d::JointDef::wheel(0, 1, Vec2::ZERO, axis, hertz, 0.0);
+        w.add_joint(&def).expect("joint");
+        w.bodies[1].velocity = 0.5 * axis;
+        w.bodies[1].angular_velocity = 3.0;
+        let dt = w.settings.dt;
+        let (mut prev, mut crossings, mut off_line, mut amp) = (0.0f32, Vec::new(), 0.0f32, 0.0f32);
+        let steps = (6.2 / dt).round() as usize;
+        for k in 1..=steps {
+            w.step().expect("steps");
+            let p = w.bodies[1].position;
+            let t = p.dot(axis);
+            off_line = off_line.max(p.dot(axis.perp()).abs());
+            amp = amp.max(t.abs());
+            if prev > 0.0 && t <= 0.0 {
+                crossings.push((k as f32 - 1.0 + prev / (prev - t)) * dt);
+            }
+            prev = t;
+        }
+        assert!(crossings.len() >= 5, "{kind:?}: crossings {crossings:?}");
+        let period = (crossings[crossings.len() - 1] - crossings[0]) / (crossings.len() - 1) as f32;
+        eprintln!(
+            "{kind:?}: wheel period {period} s (want {}), amplitude {amp} m (want {}), off the line {off_line} m, spin {} rad/s",
+            1.0 / hertz,
+            0.5 / (std::f32::consts::TAU * hertz),
+            w.bodies[1].angular_velocity
+        );
+        assert!(
+            (period * hertz - 1.0).abs() < 0.03,
+            "{kind:?}: period {period} s, want {} s",
+            1.0 / hertz
+        );
+        // the first swing's peak: v0 / omega (PGS's one implicit step of 1/60 s per
+        // frame loses (h omega)^2 / 2 = 0.5% of the amplitude a step: 8% by the peak)
+        let want_amp = 0.5 / (std::f32::consts::TAU * hertz);
+        let tol = if kind == SolverKind::Pgs { 0.1 } else { 0.03 };
+        assert!(
+            (amp - want_amp).abs() < tol * want_amp,
+            "{kind:?}: amplitude {amp} m, want v0 / omega = {want_amp} m"
+        );
+        assert!(
+            off_line < 1e-3,
+            "{kind:?}: left the axis's line by {off_line} m"
+        );
+        assert!(
+            (w.bodies[1].angular_velocity - 3.0).abs() < 1e-3,
+            "{kind:?}: spin {} rad/s, want 3 (free rotation)",
+            w.bodies[1].angular_velocity
+        );
+    }
+}
+
+#[test]
+fn a_wheel_motor_turns_the_wheel_and_limits_stop_the_travel() {
+    // The same wheel with a motor of 5 rad/s (20 N m: I = m r^2 / 2 = 0.09 kg m^2 gets
+    // there in 0.03 s) and limits [-0.05, 0.05] m on the axis; started at 2 m/s along the
+    // axis (a free spring would swing 2 / omega = 0.32 m): the offset stays within the
+    // limits (1 mm slack) and the wheel turns at the motor's speed.
+    let axis = Vec2::new(0.0, 1.0);
+    for kind in SolverKind::ALL {
+        let mut w = bodies_world(0.0, GROUND_AND_WHEEL, kind);
+        let mut def = sandbox2d::JointDef::wheel(0, 1, Vec2::ZERO, axis, 1.0, 0.0);
+        def.motor = Some(sandbox2d::MotorDef {
+            speed: 5.0,
+            max_force: 20.0,
+        });
+        def.limits = Some([-0.05, 0.05]);
+        w.add_joint(&def).expect("joint");
+        w.bodies[1].velocity = 2.0 * axis;
+        let mut widest = 0.0f32;
+        for _ in 0..(3.0 / w.settings.dt) as usize {
+            w.step().expect("steps");
+            widest = widest.max(w.bodies[1].position.y.abs());
+        }
+        let spin = w.bodies[1].angular_velocity;
+        eprintln!("{kind:?}: wheel travel {widest} m (limit 0.05), spin {spin} rad/s");
+        assert!(
+            widest < 0.051,
+            "{kind:?}: travelled {widest} m, limits 0.05 m"
+        );
+        assert!(
+            (spin - 5.0).abs() < 0.01,
+            "{kind:?}: spin {spin} rad/s, motor 5"
+        );
+    }
+}
+
+/// Two bodies hanging from ground points (-1, 3) and (1, 3), at (-1, 0) (mass `ma`) and
+/// (1, 0) (mass `mb`), on a pulley of ratio `r` anchored at their centres.
+fn pulley_world(ma: f32, mb: f32, r: f32, kind: SolverKind) -> World {
+    let mut w = bodies_world(
+        10.0,
+        &format!(
+            r#"[[body]]
+name = "a"
+shape = {{ box = [0.2, 0.2] }}
+mass = {ma}
+position = [-1.0, 0.0]
+[[body]]
+name = "b"
+shape = {{ box = [0.2, 0.2] }}
+mass = {mb}
+position = [1.0, 0.0]
+"#
+        ),
+        kind,
+    );
+    let def = sandbox2d::JointDef::pulley(
+        0,
+        1,
+        [Vec2::new(-1.0, 3.0), Vec2::new(1.0, 3.0)],
+        [Vec2::new(-1.0, 0.0), Vec2::new(1.0, 0.0)],
+        r,
+    );
+    w.add_joint(&def).expect("joint");
+    w
+}
+
+#[test]
+fn a_pulley_moves_its_bodies_by_the_ratio() {
+    // ratio 2, 1 kg each: a goes down, b up by half as much; with the rope taut,
+    // a falls at g (m_a - m_b / r) / (m_a + m_b / r^2) = 0.4 g (virtual work). After
+    // 0.5 s: a falls at 0.4 g t = 2 m/s (within 1%; the speed, as the integrators'
+    // O(dt) position lag is 3% at 30 steps), b has risen half a's drop (within 1%).
+    let (g, r) = (10.0f32, 2.0f32);
+    for kind in SolverKind::ALL {
+        let mut w = pulley_world(1.0, 1.0, r, kind);
+        run(&mut w, 0.5);
+        let (da, db) = (-w.bodies[0].position.y, w.bodies[1].position.y);
+        let (va, vb) = (-w.bodies[0].velocity.y, w.bodies[1].velocity.y);
+        let want = 0.4 * g * 0.5;
+        eprintln!(
+            "{kind:?}: pulley a down {da} m at {va} m/s (want {want}), b up {db} m (want {}) at {vb} m/s",
+            da / r
+        );
+        assert!(
+            (va - want).abs() < 0.01 * want,
+            "{kind:?}: a falls at {va} m/s, want {want}"
+        );
+        assert!(
+            (vb - va / r).abs() < 0.01 * va / r,
+            "{kind:?}: b rises at {vb} m/s, a falls at {va}"
+        );
+        assert!(
+            (db - da / r).abs() < 0.01 * da / r,
+            "{kind:?}: b rose {db} m, a fell {da} m: want {} (ratio {r})",
+            da / r
+        );
+        assert!(w.bodies[0].position.x.abs() - 1.0 < 1e-3 && w.bodies[1].position.x - 1.0 < 1e-3);
+    }
+}
+
+#[test]
+fn a_pulley_balances_masses_in_the_ratio() {
+    // m_b = r m_a balances (b's rope pulls r times a's tension): 3 s later neither has
+    // moved 1 mm. And the rope only pulls: lifting a (2 m/s up) leaves b where it is.
+    let r = 2.0f32;
+    for kind in SolverKind::ALL {
+        let mut w = pulley_world(1.0, r * 1.0, r, kind);
+        run(&mut w, 3.0);
+        let (ya, yb) = (w.bodies[0].position.y, w.bodies[1].position.y);
+        eprintln!("{kind:?}: balanced pulley: a at {ya} m, b at {yb} m");
+        assert!(
+            ya.abs() < 1e-3 && yb.abs() < 1e-3,
+            "{kind:?}: a {ya} m, b {yb} m"
+        );
+        w.bodies[0].velocity = Vec2::new(0.0, 2.0);
+        run(&mut w, 0.1);
+        // b falls freely (the rope is slack until 2 t - g t^2 / 2 = r g t^2 / 2, 0.13 s)
+        let vb = w.bodies[1].velocity.y;
+        assert!(
+            (vb + 1.0).abs() < 0.02,
+            "{kind:?}: b falls at {vb} m/s while a's rope is slack, want g t = 1 m/s"
+        );
+    }
+}
+
+#[test]
+fn a_motor_joint_drives_a_body_to_its_target() {
+    // A 1 kg box, no gravity, on a motor joint to a static body at the origin with
+    // target offset (1, 0.5) and angle 0.7 rad, max 20 N and 5 N m: within 1 cm and
+    // 0.01 rad after 5 s.
+    for kind in SolverKind::ALL {
+        let mut w = bodies_world(
+            0.0,
+            "[[body]]\nname = \"ground\"\ntype = \"static\"\nshape = { circle = 0.05 }\n\
+             [[body]]\nname = \"box\"\nshape = { box = [0.5, 0.5] }\nmass = 1.0\n",
+            kind,
+        );
+        let mut def = sandbox2d::JointDef::motor_joint(0, 1, 20.0, 5.0);
+        def.offset = Some(Vec2::new(1.0, 0.5));
+        def.angle = Some(0.7);
+        w.add_joint(&def).expect("joint");
+        run(&mut w, 5.0);
+        let b = &w.bodies[1];
+        let (off, ang) = (
+            b.position.distance(Vec2::new(1.0, 0.5)),
+            (b.angle - 0.7).abs(),
+        );
+        eprintln!("{kind:?}: motor joint off by {off} m, {ang} rad");
+        assert!(off < 0.01, "{kind:?}: {off} m from the target");
+        assert!(ang < 0.01, "{kind:?}: {ang} rad from the target");
+    }
+}
+
+#[test]
+fn a_motor_joint_pushes_no_harder_than_its_max_force() {
+    // The target 1 m above a 1 kg box under g = 10, max force 4 N: it cannot hold the
+    // box, which falls at g - F / m = 6 m/s^2 (the drive saturated, pulling up):
+    // at 6 m/s after 1 s, within 1%.
+    for kind in SolverKind::ALL {
+        let mut w = bodies_world(
+            10.0,
+            "[[body]]\nname = \"ground\"\ntype = \"static\"\nshape = { circle = 0.05 }\n\
+             position = [0.0, 1.0]\n\
+             [[body]]\nname = \"box\"\nshape = { box = [0.5, 0.5] }\nmass = 1.0\n",
+            kind,
+        );
+        let mut def = sandbox2d::JointDef::motor_joint(0, 1, 4.0, 5.0);
+        def.offset = Some(Vec2::ZERO);
+        w.add_joint(&def).expect("joint");
+        run(&mut w, 1.0);
+        let (fall, v) = (-w.bodies[1].position.y, -w.bodies[1].velocity.y);
+        eprintln!("{kind:?}: under a 4 N motor joint the box fell {fall} m at {v} m/s (want 6)");
+        assert!(
+            (v - 6.0).abs() < 0.06,
+            "{kind:?}: falls at {v} m/s, want 6 m/s"
+        );
+        assert!(
+            w.bodies[1].position.x.abs() < 1e-4,
+            "{kind:?}: drifted sideways"
+        );
+    }
+}
+
+#[test]
+fn the_new_joints_in_a_scene_are_their_joint_defs() {
+    let scene = |joint: &str| {
+        let text = format!(
+            "name = \"t\"\n[[body]]\nname = \"a\"\nshape = {{ circle = 0.5 }}\n\
+             [[body]]\nname = \"b\"\nshape = {{ circle = 0.5 }}\nposition = [2, 1]\n\
+             [[joint]]\nbodies = [\"a\", \"b\"]\n{joint}\n"
+        );
+        load_str(&text, "t.toml").expect("parses").world.joints[0].clone()
+    };
+    use sandbox2d::{JointDef, MotorDef};
+    // wheel: the axis defaults to straight up
+    let got =
+        scene("type = \"wheel\"\nanchor = [2, 1]\nspring = { hertz = 4, damping_ratio = 0.7 }");
+    assert_eq!(
+        got,
+        JointDef::wheel(0, 1, Vec2::new(2.0, 1.0), Vec2::Y, 4.0, 0.7)
+    );
+    let got = scene(
+        "type = \"wheel\"\nanchor = [2, 1]\naxis = [1, 0]\nspring = { hertz = 4, damping_ratio = 0 }\n\
+         motor = { speed = -3, max_torque = 20 }\nlimits = [-0.1, 0.2]",
+    );
+    let mut want = JointDef::wheel(0, 1, Vec2::new(2.0, 1.0), Vec2::X, 4.0, 0.0);
+    want.motor = Some(MotorDef {
+        speed: -3.0,
+        max_force: 20.0,
+    });
+    want.limits = Some([-0.1, 0.2]);
+    assert_eq!(got, want);
+    // motor joint: offset and angle default to those at creation (None), correction 0.3
+    let got = scene("type = \"motor\"\nmax_force = 10\nmax_torque = 2");
+    assert_eq!(got, JointDef::motor_joint(0, 1, 10.0, 2.0));
+    let got = scene(
+        "type = \"motor\"\nmax_force = 10\nmax_torque = 2\noffset = [1, 0.5]\nangle = 0.7\ncorrection = 0.5",
+    );
+    let mut want = JointDef::motor_joint(0, 1, 10.0, 2.0);
+    (want.offset, want.angle, want.correction) = (Some(Vec2::new(1.0, 0.5)), Some(0.7), 0.5);
+    assert_eq!(got, want);
+    // pulley: ratio defaults to 1
+    let got = scene(
+        "type = \"pulley\"\nground_anchors = [[0, 5], [2, 5]]\nanchors = [[0, 0.5], [2, 1.5]]",
+    );
+    let (g, p) = (
+        [Vec2::new(0.0, 5.0), Vec2::new(2.0, 5.0)],
+        [Vec2::new(0.0, 0.5), Vec2::new(2.0, 1.5)],
+    );
+    assert_eq!(got, JointDef::pulley(0, 1, g, p, 1.0));
+    let got = scene(
+        "type = \"pulley\"\nground_anchors = [[0, 5], [2, 5]]\nanchors = [[0, 0.5], [2, 1.5]]\nratio = 2.5",
+    );
+    assert_eq!(got, JointDef::pulley(0, 1, g, p, 2.5));
+}
+
+#[test]
+fn a_pulley_without_anchors_hangs_from_the_centres() {
+    // the default anchors are the bodies' centres: length 4 + 2 x 4 = 12 at creation,
+    // and the world's joint keeps it
+    let text = "name = \"t\"\n[[body]]\nname = \"a\"\nshape = { circle = 0.5 }\n\
+                [[body]]\nname = \"b\"\nshape = { circle = 0.5 }\nposition = [2, 1]\n\
+                [[joint]]\ntype = \"pulley\"\nbodies = [\"a\", \"b\"]\n\
+                ground_anchors = [[0, 4], [2, 5]]\nratio = 2\n";
+    let sc = load_str(text, "t.toml").expect("parses");
+    let w = World::from_def(&sc.world, Default::default()).expect("builds");
+    let j = &w.joints()[0];
+    assert_eq!(j.length, 12.0);
+    assert_eq!(
+        j.world_anchors(&w.bodies),
+        (Vec2::ZERO, Vec2::new(2.0, 1.0))
+    );
+}

@@ -1828,6 +1828,225 @@ fn dynamic_polyline() {
     );
 }
 
+#[test]
+fn wheel_needs_a_spring() {
+    check(
+        &joint("type = \"wheel\"\nbodies = [\"a\", \"b\"]\naxis = [0, 1]"),
+        9,
+        8,
+        &[
+            "wheel joint \"a\"-\"b\"",
+            "needs `spring = { hertz, damping_ratio }`",
+        ],
+    );
+}
+
+#[test]
+fn wheel_spring_hertz_not_positive_and_damping_ratio_negative() {
+    check(
+        &joint(
+            "type = \"wheel\"\nbodies = [\"a\", \"b\"]\nspring = { hertz = 0, damping_ratio = 0.5 }",
+        ),
+        11,
+        20,
+        &["wheel joint", "spring hertz must be > 0", "got 0"],
+    );
+    check(
+        &joint(
+            "type = \"wheel\"\nbodies = [\"a\", \"b\"]\nspring = { hertz = 2, damping_ratio = -1 }",
+        ),
+        11,
+        39,
+        &["wheel joint", "spring damping_ratio must be >= 0", "got -1"],
+    );
+    check(
+        &joint("type = \"wheel\"\nbodies = [\"a\", \"b\"]\nspring = { hertz = 2 }"),
+        11,
+        10,
+        &["damping_ratio"],
+    );
+}
+
+#[test]
+fn wheel_motor_takes_max_torque() {
+    check(
+        &joint(
+            "type = \"wheel\"\nbodies = [\"a\", \"b\"]\nspring = { hertz = 2, damping_ratio = 0.7 }\nmotor = { speed = 1, max_force = 2 }",
+        ),
+        12,
+        34,
+        &["a wheel motor takes `max_torque`, not `max_force`"],
+    );
+}
+
+#[test]
+fn wheel_refuses_the_keys_it_does_not_take() {
+    for (line, key) in [
+        ("anchors = [[0, 0], [1, 0]]", "anchors"),
+        ("length = 1", "length"),
+        ("servo = { target = 1 }", "servo"),
+        ("damping = { linear = 1 }", "damping"),
+        ("offset = [1, 0]", "offset"),
+        ("max_torque = 1", "max_torque"),
+        ("ground_anchors = [[0, 0], [1, 0]]", "ground_anchors"),
+        ("ratio = 2", "ratio"),
+    ] {
+        let col = line.find('=').unwrap() + 3;
+        check(
+            &joint(&format!(
+                "type = \"wheel\"\nbodies = [\"a\", \"b\"]\nspring = {{ hertz = 2, damping_ratio = 0.7 }}\n{line}"
+            )),
+            12,
+            col,
+            &[&format!("`{key}` does not apply to a wheel joint")],
+        );
+    }
+}
+
+#[test]
+fn motor_joint_needs_max_force_and_max_torque() {
+    check(
+        &joint("type = \"motor\"\nbodies = [\"a\", \"b\"]\nmax_torque = 1"),
+        9,
+        8,
+        &["motor joint \"a\"-\"b\"", "needs `max_force`"],
+    );
+    check(
+        &joint("type = \"motor\"\nbodies = [\"a\", \"b\"]\nmax_force = 1"),
+        9,
+        8,
+        &["motor joint \"a\"-\"b\"", "needs `max_torque`"],
+    );
+    check(
+        &joint("type = \"motor\"\nbodies = [\"a\", \"b\"]\nmax_force = -1\nmax_torque = 1"),
+        11,
+        13,
+        &["max_force must be >= 0", "got -1"],
+    );
+}
+
+#[test]
+fn motor_joint_correction_outside_zero_one() {
+    check(
+        &joint(
+            "type = \"motor\"\nbodies = [\"a\", \"b\"]\nmax_force = 1\nmax_torque = 1\ncorrection = 1.5",
+        ),
+        13,
+        14,
+        &["motor joint", "correction must be in [0, 1]", "got 1.5"],
+    );
+}
+
+#[test]
+fn motor_joint_refuses_the_keys_it_does_not_take() {
+    for (line, key, hint) in [
+        ("anchor = [0, 0]", "anchor", "takes `offset`"),
+        ("anchors = [[0, 0], [1, 0]]", "anchors", "takes `offset`"),
+        ("axis = [1, 0]", "axis", ""),
+        ("limits = [0, 1]", "limits", ""),
+        (
+            "motor = { speed = 1, max_force = 2 }",
+            "motor",
+            "takes `max_force` and `max_torque`",
+        ),
+        ("servo = { target = 1 }", "servo", ""),
+        ("compliance = 1e-3", "compliance", "bounded"),
+        ("spring = { hertz = 1, damping_ratio = 0 }", "spring", ""),
+        ("ratio = 2", "ratio", ""),
+    ] {
+        let col = line.find('=').unwrap() + 3;
+        check(
+            &joint(&format!(
+                "type = \"motor\"\nbodies = [\"a\", \"b\"]\nmax_force = 1\nmax_torque = 1\n{line}"
+            )),
+            13,
+            col,
+            &[&format!("`{key}` does not apply to a motor joint"), hint],
+        );
+    }
+}
+
+#[test]
+fn pulley_needs_ground_anchors() {
+    check(
+        &joint("type = \"pulley\"\nbodies = [\"a\", \"b\"]"),
+        9,
+        8,
+        &["pulley joint \"a\"-\"b\"", "needs `ground_anchors"],
+    );
+}
+
+#[test]
+fn pulley_ratio_not_positive() {
+    for (v, got) in [("0", "got 0"), ("-2", "got -2")] {
+        check(
+            &joint(&format!(
+                "type = \"pulley\"\nbodies = [\"a\", \"b\"]\nground_anchors = [[0, 5], [1, 5]]\nratio = {v}"
+            )),
+            12,
+            9,
+            &["pulley joint", "ratio must be > 0", got],
+        );
+    }
+}
+
+#[test]
+fn pulley_refuses_the_keys_it_does_not_take() {
+    for (line, key) in [
+        ("anchor = [0, 0]", "anchor"),
+        ("length = 3", "length"),
+        ("axis = [1, 0]", "axis"),
+        ("limits = [0, 1]", "limits"),
+        ("compliance = 1e-3", "compliance"),
+        ("motor = { speed = 1, max_force = 2 }", "motor"),
+        ("damping = { linear = 1 }", "damping"),
+        ("offset = [1, 0]", "offset"),
+        ("max_force = 1", "max_force"),
+    ] {
+        let col = line.find('=').unwrap() + 3;
+        check(
+            &joint(&format!(
+                "type = \"pulley\"\nbodies = [\"a\", \"b\"]\nground_anchors = [[0, 5], [1, 5]]\n{line}"
+            )),
+            12,
+            col,
+            &[&format!("`{key}` does not apply to a pulley joint")],
+        );
+    }
+}
+
+#[test]
+fn older_joints_refuse_the_new_keys() {
+    for (ty, line, key) in [
+        (
+            "hinge",
+            "spring = { hertz = 1, damping_ratio = 0 }",
+            "spring",
+        ),
+        ("prismatic", "max_force = 1", "max_force"),
+        (
+            "distance",
+            "ground_anchors = [[0, 5], [1, 5]]",
+            "ground_anchors",
+        ),
+        ("weld", "angle = 1", "angle"),
+        ("rope", "ratio = 2", "ratio"),
+    ] {
+        let col = line.find('=').unwrap() + 3;
+        check(
+            &joint(
+                &format!("type = \"{ty}\"\nbodies = [\"a\", \"b\"]\nlength = 1\n{line}").replace(
+                    "length = 1\n",
+                    if ty == "rope" { "length = 1\n" } else { "" },
+                ),
+            ),
+            if ty == "rope" { 12 } else { 11 },
+            col,
+            &[&format!("`{key}` does not apply to a {ty} joint")],
+        );
+    }
+}
+
 // compound bodies: `shapes = [...]`
 
 #[test]

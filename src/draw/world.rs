@@ -269,14 +269,21 @@ pub fn fill_world_draw_list(list: &mut DrawList, world: &World, overlays: &Overl
         list.scratch = values;
     }
     // joints: a line between the two anchors (a thread, a rope link) and a dot at each
-    // (where a hinge or weld holds); the mouse joint from the grabbed point to its target
+    // (where a hinge or weld holds), a pulley's two ropes from their ground points; the
+    // mouse joint from the grabbed point to its target
     let (dot, width) = mark_sizes_px(overlays.pixels_per_meter);
     push_joint_lines_sized(
         list,
-        world
-            .joints()
-            .iter()
-            .map(|j| j.world_anchors(&world.bodies)),
+        world.joints().iter().flat_map(|j| {
+            let (pa, pb) = j.world_anchors(&world.bodies);
+            if j.kind == crate::defs::JointKind::Pulley {
+                [Some((j.ground[0], pa)), Some((j.ground[1], pb))]
+            } else {
+                [Some((pa, pb)), None]
+            }
+            .into_iter()
+            .flatten()
+        }),
         dot,
         width,
     );

@@ -248,6 +248,25 @@ pub(crate) struct FileJoint {
     pub compliance: Option<S<f32>>,
     pub damping: Option<S<FileDamping>>,
     pub collide_connected: Option<S<bool>>,
+    /// wheel
+    pub spring: Option<S<FileSpring>>,
+    /// motor joint
+    pub offset: Option<S<V2>>,
+    pub angle: Option<S<f32>>,
+    pub max_force: Option<S<f32>>,
+    pub max_torque: Option<S<f32>>,
+    pub correction: Option<S<f32>>,
+    /// pulley
+    pub ground_anchors: Option<S<Pair<S<P2>>>>,
+    pub ratio: Option<S<f32>>,
+}
+
+/// `spring = { hertz, damping_ratio }` (wheel).
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(crate) struct FileSpring {
+    pub hertz: S<f32>,
+    pub damping_ratio: S<f32>,
 }
 
 /// `[[pyramid]]`.

@@ -1125,6 +1125,9 @@ pub(crate) fn joint(ctx: &Ctx, bodies: &Bodies, j: &FileJoint) -> R<JointDef> {
             ("prismatic", (Prismatic, false)),
             ("weld", (Weld, false)),
             ("rope", (Distance, true)),
+            ("wheel", (Wheel, false)),
+            ("motor", (Motor, false)),
+            ("pulley", (Pulley, false)),
         ],
     )?;
     let kind_name = j.type_.get_ref().as_str();
@@ -1153,32 +1156,51 @@ pub(crate) fn joint(ctx: &Ctx, bodies: &Bodies, j: &FileJoint) -> R<JointDef> {
         }
     };
     let span_of = |v: Option<Range<usize>>, applies: bool| if applies { None } else { v };
+    let point_like = matches!(kind, Hinge | Weld | Prismatic | Wheel);
     not_for(
-        span_of(j.anchor.as_ref().map(|v| v.span()), kind != Distance),
+        span_of(j.anchor.as_ref().map(|v| v.span()), point_like),
         "anchor",
-        if rope {
-            " (a rope takes `anchors`)"
-        } else {
-            " (a distance joint takes `anchors`)"
+        match kind {
+            _ if rope => " (a rope takes `anchors`)",
+            Distance => " (a distance joint takes `anchors`)",
+            Pulley => " (a pulley takes `anchors` and `ground_anchors`)",
+            _ => " (a motor joint takes `offset`)",
         },
     )?;
     not_for(
-        span_of(j.anchors.as_ref().map(|v| v.span()), kind == Distance),
+        span_of(
+            j.anchors.as_ref().map(|v| v.span()),
+            matches!(kind, Distance | Pulley),
+        ),
         "anchors",
-        " (it takes `anchor`)",
+        if kind == Motor {
+            " (a motor joint takes `offset`)"
+        } else {
+            " (it takes `anchor`)"
+        },
     )?;
     not_for(
         span_of(j.length.as_ref().map(|v| v.span()), kind == Distance),
         "length",
-        "",
+        if kind == Pulley {
+            " (its length_a + ratio length_b is the one at creation)"
+        } else {
+            ""
+        },
     )?;
     not_for(
-        span_of(j.axis.as_ref().map(|v| v.span()), kind == Prismatic),
+        span_of(
+            j.axis.as_ref().map(|v| v.span()),
+            matches!(kind, Prismatic | Wheel),
+        ),
         "axis",
         "",
     )?;
     not_for(
-        span_of(j.limits.as_ref().map(|v| v.span()), kind != Weld && !rope),
+        span_of(
+            j.limits.as_ref().map(|v| v.span()),
+            matches!(kind, Hinge | Prismatic | Distance | Wheel) && !rope,
+        ),
         "limits",
         if rope {
             " (its `length` is the max length; it is slack below)"
@@ -1187,21 +1209,82 @@ pub(crate) fn joint(ctx: &Ctx, bodies: &Bodies, j: &FileJoint) -> R<JointDef> {
         },
     )?;
     // A rope's max length is a hard limit: the limit rows of PGS and the soft step
-    // are rigid, so a compliance would not mean the same under every solver.
+    // are rigid, so a compliance would not mean the same under every solver. A motor
+    // joint is bounded by its max force and torque, a pulley is rigid like a rope.
     not_for(
-        span_of(j.compliance.as_ref().map(|v| v.span()), !rope),
+        span_of(
+            j.compliance.as_ref().map(|v| v.span()),
+            !rope && kind != Motor && kind != Pulley,
+        ),
         "compliance",
-        " (a rope is rigid at its max length)",
+        match kind {
+            _ if rope => " (a rope is rigid at its max length)",
+            Pulley => " (a pulley is rigid when taut)",
+            _ => " (it is bounded by `max_force` and `max_torque`)",
+        },
     )?;
-    let driven = kind == Hinge || kind == Prismatic;
+    let driven = matches!(kind, Hinge | Prismatic | Wheel);
     not_for(
         span_of(j.motor.as_ref().map(|v| v.span()), driven),
         "motor",
+        if kind == Motor {
+            " (a motor joint takes `max_force` and `max_torque`)"
+        } else {
+            ""
+        },
+    )?;
+    not_for(
+        span_of(
+            j.servo.as_ref().map(|v| v.span()),
+            matches!(kind, Hinge | Prismatic),
+        ),
+        "servo",
         "",
     )?;
     not_for(
-        span_of(j.servo.as_ref().map(|v| v.span()), driven),
-        "servo",
+        span_of(
+            j.damping.as_ref().map(|v| v.span()),
+            !matches!(kind, Wheel | Motor | Pulley),
+        ),
+        "damping",
+        if kind == Wheel {
+            " (its suspension's damping is `spring.damping_ratio`)"
+        } else {
+            ""
+        },
+    )?;
+    not_for(
+        span_of(j.spring.as_ref().map(|v| v.span()), kind == Wheel),
+        "spring",
+        "",
+    )?;
+    for (key, v) in [
+        ("offset", j.offset.as_ref().map(|v| v.span())),
+        ("angle", j.angle.as_ref().map(|v| v.span())),
+        ("max_force", j.max_force.as_ref().map(|v| v.span())),
+        ("max_torque", j.max_torque.as_ref().map(|v| v.span())),
+        ("correction", j.correction.as_ref().map(|v| v.span())),
+    ] {
+        let takes = if driven {
+            " (its `motor` takes them)"
+        } else {
+            ""
+        };
+        let takes = if key == "max_force" || key == "max_torque" {
+            takes
+        } else {
+            ""
+        };
+        not_for(span_of(v, kind == Motor), key, takes)?;
+    }
+    not_for(
+        span_of(j.ground_anchors.as_ref().map(|v| v.span()), kind == Pulley),
+        "ground_anchors",
+        "",
+    )?;
+    not_for(
+        span_of(j.ratio.as_ref().map(|v| v.span()), kind == Pulley),
+        "ratio",
         "",
     )?;
 
@@ -1266,7 +1349,7 @@ pub(crate) fn joint(ctx: &Ctx, bodies: &Bodies, j: &FileJoint) -> R<JointDef> {
     let motor = match &j.motor {
         Some(m) => {
             let f = m.get_ref();
-            let (key, other, given, wrong) = if kind == Hinge {
+            let (key, other, given, wrong) = if kind == Hinge || kind == Wheel {
                 ("max_torque", "max_force", &f.max_torque, &f.max_force)
             } else {
                 ("max_force", "max_torque", &f.max_force, &f.max_torque)
@@ -1307,6 +1390,79 @@ pub(crate) fn joint(ctx: &Ctx, bodies: &Bodies, j: &FileJoint) -> R<JointDef> {
         }
         None => DampingDef::default(),
     };
+    let spring = match &j.spring {
+        Some(sp) => {
+            let f = sp.get_ref();
+            Some(SpringDef {
+                hertz: ctx.positive(who, "spring hertz", &f.hertz)?,
+                damping_ratio: ctx.non_negative(who, "spring damping_ratio", &f.damping_ratio)?,
+            })
+        }
+        None if kind == Wheel => {
+            return Err(ctx.err(
+                j.type_.span(),
+                format!("{who}: a wheel joint needs `spring = {{ hertz, damping_ratio }}` (its suspension; hertz > 0)"),
+            ));
+        }
+        None => None,
+    };
+    let offset = j
+        .offset
+        .as_ref()
+        .map(|v| ctx.vec2(who, "offset", v))
+        .transpose()?;
+    let angle = j
+        .angle
+        .as_ref()
+        .map(|v| ctx.finite(who, "angle", v))
+        .transpose()?;
+    let (mut max_force, mut max_torque) = (0.0, 0.0);
+    let mut correction = 0.0;
+    if kind == Motor {
+        for (key, v, out) in [
+            ("max_force", &j.max_force, &mut max_force),
+            ("max_torque", &j.max_torque, &mut max_torque),
+        ] {
+            let Some(v) = v else {
+                return Err(ctx.err(
+                    j.type_.span(),
+                    format!("{who}: a motor joint needs `{key}` (>= 0)"),
+                ));
+            };
+            *out = ctx.non_negative(who, key, v)?;
+        }
+        correction = ctx.opt(j.correction.as_ref(), 0.3, |v| {
+            ctx.unit(who, "correction", v)
+        })?;
+    }
+    let ground_anchors = match &j.ground_anchors {
+        Some(v) => {
+            let [p, q] = &v.get_ref().0;
+            Some([
+                ctx.point(who, "ground_anchors", p)?,
+                ctx.point(who, "ground_anchors", q)?,
+            ])
+        }
+        None if kind == Pulley => {
+            return Err(ctx.err(
+                j.type_.span(),
+                format!("{who}: a pulley needs `ground_anchors = [[x, y], [x, y]]` (where its two ropes hang from)"),
+            ));
+        }
+        None => None,
+    };
+    let ratio = j
+        .ratio
+        .as_ref()
+        .map(|v| ctx.positive(who, "ratio", v))
+        .transpose()?
+        .unwrap_or(1.0);
+    // a wheel's axis defaults to straight up (a suspension)
+    let axis = if kind == Wheel {
+        axis.or(Some(Vec2::Y))
+    } else {
+        axis
+    };
     let mut def = JointDef {
         kind,
         bodies: [ia, ib],
@@ -1322,6 +1478,14 @@ pub(crate) fn joint(ctx: &Ctx, bodies: &Bodies, j: &FileJoint) -> R<JointDef> {
         })?,
         damping,
         collide_connected: j.collide_connected.as_ref().is_some_and(|v| *v.get_ref()),
+        spring,
+        offset,
+        angle,
+        max_force,
+        max_torque,
+        correction,
+        ground_anchors,
+        ratio,
     };
     // A length at creation comes from the anchors, or from the bodies' positions.
     let span = j

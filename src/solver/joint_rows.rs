@@ -11,7 +11,7 @@
 use super::pgs::SolverBody;
 use crate::body::Body;
 use crate::defs::{JointKind, SolverSettings};
-use crate::joint::{Joint, JointFrame, MouseJoint, slot, wrap_angle};
+use crate::joint::{Joint, JointFrame, MouseJoint, PulleyRopes, slot, wrap_angle};
 use crate::math::{Vec2, cross, cross_sv};
 
 /// A rigid point row is regularised by gamma = this x trace(K) / 2 (a relative
@@ -237,6 +237,39 @@ fn inequality(mut r: Row, bodies: &[SolverBody], c: f32, beta: f32, h: f32) -> R
     r
 }
 
+/// A spring row (the wheel's suspension): a soft equality C = 0 of frequency `hertz` and
+/// damping ratio `zeta` for the row's effective mass m_eff = 1 / K: k = m_eff omega^2,
+/// c = 2 m_eff zeta omega, gamma = 1 / (h (c + h k)), bias = h k gamma C.
+fn spring(mut r: Row, bodies: &[SolverBody], c: f32, hertz: f32, zeta: f32, h: f32) -> Row {
+    let k = r.k(bodies);
+    r.lo = f32::NEG_INFINITY;
+    r.hi = f32::INFINITY;
+    if !(k > 0.0) || !(hertz > 0.0) {
+        return r;
+    }
+    let m_eff = 1.0 / k;
+    let omega = std::f32::consts::TAU * hertz;
+    let stiffness = m_eff * omega * omega;
+    let damp = 2.0 * m_eff * zeta.max(0.0) * omega;
+    r.gamma = 1.0 / (h * (damp + h * stiffness));
+    r.bias = h * stiffness * r.gamma * c;
+    r.mass = 1.0 / (k + r.gamma);
+    r
+}
+
+/// A pulley's row: J v = d/dt (length - len_a - r len_b) = -(u_a . v_pa + r u_b . v_pb).
+fn pulley_row(a: u32, b: u32, p: &PulleyRopes, ratio: f32) -> Row {
+    Row {
+        a,
+        b,
+        la: -p.ua,
+        ka: -cross(p.ra, p.ua),
+        lb: -ratio * p.ub,
+        kb: -ratio * cross(p.rb, p.ub),
+        ..Default::default()
+    }
+}
+
 /// A motor row: J v = speed, |lambda| <= max_force h.
 fn motor(mut r: Row, bodies: &[SolverBody], speed: f32, max_force: f32, h: f32) -> Row {
     let k = r.k(bodies);
@@ -371,6 +404,58 @@ impl JointRows {
                         self.damping
                             .push((equality(ang, bodies, 0.0, 0.0, 0.0, h), j.damping.angular));
                     }
+                }
+                JointKind::Wheel => {
+                    if let Some(m) = j.motor {
+                        push(
+                            &mut self.items,
+                            motor(angle_row(a, b), bodies, m.speed, m.max_force, h),
+                            slot::MOTOR,
+                        );
+                    }
+                    let ax = linear_row(a, b, f.ra + f.d, f.rb, f.axis);
+                    let t = f.axis.dot(f.d);
+                    if let Some(sp) = j.spring {
+                        push(
+                            &mut self.items,
+                            spring(ax, bodies, t, sp.hertz, sp.damping_ratio, h),
+                            slot::SPRING,
+                        );
+                    }
+                    range_rows(&mut self.items, j, ax, t, bodies, beta, h, false, &push);
+                    let perp = f.axis.perp();
+                    let pr = linear_row(a, b, f.ra + f.d, f.rb, perp);
+                    push(
+                        &mut self.items,
+                        equality(pr, bodies, perp.dot(f.d), j.compliance, beta, h),
+                        slot::AXIAL,
+                    );
+                    if j.damping.linear > 0.0 {
+                        self.damping
+                            .push((equality(ax, bodies, 0.0, 0.0, 0.0, h), j.damping.linear));
+                    }
+                }
+                JointKind::Motor => {
+                    push(
+                        &mut self.items,
+                        motor_joint_angle(j, (a, b), f.angle, bodies, h, s.dt),
+                        slot::ANGLE,
+                    );
+                    let imp = Vec2::new(j.impulses[slot::POINT_X], j.impulses[slot::POINT_Y]);
+                    let mut p = motor_joint_point(j, &f, bodies, (h, s.dt), ji as u32);
+                    if s.warm_start {
+                        p.impulse = clamp_length(imp, p.max_impulse);
+                    }
+                    self.items.push(Item::Point(p));
+                }
+                JointKind::Pulley => {
+                    let p = j.pulley_ropes(world_bodies);
+                    let c = j.length - p.len_a - j.ratio * p.len_b;
+                    push(
+                        &mut self.items,
+                        inequality(pulley_row(a, b, &p, j.ratio), bodies, c, beta, h),
+                        slot::AXIAL,
+                    );
                 }
                 JointKind::Distance => {
                     let len = f.d.length();
@@ -546,6 +631,63 @@ impl JointRows {
     }
 }
 
+/// v scaled down to length `max` if longer.
+#[inline]
+fn clamp_length(v: Vec2, max: f32) -> Vec2 {
+    let len = v.length();
+    if len > max { v * (max / len) } else { v }
+}
+
+/// The motor joint's angular row: J v = w_b - w_a driven to -correction angle / dt
+/// (angle = the error theta_b - theta_a - target; dt the world's step, so the share of
+/// the error removed per step is the same whatever the substeps), |lambda| <= max torque h.
+fn motor_joint_angle(
+    j: &Joint,
+    (a, b): (u32, u32),
+    angle: f32,
+    bodies: &[SolverBody],
+    h: f32,
+    dt: f32,
+) -> Row {
+    let mut r = motor(
+        angle_row(a, b),
+        bodies,
+        -j.correction * angle / dt,
+        j.max_torque,
+        h,
+    );
+    r.positional = false;
+    r
+}
+
+/// The motor joint's linear block: the point velocity driven to -correction d / dt (d =
+/// b's centre less its target), |lambda| <= max force h.
+fn motor_joint_point(
+    j: &Joint,
+    f: &JointFrame,
+    bodies: &[SolverBody],
+    (h, dt): (f32, f32),
+    joint: u32,
+) -> Point {
+    let (ba, bb) = (&bodies[j.a], &bodies[j.b]);
+    // the arms: from a's centre to the target (fixed in a), b's centre: J v = d'
+    let ra = f.ra;
+    Point {
+        a: j.a as u32,
+        b: j.b as u32,
+        ra,
+        rb: f.rb,
+        inv_k: point_inv_k(ba, bb, ra, f.rb, 0.0),
+        bias: j.correction * f.d / dt,
+        gamma: 0.0,
+        impulse: Vec2::ZERO,
+        max_impulse: j.max_force.max(0.0) * h,
+        joint,
+        positional: false,
+        pos_impulse: Vec2::ZERO,
+    }
+}
+
 /// Limits and servo rows on the joint's angle (hinge) or offset (prismatic) x.
 #[allow(clippy::too_many_arguments)]
 fn range_rows(
@@ -607,7 +749,8 @@ pub fn apply_drives(joints: &[Joint], bodies: &mut [Body], h: f32) {
         let f: JointFrame = j.frame(bodies);
         let p = j.drive * h;
         match j.kind {
-            JointKind::Hinge | JointKind::Weld => {
+            JointKind::Motor | JointKind::Pulley => {}
+            JointKind::Hinge | JointKind::Weld | JointKind::Wheel => {
                 // torque: w_b += tau h / I_b, w_a -= tau h / I_a
                 let ia = bodies[j.a].inv_inertia;
                 bodies[j.a].angular_velocity -= ia * p;
@@ -638,24 +781,39 @@ pub fn apply_drives(joints: &[Joint], bodies: &mut [Body], h: f32) {
 }
 
 /// XPBD's velocity pass for joints: motors (one row each, their impulse bounded by
-/// max force times h) and damping, on the velocities derived from the positions.
+/// max force times h), the motor joint, and damping, on the velocities derived from the
+/// positions; `dt` is the world's step (the motor joint's correction is per step).
 pub fn xpbd_velocity_pass(
     joints: &[Joint],
     world_bodies: &[Body],
     bodies: &mut [SolverBody],
-    h: f32,
+    (h, dt): (f32, f32),
     rows: &mut JointRows,
 ) {
     rows.items.clear();
     rows.damping.clear();
     for (ji, j) in joints.iter().enumerate() {
-        if j.motor.is_none() && j.damping.linear <= 0.0 && j.damping.angular <= 0.0 {
+        let spring_damped = j.spring.is_some_and(|sp| sp.damping_ratio > 0.0);
+        if j.motor.is_none()
+            && j.damping.linear <= 0.0
+            && j.damping.angular <= 0.0
+            && j.kind != JointKind::Motor
+            && !spring_damped
+        {
             continue;
         }
         let f = j.frame(world_bodies);
         let (a, b) = (j.a as u32, j.b as u32);
+        if j.kind == JointKind::Motor {
+            // the motor joint is a bounded velocity drive: solved here only
+            motor_joint_angle(j, (a, b), f.angle, bodies, h, dt).solve(bodies);
+            motor_joint_point(j, &f, bodies, (h, dt), ji as u32).solve(bodies);
+            continue;
+        }
         let axis_row = match j.kind {
-            JointKind::Prismatic => Some(linear_row(a, b, f.ra + f.d, f.rb, f.axis)),
+            JointKind::Prismatic | JointKind::Wheel => {
+                Some(linear_row(a, b, f.ra + f.d, f.rb, f.axis))
+            }
             JointKind::Distance => Some(linear_row(a, b, f.ra, f.rb, f.d.normalize_or(Vec2::Y))),
             _ => None,
         };
@@ -674,7 +832,19 @@ pub fn xpbd_velocity_pass(
             rows.damping
                 .push((equality(r, bodies, 0.0, 0.0, 0.0, h), j.damping.linear));
         }
-        if j.damping.angular > 0.0 && j.kind != JointKind::Distance {
+        // the wheel's suspension damper, c = 2 m_eff zeta omega: a rate of 2 zeta omega
+        if let Some(sp) = j.spring.filter(|_| spring_damped)
+            && let Some(r) = axis_row
+        {
+            let rate = 2.0 * sp.damping_ratio * std::f32::consts::TAU * sp.hertz;
+            rows.damping
+                .push((equality(r, bodies, 0.0, 0.0, 0.0, h), rate));
+        }
+        let turns = matches!(
+            j.kind,
+            JointKind::Hinge | JointKind::Prismatic | JointKind::Weld
+        );
+        if j.damping.angular > 0.0 && turns {
             rows.damping.push((
                 equality(angle_row(a, b), bodies, 0.0, 0.0, 0.0, h),
                 j.damping.angular,

@@ -22,7 +22,7 @@
 use super::soft::{SoftBody, Softness};
 use crate::body::Body;
 use crate::defs::{JointKind, SolverSettings};
-use crate::joint::{Joint, MouseJoint, SLOTS, slot, wrap_angle};
+use crate::joint::{Joint, MouseJoint, PulleyRopes, SLOTS, slot, wrap_angle};
 use crate::math::{Vec2, cross, cross_sv};
 
 /// A joint's geometry at the step's start and its lambdas.
@@ -39,6 +39,12 @@ struct Prepared {
     axis0: Vec2,
     /// theta_b - theta_a - ref at the step's start.
     angle0: f32,
+    /// Pulley: anchor less ground point, each side, at the step's start.
+    ea0: Vec2,
+    eb0: Vec2,
+    /// Wheel: the suspension's softness (Box2D's soft constraint for its own hertz and
+    /// damping ratio; the same in both sweeps).
+    spring: Option<Softness>,
     impulses: [f32; SLOTS],
 }
 
@@ -91,6 +97,16 @@ impl Jac {
             ka: -cross(ra, e),
             lb: e,
             kb: cross(rb, e),
+        }
+    }
+
+    /// A pulley: d/dt (length - len_a - r len_b).
+    fn pulley(p: &PulleyRopes, ratio: f32) -> Jac {
+        Jac {
+            la: -p.ua,
+            ka: -cross(p.ra, p.ua),
+            lb: -ratio * p.ub,
+            kb: -ratio * cross(p.rb, p.ub),
         }
     }
 
@@ -182,6 +198,8 @@ struct Sweep {
     soft: Softness,
     h: f32,
     inv_h: f32,
+    /// 1 / the world's step: the motor joint corrects its share of the error per step.
+    inv_dt: f32,
 }
 
 impl Sweep {
@@ -248,6 +266,48 @@ impl Sweep {
         d.abs()
     }
 
+    /// A spring row C = 0 with its own softness (both sweeps alike).
+    #[inline]
+    fn spring(&self, p: &mut Pair, j: &Jac, c: f32, soft: &Softness, lambda: &mut f32) -> f32 {
+        let k = p.k(j);
+        if k <= 0.0 {
+            return 0.0;
+        }
+        let d =
+            -(soft.mass_scale / k) * (p.jv(j) + soft.bias_rate * c) - soft.impulse_scale * *lambda;
+        *lambda += d;
+        p.apply(j, d);
+        d.abs()
+    }
+
+    /// The motor joint: the angle error and the point error d (b's centre less its
+    /// target) driven out at `correction` per step, the torque and force bounded.
+    #[inline]
+    fn motor_joint(&self, p: &mut Pair, j: &Joint, g: &Geometry, l: &mut [f32; SLOTS]) -> f32 {
+        let ang = Jac::angle();
+        let k = p.k(&ang);
+        let mut r = 0.0f32;
+        if k > 0.0 {
+            let max = j.max_torque.max(0.0) * self.h;
+            let cdot = p.jv(&ang) + j.correction * g.angle * self.inv_dt;
+            let old = l[slot::ANGLE];
+            let new = (old - cdot / k).clamp(-max, max);
+            l[slot::ANGLE] = new;
+            p.apply(&ang, new - old);
+            r = (new - old).abs();
+        }
+        let cdot = p.point_velocity(g.ra, g.rb) + j.correction * g.d * self.inv_dt;
+        let old = Vec2::new(l[slot::POINT_X], l[slot::POINT_Y]);
+        let mut new = old - p.solve_point(g.ra, g.rb, 0.0, cdot);
+        let (len, max) = (new.length(), j.max_force.max(0.0) * self.h);
+        if len > max {
+            new *= max / len;
+        }
+        (l[slot::POINT_X], l[slot::POINT_Y]) = (new.x, new.y);
+        p.apply_point(g.ra, g.rb, new - old);
+        r.max((new - old).abs().max_element())
+    }
+
     /// A hinge or weld point: C = d (2 rows), as one 2x2 block.
     #[inline]
     fn point(&self, p: &mut Pair, g: &Geometry, compliance: f32, lambda: &mut Vec2) -> f32 {
@@ -274,6 +334,7 @@ pub struct SoftJoints {
     mouse: Option<PreparedMouse>,
     soft: Softness,
     h: f32,
+    dt: f32,
 }
 
 impl SoftJoints {
@@ -288,12 +349,18 @@ impl SoftJoints {
         h: f32,
     ) {
         self.h = h;
+        self.dt = s.dt;
         // a rigid row's spring: at most a quarter of the substep rate
         let hertz = s.joint_hertz.min(0.25 / h);
         self.soft = Softness::new(hertz, s.joint_damping_ratio, h);
         self.prepared.clear();
         for j in joints {
             let f = j.frame(bodies);
+            let (mut ea0, mut eb0) = (Vec2::ZERO, Vec2::ZERO);
+            if j.kind == JointKind::Pulley {
+                let (pa, pb) = j.world_anchors(bodies);
+                (ea0, eb0) = (pa - j.ground[0], pb - j.ground[1]);
+            }
             self.prepared.push(Prepared {
                 a: j.a,
                 b: j.b,
@@ -302,6 +369,12 @@ impl SoftJoints {
                 d0: f.d,
                 axis0: f.axis,
                 angle0: f.angle,
+                ea0,
+                eb0,
+                spring: j
+                    .spring
+                    .filter(|sp| j.kind == JointKind::Wheel && sp.hertz > 0.0)
+                    .map(|sp| Softness::new(sp.hertz, sp.damping_ratio.max(0.0), h)),
                 impulses: if s.warm_start {
                     j.impulses
                 } else {
@@ -376,6 +449,14 @@ impl SoftJoints {
         }
     }
 
+    /// A pulley's ropes now, from the bodies' motion since the step's start.
+    #[inline]
+    fn ropes(p: &Prepared, pair: &Pair, g: &Geometry) -> PulleyRopes {
+        let ea = p.ea0 + pair.a.dp + (g.ra - p.ra0);
+        let eb = p.eb0 + pair.b.dp + (g.rb - p.rb0);
+        PulleyRopes::new(g.ra, g.rb, ea, eb)
+    }
+
     /// Applies the lambdas (start of each substep).
     pub fn warm_start(&self, joints: &[Joint], bodies: &mut [SoftBody], inv_mass: &[(f32, f32)]) {
         for (p, j) in self.prepared.iter().zip(joints) {
@@ -402,6 +483,21 @@ impl SoftJoints {
                     let u = g.d.normalize_or(Vec2::Y);
                     let r = Jac::linear(g.ra, g.rb, u);
                     pair.apply(&r, l[slot::AXIAL] + l[slot::LOWER] - l[slot::UPPER]);
+                }
+                JointKind::Wheel => {
+                    let ax = Jac::linear(g.ra + g.d, g.rb, g.axis);
+                    pair.apply(&ax, l[slot::SPRING] + l[slot::LOWER] - l[slot::UPPER]);
+                    let perp = Jac::linear(g.ra + g.d, g.rb, g.axis.perp());
+                    pair.apply(&perp, l[slot::AXIAL]);
+                    pair.apply(&Jac::angle(), l[slot::MOTOR]);
+                }
+                JointKind::Motor => {
+                    pair.apply_point(g.ra, g.rb, Vec2::new(l[slot::POINT_X], l[slot::POINT_Y]));
+                    pair.apply(&Jac::angle(), l[slot::ANGLE]);
+                }
+                JointKind::Pulley => {
+                    let ropes = Self::ropes(p, &pair, &g);
+                    pair.apply(&Jac::pulley(&ropes, j.ratio), l[slot::AXIAL]);
                 }
             }
             Self::store_pair(p, &pair, bodies, inv_mass);
@@ -430,11 +526,14 @@ impl SoftJoints {
             soft: self.soft,
             h: self.h,
             inv_h: 1.0 / self.h,
+            inv_dt: 1.0 / self.dt,
         };
         let mut residual = 0.0f32;
         for (p, j) in self.prepared.iter_mut().zip(joints) {
             let mut pair = Self::pair(p, bodies, inv_mass);
             let g = Self::geometry(p, &pair);
+            let ropes = (j.kind == JointKind::Pulley).then(|| Self::ropes(p, &pair, &g));
+            let spring = p.spring;
             let l = &mut p.impulses;
             let alpha = j.compliance;
             let r = match j.kind {
@@ -480,6 +579,31 @@ impl SoftJoints {
                         &mut l[slot::ANGLE],
                     ))
                 }
+                JointKind::Wheel => {
+                    let mut r = motor_row(&sw, &mut pair, j, &Jac::angle(), l);
+                    let ax = Jac::linear(g.ra + g.d, g.rb, g.axis);
+                    let t = g.axis.dot(g.d);
+                    if let Some(soft) = &spring {
+                        r = r.max(sw.spring(&mut pair, &ax, t, soft, &mut l[slot::SPRING]));
+                    }
+                    r = r.max(range(&sw, &mut pair, j, &ax, t, false, l));
+                    let perp = g.axis.perp();
+                    let pr = Jac::linear(g.ra + g.d, g.rb, perp);
+                    r.max(sw.equality(&mut pair, &pr, perp.dot(g.d), alpha, &mut l[slot::AXIAL]))
+                }
+                JointKind::Motor => sw.motor_joint(&mut pair, j, &g, l),
+                JointKind::Pulley => match ropes {
+                    Some(ropes) => {
+                        let c = j.length - ropes.len_a - j.ratio * ropes.len_b;
+                        sw.inequality(
+                            &mut pair,
+                            &Jac::pulley(&ropes, j.ratio),
+                            c,
+                            &mut l[slot::AXIAL],
+                        )
+                    }
+                    None => 0.0,
+                },
                 JointKind::Distance => {
                     let len = g.d.length();
                     let u = if len > 1e-9 { g.d / len } else { Vec2::Y };
@@ -529,7 +653,7 @@ impl SoftJoints {
             };
             if j.damping.linear > 0.0 {
                 match j.kind {
-                    JointKind::Prismatic => damp(
+                    JointKind::Prismatic | JointKind::Wheel => damp(
                         &mut pair,
                         Jac::linear(g.ra + g.d, g.rb, g.axis),
                         j.damping.linear,
@@ -542,7 +666,11 @@ impl SoftJoints {
                     _ => {}
                 }
             }
-            if j.damping.angular > 0.0 && j.kind != JointKind::Distance {
+            let turns = matches!(
+                j.kind,
+                JointKind::Hinge | JointKind::Prismatic | JointKind::Weld
+            );
+            if j.damping.angular > 0.0 && turns {
                 damp(&mut pair, Jac::angle(), j.damping.angular);
             }
             Self::store_pair(p, &pair, bodies, inv_mass);

@@ -96,7 +96,7 @@ impl Stepper for XpbdStepper {
                 &world.joints,
                 &world.bodies,
                 &mut self.bodies,
-                h,
+                (h, cx.dt),
                 &mut self.joint_rows,
             );
             if let Some(m) = world.mouse {
