@@ -29,6 +29,9 @@ pub struct Part {
     pub friction: f32,
     pub restitution: f32,
     pub filter: Filter,
+    /// A sensor part: its overlaps are heard ([`crate::World::events`]), never resolved.
+    #[serde(default)]
+    pub sensor: bool,
 }
 
 impl Part {
@@ -85,6 +88,13 @@ pub fn build(
         let (shape, c) = Shape::from_def(&p.shape)?;
         let rot = Rot::from_angle(p.angle);
         let d = p.density.unwrap_or(density);
+        // a sensor part may be massless (a zone that hears); a solid one needs mass
+        if !(d.is_finite() && (d > 0.0 || (d == 0.0 && p.sensor))) {
+            return Err(ShapeError::Invalid(format!(
+                "part {} has density {d}: it must be finite and > 0 (or 0 on a sensor part)",
+                i + 1
+            )));
+        }
         masses.push(shape.mass_data(d));
         out.push(Part {
             shape,
@@ -94,6 +104,7 @@ pub fn build(
             friction: p.friction.unwrap_or(friction),
             restitution: p.restitution.unwrap_or(restitution),
             filter: p.filter.unwrap_or(filter),
+            sensor: p.sensor,
         });
     }
     let mass: f32 = masses.iter().map(|m| m.mass).sum();
@@ -150,6 +161,8 @@ pub struct Collider {
     pub friction: f32,
     pub restitution: f32,
     pub filter: Filter,
+    /// The body is a sensor, or this part is.
+    pub sensor: bool,
 }
 
 /// Calls `f(index, collider)` for each part of `body` (its one shape: index 0).
@@ -165,6 +178,7 @@ pub fn for_each_collider(body: &Body, mut f: impl FnMut(usize, Collider)) {
                 friction: body.friction,
                 restitution: body.restitution,
                 filter: body.filter,
+                sensor: body.sensor,
             },
         );
     } else {
@@ -177,6 +191,7 @@ pub fn for_each_collider(body: &Body, mut f: impl FnMut(usize, Collider)) {
                     friction: p.friction,
                     restitution: p.restitution,
                     filter: p.filter,
+                    sensor: body.sensor || p.sensor,
                 },
             );
         }
@@ -185,12 +200,16 @@ pub fn for_each_collider(body: &Body, mut f: impl FnMut(usize, Collider)) {
 
 /// The manifolds between two bodies of which one at least is a compound: one per pair
 /// of parts that touch (within `margin`) and whose filters let them, each with its
-/// mixed friction and restitution. Anchors are from each body's centre of mass; the
-/// feature ids carry the part indices.
+/// mixed friction and restitution. Sensor parts make none (they are heard, see
+/// [`senses`]). Anchors are from each body's centre of mass; the feature ids carry the
+/// part indices.
 pub fn collide_bodies(ba: &Body, bb: &Body, margin: f32, mut out: impl FnMut(Manifold, f32, f32)) {
     for_each_collider(ba, |i, ca| {
+        if ca.sensor {
+            return;
+        }
         for_each_collider(bb, |j, cb| {
-            if !ca.filter.collides(&cb.filter) {
+            if cb.sensor || !ca.filter.collides(&cb.filter) {
                 return;
             }
             let mut m = sat::collide(&ca.shape, &ca.xf, &cb.shape, &cb.xf, margin);
@@ -213,7 +232,40 @@ pub fn collide_bodies(ba: &Body, bb: &Body, margin: f32, mut out: impl FnMut(Man
     });
 }
 
+/// Whether a sensor of one body (the whole body, or a sensor part) overlaps a solid
+/// part of the other, at their present positions. A sensor hears moving bodies only:
+/// never a static body, nor a whole sensor body, nor another sensor part; part filters
+/// apply as they do to contacts.
+pub fn senses(ba: &Body, bb: &Body) -> bool {
+    fn one_way(s: &Body, o: &Body) -> bool {
+        if o.sensor || o.body_type == crate::defs::BodyType::Static || !s.has_sensor() {
+            return false;
+        }
+        let mut hit = false;
+        for_each_collider(s, |_, cs| {
+            if hit || !cs.sensor {
+                return;
+            }
+            for_each_collider(o, |_, co| {
+                if hit || co.sensor || !cs.filter.collides(&co.filter) {
+                    return;
+                }
+                let m = sat::collide(&cs.shape, &cs.xf, &co.shape, &co.xf, 0.0);
+                hit = m.points().iter().any(|p| p.separation <= 0.0);
+            });
+        });
+        hit
+    }
+    one_way(ba, bb) || one_way(bb, ba)
+}
+
 impl Body {
+    /// Whether the body hears overlaps: it is a sensor, or one of its parts is.
+    #[inline]
+    pub fn has_sensor(&self) -> bool {
+        self.sensor || self.parts.iter().any(|p| p.sensor)
+    }
+
     /// The world box around the body's shape or all of its parts.
     pub fn aabb(&self) -> Aabb {
         let xf = self.transform();

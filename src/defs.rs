@@ -91,6 +91,10 @@ pub struct PartDef {
     pub restitution: Option<f32>,
     /// `None`: the body's.
     pub filter: Option<Filter>,
+    /// A sensor part: it hears overlaps with other bodies' solid parts
+    /// ([`crate::World::events`]) and never collides. It has mass by its density like
+    /// any part; a density of 0 is allowed on a sensor part only (a massless zone).
+    pub sensor: bool,
 }
 
 impl PartDef {
@@ -104,6 +108,7 @@ impl PartDef {
             friction: None,
             restitution: None,
             filter: None,
+            sensor: false,
         }
     }
 }

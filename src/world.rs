@@ -478,7 +478,7 @@ impl World {
         }
         let body = World::make_body(def, self.gravity)?;
         self.filtered |= body.filter != crate::defs::Filter::default();
-        if body.sensor {
+        if body.has_sensor() {
             // a sensor is there to be heard: its scene records events
             self.has_sensors = true;
             self.record_events = true;
@@ -898,7 +898,7 @@ impl World {
         let (mut filtered, mut sensors) = (false, false);
         for b in &self.bodies {
             filtered |= b.filter != crate::defs::Filter::default();
-            sensors |= b.sensor;
+            sensors |= b.has_sensor();
             let bb = b.aabb();
             // the most any point of the body moves in h: h (|v| + |w| r)
             let r = 0.5 * (bb.max - bb.min).length();

@@ -1,11 +1,13 @@
 //! Compound bodies (`ShapeDef::Compound`, `shapes = [...]` in scenes): mass properties
 //! against closed forms (the parallel axis theorem), a physical pendulum's period from
 //! that inertia, resting contact part by part under every solver, per-part filters,
-//! queries that see each part, and snapshot/restore.
+//! queries that see each part, sensor parts (heard, never touched, massless at density
+//! 0), and snapshot/restore.
 
 use glam::Vec2;
 use sandbox2d::{
-    BodyDef, BodyType, Filter, JointDef, PartDef, ShapeDef, SolverKind, SolverSettings, World,
+    BodyDef, BodyType, EventKind, Filter, JointDef, PartDef, ShapeDef, SolverKind, SolverSettings,
+    World,
 };
 
 const G: f32 = 9.81;
@@ -351,4 +353,171 @@ fn a_restored_snapshot_of_compounds_continues_bit_identically() {
         w.contacts().len() >= 3,
         "the Ls touch the ground and each other"
     );
+}
+
+/// A static floor (a 10 x 1 box, top at y = 0) with a sensor part: a 2 x 1 zone whose
+/// bottom is at y = 1.5 and top at y = 2.5; or the floor alone.
+fn floor_with_zone(zone: bool) -> BodyDef {
+    let mut parts = vec![PartDef::new(boxdef(10.0, 1.0), Vec2::new(0.0, -0.5))];
+    if zone {
+        let mut z = PartDef::new(boxdef(2.0, 1.0), Vec2::new(0.0, 2.0));
+        z.sensor = true;
+        parts.push(z);
+    }
+    let mut b = body("floor", ShapeDef::Compound { parts }, Vec2::ZERO);
+    b.body_type = BodyType::Static;
+    b
+}
+
+#[test]
+fn a_sensor_part_hears_a_ball_pass_once_and_the_solid_part_holds_it() {
+    let r = 0.25;
+    for kind in KINDS {
+        let mut with = World::new(Some(Vec2::new(0.0, -G)), settings(kind));
+        let mut without = World::new(Some(Vec2::new(0.0, -G)), settings(kind));
+        for w in [&mut with, &mut without] {
+            w.add_body(&body(
+                "ball",
+                ShapeDef::Circle { radius: r },
+                Vec2::new(0.0, 4.0),
+            ))
+            .unwrap();
+        }
+        with.add_body(&floor_with_zone(true)).unwrap();
+        without.add_body(&floor_with_zone(false)).unwrap();
+        assert!(with.record_events, "a sensor part turns the events on");
+        let (mut begins, mut ends) = (0, 0);
+        let mut prev_y = with.bodies[0].position.y;
+        for k in 1..=180 {
+            with.step().unwrap();
+            without.step().unwrap();
+            let y = with.bodies[0].position.y;
+            // the zone never touches the ball: it moves as with the floor alone
+            assert!(
+                (y - without.bodies[0].position.y).abs() < 1e-5,
+                "{kind:?} step {k}: {y} against {}",
+                without.bodies[0].position.y
+            );
+            for e in with.events() {
+                match e.kind {
+                    EventKind::SensorBegin => {
+                        assert!(y - r <= 2.5 && prev_y - r > 2.5, "{kind:?}: begin at {y}");
+                        begins += 1;
+                    }
+                    EventKind::SensorEnd => {
+                        assert!(y + r < 1.5 && prev_y + r >= 1.5, "{kind:?}: end at {y}");
+                        ends += 1;
+                    }
+                    // the floor part's contact
+                    EventKind::Begin | EventKind::End => {}
+                }
+            }
+            prev_y = y;
+        }
+        assert_eq!((begins, ends), (1, 1), "{kind:?}");
+        // the solid part holds the ball: it rests on y = 0 (within the solvers' slop)
+        let y = with.bodies[0].position.y;
+        assert!((y - r).abs() < 0.02, "{kind:?}: ball at {y}");
+        // no contact of the ball with the zone part (part 1, feature bits 16..22 or 22..28)
+        for c in with.contacts() {
+            for p in c.manifold.points() {
+                assert_eq!((p.id >> 16) & 0xfff, 0, "{kind:?}: a contact with the zone");
+            }
+        }
+    }
+}
+
+#[test]
+fn a_massless_sensor_part_adds_no_mass_and_a_dense_one_does() {
+    let rho = 3.0;
+    let make = |zone_density: Option<f32>| {
+        let mut z = PartDef::new(boxdef(2.0, 2.0), Vec2::new(2.0, 0.0));
+        z.sensor = true;
+        z.density = zone_density;
+        let mut b = body(
+            "probe",
+            ShapeDef::Compound {
+                parts: vec![PartDef::new(boxdef(1.0, 0.5), Vec2::ZERO), z],
+            },
+            Vec2::ZERO,
+        );
+        b.density = rho;
+        let mut w = World::new(None, settings(SolverKind::Soft));
+        w.add_body(&b).unwrap();
+        let b = &w.bodies[0];
+        (b.mass, b.inertia, b.position)
+    };
+    // density 0: the box alone, m = rho w h, I = m (w^2 + h^2) / 12, centre at the box
+    let (m, i, c) = make(Some(0.0));
+    let m0 = rho * 0.5;
+    assert!(close(m, m0, 1e-5), "{m}");
+    assert!(close(i, m0 * (1.0 + 0.25) / 12.0, 1e-4), "{i}");
+    assert!(c.length() < 1e-6, "{c}");
+    // the body's density: Box2D's rule, a sensor part weighs as any part
+    let (m, i, c) = make(None);
+    let mz = rho * 4.0;
+    let cx = mz * 2.0 / (m0 + mz);
+    let want = m0 * 1.25 / 12.0 + m0 * cx * cx + mz * 8.0 / 12.0 + mz * (2.0 - cx).powi(2);
+    assert!(close(m, m0 + mz, 1e-5), "{m}");
+    assert!(close(c.x, cx, 1e-5), "{c}");
+    assert!(close(i, want, 1e-4), "{i} against {want}");
+    // a solid part of density 0 is refused
+    let mut w = World::new(None, settings(SolverKind::Soft));
+    let mut p = PartDef::new(boxdef(1.0, 1.0), Vec2::ZERO);
+    p.density = Some(0.0);
+    let bad = body("bad", ShapeDef::Compound { parts: vec![p] }, Vec2::ZERO);
+    assert!(w.add_body(&bad).is_err());
+}
+
+#[test]
+fn a_moving_probe_hears_a_box_ahead_without_pushing_it_and_never_hears_statics() {
+    // zero gravity: a 1 x 1 body moving at 2 m/s along x carries a massless 2 x 2 zone
+    // ahead of it (x from 0.5 to 2.5 of its centre); a box at rest at x = 5 (its left
+    // face at 4.5); a static post above the body's path (y from 0.6 to 1.1) that the
+    // zone sweeps over
+    for kind in KINDS {
+        let mut w = World::new(None, settings(kind));
+        let mut zone = PartDef::new(boxdef(2.0, 2.0), Vec2::new(1.5, 0.0));
+        zone.sensor = true;
+        zone.density = Some(0.0);
+        let mut probe = body(
+            "probe",
+            ShapeDef::Compound {
+                parts: vec![PartDef::new(boxdef(1.0, 1.0), Vec2::ZERO), zone],
+            },
+            Vec2::ZERO,
+        );
+        probe.velocity = Vec2::new(2.0, 0.0);
+        w.add_body(&probe).unwrap();
+        w.add_body(&body("box", boxdef(1.0, 1.0), Vec2::new(5.0, 0.0)))
+            .unwrap();
+        let mut post = body("post", boxdef(0.5, 0.5), Vec2::new(3.0, 0.85));
+        post.body_type = BodyType::Static;
+        w.add_body(&post).unwrap();
+        let mut heard = None;
+        for k in 1..=90 {
+            w.step().unwrap();
+            for e in w.events() {
+                assert_ne!(e.b.max(e.a), 2, "{kind:?}: the static post was heard");
+                if e.kind == EventKind::SensorBegin {
+                    assert_eq!((e.a, e.b), (0, 1));
+                    assert!(heard.is_none(), "{kind:?}: heard twice");
+                    heard = Some(k);
+                }
+            }
+            if heard.is_none() {
+                // nothing touched the box while the zone went over it
+                assert_eq!(w.bodies[1].velocity, Vec2::ZERO, "{kind:?} step {k}");
+            }
+        }
+        // the zone's front (x = 2.5 + 2 t) reaches the box's face (4.5) at t = 1 s
+        let t = heard.expect("the probe heard the box") as f32 / 60.0;
+        assert!((t - 1.0).abs() <= 1.5 / 60.0, "{kind:?}: heard at {t} s");
+        // the probe kept its speed: nothing (the post above all) touched it
+        assert!(
+            (w.bodies[0].velocity - Vec2::new(2.0, 0.0)).length() < 1e-5,
+            "{kind:?}: {}",
+            w.bodies[0].velocity
+        );
+    }
 }

@@ -180,3 +180,70 @@ fn a_filtered_pair_never_touches_and_never_makes_an_event() {
         "y {y}, free fall {exact}"
     );
 }
+
+#[test]
+fn a_body_asleep_in_a_sensor_stays_heard_until_it_wakes_and_leaves() {
+    // A ball dropped onto a floor inside a static sensor (the floor's top at y = 0, the
+    // sensor from y = -0.5 to 0.5): it comes to rest in the sensor and falls asleep,
+    // which must not end the overlap; woken and thrown upwards it leaves, once.
+    for kind in SolverKind::ALL {
+        let mut settings = SolverSettings::defaults(kind);
+        settings.sleep = true;
+        let mut w = World::new(Some(Vec2::new(0.0, -G)), settings);
+        w.add_body(&ball(1.0)).unwrap();
+        w.add_body(&gate()).unwrap();
+        w.add_body(&BodyDef {
+            name: "floor".into(),
+            body_type: BodyType::Static,
+            shape: ShapeDef::Box {
+                width: 4.0,
+                height: 1.0,
+            },
+            position: Vec2::new(0.0, -0.5),
+            ..BodyDef::default()
+        })
+        .unwrap();
+        // a ball far away that falls for ever keeps the world awake (else a world asleep
+        // skips its broad phase altogether)
+        w.add_body(&BodyDef {
+            name: "faller".into(),
+            position: Vec2::new(100.0, 0.0),
+            ..ball(0.0)
+        })
+        .unwrap();
+        let mut log = Vec::new();
+        let mut slept = false;
+        for k in 0..600 {
+            w.step().unwrap();
+            slept |= w.bodies[0].asleep;
+            log.extend(
+                w.events()
+                    .iter()
+                    .filter(|e| (e.a, e.b) == (0, 1))
+                    .map(|e| (k, e.kind)),
+            );
+        }
+        assert!(
+            slept && w.bodies[0].asleep,
+            "{kind:?}: the ball never slept"
+        );
+        assert_eq!(
+            log.iter().map(|e| e.1).collect::<Vec<_>>(),
+            [EventKind::SensorBegin],
+            "{kind:?}: {log:?}"
+        );
+        // woken and thrown up at 6 m/s: it rises 1.8 m, out of the sensor, and ends once
+        w.wake(0);
+        w.bodies[0].velocity = Vec2::new(0.0, 6.0);
+        let mut ends = 0;
+        for _ in 0..30 {
+            w.step().unwrap();
+            ends += w
+                .events()
+                .iter()
+                .filter(|e| e.kind == EventKind::SensorEnd)
+                .count();
+        }
+        assert_eq!(ends, 1, "{kind:?}");
+    }
+}

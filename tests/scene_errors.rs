@@ -808,6 +808,7 @@ fn every_builtin_parses_and_has_a_description() {
         "joint_grid",
         "joints",
         "large_pyramid",
+        "machines",
         "multi_pendulum",
         "newtons_cradle",
         "particles",
@@ -2075,12 +2076,12 @@ fn a_segment_part_is_refused() {
 }
 
 #[test]
-fn a_sensor_part_is_refused() {
+fn a_moving_body_of_massless_sensor_parts_only_is_refused() {
     check(
-        &body("shapes = [{ box = [1, 1], sensor = true }]"),
+        &body("shapes = [{ box = [1, 1], sensor = true, density = 0 }]"),
         3,
-        36,
-        &["part 1", "`sensor`", "whole body"],
+        10,
+        &["every part is a massless sensor", "a part with mass"],
     );
 }
 
@@ -2100,7 +2101,11 @@ fn a_part_density_of_zero_is_refused() {
         &body("shapes = [{ box = [1, 1], density = 0 }]"),
         3,
         37,
-        &["part 1", "density must be > 0", "got 0"],
+        &[
+            "part 1",
+            "density must be > 0 (or 0 on a sensor part)",
+            "got 0",
+        ],
     );
 }
 

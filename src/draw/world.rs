@@ -329,11 +329,16 @@ pub fn push_body_colored(list: &mut DrawList, body: &Body, fill: Color, dim: boo
     let outline = outline_for(fill);
     let xf = body.transform();
     if !body.parts.is_empty() {
-        // a compound: each part in the body's colour
+        // a compound: each part in the body's colour, a sensor part see-through
         for p in &body.parts {
             let pxf = xf.compose(&p.local());
             let angle = pxf.q.s.atan2(pxf.q.c);
-            push_shape(list, &p.shape, &pxf, Some(angle), fill, outline);
+            let (mut f, mut o) = (fill, outline);
+            if p.sensor && !body.sensor {
+                f[3] = (f[3] as u16 * 2 / 5) as u8;
+                o[3] = (o[3] as u16 * 2 / 5) as u8;
+            }
+            push_shape(list, &p.shape, &pxf, Some(angle), f, o);
         }
         return;
     }

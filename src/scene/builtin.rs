@@ -38,6 +38,10 @@ const SCENES: &[(&str, &str)] = &[
         include_str!("../../assets/scenes/large_pyramid.toml"),
     ),
     (
+        "machines",
+        include_str!("../../assets/scenes/machines.toml"),
+    ),
+    (
         "multi_pendulum",
         include_str!("../../assets/scenes/multi_pendulum.toml"),
     ),
@@ -82,6 +86,7 @@ const NAMES: &[&str] = &[
     "joint_grid",
     "joints",
     "large_pyramid",
+    "machines",
     "multi_pendulum",
     "newtons_cradle",
     "particles",

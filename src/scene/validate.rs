@@ -396,14 +396,7 @@ impl Ctx<'_> {
                     format!("{pw}: a part needs an area; a segment has none (use a capsule)"),
                 ));
             }
-            if let Some(s) = &f.sensor {
-                return Err(self.err(
-                    s.span(),
-                    format!(
-                        "{pw}: `sensor` applies to a whole body, not to one part (make the body a sensor, or a separate sensor body)"
-                    ),
-                ));
-            }
+            let sensor = f.sensor.as_ref().is_some_and(|v| *v.get_ref());
             let shape = self.shape(
                 pw,
                 &S::new(
@@ -421,10 +414,12 @@ impl Ctx<'_> {
             let density = match &f.density {
                 Some(d) => {
                     let x = self.finite(pw, "density", d)?;
-                    if x <= 0.0 {
-                        return Err(
-                            self.err(d.span(), format!("{pw}: density must be > 0, got {x}"))
-                        );
+                    // a sensor part may be a massless zone
+                    if x < 0.0 || (x == 0.0 && !sensor) {
+                        return Err(self.err(
+                            d.span(),
+                            format!("{pw}: density must be > 0 (or 0 on a sensor part), got {x}"),
+                        ));
                     }
                     Some(x)
                 }
@@ -459,6 +454,7 @@ impl Ctx<'_> {
                     .as_ref()
                     .map(|v| self.filter(pw, Some(v), categories))
                     .transpose()?,
+                sensor,
             });
         }
         Ok(ShapeDef::Compound { parts: out })
@@ -715,7 +711,21 @@ impl Ctx<'_> {
         let model = self.body_model(who, b.model.as_ref())?;
         let (shape, shape_span) = match (&b.shape, &b.shapes) {
             (Some(s), None) => (self.shape(who, s)?, s.span()),
-            (None, Some(parts)) => (self.parts(who, parts, categories)?, parts.span()),
+            (None, Some(parts)) => {
+                let shape = self.parts(who, parts, categories)?;
+                if body_type == BodyType::Dynamic
+                    && let ShapeDef::Compound { parts: list } = &shape
+                    && list.iter().all(|p| p.density == Some(0.0))
+                {
+                    return Err(self.err(
+                        parts.span(),
+                        format!(
+                            "{who}: every part is a massless sensor (density 0); a moving body needs a part with mass"
+                        ),
+                    ));
+                }
+                (shape, parts.span())
+            }
             (Some(_), Some(parts)) => {
                 return Err(self.err(
                     parts.span(),

@@ -139,34 +139,24 @@ impl World {
         if self.has_sensors {
             for &(a, b) in &self.broad.pairs {
                 let (ba, bb) = (&self.bodies[a as usize], &self.bodies[b as usize]);
-                if !(ba.sensor ^ bb.sensor) {
+                if !(ba.has_sensor() || bb.has_sensor()) {
                     continue;
                 }
-                let other = if ba.sensor { bb } else { ba };
-                if other.body_type == crate::defs::BodyType::Static {
-                    continue;
-                }
-                let mut overlap = false;
-                if ba.parts.is_empty() && bb.parts.is_empty() {
-                    let m = crate::collision::sat::collide(
-                        &ba.shape,
-                        &ba.transform(),
-                        &bb.shape,
-                        &bb.transform(),
-                        0.0,
-                    );
-                    overlap = m.points().iter().any(|p| p.separation <= 0.0);
-                } else {
-                    // a compound senses (or is sensed) by any of its parts
-                    crate::compound::collide_bodies(ba, bb, 0.0, |m, _, _| {
-                        overlap |= m.points().iter().any(|p| p.separation <= 0.0);
-                    });
-                }
+                // a sensor body or a sensor part over another body's solid shape
+                let overlap = crate::compound::senses(ba, bb);
                 if overlap {
                     sensing.push((a.min(b), a.max(b)));
                 }
             }
         }
+        // a pair that nothing moves (each body static or asleep) is not among the broad
+        // phase's pairs, yet overlaps as it did: a body that falls asleep in a sensor
+        // stays heard until it wakes and leaves
+        let still = |i: u32| {
+            let b = &self.bodies[i as usize];
+            b.asleep || b.body_type == crate::defs::BodyType::Static
+        };
+        sensing.extend(self.sensed.iter().filter(|&&(a, b)| still(a) && still(b)));
         sensing.sort_unstable();
         sensing.dedup();
         let (mut ends, mut begins) = (Vec::new(), Vec::new());

@@ -336,7 +336,7 @@ impl World {
             .bodies
             .iter()
             .any(|b| b.filter != crate::defs::Filter::default());
-        self.has_sensors = self.bodies.iter().any(|b| b.sensor);
+        self.has_sensors = self.bodies.iter().any(|b| b.has_sensor());
         self.record_events = s.record_events;
         self.events.clear();
         self.touching = s.touching.clone();
