@@ -582,7 +582,7 @@ impl SoftSolver {
         };
         parallel::chunks_mut(pool, &mut self.wide, WIDE_BLOCK, &|_, offset, wide| {
             for (i, w) in wide.iter_mut().enumerate() {
-                *w = fill.wide(offset + i);
+                fill.wide(offset + i, w);
             }
             0.0
         });
@@ -982,8 +982,8 @@ impl Fill<'_> {
             .map(|(k, &i)| (k, &self.contacts[i as usize]))
     }
 
-    fn wide(&self, wi: usize) -> WideConstraint {
-        let mut w = WideConstraint::empty(self.rest, self.sink);
+    fn wide(&self, wi: usize, w: &mut WideConstraint) {
+        *w = WideConstraint::empty(self.rest, self.sink);
         for (k, c) in self.lanes(wi) {
             let ((ima, iia), (imb, iib)) =
                 (self.inv_mass[c.a as usize], self.inv_mass[c.b as usize]);
@@ -1056,7 +1056,6 @@ impl Fill<'_> {
             w.mass_scale[k] = soft.mass_scale;
             w.impulse_scale[k] = soft.impulse_scale;
         }
-        w
     }
 
     fn cold(&self, wi: usize) -> WideCold {
