@@ -303,6 +303,30 @@ impl Joint {
 
     /// The joint's geometry at the start of the substep (positions and rotations given).
     #[inline]
+    /// Keeps the second anchor on the first body's axis line (prismatic, wheel): the
+    /// off-axis offset C = perp . d, corrected with compliance `soft`; `then` is
+    /// [`Joint::frame_at`]'s frame at the substep's start.
+    fn line_correction(
+        &self,
+        bodies: &mut [Body],
+        (ra0, rb0, d0, axis0): (Vec2, Vec2, Vec2, Vec2),
+        soft: f32,
+        lambda: &mut f32,
+    ) {
+        let f = self.frame(bodies);
+        let perp = f.axis.perp();
+        linear_correction(
+            bodies,
+            self.a,
+            self.b,
+            [f.ra + f.d, f.rb, perp],
+            [ra0 + d0, rb0, axis0.perp()],
+            perp.dot(f.d),
+            soft,
+            lambda,
+        );
+    }
+
     fn frame_at(&self, prev: &[(Vec2, Rot)]) -> (Vec2, Vec2, Vec2, Vec2) {
         let ((xa, qa), (xb, qb)) = (prev[self.a], prev[self.b]);
         let ra = qa.rotate(self.local_a);
@@ -351,16 +375,9 @@ impl Joint {
                 }
             }
             JointKind::Prismatic => {
-                let f = self.frame(bodies);
-                // off-axis offset: C = perp . d
-                let perp = f.axis.perp();
-                linear_correction(
+                self.line_correction(
                     bodies,
-                    self.a,
-                    self.b,
-                    [f.ra + f.d, f.rb, perp],
-                    [ra0 + d0, rb0, axis0.perp()],
-                    perp.dot(f.d),
+                    (ra0, rb0, d0, axis0),
                     soft,
                     &mut lambdas[slot::AXIAL],
                 );
@@ -382,16 +399,9 @@ impl Joint {
                 );
             }
             JointKind::Wheel => {
-                let f = self.frame(bodies);
-                // on the line: C = perp . d, rigid (or compliant)
-                let perp = f.axis.perp();
-                linear_correction(
+                self.line_correction(
                     bodies,
-                    self.a,
-                    self.b,
-                    [f.ra + f.d, f.rb, perp],
-                    [ra0 + d0, rb0, axis0.perp()],
-                    perp.dot(f.d),
+                    (ra0, rb0, d0, axis0),
                     soft,
                     &mut lambdas[slot::AXIAL],
                 );

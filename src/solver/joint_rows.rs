@@ -204,6 +204,22 @@ fn point_inv_k(a: &SolverBody, b: &SolverBody, ra: Vec2, rb: Vec2, gamma: f32) -
 }
 
 /// Fills a row's mass and bias for an equality C = 0 with the given compliance.
+/// The row that keeps the second anchor on the first body's axis line (prismatic,
+/// wheel): C = perp . d along the axis's perpendicular.
+fn line_row(
+    a: u32,
+    b: u32,
+    f: &crate::joint::JointFrame,
+    bodies: &[SolverBody],
+    compliance: f32,
+    beta: f32,
+    h: f32,
+) -> Row {
+    let perp = f.axis.perp();
+    let pr = linear_row(a, b, f.ra + f.d, f.rb, perp);
+    equality(pr, bodies, perp.dot(f.d), compliance, beta, h)
+}
+
 fn equality(mut r: Row, bodies: &[SolverBody], c: f32, compliance: f32, beta: f32, h: f32) -> Row {
     let k = r.k(bodies);
     if compliance > 0.0 {
@@ -383,11 +399,9 @@ impl JointRows {
                     }
                     let t = f.axis.dot(f.d);
                     range_rows(&mut self.items, j, ax, t, bodies, beta, h, false, &push);
-                    let perp = f.axis.perp();
-                    let pr = linear_row(a, b, f.ra + f.d, f.rb, perp);
                     push(
                         &mut self.items,
-                        equality(pr, bodies, perp.dot(f.d), j.compliance, beta, h),
+                        line_row(a, b, &f, bodies, j.compliance, beta, h),
                         slot::AXIAL,
                     );
                     push(
@@ -423,11 +437,9 @@ impl JointRows {
                         );
                     }
                     range_rows(&mut self.items, j, ax, t, bodies, beta, h, false, &push);
-                    let perp = f.axis.perp();
-                    let pr = linear_row(a, b, f.ra + f.d, f.rb, perp);
                     push(
                         &mut self.items,
-                        equality(pr, bodies, perp.dot(f.d), j.compliance, beta, h),
+                        line_row(a, b, &f, bodies, j.compliance, beta, h),
                         slot::AXIAL,
                     );
                     if j.damping.linear > 0.0 {
