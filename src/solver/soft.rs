@@ -40,6 +40,11 @@ use crate::parallel::{self, MAX_THREADS, Pool};
 use glam::Vec4;
 
 mod direct;
+mod lanes;
+
+#[cfg(target_arch = "x86_64")]
+use lanes::F8;
+use lanes::Lanes;
 
 /// Test hooks, per thread (tests running side by side do not see each other's): which
 /// build of the sweeps runs, and whether lanes are packed. Not for use outside tests.
@@ -243,31 +248,41 @@ impl BodyPtr {
     }
 
     /// Body i, to read.
+    ///
+    /// Every index a wide constraint holds was checked when `prepare` built it: a
+    /// contact's bodies index `inv_mass` (one entry per body, checked), and the rest slot
+    /// and the sinks follow the bodies in `bodies`. So the sweeps check only in debug
+    /// builds: the check was an eighth of a sweep's instructions.
     #[inline(always)]
     fn at(self, i: u32) -> *mut SoftBody {
-        assert!((i as usize) < self.len);
-        // SAFETY: in bounds (checked above).
+        debug_assert!((i as usize) < self.len);
+        // SAFETY: in bounds (see above).
         unsafe { self.p.add(i as usize) }
     }
 
-    /// Body i, to write: the sink goes to this thread's own.
+    /// Body i, to write: with `SHARED` (threads of a job write at once) the sink goes to
+    /// this thread's own; alone, to the shared sink.
     #[inline(always)]
-    fn written(self, i: u32) -> *mut SoftBody {
-        self.at(if i == self.sink { self.my_sink } else { i })
+    fn written<const SHARED: bool>(self, i: u32) -> *mut SoftBody {
+        if SHARED {
+            self.at(if i == self.sink { self.my_sink } else { i })
+        } else {
+            self.at(i)
+        }
     }
 }
 
-/// Four bodies' states, transposed: lane k holds body k.
-struct WideBody {
-    vx: Vec4,
-    vy: Vec4,
-    w: Vec4,
+/// Bodies' states, transposed: lane k holds body k.
+struct WideBody<L = Vec4> {
+    vx: L,
+    vy: L,
+    w: L,
     /// kept only to be written back unchanged with the velocities
-    dtheta: Vec4,
-    dpx: Vec4,
-    dpy: Vec4,
-    qc: Vec4,
-    qs: Vec4,
+    dtheta: L,
+    dpx: L,
+    dpy: L,
+    qc: L,
+    qs: L,
 }
 
 impl WideBody {
@@ -301,13 +316,33 @@ impl WideBody {
     }
 
     /// Writes the velocities of four bodies back (one 16-byte store each).
+    #[inline(always)]
+    fn scatter<const SHARED: bool>(
+        &self,
+        vx: Vec4,
+        vy: Vec4,
+        w: Vec4,
+        bodies: BodyPtr,
+        idx: &[u32; 4],
+    ) {
+        Self::scatter_velocities::<SHARED>(vx, vy, w, self.dtheta, bodies, idx);
+    }
+
+    /// Writes v, w and the unchanged dtheta of four bodies (one 16-byte store each).
     #[cfg(target_arch = "x86_64")]
     #[inline(always)]
-    fn scatter(&self, vx: Vec4, vy: Vec4, w: Vec4, bodies: BodyPtr, idx: &[u32; 4]) {
+    fn scatter_velocities<const SHARED: bool>(
+        vx: Vec4,
+        vy: Vec4,
+        w: Vec4,
+        dtheta: Vec4,
+        bodies: BodyPtr,
+        idx: &[u32; 4],
+    ) {
         use std::arch::x86_64::*;
-        let rows = transpose4([vx.into(), vy.into(), w.into(), self.dtheta.into()]);
+        let rows = transpose4([vx.into(), vy.into(), w.into(), dtheta.into()]);
         for k in 0..4 {
-            let p = bodies.written(idx[k]) as *mut f32;
+            let p = bodies.written::<SHARED>(idx[k]) as *mut f32;
             // SAFETY: as in gather; the first four f32 are v, w, dtheta.
             unsafe { _mm_store_ps(p, rows[k]) };
         }
@@ -332,11 +367,18 @@ impl WideBody {
 
     #[cfg(not(target_arch = "x86_64"))]
     #[inline(always)]
-    fn scatter(&self, vx: Vec4, vy: Vec4, w: Vec4, bodies: BodyPtr, idx: &[u32; 4]) {
+    fn scatter_velocities<const SHARED: bool>(
+        vx: Vec4,
+        vy: Vec4,
+        w: Vec4,
+        _dtheta: Vec4,
+        bodies: BodyPtr,
+        idx: &[u32; 4],
+    ) {
         let (vx, vy, w) = (vx.to_array(), vy.to_array(), w.to_array());
         for k in 0..4 {
             // SAFETY: as in the x86_64 build.
-            let s = unsafe { &mut *bodies.written(idx[k]) };
+            let s = unsafe { &mut *bodies.written::<SHARED>(idx[k]) };
             s.v = Vec2::new(vx[k], vy[k]);
             s.w = w[k];
         }
@@ -363,20 +405,36 @@ fn transpose4(r: [std::arch::x86_64::__m128; 4]) -> [std::arch::x86_64::__m128; 
     }
 }
 
-/// The velocities of four constraints' bodies, loaded once and stored once.
-struct PairVel4 {
-    vax: Vec4,
-    vay: Vec4,
-    wa: Vec4,
-    vbx: Vec4,
-    vby: Vec4,
-    wb: Vec4,
+/// The velocities of a group's bodies, loaded once and stored once.
+struct PairVel<L> {
+    vax: L,
+    vay: L,
+    wa: L,
+    vbx: L,
+    vby: L,
+    wb: L,
 }
 
-impl PairVel4 {
+/// A point's anchors (from A's and B's centres, at collide), as lanes.
+struct Anchors<L> {
+    rax: L,
+    ray: L,
+    rbx: L,
+    rby: L,
+}
+
+/// Inverse masses and inertias of a group's bodies, as lanes.
+struct InvMass<L> {
+    ima: L,
+    iia: L,
+    imb: L,
+    iib: L,
+}
+
+impl<L: Lanes> PairVel<L> {
     /// (vb + wb x rb - va - wa x ra) . d, with w x r = (-w r.y, w r.x)
     #[inline(always)]
-    fn along(&self, p: &WidePoint, dx: Vec4, dy: Vec4) -> Vec4 {
+    fn along(&self, p: &Anchors<L>, dx: L, dy: L) -> L {
         let dvx = self.vbx - self.wb * p.rby - self.vax + self.wa * p.ray;
         let dvy = self.vby + self.wb * p.rbx - self.vay - self.wa * p.rax;
         dvx * dx + dvy * dy
@@ -384,32 +442,175 @@ impl PairVel4 {
 
     /// v -= P/mA, w -= (ra x P)/IA; v += P/mB, w += (rb x P)/IB
     #[inline(always)]
-    fn apply(&mut self, m: &InvMass4, p: &WidePoint, px: Vec4, py: Vec4) {
-        self.vax -= m.ima * px;
-        self.vay -= m.ima * py;
-        self.wa -= m.iia * (p.rax * py - p.ray * px);
-        self.vbx += m.imb * px;
-        self.vby += m.imb * py;
-        self.wb += m.iib * (p.rbx * py - p.rby * px);
+    fn apply(&mut self, m: &InvMass<L>, p: &Anchors<L>, px: L, py: L) {
+        self.vax = self.vax - m.ima * px;
+        self.vay = self.vay - m.ima * py;
+        self.wa = self.wa - m.iia * (p.rax * py - p.ray * px);
+        self.vbx = self.vbx + m.imb * px;
+        self.vby = self.vby + m.imb * py;
+        self.wb = self.wb + m.iib * (p.rbx * py - p.rby * px);
     }
 }
 
-/// The friction rows of four constraints, t = (ny, -nx).
-#[inline(always)]
-fn friction_rows(c: &mut WideConstraint, v: &mut PairVel4, residual: &mut Vec4) {
-    let (tx, ty) = (c.ny, -c.nx);
-    for i in 0..2 {
-        let p = &c.points[i];
-        let vt = v.along(p, tx, ty);
-        // lambda_t = -m_t vt, projected onto [-mu lambda_n, mu lambda_n]
-        let bound = c.friction * p.normal_impulse;
-        let new = (p.tangent_impulse - p.tangent_mass * vt)
-            .min(bound)
-            .max(-bound);
-        let d = new - p.tangent_impulse;
-        *residual = residual.max(d.abs());
-        v.apply(&c.m, p, d * tx, d * ty);
-        c.points[i].tangent_impulse = new;
+/// What [`SoftSolver::for_colors`] runs on a slice of wide constraints: `(thread (None
+/// when alone), constraints, all of one colour)`, returning a figure to take the largest of.
+type ColorKernel<'a> = dyn Fn(Option<usize>, &mut [WideConstraint], bool) -> f32 + Sync + 'a;
+
+/// The constraints a kernel solves in lock step: one wide constraint (four lanes) or, in
+/// the AVX2 build, two of one colour side by side (eight lanes, [`F8`]).
+trait Group {
+    type L: Lanes;
+    /// A field of the constraints, as lanes.
+    fn get(&self, f: impl Fn(&WideConstraint) -> Vec4) -> Self::L;
+    /// Writes a field of the constraints.
+    fn set(&mut self, f: impl Fn(&mut WideConstraint) -> &mut Vec4, v: Self::L);
+    /// The states of the bodies A (`B = false`) or B of the lanes.
+    fn gather<const B: bool>(&self, bodies: BodyPtr) -> WideBody<Self::L>;
+    /// Writes the velocities of the bodies A or B back.
+    fn scatter<const B: bool, const SHARED: bool>(
+        &self,
+        s: &WideBody<Self::L>,
+        v: [Self::L; 3],
+        bodies: BodyPtr,
+    );
+
+    /// The point's anchors.
+    #[inline(always)]
+    fn anchors(&self, i: usize) -> Anchors<Self::L> {
+        Anchors {
+            rax: self.get(|c| c.points[i].rax),
+            ray: self.get(|c| c.points[i].ray),
+            rbx: self.get(|c| c.points[i].rbx),
+            rby: self.get(|c| c.points[i].rby),
+        }
+    }
+
+    #[inline(always)]
+    fn inv_mass(&self) -> InvMass<Self::L> {
+        InvMass {
+            ima: self.get(|c| c.m.ima),
+            iia: self.get(|c| c.m.iia),
+            imb: self.get(|c| c.m.imb),
+            iib: self.get(|c| c.m.iib),
+        }
+    }
+
+    /// Both sides' velocities.
+    #[inline(always)]
+    fn velocities(sa: &WideBody<Self::L>, sb: &WideBody<Self::L>) -> PairVel<Self::L> {
+        PairVel {
+            vax: sa.vx,
+            vay: sa.vy,
+            wa: sa.w,
+            vbx: sb.vx,
+            vby: sb.vy,
+            wb: sb.w,
+        }
+    }
+
+    /// Writes both sides' velocities back.
+    #[inline(always)]
+    fn store<const SHARED: bool>(
+        &self,
+        sa: &WideBody<Self::L>,
+        sb: &WideBody<Self::L>,
+        v: &PairVel<Self::L>,
+        bodies: BodyPtr,
+    ) {
+        self.scatter::<false, SHARED>(sa, [v.vax, v.vay, v.wa], bodies);
+        self.scatter::<true, SHARED>(sb, [v.vbx, v.vby, v.wb], bodies);
+    }
+}
+
+/// One wide constraint: four lanes.
+struct One<'a>(&'a mut WideConstraint);
+
+impl Group for One<'_> {
+    type L = Vec4;
+    #[inline(always)]
+    fn get(&self, f: impl Fn(&WideConstraint) -> Vec4) -> Vec4 {
+        f(self.0)
+    }
+    #[inline(always)]
+    fn set(&mut self, f: impl Fn(&mut WideConstraint) -> &mut Vec4, v: Vec4) {
+        *f(self.0) = v;
+    }
+    #[inline(always)]
+    fn gather<const B: bool>(&self, bodies: BodyPtr) -> WideBody<Vec4> {
+        WideBody::gather(bodies, if B { &self.0.b } else { &self.0.a })
+    }
+    #[inline(always)]
+    fn scatter<const B: bool, const SHARED: bool>(
+        &self,
+        s: &WideBody<Vec4>,
+        [vx, vy, w]: [Vec4; 3],
+        bodies: BodyPtr,
+    ) {
+        let idx = if B { &self.0.wb } else { &self.0.wa };
+        s.scatter::<SHARED>(vx, vy, w, bodies, idx);
+    }
+}
+
+/// Two wide constraints of one colour: eight lanes (AVX2).
+#[cfg(target_arch = "x86_64")]
+struct Two<'a>(&'a mut WideConstraint, &'a mut WideConstraint);
+
+#[cfg(target_arch = "x86_64")]
+impl Group for Two<'_> {
+    type L = F8;
+    #[inline(always)]
+    fn get(&self, f: impl Fn(&WideConstraint) -> Vec4) -> F8 {
+        F8::join(f(self.0), f(self.1))
+    }
+    #[inline(always)]
+    fn set(&mut self, f: impl Fn(&mut WideConstraint) -> &mut Vec4, v: F8) {
+        let (lo, hi) = v.split();
+        *f(self.0) = lo;
+        *f(self.1) = hi;
+    }
+    #[inline(always)]
+    fn gather<const B: bool>(&self, bodies: BodyPtr) -> WideBody<F8> {
+        let pick = |c: &WideConstraint| if B { c.b } else { c.a };
+        let (lo, hi) = (
+            WideBody::gather(bodies, &pick(self.0)),
+            WideBody::gather(bodies, &pick(self.1)),
+        );
+        WideBody {
+            vx: F8::join(lo.vx, hi.vx),
+            vy: F8::join(lo.vy, hi.vy),
+            w: F8::join(lo.w, hi.w),
+            dtheta: F8::join(lo.dtheta, hi.dtheta),
+            dpx: F8::join(lo.dpx, hi.dpx),
+            dpy: F8::join(lo.dpy, hi.dpy),
+            qc: F8::join(lo.qc, hi.qc),
+            qs: F8::join(lo.qs, hi.qs),
+        }
+    }
+    #[inline(always)]
+    fn scatter<const B: bool, const SHARED: bool>(
+        &self,
+        s: &WideBody<F8>,
+        [vx, vy, w]: [F8; 3],
+        bodies: BodyPtr,
+    ) {
+        let (vx, vy, w, dtheta) = (vx.split(), vy.split(), w.split(), s.dtheta.split());
+        let idx = |c: &WideConstraint| if B { c.wb } else { c.wa };
+        WideBody::<Vec4>::scatter_velocities::<SHARED>(
+            vx.0,
+            vy.0,
+            w.0,
+            dtheta.0,
+            bodies,
+            &idx(self.0),
+        );
+        WideBody::<Vec4>::scatter_velocities::<SHARED>(
+            vx.1,
+            vy.1,
+            w.1,
+            dtheta.1,
+            bodies,
+            &idx(self.1),
+        );
     }
 }
 
@@ -717,8 +918,11 @@ impl SoftSolver {
     pub fn warm_start(&mut self, pool: Option<&Pool>) {
         let avx2 = use_avx2();
         let bodies = BodyPtr::new(&mut self.bodies, self.sink);
-        self.for_colors(pool, &|t, chunk| {
-            warm_start_range(chunk, bodies.for_thread(t), avx2);
+        self.for_colors(pool, &|t, chunk, pairs| {
+            match t {
+                Some(t) => warm_start_range::<true>(chunk, bodies.for_thread(t), avx2, pairs),
+                None => warm_start_range::<false>(chunk, bodies, avx2, pairs),
+            }
             0.0
         });
     }
@@ -736,8 +940,9 @@ impl SoftSolver {
             avx2: use_avx2(),
         };
         let bodies = BodyPtr::new(&mut self.bodies, self.sink);
-        let r = self.for_colors(pool, &|t, chunk| {
-            sweep_range::<BIAS>(chunk, bodies.for_thread(t), &k)
+        let r = self.for_colors(pool, &|t, chunk, pairs| match t {
+            Some(t) => sweep_range::<BIAS, true>(chunk, bodies.for_thread(t), &k, pairs),
+            None => sweep_range::<BIAS, false>(chunk, bodies, &k, pairs),
         });
         if self.direct.is_empty() {
             return r;
@@ -753,32 +958,27 @@ impl SoftSolver {
         r.max(d)
     }
 
-    /// Runs `f(thread, constraints)` over every wide constraint, colour after colour:
-    /// the constraints of one colour split between the pool's threads (they share no
-    /// moving body), the overflow group on the caller alone. Returns the largest value
-    /// `f` returned.
-    fn for_colors(
-        &mut self,
-        pool: Option<&Pool>,
-        f: &(dyn Fn(usize, &mut [WideConstraint]) -> f32 + Sync),
-    ) -> f32 {
-        let Some(pool) = pool.filter(|p| p.threads() > 1) else {
-            return f(0, &mut self.wide);
-        };
+    /// Runs `f(thread, constraints, one_colour)` over every wide constraint, colour after
+    /// colour: the constraints of one colour split between the pool's threads (they share
+    /// no moving body; `Some(thread)`) or on the caller alone (`None`, with one thread),
+    /// then the overflow group on the caller alone (`one_colour` false: they may share
+    /// bodies, so one by one). Returns the largest value `f` returned.
+    fn for_colors(&mut self, pool: Option<&Pool>, f: &ColorKernel<'_>) -> f32 {
+        let pool = pool.filter(|p| p.threads() > 1);
         let mut r = f32::NEG_INFINITY;
         let mut done = 0usize;
         for &(start, end) in &self.color_ranges {
             let (start, end) = (start as usize, end as usize);
-            r = r.max(parallel::chunks_mut(
-                Some(pool),
-                &mut self.wide[start..end],
-                WIDE_BLOCK,
-                &|t, _, c| f(t, c),
-            ));
+            let wide = &mut self.wide[start..end];
+            r = r.max(match pool {
+                Some(pool) => parallel::chunks_mut(Some(pool), wide, WIDE_BLOCK, &|t, _, c| {
+                    f(Some(t), c, true)
+                }),
+                None => f(None, wide, true),
+            });
             done = end;
         }
-        // the overflow group: constraints that may share bodies, one by one
-        r.max(f(0, &mut self.wide[done..]))
+        r.max(f(None, &mut self.wide[done..], false))
     }
 
     /// Moves every body by its velocity for one substep: dp += h v, dtheta += h w,
@@ -1112,148 +1312,226 @@ struct SweepConsts {
     avx2: bool,
 }
 
-fn warm_start_range(wide: &[WideConstraint], bodies: BodyPtr, avx2: bool) {
+/// The sweeps' constants, as lanes.
+struct Consts<L> {
+    inv_h: L,
+    slop: L,
+    min_bias: L,
+    zero: L,
+    one: L,
+}
+
+impl<L: Lanes> Consts<L> {
+    #[inline(always)]
+    fn new(k: &SweepConsts) -> Consts<L> {
+        Consts {
+            inv_h: L::splat(k.inv_h),
+            slop: L::splat(k.slop),
+            min_bias: L::splat(-k.max_push),
+            zero: L::splat(0.0),
+            one: L::splat(1.0),
+        }
+    }
+}
+
+/// Warm start of the constraints `wide`; `pairs`: they are of one colour, so the AVX2
+/// build may take them two at a time.
+fn warm_start_range<const SHARED: bool>(
+    wide: &mut [WideConstraint],
+    bodies: BodyPtr,
+    avx2: bool,
+    pairs: bool,
+) {
     #[cfg(target_arch = "x86_64")]
     if avx2 {
         // SAFETY: the CPU has AVX2 (use_avx2).
-        return unsafe { warm_start_avx2(wide, bodies) };
+        return unsafe { warm_start_avx2::<SHARED>(wide, bodies, pairs) };
     }
-    let _ = avx2;
-    warm_start_impl(wide, bodies)
+    let _ = (avx2, pairs);
+    for c in wide {
+        warm_start_group::<_, SHARED>(&mut One(c), bodies);
+    }
 }
 
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2")]
-fn warm_start_avx2(wide: &[WideConstraint], bodies: BodyPtr) {
-    warm_start_impl(wide, bodies)
-}
-
-#[inline(always)]
-fn warm_start_impl(wide: &[WideConstraint], bodies: BodyPtr) {
-    for c in wide {
-        let sa = WideBody::gather(bodies, &c.a);
-        let sb = WideBody::gather(bodies, &c.b);
-        let (mut vax, mut vay, mut wa) = (sa.vx, sa.vy, sa.w);
-        let (mut vbx, mut vby, mut wb) = (sb.vx, sb.vy, sb.w);
-        for p in &c.points {
-            // P = lambda_n n + lambda_t t, t = (ny, -nx)
-            let px = p.normal_impulse * c.nx + p.tangent_impulse * c.ny;
-            let py = p.normal_impulse * c.ny - p.tangent_impulse * c.nx;
-            // v -= P/mA, w -= (ra x P)/IA; v += P/mB, w += (rb x P)/IB
-            vax -= c.m.ima * px;
-            vay -= c.m.ima * py;
-            wa -= c.m.iia * (p.rax * py - p.ray * px);
-            vbx += c.m.imb * px;
-            vby += c.m.imb * py;
-            wb += c.m.iib * (p.rbx * py - p.rby * px);
+fn warm_start_avx2<const SHARED: bool>(wide: &mut [WideConstraint], bodies: BodyPtr, pairs: bool) {
+    let mut rest = wide;
+    if pairs {
+        let mut it = rest.chunks_exact_mut(2);
+        for pair in &mut it {
+            if let [c0, c1] = pair {
+                warm_start_group::<_, SHARED>(&mut Two(c0, c1), bodies);
+            }
         }
-        sa.scatter(vax, vay, wa, bodies, &c.wa);
-        sb.scatter(vbx, vby, wb, bodies, &c.wb);
+        rest = it.into_remainder();
+    }
+    for c in rest {
+        warm_start_group::<_, SHARED>(&mut One(c), bodies);
     }
 }
 
-fn sweep_range<const BIAS: bool>(
+/// Applies a group's accumulated lambdas to its bodies.
+#[inline(always)]
+fn warm_start_group<G: Group, const SHARED: bool>(g: &mut G, bodies: BodyPtr) {
+    let sa = g.gather::<false>(bodies);
+    let sb = g.gather::<true>(bodies);
+    let mut v = G::velocities(&sa, &sb);
+    let (nx, ny, m) = (g.get(|c| c.nx), g.get(|c| c.ny), g.inv_mass());
+    for i in 0..2 {
+        let p = g.anchors(i);
+        let (ln, lt) = (
+            g.get(|c| c.points[i].normal_impulse),
+            g.get(|c| c.points[i].tangent_impulse),
+        );
+        // P = lambda_n n + lambda_t t, t = (ny, -nx)
+        let px = ln * nx + lt * ny;
+        let py = ln * ny - lt * nx;
+        v.apply(&m, &p, px, py);
+    }
+    g.store::<SHARED>(&sa, &sb, &v, bodies);
+}
+
+/// One sweep over the constraints `wide`; `pairs` as in [`warm_start_range`].
+fn sweep_range<const BIAS: bool, const SHARED: bool>(
     wide: &mut [WideConstraint],
     bodies: BodyPtr,
     k: &SweepConsts,
+    pairs: bool,
 ) -> f32 {
     #[cfg(target_arch = "x86_64")]
     if k.avx2 {
         // SAFETY: the CPU has AVX2 (use_avx2).
         return unsafe {
             if k.max_impulse {
-                sweep_avx2::<BIAS, true>(wide, bodies, k)
+                sweep_avx2::<BIAS, true, SHARED>(wide, bodies, k, pairs)
             } else {
-                sweep_avx2::<BIAS, false>(wide, bodies, k)
+                sweep_avx2::<BIAS, false, SHARED>(wide, bodies, k, pairs)
             }
         };
     }
-    if k.max_impulse {
-        sweep_impl::<BIAS, true>(wide, bodies, k)
-    } else {
-        sweep_impl::<BIAS, false>(wide, bodies, k)
-    }
-}
-
-/// [`sweep_impl`] compiled for AVX2 (three-operand forms, blends): the same arithmetic,
-/// so the same results to the bit.
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2")]
-fn sweep_avx2<const BIAS: bool, const MAX_IMPULSE: bool>(
-    wide: &mut [WideConstraint],
-    bodies: BodyPtr,
-    k: &SweepConsts,
-) -> f32 {
-    sweep_impl::<BIAS, MAX_IMPULSE>(wide, bodies, k)
-}
-
-#[inline(always)]
-fn sweep_impl<const BIAS: bool, const MAX_IMPULSE: bool>(
-    wide: &mut [WideConstraint],
-    bodies: BodyPtr,
-    k: &SweepConsts,
-) -> f32 {
-    let inv_h = Vec4::splat(k.inv_h);
-    let slop = Vec4::splat(k.slop);
-    let min_bias = Vec4::splat(-k.max_push);
+    let _ = pairs;
+    let k4 = Consts::new(k);
     let mut residual = Vec4::ZERO;
     for c in wide {
-        let sa = WideBody::gather(bodies, &c.a);
-        let sb = WideBody::gather(bodies, &c.b);
-        let mut v = PairVel4 {
-            vax: sa.vx,
-            vay: sa.vy,
-            wa: sa.w,
-            vbx: sb.vx,
-            vby: sb.vy,
-            wb: sb.w,
-        };
-        let (nx, ny, m) = (c.nx, c.ny, c.m);
-        let dpx = sb.dpx - sa.dpx;
-        let dpy = sb.dpy - sa.dpy;
-        for p in &mut c.points {
-            // q r: the anchors turned by the rotation since collide
-            let qrax = sa.qc * p.rax - sa.qs * p.ray;
-            let qray = sa.qs * p.rax + sa.qc * p.ray;
-            let qrbx = sb.qc * p.rbx - sb.qs * p.rby;
-            let qrby = sb.qs * p.rbx + sb.qc * p.rby;
-            // s = s0 - n.(rb - ra) + n.(dp_b - dp_a + q_b rb - q_a ra)
-            let s = p.base_separation + nx * (dpx + qrbx - qrax) + ny * (dpy + qrby - qray);
-            let speculative = s.cmpgt(Vec4::ZERO);
-            // speculative: bias = s / h (may close the gap this substep, not more)
-            let spec_bias = s * inv_h;
-            let (bias, mass_scale, impulse_scale) = if BIAS {
-                // bias = max(rate S, -v_max), S = min(s + slop, 0)
-                let soft_bias = (c.bias_rate * (s + slop).min(Vec4::ZERO)).max(min_bias);
-                (
-                    Vec4::select(speculative, spec_bias, soft_bias),
-                    Vec4::select(speculative, Vec4::ONE, c.mass_scale),
-                    Vec4::select(speculative, Vec4::ZERO, c.impulse_scale),
-                )
-            } else {
-                (spec_bias.max(Vec4::ZERO), Vec4::ONE, Vec4::ZERO)
-            };
-            let vn = v.along(p, nx, ny);
-            // d lambda = -m_n s_m (vn + bias) - s_i lambda, then lambda >= 0
-            let d = -p.normal_mass * mass_scale * (vn + bias) - impulse_scale * p.normal_impulse;
-            let new = (p.normal_impulse + d).max(Vec4::ZERO);
-            let d = new - p.normal_impulse;
-            p.normal_impulse = new;
-            if MAX_IMPULSE {
-                p.max_normal_impulse = p.max_normal_impulse.max(new);
-            }
-            residual = residual.max(d.abs());
-            v.apply(&m, p, d * nx, d * ny);
+        if k.max_impulse {
+            solve_group::<_, BIAS, true, SHARED>(&mut One(c), bodies, &k4, &mut residual);
+        } else {
+            solve_group::<_, BIAS, false, SHARED>(&mut One(c), bodies, &k4, &mut residual);
         }
-        if !BIAS {
-            // friction only in the relax sweep: solved against the push-out speeds
-            // of the biased sweep it lets the flanks of a tall pile creep outwards
-            friction_rows(c, &mut v, &mut residual);
-        }
-        sa.scatter(v.vax, v.vay, v.wa, bodies, &c.wa);
-        sb.scatter(v.vbx, v.vby, v.wb, bodies, &c.wb);
     }
     residual.max_element()
+}
+
+/// The sweep compiled for AVX2: with `pairs`, two wide constraints at a time in eight
+/// lanes (the same arithmetic lane by lane, so the same results to the bit), else one
+/// at a time (three-operand forms, blends).
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+fn sweep_avx2<const BIAS: bool, const MAX_IMPULSE: bool, const SHARED: bool>(
+    wide: &mut [WideConstraint],
+    bodies: BodyPtr,
+    k: &SweepConsts,
+    pairs: bool,
+) -> f32 {
+    let mut rest = wide;
+    let mut residual = Vec4::ZERO;
+    if pairs {
+        let k8 = Consts::new(k);
+        let mut r8 = F8::splat(0.0);
+        let mut it = rest.chunks_exact_mut(2);
+        for pair in &mut it {
+            if let [c0, c1] = pair {
+                solve_group::<_, BIAS, MAX_IMPULSE, SHARED>(&mut Two(c0, c1), bodies, &k8, &mut r8);
+            }
+        }
+        rest = it.into_remainder();
+        let (lo, hi) = r8.split();
+        residual = lo.max(hi);
+    }
+    let k4 = Consts::new(k);
+    for c in rest {
+        solve_group::<_, BIAS, MAX_IMPULSE, SHARED>(&mut One(c), bodies, &k4, &mut residual);
+    }
+    residual.max_element()
+}
+
+/// One sweep's rows of a group: the normal rows, and in the relax sweep (`!BIAS`) the
+/// friction rows.
+#[inline(always)]
+fn solve_group<G: Group, const BIAS: bool, const MAX_IMPULSE: bool, const SHARED: bool>(
+    g: &mut G,
+    bodies: BodyPtr,
+    k: &Consts<G::L>,
+    residual: &mut G::L,
+) {
+    let sa = g.gather::<false>(bodies);
+    let sb = g.gather::<true>(bodies);
+    let mut v = G::velocities(&sa, &sb);
+    let (nx, ny, m) = (g.get(|c| c.nx), g.get(|c| c.ny), g.inv_mass());
+    let dpx = sb.dpx - sa.dpx;
+    let dpy = sb.dpy - sa.dpy;
+    for i in 0..2 {
+        let p = g.anchors(i);
+        // q r: the anchors turned by the rotation since collide
+        let qrax = sa.qc * p.rax - sa.qs * p.ray;
+        let qray = sa.qs * p.rax + sa.qc * p.ray;
+        let qrbx = sb.qc * p.rbx - sb.qs * p.rby;
+        let qrby = sb.qs * p.rbx + sb.qc * p.rby;
+        // s = s0 - n.(rb - ra) + n.(dp_b - dp_a + q_b rb - q_a ra)
+        let s = g.get(|c| c.points[i].base_separation)
+            + nx * (dpx + qrbx - qrax)
+            + ny * (dpy + qrby - qray);
+        let speculative = s.gt(k.zero);
+        // speculative: bias = s / h (may close the gap this substep, not more)
+        let spec_bias = s * k.inv_h;
+        let (bias, mass_scale, impulse_scale) = if BIAS {
+            // bias = max(rate S, -v_max), S = min(s + slop, 0)
+            let soft_bias = (g.get(|c| c.bias_rate) * (s + k.slop).min(k.zero)).max(k.min_bias);
+            (
+                G::L::select(speculative, spec_bias, soft_bias),
+                G::L::select(speculative, k.one, g.get(|c| c.mass_scale)),
+                G::L::select(speculative, k.zero, g.get(|c| c.impulse_scale)),
+            )
+        } else {
+            (spec_bias.max(k.zero), k.one, k.zero)
+        };
+        let vn = v.along(&p, nx, ny);
+        let old = g.get(|c| c.points[i].normal_impulse);
+        // d lambda = -m_n s_m (vn + bias) - s_i lambda, then lambda >= 0
+        let d =
+            -g.get(|c| c.points[i].normal_mass) * mass_scale * (vn + bias) - impulse_scale * old;
+        let new = (old + d).max(k.zero);
+        let d = new - old;
+        g.set(|c| &mut c.points[i].normal_impulse, new);
+        if MAX_IMPULSE {
+            let most = g.get(|c| c.points[i].max_normal_impulse).max(new);
+            g.set(|c| &mut c.points[i].max_normal_impulse, most);
+        }
+        *residual = residual.max(d.abs());
+        v.apply(&m, &p, d * nx, d * ny);
+    }
+    if !BIAS {
+        // friction only in the relax sweep: solved against the push-out speeds of the
+        // biased sweep it lets the flanks of a tall pile creep outwards
+        let (tx, ty) = (ny, -nx);
+        let friction = g.get(|c| c.friction);
+        for i in 0..2 {
+            let p = g.anchors(i);
+            let vt = v.along(&p, tx, ty);
+            // lambda_t = -m_t vt, projected onto [-mu lambda_n, mu lambda_n]
+            let bound = friction * g.get(|c| c.points[i].normal_impulse);
+            let old = g.get(|c| c.points[i].tangent_impulse);
+            let new = (old - g.get(|c| c.points[i].tangent_mass) * vt)
+                .min(bound)
+                .max(-bound);
+            let d = new - old;
+            *residual = residual.max(d.abs());
+            v.apply(&m, &p, d * tx, d * ty);
+            g.set(|c| &mut c.points[i].tangent_impulse, new);
+        }
+    }
+    g.store::<SHARED>(&sa, &sb, &v, bodies);
 }
 
 #[cfg(test)]
