@@ -1203,13 +1203,13 @@ impl Fill<'_> {
             w.b[k] = c.b;
             w.wa[k] = if ma { c.a } else { self.sink };
             w.wb[k] = if mb { c.b } else { self.sink };
-            w.nx[k] = n.x;
-            w.ny[k] = n.y;
-            w.friction[k] = c.friction;
-            w.m.ima[k] = ima;
-            w.m.iia[k] = iia;
-            w.m.imb[k] = imb;
-            w.m.iib[k] = iib;
+            w.nx.as_mut()[k] = n.x;
+            w.ny.as_mut()[k] = n.y;
+            w.friction.as_mut()[k] = c.friction;
+            w.m.ima.as_mut()[k] = ima;
+            w.m.iia.as_mut()[k] = iia;
+            w.m.imb.as_mut()[k] = imb;
+            w.m.iib.as_mut()[k] = iib;
             for (i, cp) in c.manifold.points().iter().enumerate() {
                 let (ra, rb) = (cp.anchor_a, cp.anchor_b);
                 let rna = cross(ra, n);
@@ -1225,16 +1225,17 @@ impl Fill<'_> {
                     (0.0, 0.0)
                 };
                 let p = &mut w.points[i];
-                p.rax[k] = ra.x;
-                p.ray[k] = ra.y;
-                p.rbx[k] = rb.x;
-                p.rby[k] = rb.y;
+                p.rax.as_mut()[k] = ra.x;
+                p.ray.as_mut()[k] = ra.y;
+                p.rbx.as_mut()[k] = rb.x;
+                p.rby.as_mut()[k] = rb.y;
                 // s0 - n . (rb - ra)
-                p.base_separation[k] = cp.separation - n.dot(rb - ra);
-                p.normal_mass[k] = if kn > 0.0 { 1.0 / kn } else { 0.0 };
-                p.tangent_mass[k] = if kt > 0.0 { 1.0 / kt } else { 0.0 };
-                p.normal_impulse[k] = ni;
-                p.tangent_impulse[k] = ti;
+                p.base_separation.as_mut()[k] = cp.separation - n.dot(rb - ra);
+                // K for now: the masses 1 / K are taken below, four lanes at once
+                p.normal_mass.as_mut()[k] = kn;
+                p.tangent_mass.as_mut()[k] = kt;
+                p.normal_impulse.as_mut()[k] = ni;
+                p.tangent_impulse.as_mut()[k] = ti;
                 need = need.max(ni * kn * self.load_scale);
             }
             // need > omega^2 only under a load some times a body's own weight (a heavy
@@ -1252,9 +1253,16 @@ impl Fill<'_> {
             } else {
                 soft
             };
-            w.bias_rate[k] = soft.bias_rate;
-            w.mass_scale[k] = soft.mass_scale;
-            w.impulse_scale[k] = soft.impulse_scale;
+            w.bias_rate.as_mut()[k] = soft.bias_rate;
+            w.mass_scale.as_mut()[k] = soft.mass_scale;
+            w.impulse_scale.as_mut()[k] = soft.impulse_scale;
+        }
+        // 1 / K where K > 0 (lanes and points not in use hold 0): the same quotients as
+        // one at a time
+        let inv = |k: Vec4| Vec4::select(k.cmpgt(Vec4::ZERO), Vec4::ONE / k, Vec4::ZERO);
+        for p in &mut w.points {
+            p.normal_mass = inv(p.normal_mass);
+            p.tangent_mass = inv(p.tangent_mass);
         }
     }
 
