@@ -914,14 +914,19 @@ impl World {
         self.record_events |= sensors;
         let no_collide = &self.no_collide;
         let (bodies, filtered) = (&self.bodies, self.filtered);
-        self.broad.find_pairs(&self.aabbs, &self.dynamic, |a, b| {
-            (!filtered
-                || bodies[a as usize]
-                    .filter
-                    .collides(&bodies[b as usize].filter))
-                && (no_collide.is_empty()
-                    || no_collide.binary_search(&(a.min(b), a.max(b))).is_err())
-        });
+        self.broad.find_pairs_kept(
+            &self.aabbs,
+            &self.dynamic,
+            |i| bodies[i].is_dynamic(),
+            |a, b| {
+                (!filtered
+                    || bodies[a as usize]
+                        .filter
+                        .collides(&bodies[b as usize].filter))
+                    && (no_collide.is_empty()
+                        || no_collide.binary_search(&(a.min(b), a.max(b))).is_err())
+            },
+        );
         clock.lap(Stage::Broad);
 
         std::mem::swap(&mut self.contacts, &mut self.old_contacts);

@@ -29,9 +29,21 @@ pub struct BroadPhase {
     /// Per body: its index in `large`, or u32::MAX (scratch).
     large_rank: Vec<u32>,
     sizes: Vec<f32>,
+    /// [`BroadPhase::find_pairs_kept`]: each body's fattened box, whether it may move
+    /// (dynamic, asleep or not), and every pair of those boxes, from the last rebuild.
+    kept_boxes: Vec<Aabb>,
+    kept_moves: Vec<bool>,
+    kept_pairs: Vec<Pair>,
+    /// Rebuilds of the kept pairs so far.
+    pub rebuilds: u64,
     /// Candidate pairs from the last [`BroadPhase::find_pairs`], sorted.
     pub pairs: Vec<Pair>,
 }
+
+/// How far a kept box reaches past a body's box (m), at most: a body is looked up again
+/// only once its box leaves this. A quarter of the body's own extent where that is less,
+/// so that small bodies keep few extra pairs.
+const KEEP_MARGIN: f32 = 0.1;
 
 /// A box spanning more cells than this per axis is tested against all bodies instead.
 const MAX_CELLS_PER_AXIS: i64 = 4;
@@ -74,7 +86,11 @@ impl BroadPhase {
             }
             let mid = sizes.len() / 2;
             let (_, m, _) = sizes.select_nth_unstable_by(mid, |a, b| a.total_cmp(b));
-            (2.0 * *m).max(1e-3)
+            // rounded up to 1, 1.25, 1.5 or 1.75 times a power of two (the float's
+            // mantissa cut to two bits): the grid keeps its shape, and its buffers their
+            // size, while the median wavers
+            const LOW: u32 = (1 << 21) - 1;
+            f32::from_bits(((2.0 * *m).max(1e-3).to_bits() + LOW) & !LOW)
         };
         let inv = 1.0 / cell;
         let to_cell = |v: Vec2| (floor_i64(v.x * inv), floor_i64(v.y * inv));
@@ -148,6 +164,63 @@ impl BroadPhase {
         }
         self.sort_pairs(aabbs.len());
         self.pairs.dedup();
+    }
+
+    /// The pairs [`BroadPhase::find_pairs`] would find, found from last step's where
+    /// that is enough: the pairs of the bodies' fattened boxes are kept, and while every
+    /// box stays inside its fattened one (and no body starts or stops being able to
+    /// move), this step's pairs are those kept pairs whose boxes overlap, a pass over the
+    /// pairs instead of the grid. `may_move(i)` must hold wherever `moves[i]` does (a
+    /// sleeping dynamic body may move; a static one may not).
+    ///
+    /// The result is the same list, to the order, as `find_pairs` gives: two boxes that
+    /// overlap lie inside fattened boxes that overlap, so the kept pairs hold every pair
+    /// of this step, and both lists are sorted.
+    pub fn find_pairs_kept(
+        &mut self,
+        aabbs: &[Aabb],
+        moves: &[bool],
+        may_move: impl Fn(usize) -> bool,
+        can_collide: impl Fn(u32, u32) -> bool,
+    ) {
+        let inside = |fat: &Aabb, b: &Aabb| {
+            fat.min.x <= b.min.x
+                && fat.min.y <= b.min.y
+                && b.max.x <= fat.max.x
+                && b.max.y <= fat.max.y
+        };
+        let holds = self.kept_boxes.len() == aabbs.len()
+            && aabbs
+                .iter()
+                .zip(&self.kept_boxes)
+                .zip(&self.kept_moves)
+                .enumerate()
+                .all(|(i, ((b, fat), &m))| inside(fat, b) && m == may_move(i));
+        if !holds {
+            let mut fat = std::mem::take(&mut self.kept_boxes);
+            let mut fat_moves = std::mem::take(&mut self.kept_moves);
+            fat.clear();
+            fat.extend(aabbs.iter().map(|b| {
+                let extent = (b.max - b.min).max_element();
+                b.fattened(KEEP_MARGIN.min(0.25 * extent))
+            }));
+            fat_moves.clear();
+            fat_moves.extend((0..aabbs.len()).map(&may_move));
+            self.find_pairs(&fat, &fat_moves, |_, _| true);
+            // copied, not swapped: `pairs`, which the grid just filled, holds at least as
+            // many as the filter below keeps, so neither buffer grows in a steady run
+            self.kept_pairs.clear();
+            self.kept_pairs.extend_from_slice(&self.pairs);
+            (self.kept_boxes, self.kept_moves) = (fat, fat_moves);
+            self.rebuilds += 1;
+        }
+        self.pairs.clear();
+        for &(a, b) in &self.kept_pairs {
+            let (ia, ib) = (a as usize, b as usize);
+            if (moves[ia] || moves[ib]) && aabbs[ia].overlaps(&aabbs[ib]) && can_collide(a, b) {
+                self.pairs.push((a, b));
+            }
+        }
     }
 
     /// Sorts the pairs by (a, b): a counting sort by a, then each (short) run of equal a
@@ -446,5 +519,61 @@ mod tests {
         }
         assert!(!brute.is_empty());
         assert_eq!(bp.pairs, brute);
+    }
+
+    #[test]
+    fn kept_pairs_are_the_pairs_found_afresh_every_step() {
+        let mut seed = 777u32;
+        let mut rnd = move || {
+            seed = seed.wrapping_mul(1664525).wrapping_add(1013904223);
+            (seed >> 8) as f32 / (1u32 << 24) as f32
+        };
+        // a ground, then bodies of mixed sizes packed closely enough to touch
+        let mut boxes = vec![aabb(-60.0, -2.0, 60.0, 0.0)];
+        for k in 0..400 {
+            let (x, y) = ((k % 40) as f32 * 1.1 - 22.0, (k / 40) as f32 * 1.1);
+            let s = 0.05 + rnd() * 1.2;
+            boxes.push(aabb(x, y, x + s, y + s));
+        }
+        let n = boxes.len();
+        let mut may_move: Vec<bool> = (0..n).map(|i| i != 0).collect();
+        let mut moves = may_move.clone();
+        let (mut kept, mut fresh) = (BroadPhase::default(), BroadPhase::default());
+        let steps = 300u32;
+        for step in 0..steps {
+            // small motions every step, now and then a jump, a body falling asleep or
+            // waking, a body becoming static or dynamic
+            for b in boxes.iter_mut().skip(1) {
+                let d = Vec2::new(rnd() - 0.5, rnd() - 0.5) * 0.004;
+                (b.min, b.max) = (b.min + d, b.max + d);
+            }
+            if step % 23 == 5 {
+                let i = 1 + (rnd() * (n - 1) as f32) as usize % (n - 1);
+                let d = Vec2::new(rnd() - 0.5, rnd() - 0.5) * 3.0;
+                (boxes[i].min, boxes[i].max) = (boxes[i].min + d, boxes[i].max + d);
+            }
+            if step % 17 == 3 {
+                let i = 1 + (rnd() * (n - 1) as f32) as usize % (n - 1);
+                moves[i] = may_move[i] && !moves[i];
+            }
+            if step % 61 == 11 {
+                let i = 1 + (rnd() * (n - 1) as f32) as usize % (n - 1);
+                may_move[i] = !may_move[i];
+                moves[i] = may_move[i];
+            }
+            let phase = step / 50;
+            let can = |a: u32, b: u32| !(a + b + phase).is_multiple_of(7);
+            kept.find_pairs_kept(&boxes, &moves, |i| may_move[i], can);
+            fresh.find_pairs(&boxes, &moves, can);
+            assert!(!fresh.pairs.is_empty());
+            assert_eq!(kept.pairs, fresh.pairs, "step {step}");
+        }
+        // the kept pairs were used (most steps move nothing out of its fattened box) and
+        // renewed (the jumps and the changes of who may move)
+        assert!(
+            kept.rebuilds > 5 && kept.rebuilds < u64::from(steps / 3),
+            "{} rebuilds",
+            kept.rebuilds
+        );
     }
 }
