@@ -1,4 +1,6 @@
-//! The broad phase: a uniform grid rebuilt each step. Every body's box is written into
+//! The broad phase: a uniform grid, run again only when a body's box leaves the fattened
+//! box it had at the last run (see [`BroadPhase::find_pairs_kept`]). Every body's box is
+//! written into
 //! the cells it covers, the (cell, body) entries are sorted, and bodies sharing a cell
 //! are tested. A pair is reported only from the cell that holds the lower-left corner of
 //! the overlap of the two boxes, so it is found once. Bodies whose boxes span many cells
