@@ -133,6 +133,16 @@ impl Aabb {
             && o.min.y <= self.max.y
     }
 
+    /// Whether `o` lies wholly inside this box (touching counts; false where either is
+    /// NaN).
+    #[inline]
+    pub fn contains(&self, o: &Aabb) -> bool {
+        self.min.x <= o.min.x
+            && self.min.y <= o.min.y
+            && o.max.x <= self.max.x
+            && o.max.y <= self.max.y
+    }
+
     /// The box grown by `m` on every side.
     #[inline]
     pub fn fattened(&self, m: f32) -> Aabb {

@@ -1,11 +1,10 @@
 //! The broad phase: a uniform grid, run again only when a body's box leaves the fattened
 //! box it had at the last run (see [`BroadPhase::find_pairs_kept`]). Every body's box is
-//! written into
-//! the cells it covers, the (cell, body) entries are sorted, and bodies sharing a cell
-//! are tested. A pair is reported only from the cell that holds the lower-left corner of
-//! the overlap of the two boxes, so it is found once. Bodies whose boxes span many cells
-//! (the ground) go to a short list tested against everyone. The output is sorted by
-//! (a, b), so the step order does not depend on the grid.
+//! written into the cells it covers, the (cell, body) entries are sorted, and bodies
+//! sharing a cell are tested. A pair is reported only from the cell that holds the
+//! lower-left corner of the overlap of the two boxes, so it is found once. Bodies whose
+//! boxes span many cells (the ground) go to a short list tested against everyone. The
+//! output is sorted by (a, b), so the step order does not depend on the grid.
 
 use crate::math::{Aabb, Vec2};
 
@@ -185,19 +184,13 @@ impl BroadPhase {
         may_move: impl Fn(usize) -> bool,
         can_collide: impl Fn(u32, u32) -> bool,
     ) {
-        let inside = |fat: &Aabb, b: &Aabb| {
-            fat.min.x <= b.min.x
-                && fat.min.y <= b.min.y
-                && b.max.x <= fat.max.x
-                && b.max.y <= fat.max.y
-        };
         let holds = self.kept_boxes.len() == aabbs.len()
             && aabbs
                 .iter()
                 .zip(&self.kept_boxes)
                 .zip(&self.kept_moves)
                 .enumerate()
-                .all(|(i, ((b, fat), &m))| inside(fat, b) && m == may_move(i));
+                .all(|(i, ((b, fat), &m))| fat.contains(b) && m == may_move(i));
         if !holds {
             let mut fat = std::mem::take(&mut self.kept_boxes);
             let mut fat_moves = std::mem::take(&mut self.kept_moves);

@@ -315,19 +315,6 @@ impl WideBody {
         }
     }
 
-    /// Writes the velocities of four bodies back (one 16-byte store each).
-    #[inline(always)]
-    fn scatter<const SHARED: bool>(
-        &self,
-        vx: Vec4,
-        vy: Vec4,
-        w: Vec4,
-        bodies: BodyPtr,
-        idx: &[u32; 4],
-    ) {
-        Self::scatter_velocities::<SHARED>(vx, vy, w, self.dtheta, bodies, idx);
-    }
-
     /// Writes v, w and the unchanged dtheta of four bodies (one 16-byte store each).
     #[cfg(target_arch = "x86_64")]
     #[inline(always)]
@@ -547,7 +534,7 @@ impl Group for One<'_> {
         bodies: BodyPtr,
     ) {
         let idx = if B { &self.0.wb } else { &self.0.wa };
-        s.scatter::<SHARED>(vx, vy, w, bodies, idx);
+        WideBody::<Vec4>::scatter_velocities::<SHARED>(vx, vy, w, s.dtheta, bodies, idx);
     }
 }
 
