@@ -72,6 +72,8 @@ impl PanelLayer {
             1,
             LABEL,
             &module,
+            wgpu::PrimitiveTopology::TriangleList,
+            &[],
             &[],
         );
         PanelLayer {

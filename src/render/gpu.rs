@@ -46,8 +46,7 @@ struct Globals {
     viewport: [f32; 2],
     scale: f32,
     outline_px: f32,
-    encode_srgb: f32,
-    _pad: [f32; 3],
+    _pad: [f32; 4],
 }
 
 /// One circle; mirrors `CircleIn` in `shaders/circle.wgsl`.
@@ -58,9 +57,13 @@ struct CircleInstance {
     radius: f32,
     angle: f32,
     has_angle: f32,
-    fill: [u8; 4],
-    outline: [u8; 4],
+    fill: [f32; 4],
+    outline: [f32; 4],
 }
+
+/// Vertices of one instanced quad: a triangle strip of its four corners
+/// (`quad_corner` in `shaders/common.wgsl`), so each corner is shaded once.
+const QUAD_VERTICES: std::ops::Range<u32> = 0..4;
 
 /// One rectangle; mirrors `BoxIn` in `shaders/box.wgsl`.
 #[repr(C)]
@@ -69,8 +72,8 @@ struct BoxInstance {
     center: [f32; 2],
     half_size: [f32; 2],
     rot: [f32; 2],
-    fill: [u8; 4],
-    outline: [u8; 4],
+    fill: [f32; 4],
+    outline: [f32; 4],
 }
 
 /// One segment; mirrors `LineIn` in `shaders/line.wgsl`.
@@ -80,7 +83,7 @@ struct LineInstance {
     a: [f32; 2],
     b: [f32; 2],
     width_px: f32,
-    color: [u8; 4],
+    color: [f32; 4],
 }
 
 /// One polygon-fill vertex; mirrors `PolygonIn` in `shaders/polygon.wgsl`.
@@ -88,7 +91,31 @@ struct LineInstance {
 #[derive(Clone, Copy, Pod, Zeroable)]
 struct PolygonVertex {
     position: [f32; 2],
-    color: [u8; 4],
+    color: [f32; 4],
+}
+
+/// An sRGB colour with straight alpha, 8 bits a channel (as draw lists hold colours),
+/// to linear premultiplied, as the shaders blend: once per instance here, with a table,
+/// rather than a `pow` per channel at every vertex (a CPU rasteriser pays for those).
+fn premultiplied_linear(c: [u8; 4]) -> [f32; 4] {
+    static TABLE: std::sync::OnceLock<[f32; 256]> = std::sync::OnceLock::new();
+    let table = TABLE.get_or_init(|| {
+        std::array::from_fn(|i| {
+            let x = i as f32 / 255.0;
+            if x <= 0.04045 {
+                x / 12.92
+            } else {
+                ((x + 0.055) / 1.055).powf(2.4)
+            }
+        })
+    });
+    let a = c[3] as f32 / 255.0;
+    [
+        table[c[0] as usize] * a,
+        table[c[1] as usize] * a,
+        table[c[2] as usize] * a,
+        a,
+    ]
 }
 
 /// A vertex buffer that grows (doubling) and is otherwise reused frame to frame.
@@ -298,14 +325,14 @@ impl Renderer {
         });
 
         let box_attributes = wgpu::vertex_attr_array![
-            0 => Float32x2, 1 => Float32x2, 2 => Float32x2, 3 => Unorm8x4, 4 => Unorm8x4
+            0 => Float32x2, 1 => Float32x2, 2 => Float32x2, 3 => Float32x4, 4 => Float32x4
         ];
         let circle_attributes = wgpu::vertex_attr_array![
-            0 => Float32x2, 1 => Float32, 2 => Float32, 3 => Float32, 4 => Unorm8x4, 5 => Unorm8x4
+            0 => Float32x2, 1 => Float32, 2 => Float32, 3 => Float32, 4 => Float32x4, 5 => Float32x4
         ];
         let line_attributes =
-            wgpu::vertex_attr_array![0 => Float32x2, 1 => Float32x2, 2 => Float32, 3 => Unorm8x4];
-        let polygon_attributes = wgpu::vertex_attr_array![0 => Float32x2, 1 => Unorm8x4];
+            wgpu::vertex_attr_array![0 => Float32x2, 1 => Float32x2, 2 => Float32, 3 => Float32x4];
+        let polygon_attributes = wgpu::vertex_attr_array![0 => Float32x2, 1 => Float32x4];
 
         let box_pipeline = create_pipeline(
             &device,
@@ -314,6 +341,7 @@ impl Renderer {
             samples,
             "box",
             include_str!("shaders/box.wgsl"),
+            wgpu::PrimitiveTopology::TriangleStrip,
             wgpu::VertexBufferLayout {
                 array_stride: std::mem::size_of::<BoxInstance>() as u64,
                 step_mode: wgpu::VertexStepMode::Instance,
@@ -327,6 +355,7 @@ impl Renderer {
             samples,
             "circle",
             include_str!("shaders/circle.wgsl"),
+            wgpu::PrimitiveTopology::TriangleStrip,
             wgpu::VertexBufferLayout {
                 array_stride: std::mem::size_of::<CircleInstance>() as u64,
                 step_mode: wgpu::VertexStepMode::Instance,
@@ -340,6 +369,7 @@ impl Renderer {
             samples,
             "line",
             include_str!("shaders/line.wgsl"),
+            wgpu::PrimitiveTopology::TriangleStrip,
             wgpu::VertexBufferLayout {
                 array_stride: std::mem::size_of::<LineInstance>() as u64,
                 step_mode: wgpu::VertexStepMode::Instance,
@@ -353,6 +383,7 @@ impl Renderer {
             samples,
             "polygon",
             include_str!("shaders/polygon.wgsl"),
+            wgpu::PrimitiveTopology::TriangleList,
             wgpu::VertexBufferLayout {
                 array_stride: std::mem::size_of::<PolygonVertex>() as u64,
                 step_mode: wgpu::VertexStepMode::Vertex,
@@ -466,7 +497,7 @@ impl Renderer {
         if !self.box_data.is_empty() {
             pass.set_pipeline(&self.box_pipeline);
             pass.set_vertex_buffer(0, self.box_buffer.buffer.slice(..));
-            pass.draw(0..6, 0..self.box_data.len() as u32);
+            pass.draw(QUAD_VERTICES, 0..self.box_data.len() as u32);
         }
         // 2. polygon fills
         if !self.polygon_data.is_empty() {
@@ -478,13 +509,13 @@ impl Renderer {
         if outline_lines > 0 {
             pass.set_pipeline(&self.line_pipeline);
             pass.set_vertex_buffer(0, self.line_buffer.buffer.slice(..));
-            pass.draw(0..6, 0..outline_lines);
+            pass.draw(QUAD_VERTICES, 0..outline_lines);
         }
         // 4. circles
         if !self.circle_data.is_empty() {
             pass.set_pipeline(&self.circle_pipeline);
             pass.set_vertex_buffer(0, self.circle_buffer.buffer.slice(..));
-            pass.draw(0..6, 0..self.circle_data.len() as u32);
+            pass.draw(QUAD_VERTICES, 0..self.circle_data.len() as u32);
         }
         // 5. the list's lines, over everything. A buffer offset rather than a first
         // instance, which GLES lacks.
@@ -496,7 +527,7 @@ impl Renderer {
                     .buffer
                     .slice(outline_lines as u64 * line_stride..),
             );
-            pass.draw(0..6, 0..user_lines);
+            pass.draw(QUAD_VERTICES, 0..user_lines);
         }
     }
 
@@ -607,8 +638,7 @@ impl Renderer {
             viewport: [size[0] as f32, size[1] as f32],
             scale: camera.pixels_per_meter,
             outline_px: list.outline_width_px.max(0.0),
-            encode_srgb: if self.format.is_srgb() { 0.0 } else { 1.0 },
-            _pad: [0.0; 3],
+            _pad: [0.0; 4],
         };
         self.queue
             .write_buffer(&self.globals, 0, bytemuck::bytes_of(&globals));
@@ -618,8 +648,8 @@ impl Renderer {
             center: r.center.to_array(),
             half_size: r.half_size.to_array(),
             rot: r.rot.to_array(),
-            fill: r.fill,
-            outline: r.outline,
+            fill: premultiplied_linear(r.fill),
+            outline: premultiplied_linear(r.outline),
         }));
 
         self.circle_data.clear();
@@ -629,8 +659,8 @@ impl Renderer {
                 radius: c.radius,
                 angle: c.angle.unwrap_or(0.0),
                 has_angle: if c.angle.is_some() { 1.0 } else { 0.0 },
-                fill: c.fill,
-                outline: c.outline,
+                fill: premultiplied_linear(c.fill),
+                outline: premultiplied_linear(c.outline),
             }));
 
         self.polygon_data.clear();
@@ -641,15 +671,17 @@ impl Renderer {
             let (fill, outline) = (poly.fill, poly.outline);
             // Fan triangulation of a convex polygon: (p0, p_i, p_i+1).
             if p.len() >= 3 && fill[3] > 0 {
+                let color = premultiplied_linear(fill);
                 let v = |q: Vec2| PolygonVertex {
                     position: q.to_array(),
-                    color: fill,
+                    color,
                 };
                 for i in 1..p.len() - 1 {
                     self.polygon_data.extend([v(p[0]), v(p[i]), v(p[i + 1])]);
                 }
             }
             if outline[3] > 0 && outline_px > 0.0 && p.len() >= 2 {
+                let color = premultiplied_linear(outline);
                 let n = p.len();
                 let edges = if n == 2 { 1 } else { n };
                 for i in 0..edges {
@@ -657,7 +689,7 @@ impl Renderer {
                         a: p[i].to_array(),
                         b: p[(i + 1) % n].to_array(),
                         width_px: outline_px,
-                        color: outline,
+                        color,
                     });
                 }
             }
@@ -667,7 +699,7 @@ impl Renderer {
                 a: l.a.to_array(),
                 b: l.b.to_array(),
                 width_px: l.width_px,
-                color: l.color,
+                color: premultiplied_linear(l.color),
             }));
 
         self.box_buffer.upload(
@@ -748,8 +780,9 @@ impl Renderer {
     }
 }
 
-/// A pipeline drawing triangle lists from one vertex buffer, premultiplied-alpha
-/// blending, `samples` samples per pixel; `source` is prepended with `shaders/common.wgsl`.
+/// A pipeline drawing `topology` from one vertex buffer, premultiplied-alpha blending,
+/// `samples` samples per pixel; `source` is prepended with `shaders/common.wgsl`.
+#[allow(clippy::too_many_arguments)]
 fn create_pipeline(
     device: &wgpu::Device,
     layout: &wgpu::PipelineLayout,
@@ -757,6 +790,7 @@ fn create_pipeline(
     samples: u32,
     name: &str,
     source: &str,
+    topology: wgpu::PrimitiveTopology,
     buffer: wgpu::VertexBufferLayout<'_>,
 ) -> wgpu::RenderPipeline {
     let code = format!("{}\n{}", include_str!("shaders/common.wgsl"), source);
@@ -771,13 +805,16 @@ fn create_pipeline(
         samples,
         name,
         &module,
+        topology,
+        &[("ENCODE_SRGB", if format.is_srgb() { 0.0 } else { 1.0 })],
         &[Some(buffer)],
     )
 }
 
-/// A pipeline of `module`'s `vs_main` and `fs_main` drawing triangle lists from
-/// `buffers` with premultiplied-alpha blending into `format` at `samples` samples per
-/// pixel (the window's panel layer uses it too).
+/// A pipeline of `module`'s `vs_main` and `fs_main` drawing `topology` from `buffers`
+/// with premultiplied-alpha blending into `format` at `samples` samples per pixel (the
+/// window's panel layer uses it too).
+#[allow(clippy::too_many_arguments)]
 pub(crate) fn premultiplied_pipeline(
     device: &wgpu::Device,
     layout: &wgpu::PipelineLayout,
@@ -785,19 +822,25 @@ pub(crate) fn premultiplied_pipeline(
     samples: u32,
     name: &str,
     module: &wgpu::ShaderModule,
+    topology: wgpu::PrimitiveTopology,
+    constants: &[(&str, f64)],
     buffers: &[Option<wgpu::VertexBufferLayout<'_>>],
 ) -> wgpu::RenderPipeline {
+    let compilation_options = wgpu::PipelineCompilationOptions {
+        constants,
+        ..Default::default()
+    };
     device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
         label: Some(name),
         layout: Some(layout),
         vertex: wgpu::VertexState {
             module,
             entry_point: Some("vs_main"),
-            compilation_options: Default::default(),
+            compilation_options: compilation_options.clone(),
             buffers,
         },
         primitive: wgpu::PrimitiveState {
-            topology: wgpu::PrimitiveTopology::TriangleList,
+            topology,
             cull_mode: None,
             ..Default::default()
         },
@@ -809,7 +852,7 @@ pub(crate) fn premultiplied_pipeline(
         fragment: Some(wgpu::FragmentState {
             module,
             entry_point: Some("fs_main"),
-            compilation_options: Default::default(),
+            compilation_options,
             targets: &[Some(wgpu::ColorTargetState {
                 format,
                 blend: Some(wgpu::BlendState::PREMULTIPLIED_ALPHA_BLENDING),

@@ -17,11 +17,11 @@ struct BoxOut {
     @builtin(position) position: vec4<f32>,
     // The fragment's position in the box's frame, in pixels from its centre.
     @location(0) local: vec2<f32>,
-    @location(1) half_px: vec2<f32>,
+    @location(1) @interpolate(flat, either) half_px: vec2<f32>,
     // Half the outline's width in pixels (0: a small box drawn as a plain fill).
-    @location(2) half_band: f32,
-    @location(3) fill: vec4<f32>,
-    @location(4) outline: vec4<f32>,
+    @location(2) @interpolate(flat, either) half_band: f32,
+    @location(3) @interpolate(flat, either) fill: vec4<f32>,
+    @location(4) @interpolate(flat, either) outline: vec4<f32>,
 };
 
 @vertex
@@ -44,8 +44,8 @@ fn vs_main(in: BoxIn) -> BoxOut {
     out.local = local;
     out.half_px = h;
     out.half_band = e;
-    out.fill = premultiplied_linear(in.fill);
-    out.outline = premultiplied_linear(in.outline);
+    out.fill = in.fill;
+    out.outline = in.outline;
     return out;
 }
 

@@ -15,12 +15,12 @@ struct CircleIn {
 struct CircleOut {
     @builtin(position) position: vec4<f32>,
     @location(0) pixel: vec2<f32>,
-    @location(1) center_px: vec2<f32>,
-    @location(2) radius_px: f32,
+    @location(1) @interpolate(flat, either) center_px: vec2<f32>,
+    @location(2) @interpolate(flat, either) radius_px: f32,
     // Screen-space end of the radius line, relative to the centre; zero for none.
-    @location(3) spoke: vec2<f32>,
-    @location(4) fill: vec4<f32>,
-    @location(5) outline: vec4<f32>,
+    @location(3) @interpolate(flat, either) spoke: vec2<f32>,
+    @location(4) @interpolate(flat, either) fill: vec4<f32>,
+    @location(5) @interpolate(flat, either) outline: vec4<f32>,
 };
 
 @vertex
@@ -36,8 +36,8 @@ fn vs_main(in: CircleIn) -> CircleOut {
     out.radius_px = r;
     // y flips on screen: the world direction (cos a, sin a) is (cos a, -sin a) in pixels.
     out.spoke = select(vec2<f32>(0.0), vec2<f32>(cos(in.angle), -sin(in.angle)) * r, in.has_angle > 0.5);
-    out.fill = premultiplied_linear(in.fill);
-    out.outline = premultiplied_linear(in.outline);
+    out.fill = in.fill;
+    out.outline = in.outline;
     return out;
 }
 

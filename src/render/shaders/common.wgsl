@@ -1,4 +1,5 @@
 // Shared by every pipeline: the camera uniform, the screen transform and colour helpers.
+// Colours arrive linear and premultiplied (converted once per instance on the CPU).
 // Prepended to box.wgsl, circle.wgsl, line.wgsl and polygon.wgsl at pipeline creation.
 
 struct Globals {
@@ -12,14 +13,18 @@ struct Globals {
     scale: f32,
     // Outline width in pixels.
     outline_px: f32,
-    // 1 when the target format is not sRGB: encode to sRGB in the shader.
-    encode_srgb: f32,
     _pad0: f32,
     _pad1: f32,
     _pad2: f32,
+    _pad3: f32,
 };
 
 @group(0) @binding(0) var<uniform> g: Globals;
+
+// True when the target format is not sRGB: encode to sRGB in the shader. A constant of
+// the pipeline, not a uniform, so a CPU rasteriser (llvmpipe) compiles the encoding away
+// where it is not wanted instead of running it masked for every fragment.
+override ENCODE_SRGB: bool = false;
 
 // Level of detail: a box or circle narrower than this many pixels is drawn as a plain
 // fill, without its outline (which would otherwise cover most of it).
@@ -36,20 +41,13 @@ fn screen_to_clip(p: vec2<f32>) -> vec4<f32> {
     return vec4<f32>(p.x / g.viewport.x * 2.0 - 1.0, 1.0 - p.y / g.viewport.y * 2.0, 0.0, 1.0);
 }
 
-// The six corners of a quad, two triangles, in [-1, 1]^2.
+// The four corners of a quad in [-1, 1]^2, in triangle-strip order: the two triangles
+// (1,-1) (-1,-1) (1,1) and (-1,-1) (1,1) (-1,1) share the diagonal from (-1,-1) to (1,1).
 fn quad_corner(i: u32) -> vec2<f32> {
-    var corners = array<vec2<f32>, 6>(
-        vec2<f32>(-1.0, -1.0), vec2<f32>(1.0, -1.0), vec2<f32>(1.0, 1.0),
-        vec2<f32>(-1.0, -1.0), vec2<f32>(1.0, 1.0), vec2<f32>(-1.0, 1.0),
+    var corners = array<vec2<f32>, 4>(
+        vec2<f32>(1.0, -1.0), vec2<f32>(-1.0, -1.0), vec2<f32>(1.0, 1.0), vec2<f32>(-1.0, 1.0),
     );
     return corners[i];
-}
-
-// sRGB transfer function, decode: c <= 0.04045 ? c / 12.92 : ((c + 0.055) / 1.055)^2.4
-fn srgb_to_linear(c: vec3<f32>) -> vec3<f32> {
-    let lo = c / 12.92;
-    let hi = pow((c + vec3<f32>(0.055)) / 1.055, vec3<f32>(2.4));
-    return select(hi, lo, c <= vec3<f32>(0.04045));
 }
 
 // sRGB transfer function, encode: l <= 0.0031308 ? 12.92 l : 1.055 l^(1/2.4) - 0.055
@@ -59,11 +57,6 @@ fn linear_to_srgb(l: vec3<f32>) -> vec3<f32> {
     return select(hi, lo, l <= vec3<f32>(0.0031308));
 }
 
-// An sRGB colour with straight alpha to linear, premultiplied.
-fn premultiplied_linear(c: vec4<f32>) -> vec4<f32> {
-    return vec4<f32>(srgb_to_linear(c.rgb) * c.a, c.a);
-}
-
 // `top` over `bottom`, both premultiplied.
 fn over(top: vec4<f32>, bottom: vec4<f32>) -> vec4<f32> {
     return top + bottom * (1.0 - top.a);
@@ -71,7 +64,7 @@ fn over(top: vec4<f32>, bottom: vec4<f32>) -> vec4<f32> {
 
 // The fragment output: premultiplied linear, or sRGB-encoded for a non-sRGB target.
 fn finish(c: vec4<f32>) -> vec4<f32> {
-    if g.encode_srgb > 0.5 && c.a > 0.0 {
+    if ENCODE_SRGB && c.a > 0.0 {
         return vec4<f32>(linear_to_srgb(c.rgb / c.a) * c.a, c.a);
     }
     return c;

@@ -12,12 +12,12 @@ struct LineIn {
 struct LineOut {
     @builtin(position) position: vec4<f32>,
     @location(0) pixel: vec2<f32>,
-    @location(1) a_px: vec2<f32>,
-    @location(2) b_px: vec2<f32>,
-    @location(3) half_width: f32,
+    @location(1) @interpolate(flat, either) a_px: vec2<f32>,
+    @location(2) @interpolate(flat, either) b_px: vec2<f32>,
+    @location(3) @interpolate(flat, either) half_width: f32,
     // Lines thinner than a pixel are drawn one pixel wide and fainter.
-    @location(4) fade: f32,
-    @location(5) color: vec4<f32>,
+    @location(4) @interpolate(flat, either) fade: f32,
+    @location(5) @interpolate(flat, either) color: vec4<f32>,
 };
 
 @vertex
@@ -44,7 +44,7 @@ fn vs_main(in: LineIn) -> LineOut {
     out.b_px = b;
     out.half_width = hw;
     out.fade = clamp(in.width_px, 0.0, 1.0);
-    out.color = premultiplied_linear(in.color);
+    out.color = in.color;
     return out;
 }
 

@@ -15,7 +15,7 @@ struct PolygonOut {
 fn vs_main(in: PolygonIn) -> PolygonOut {
     var out: PolygonOut;
     out.position = screen_to_clip(to_screen(in.position));
-    out.color = premultiplied_linear(in.color);
+    out.color = in.color;
     return out;
 }
 
