@@ -29,14 +29,16 @@ pub struct FrameStats {
 
 /// The phases of a window frame and their colours, in the order they run: the draw
 /// list, the panel (egui, when it is due), acquiring the surface, encoding and
-/// submitting, the simulation (stepped while the rasteriser works) and present.
+/// submitting, present (the rasteriser's work included), and waiting for the
+/// simulation's steps after it (they run on their own thread from submit on, beside
+/// present, so only what is left of them after present shows here).
 pub const FRAME_PHASES: [(&str, Color32); 6] = [
     ("draw list", Color32::from_rgb(80, 160, 255)),
     ("panel", Color32::from_rgb(230, 200, 70)),
     ("acquire", Color32::from_rgb(150, 150, 150)),
     ("encode", Color32::from_rgb(90, 210, 140)),
-    ("simulate", Color32::from_rgb(255, 150, 70)),
     ("present", Color32::from_rgb(210, 110, 230)),
+    ("step wait", Color32::from_rgb(255, 150, 70)),
 ];
 
 /// The time step slider's range (s): 1/1000 to 1/15.

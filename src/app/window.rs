@@ -81,9 +81,13 @@ pub(super) struct App {
     first_frame: Option<Instant>,
     last_frame: Option<Instant>,
     /// Summed wall time (ms) of each part of a frame: the draw list, egui, acquiring
-    /// the surface texture, encoding and submitting, the simulation (while the frame is
-    /// rasterised), presenting.
+    /// the surface texture, encoding and submitting, presenting (the rasteriser's work
+    /// included), and waiting for the simulation's steps (run on their own thread from
+    /// submit on) after presenting.
     phase_ms: [f64; 6],
+    /// Summed time (ms) of the simulation's steps on their own thread, which overlaps
+    /// presenting.
+    sim_ms: f64,
     /// The frame phases (ms) the panel shows: the mean over the frames between its
     /// last two refreshes (most frames run no panel and half of them no step, so one
     /// frame alone says little).
@@ -152,6 +156,7 @@ impl App {
             panel_dirty: true,
             panel_next: None,
             phase_ms: [0.0; 6],
+            sim_ms: 0.0,
             last_phase_ms: [0.0; 6],
             phase_since: ([0.0; 6], 0),
             recent: Default::default(),
@@ -174,11 +179,13 @@ impl App {
             _ => 0.0,
         };
         let n = self.frames.max(1) as f64;
-        let [list, ui, acquire, submit, sim, present] = self.phase_ms.map(|v| v / n);
+        let [list, ui, acquire, submit, present, wait] = self.phase_ms.map(|v| v / n);
+        let sim = self.sim_ms / n;
         log::info!(
             "mean ms a frame: draw list {list:.2}, panel {ui:.2}, acquire {acquire:.2}, \
-             encode and submit {submit:.2}, simulation (overlapping the rasteriser) \
-             {sim:.2}, present {present:.2}"
+             encode and submit {submit:.2}, present {present:.2}, then waiting for the \
+             step {wait:.2}; the simulation's steps (on their own thread, beside \
+             present) {sim:.2}"
         );
         let mut sorted = self.frame_ms.clone();
         sorted.sort_by(f32::total_cmp);
@@ -435,13 +442,14 @@ impl App {
         self.camera.size = [width, height];
     }
 
-    /// Draws the world and the panel, steps the world while the frame is rasterised,
-    /// presents; takes the screenshot and stops after `--frames`.
+    /// Draws the world and the panel, presents while the world steps on a thread of its
+    /// own; takes the screenshot and stops after `--frames`.
     ///
-    /// The order overlaps the two big costs: the draw list is filled from the world as
-    /// it is, the frame is encoded and submitted (a CPU rasteriser such as llvmpipe
-    /// starts on it in its own threads), then the simulation steps on this thread
-    /// towards the next frame, and only then does `present` wait for the rasteriser.
+    /// The order overlaps the big costs: the draw list is filled from the world as it
+    /// is, the frame is encoded and submitted (a CPU rasteriser such as llvmpipe starts
+    /// on it in its own threads), then the simulation steps towards the next frame on a
+    /// scoped thread while this one presents (waiting for the rasteriser, the surface's
+    /// blit and the copy to the window server), and the frame ends when both are done.
     fn frame(&mut self, event_loop: &ActiveEventLoop) {
         let now = Instant::now();
         self.follow_camera();
@@ -523,8 +531,10 @@ impl App {
         let mut drawn: Option<(Vec<egui::ClippedPrimitive>, f32)> = None;
         let mut free: Vec<egui::TextureId> = Vec::new();
         if !visible {
-            // keep egui's input queue from growing while it is not run
-            drop(g.egui_state.take_egui_input(&g.window));
+            // Keep egui's input queue from growing while it is not run. Only the queue:
+            // `take_egui_input` would also ask the window server for the window's
+            // position, size and state (round trips, about 0.8 ms a frame under Xvfb).
+            g.egui_state.egui_input_mut().events.clear();
         } else if due {
             let (sum, n) = &mut self.phase_since;
             if *n > 0 {
@@ -642,43 +652,61 @@ impl App {
         g.queue
             .submit(extra.into_iter().chain(std::iter::once(encoder.finish())));
         let t_submit = Instant::now();
-        // The simulation's steps for the next frame, while this one is rasterised. Wall
-        // time from the last advance to this one (a skipped frame's time carries over).
+        // The simulation's steps for the next frame, on their own thread while this
+        // thread presents (the rasteriser finishing the frame, the surface's blit and the
+        // copy to the window server). Wall time from the last advance to this one (a
+        // skipped frame's time carries over). Nothing drawn depends on the world any more:
+        // the draw list was uploaded at submit.
         let real_dt = self
             .last_advance
             .replace(t_submit)
             .map(|t| (t_submit - t).as_secs_f64())
             .unwrap_or(0.0);
-        let steps = self.session.advance(real_dt);
-        if let Some(c) = self.compare.as_mut() {
-            c.follow(&self.session, steps);
-        }
+        let session = &mut self.session;
+        let compare = &mut self.compare;
+        let (steps, sim_ms, read, t_present) = std::thread::scope(|scope| {
+            let stepping = scope.spawn(move || {
+                let t = Instant::now();
+                let steps = session.advance(real_dt);
+                if let Some(c) = compare.as_mut() {
+                    c.follow(session, steps);
+                }
+                (steps, t.elapsed().as_secs_f64() * 1e3)
+            });
+            let read = capture.map(|c| c.read(&g.device));
+            g.window.pre_present_notify();
+            g.queue.present(texture);
+            let t_present = Instant::now();
+            // a panic in the step goes on here, as it would have on this thread
+            let (steps, sim_ms) = stepping
+                .join()
+                .unwrap_or_else(|p| std::panic::resume_unwind(p));
+            (steps, sim_ms, read, t_present)
+        });
+        let t_stepped = Instant::now();
         log::debug!(
             "frame {}: real dt {real_dt:.4} s, {steps} step(s), paused {}",
             self.frames,
             self.session.paused
         );
-        let t_sim = Instant::now();
-        if let Some(c) = capture {
-            match c.read(&g.device) {
-                Ok(img) => self.screenshot = Some(img),
-                Err(e) => {
-                    self.fail(event_loop, e);
-                    return;
-                }
+        self.sim_ms += sim_ms;
+        match read {
+            Some(Ok(img)) => self.screenshot = Some(img),
+            Some(Err(e)) => {
+                self.fail(event_loop, e);
+                return;
             }
+            None => {}
         }
-        g.window.pre_present_notify();
-        g.queue.present(texture);
-        let t_present = Instant::now();
+        let Some(g) = self.gpu.as_mut() else { return };
         self.phase_since.1 += 1;
         for ((acc, since), d) in self.phase_ms.iter_mut().zip(&mut self.phase_since.0).zip([
             t_list - now,
             t_ui - t_list,
             t_acquire - t_ui,
             t_submit - t_acquire,
-            t_sim - t_submit,
-            t_present - t_sim,
+            t_present - t_submit,
+            t_stepped - t_present,
         ]) {
             *acc += d.as_secs_f64() * 1e3;
             *since += d.as_secs_f64() * 1e3;
