@@ -8,7 +8,11 @@
 //! each): 210 boxes single-sampled (the default on a CPU rasteriser) 8.5 -> 5.8 ms, 4x
 //! MSAA 34.3 -> 24.2 ms; 5050 boxes single-sampled 42.7 -> 13.2 ms, 4x MSAA 144.6 ->
 //! 66.8 ms. Earlier, at load average about 2: 210 boxes 7.9 ms single-sampled, 32.0 ms
-//! at 4x. On llvmpipe most of a 4x frame is clearing and resolving the samples; every
+//! at 4x. Then, on a quiet machine (load average about 2), before -> after the shaders
+//! were shaped for a CPU rasteriser (four-vertex strips, colours converted on the CPU,
+//! flat varyings, the sRGB encoding a pipeline constant): 5050 boxes single-sampled
+//! 10.14 -> 6.35 ms, 4x 28.65 -> 26.21 ms; 210 boxes 2.74 -> 2.22 ms, 4x 14.22 -> 12.41
+//! ms. On llvmpipe most of a 4x frame is clearing and resolving the samples; every
 //! shape's edge is antialiased by its distance field (polygons other than boxes by their
 //! outlines), so the single-sampled frame differs little.
 
