@@ -195,13 +195,17 @@ pub struct Circle {
     pub outline: Color,
 }
 
-/// A filled convex polygon with an outline, in world space.
+/// A filled convex polygon with an outline, in world space, optionally grown by a
+/// radius (rounded corners; with two points, a capsule).
 #[derive(Clone, Debug, PartialEq)]
 pub struct Polygon {
     /// Where its vertices lie in [`DrawList::polygon_points`] (see
-    /// [`DrawList::points_of`]): counter-clockwise, convex, in metres. Fewer than 3 draw
-    /// only the outline.
+    /// [`DrawList::points_of`]): counter-clockwise, convex, in metres. Without a radius,
+    /// fewer than 3 draw only the outline.
     pub points: std::ops::Range<usize>,
+    /// The shape is every point within `radius` (m) of the points' polygon: 0 for the
+    /// polygon itself; with two points, a capsule.
+    pub radius: f32,
     /// Interior colour.
     pub fill: Color,
     /// Outline colour; alpha 0 for none.
@@ -277,6 +281,33 @@ pub struct DrawList {
     pub outline_width_px: f32,
     /// Per-body values of the tint overlay (scratch kept between frames).
     pub(crate) scratch: Vec<f32>,
+}
+
+/// Appends the outline of the counter-clockwise convex `points` grown by `radius`
+/// (rounded corners; two points give a capsule): each corner's arc in steps of at most
+/// 15 degrees, counter-clockwise.
+pub fn rounded_points(points: &[Vec2], radius: f32, out: &mut Vec<Vec2>) {
+    let n = points.len();
+    // the outward normal of the edge from point i to the next
+    let normal = |i: usize| {
+        let e = points[(i + 1) % n] - points[i];
+        Vec2::new(e.y, -e.x).normalize_or_zero()
+    };
+    for (i, &point) in points.iter().enumerate() {
+        // the arc at point i runs from the previous edge's normal to this edge's
+        let from = normal((i + n - 1) % n);
+        let to = normal(i);
+        let mut angle = crate::math::cross(from, to).atan2(from.dot(to));
+        if angle < 0.0 {
+            angle += std::f32::consts::TAU;
+        }
+        let steps = ((angle / 15f32.to_radians()).ceil() as usize).max(1);
+        for k in 0..=steps {
+            let (s, c) = (angle * k as f32 / steps as f32).sin_cos();
+            let dir = Vec2::new(c * from.x - s * from.y, s * from.x + c * from.y);
+            out.push(point + radius * dir);
+        }
+    }
 }
 
 impl Default for DrawList {
@@ -406,9 +437,25 @@ impl DrawList {
         self.polygon_points.extend(points);
         self.polygons.push(Polygon {
             points: start..self.polygon_points.len(),
+            radius: 0.0,
             fill,
             outline,
         });
+    }
+
+    /// Adds a convex polygon from world points given counter-clockwise, grown by
+    /// `radius` (m): rounded corners, or with two points a capsule.
+    pub fn push_rounded_polygon(
+        &mut self,
+        points: impl IntoIterator<Item = Vec2>,
+        radius: f32,
+        fill: Color,
+        outline: Color,
+    ) {
+        self.push_polygon(points, fill, outline);
+        if let Some(p) = self.polygons.last_mut() {
+            p.radius = radius;
+        }
     }
 
     /// The vertices of `polygon`, one of this list's.

@@ -446,6 +446,99 @@ fn y_is_up_and_circles_are_round() {
     assert!(img.pixels().any(|p| p[0] > 20 && p[0] < 235 && p[1] == 0));
 }
 
+/// The covered area of convex shapes against their closed forms: a hexagon, a triangle
+/// and a rounded box and a capsule (polygons grown by a radius: area of the core, plus
+/// perimeter times r, plus pi r^2), each drawn both ways the renderer has (one
+/// instance of up to eight points shaded by its distance, and fan triangles with
+/// outline segments for more points: a 12-gon and a rounded 12-gon), and each where
+/// it should be.
+#[test]
+fn polygons_rounded_polygons_and_capsules_cover_their_area() {
+    let s = 20.0; // px/m
+    let camera = Camera::new(Vec2::ZERO, s, [400, 400]);
+    let ngon = |n: usize, r: f32| -> Vec<Vec2> {
+        (0..n)
+            .map(|i| Vec2::from_angle(std::f32::consts::TAU * i as f32 / n as f32) * r)
+            .collect()
+    };
+    let ngon_area =
+        |n: usize, r: f32| 0.5 * n as f32 * r * r * (std::f32::consts::TAU / n as f32).sin();
+    let ngon_perimeter =
+        |n: usize, r: f32| 2.0 * n as f32 * r * (std::f32::consts::PI / n as f32).sin();
+    let pi = std::f32::consts::PI;
+    // (name, points, radius, area in m^2)
+    let cases: Vec<(&str, Vec<Vec2>, f32, f32)> = vec![
+        ("hexagon", ngon(6, 3.0), 0.0, ngon_area(6, 3.0)),
+        (
+            "triangle",
+            vec![
+                Vec2::new(-3.0, -2.0),
+                Vec2::new(4.0, -2.0),
+                Vec2::new(0.0, 3.0),
+            ],
+            0.0,
+            0.5 * 7.0 * 5.0,
+        ),
+        (
+            "rounded box",
+            vec![
+                Vec2::new(-3.0, -2.0),
+                Vec2::new(3.0, -2.0),
+                Vec2::new(3.0, 2.0),
+                Vec2::new(-3.0, 2.0),
+            ],
+            1.0,
+            6.0 * 4.0 + 20.0 * 1.0 + pi,
+        ),
+        (
+            "capsule",
+            vec![Vec2::new(-3.0, -1.0), Vec2::new(3.0, 1.0)],
+            1.5,
+            2.0 * 1.5 * 40f32.sqrt() + pi * 1.5 * 1.5,
+        ),
+        ("12-gon (fan)", ngon(12, 3.0), 0.0, ngon_area(12, 3.0)),
+        (
+            "rounded 12-gon (fan)",
+            ngon(12, 2.5),
+            1.0,
+            ngon_area(12, 2.5) + ngon_perimeter(12, 2.5) + pi,
+        ),
+    ];
+    for (name, points, radius, area) in cases {
+        let mut list = DrawList::new();
+        list.background = [0, 0, 0, 255];
+        let offset = Vec2::new(1.0, 1.5);
+        list.push_rounded_polygon(
+            points.iter().map(|p| *p + offset),
+            radius,
+            [255, 0, 0, 255],
+            [0; 4],
+        );
+        let Some(img) = render(&list, &camera) else {
+            return;
+        };
+        // Half coverage in linear light is 188 in sRGB.
+        let covered = img.pixels().filter(|p| p[0] >= 188).count() as f32;
+        let expected = area * s * s;
+        assert!(
+            (covered - expected).abs() / expected < 0.02,
+            "{name}: {covered} px covered, the closed form {expected}"
+        );
+        let c = centroid(&img);
+        let want = camera.world_to_screen(offset);
+        // (every case is symmetric about the offset but the triangle: its centroid)
+        let want = if name == "triangle" {
+            camera.world_to_screen(offset + Vec2::new(1.0 / 3.0, -1.0 / 3.0))
+        } else {
+            want
+        };
+        assert!(
+            (c - want).length() < 1.0,
+            "{name}: centroid {c}, expected {want}"
+        );
+    }
+}
+
 #[test]
 fn invalid_size_is_an_error_not_a_panic() {
     let Some(mut r) = renderer() else { return };

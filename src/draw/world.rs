@@ -362,17 +362,12 @@ fn push_shape(
             list.push_circle(xf.p, *radius, angle, fill, outline);
         }
         Shape::Polygon(poly) if poly.radius > 0.0 => {
-            let start = list.polygon_points.len();
-            rounded_outline(poly, &mut list.polygon_points);
-            for p in &mut list.polygon_points[start..] {
-                *p = xf.apply(*p);
-            }
-            let end = list.polygon_points.len();
-            list.polygons.push(crate::draw::Polygon {
-                points: start..end,
+            list.push_rounded_polygon(
+                poly.verts().iter().map(|&v| xf.apply(v)),
+                poly.radius,
                 fill,
                 outline,
-            });
+            );
         }
         Shape::Chain(c) => {
             let (a, b) = (xf.apply(c.a), xf.apply(c.b));
@@ -394,28 +389,6 @@ fn push_shape(
                 list.push_polygon(poly.verts().iter().map(|&v| xf.apply(v)), fill, outline);
             }
         },
-    }
-}
-
-/// Appends the outline of a rounded polygon (or capsule), counter-clockwise, in its
-/// own frame: each corner's arc in steps of at most 15 degrees.
-pub fn rounded_outline(poly: &crate::shape::Polygon, out: &mut Vec<Vec2>) {
-    let n = poly.count;
-    let r = poly.radius;
-    for i in 0..n {
-        // the arc at vertex i runs from the previous edge's normal to this edge's
-        let from = poly.normals[(i + n - 1) % n];
-        let to = poly.normals[i];
-        let mut angle = crate::math::cross(from, to).atan2(from.dot(to));
-        if angle < 0.0 {
-            angle += std::f32::consts::TAU;
-        }
-        let steps = ((angle / 15f32.to_radians()).ceil() as usize).max(1);
-        for k in 0..=steps {
-            let (s, c) = (angle * k as f32 / steps as f32).sin_cos();
-            let dir = Vec2::new(c * from.x - s * from.y, s * from.x + c * from.y);
-            out.push(poly.vertices[i] + r * dir);
-        }
     }
 }
 

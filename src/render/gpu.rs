@@ -76,6 +76,51 @@ struct BoxInstance {
     outline: [f32; 4],
 }
 
+/// The most points a shape drawn as one instance has (`shaders/shape.wgsl`); polygons
+/// with more are drawn as fan triangles and outline segments.
+const SHAPE_POINTS: usize = 8;
+
+/// One convex shape of 2 to [`SHAPE_POINTS`] points grown by a radius (a polygon, a
+/// rounded polygon, a capsule); mirrors `ShapeIn` in `shaders/shape.wgsl`.
+#[repr(C)]
+#[derive(Clone, Copy, Pod, Zeroable)]
+struct ShapeInstance {
+    center: [f32; 2],
+    radius: f32,
+    _pad: f32,
+    /// Relative to `center`, padded by repeating the last point.
+    points: [[f32; 2]; SHAPE_POINTS],
+    fill: [f32; 4],
+    outline: [f32; 4],
+}
+
+impl ShapeInstance {
+    /// `None` for what the instanced shader does not draw the same: more than
+    /// [`SHAPE_POINTS`] points, fewer than 3 without a radius (only an outline), or
+    /// fewer than 2.
+    fn new(points: &[Vec2], radius: f32, fill: [f32; 4], outline: [f32; 4]) -> Option<Self> {
+        let n = points.len();
+        let drawn = n <= SHAPE_POINTS && (n >= 3 || (n == 2 && radius > 0.0));
+        if !drawn {
+            return None;
+        }
+        let center = points.iter().copied().sum::<Vec2>() / n as f32;
+        let last = points[n - 1] - center;
+        let mut padded = [last.to_array(); SHAPE_POINTS];
+        for (slot, p) in padded.iter_mut().zip(points) {
+            *slot = (*p - center).to_array();
+        }
+        Some(Self {
+            center: center.to_array(),
+            radius,
+            _pad: 0.0,
+            points: padded,
+            fill,
+            outline,
+        })
+    }
+}
+
 /// One segment; mirrors `LineIn` in `shaders/line.wgsl`.
 #[repr(C)]
 #[derive(Clone, Copy, Pod, Zeroable)]
@@ -173,9 +218,11 @@ struct Offscreen {
 /// [`Renderer::render_to_image`]) and a window surface ([`Renderer::new`] with the
 /// surface's device, queue and format, then [`Renderer::draw`] each frame).
 ///
-/// Everything is drawn with 4x MSAA into an internal multisampled buffer that is
-/// resolved into the target; circles and lines are also antialiased by their distance
-/// fields. Colours are sRGB; the shaders blend in linear light and write sRGB, through
+/// Boxes, circles, lines and convex shapes of up to eight points (polygons, rounded
+/// polygons, capsules) are one instance each, antialiased by their distance fields;
+/// polygons with more points are fan triangles with outline segments. With MSAA (4x on
+/// a GPU) everything is drawn into an internal multisampled buffer that is resolved
+/// into the target. Colours are sRGB; the shaders blend in linear light and write sRGB, through
 /// the hardware when the target format is sRGB and by hand when it is not, so a window
 /// and a PNG show the same pixels. Buffers are reused between frames.
 pub struct Renderer {
@@ -189,14 +236,19 @@ pub struct Renderer {
     circle_pipeline: wgpu::RenderPipeline,
     line_pipeline: wgpu::RenderPipeline,
     polygon_pipeline: wgpu::RenderPipeline,
+    shape_pipeline: wgpu::RenderPipeline,
     box_buffer: GrowBuffer,
     circle_buffer: GrowBuffer,
     line_buffer: GrowBuffer,
     polygon_buffer: GrowBuffer,
+    shape_buffer: GrowBuffer,
     box_data: Vec<BoxInstance>,
     circle_data: Vec<CircleInstance>,
     line_data: Vec<LineInstance>,
     polygon_data: Vec<PolygonVertex>,
+    shape_data: Vec<ShapeInstance>,
+    /// A rounded polygon's outline points, for one with more than [`SHAPE_POINTS`].
+    rounded: Vec<Vec2>,
     msaa: Option<MsaaTarget>,
     offscreen: Option<Offscreen>,
     samples: u32,
@@ -333,6 +385,10 @@ impl Renderer {
         let line_attributes =
             wgpu::vertex_attr_array![0 => Float32x2, 1 => Float32x2, 2 => Float32, 3 => Float32x4];
         let polygon_attributes = wgpu::vertex_attr_array![0 => Float32x2, 1 => Float32x4];
+        let shape_attributes = wgpu::vertex_attr_array![
+            0 => Float32x4, 1 => Float32x4, 2 => Float32x4, 3 => Float32x4, 4 => Float32x4,
+            5 => Float32x4, 6 => Float32x4
+        ];
 
         let box_pipeline = create_pipeline(
             &device,
@@ -390,9 +446,24 @@ impl Renderer {
                 attributes: &polygon_attributes,
             },
         );
+        let shape_pipeline = create_pipeline(
+            &device,
+            &layout,
+            format,
+            samples,
+            "shape",
+            include_str!("shaders/shape.wgsl"),
+            wgpu::PrimitiveTopology::TriangleStrip,
+            wgpu::VertexBufferLayout {
+                array_stride: std::mem::size_of::<ShapeInstance>() as u64,
+                step_mode: wgpu::VertexStepMode::Instance,
+                attributes: &shape_attributes,
+            },
+        );
 
         Self {
             box_buffer: GrowBuffer::new(&device, "sandbox2d boxes", 4096),
+            shape_buffer: GrowBuffer::new(&device, "sandbox2d shapes", 4096),
             circle_buffer: GrowBuffer::new(&device, "sandbox2d circles", 4096),
             line_buffer: GrowBuffer::new(&device, "sandbox2d lines", 4096),
             polygon_buffer: GrowBuffer::new(&device, "sandbox2d polygons", 4096),
@@ -406,10 +477,13 @@ impl Renderer {
             circle_pipeline,
             line_pipeline,
             polygon_pipeline,
+            shape_pipeline,
             box_data: Vec::new(),
             circle_data: Vec::new(),
             line_data: Vec::new(),
             polygon_data: Vec::new(),
+            shape_data: Vec::new(),
+            rounded: Vec::new(),
             msaa: None,
             offscreen: None,
             samples,
@@ -499,25 +573,31 @@ impl Renderer {
             pass.set_vertex_buffer(0, self.box_buffer.buffer.slice(..));
             pass.draw(QUAD_VERTICES, 0..self.box_data.len() as u32);
         }
-        // 2. polygon fills
+        // 2. shapes of up to SHAPE_POINTS points, each with its outline
+        if !self.shape_data.is_empty() {
+            pass.set_pipeline(&self.shape_pipeline);
+            pass.set_vertex_buffer(0, self.shape_buffer.buffer.slice(..));
+            pass.draw(QUAD_VERTICES, 0..self.shape_data.len() as u32);
+        }
+        // 3. other polygons' fills
         if !self.polygon_data.is_empty() {
             pass.set_pipeline(&self.polygon_pipeline);
             pass.set_vertex_buffer(0, self.polygon_buffer.buffer.slice(..));
             pass.draw(0..self.polygon_data.len() as u32, 0..1);
         }
-        // 3. polygon outlines (the first lines in the line buffer)
+        // 4. their outlines (the first lines in the line buffer)
         if outline_lines > 0 {
             pass.set_pipeline(&self.line_pipeline);
             pass.set_vertex_buffer(0, self.line_buffer.buffer.slice(..));
             pass.draw(QUAD_VERTICES, 0..outline_lines);
         }
-        // 4. circles
+        // 5. circles
         if !self.circle_data.is_empty() {
             pass.set_pipeline(&self.circle_pipeline);
             pass.set_vertex_buffer(0, self.circle_buffer.buffer.slice(..));
             pass.draw(QUAD_VERTICES, 0..self.circle_data.len() as u32);
         }
-        // 5. the list's lines, over everything. A buffer offset rather than a first
+        // 6. the list's lines, over everything. A buffer offset rather than a first
         // instance, which GLES lacks.
         if user_lines > 0 {
             pass.set_pipeline(&self.line_pipeline);
@@ -664,24 +744,34 @@ impl Renderer {
             }));
 
         self.polygon_data.clear();
+        self.shape_data.clear();
         self.line_data.clear();
         let outline_px = list.outline_width_px;
         for poly in &list.polygons {
-            let p = list.points_of(poly);
             let (fill, outline) = (poly.fill, poly.outline);
+            let (fill_linear, outline_linear) =
+                (premultiplied_linear(fill), premultiplied_linear(outline));
+            let mut p = list.points_of(poly);
+            if let Some(shape) = ShapeInstance::new(p, poly.radius, fill_linear, outline_linear) {
+                self.shape_data.push(shape);
+                continue;
+            }
+            if poly.radius > 0.0 && !p.is_empty() {
+                self.rounded.clear();
+                crate::draw::rounded_points(p, poly.radius, &mut self.rounded);
+                p = &self.rounded;
+            }
             // Fan triangulation of a convex polygon: (p0, p_i, p_i+1).
             if p.len() >= 3 && fill[3] > 0 {
-                let color = premultiplied_linear(fill);
                 let v = |q: Vec2| PolygonVertex {
                     position: q.to_array(),
-                    color,
+                    color: fill_linear,
                 };
                 for i in 1..p.len() - 1 {
                     self.polygon_data.extend([v(p[0]), v(p[i]), v(p[i + 1])]);
                 }
             }
             if outline[3] > 0 && outline_px > 0.0 && p.len() >= 2 {
-                let color = premultiplied_linear(outline);
                 let n = p.len();
                 let edges = if n == 2 { 1 } else { n };
                 for i in 0..edges {
@@ -689,7 +779,7 @@ impl Renderer {
                         a: p[i].to_array(),
                         b: p[(i + 1) % n].to_array(),
                         width_px: outline_px,
-                        color,
+                        color: outline_linear,
                     });
                 }
             }
@@ -721,6 +811,11 @@ impl Renderer {
             &self.device,
             &self.queue,
             bytemuck::cast_slice(&self.polygon_data),
+        );
+        self.shape_buffer.upload(
+            &self.device,
+            &self.queue,
+            bytemuck::cast_slice(&self.shape_data),
         );
     }
 
