@@ -1,6 +1,7 @@
 // Shared by every pipeline: the camera uniform, the screen transform and colour helpers.
 // Colours arrive linear and premultiplied (converted once per instance on the CPU).
-// Prepended to box.wgsl, circle.wgsl, line.wgsl and polygon.wgsl at pipeline creation.
+// Prepended to box.wgsl, circle.wgsl, line.wgsl, polygon.wgsl and shape.wgsl at pipeline
+// creation.
 
 struct Globals {
     // World point at the image centre (m).
