@@ -54,13 +54,9 @@ fn fs_main(in: BoxOut) -> @location(0) vec4<f32> {
     // Signed distance to the rectangle's edge: negative inside.
     let q = abs(in.local) - in.half_px;
     let d = length(max(q, vec2<f32>(0.0))) + min(max(q.x, q.y), 0.0);
-    let e = in.half_band;
-    // Coverage: 1 inside the outline's outer edge, 0 outside, a one-pixel ramp across it.
-    let coverage = clamp(e + 0.5 - d, 0.0, 1.0);
-    if coverage <= 0.0 {
+    let c = edge_shade(d, in.half_band, in.fill, in.outline);
+    if c.a <= 0.0 {
         discard;
     }
-    // 1 in the outline band [-e, e] about the edge, 0 deeper in; none without a band.
-    let band = select(clamp(d + e + 0.5, 0.0, 1.0), 0.0, e <= 0.0);
-    return finish(over(in.outline * band, in.fill) * coverage);
+    return finish(c);
 }

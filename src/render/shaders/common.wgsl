@@ -63,6 +63,18 @@ fn over(top: vec4<f32>, bottom: vec4<f32>) -> vec4<f32> {
     return top + bottom * (1.0 - top.a);
 }
 
+// A shape's colour at signed distance `d` (pixels, negative inside) from its edge, with
+// an outline band of half width `e` centred on the edge (0: none): the fill, the
+// outline over it in the band, and a one-pixel ramp across the outer edge. Premultiplied,
+// before `finish`; fully transparent outside.
+fn edge_shade(d: f32, e: f32, fill: vec4<f32>, outline: vec4<f32>) -> vec4<f32> {
+    // Coverage: 1 inside the outline's outer edge, 0 outside, a one-pixel ramp across it.
+    let coverage = clamp(e + 0.5 - d, 0.0, 1.0);
+    // 1 in the outline band [-e, e] about the edge, 0 deeper in; none without a band.
+    let band = select(clamp(d + e + 0.5, 0.0, 1.0), 0.0, e <= 0.0);
+    return over(outline * band, fill) * coverage;
+}
+
 // The fragment output: premultiplied linear, or sRGB-encoded for a non-sRGB target.
 fn finish(c: vec4<f32>) -> vec4<f32> {
     if ENCODE_SRGB && c.a > 0.0 {

@@ -93,13 +93,9 @@ fn fs_main(in: ShapeOut) -> @location(0) vec4<f32> {
     // Signed distance to the core (negative inside), then to the grown shape.
     let core = sqrt(acc.x);
     let d = select(core, -core, acc.y >= 0.0) - in.radius_band.x;
-    let e = in.radius_band.y;
-    // Coverage: 1 inside the outline's outer edge, 0 outside, a one-pixel ramp across it.
-    let coverage = clamp(e + 0.5 - d, 0.0, 1.0);
-    if coverage <= 0.0 {
+    let c = edge_shade(d, in.radius_band.y, in.fill, in.outline);
+    if c.a <= 0.0 {
         discard;
     }
-    // 1 in the outline band [-e, e] about the edge, 0 deeper in; none without a band.
-    let band = select(clamp(d + e + 0.5, 0.0, 1.0), 0.0, e <= 0.0);
-    return finish(over(in.outline * band, in.fill) * coverage);
+    return finish(c);
 }
