@@ -390,47 +390,46 @@ impl Renderer {
             5 => Float32x4, 6 => Float32x4
         ];
 
-        let box_pipeline = create_pipeline(
-            &device,
-            &layout,
-            format,
-            samples,
+        // one quad per instance: a four-vertex strip, instance-rate attributes
+        let instanced = |name: &str, source: &str, stride: usize, attributes| {
+            create_pipeline(
+                &device,
+                &layout,
+                format,
+                samples,
+                name,
+                source,
+                wgpu::PrimitiveTopology::TriangleStrip,
+                wgpu::VertexBufferLayout {
+                    array_stride: stride as u64,
+                    step_mode: wgpu::VertexStepMode::Instance,
+                    attributes,
+                },
+            )
+        };
+        let box_pipeline = instanced(
             "box",
             include_str!("shaders/box.wgsl"),
-            wgpu::PrimitiveTopology::TriangleStrip,
-            wgpu::VertexBufferLayout {
-                array_stride: std::mem::size_of::<BoxInstance>() as u64,
-                step_mode: wgpu::VertexStepMode::Instance,
-                attributes: &box_attributes,
-            },
+            std::mem::size_of::<BoxInstance>(),
+            &box_attributes,
         );
-        let circle_pipeline = create_pipeline(
-            &device,
-            &layout,
-            format,
-            samples,
+        let circle_pipeline = instanced(
             "circle",
             include_str!("shaders/circle.wgsl"),
-            wgpu::PrimitiveTopology::TriangleStrip,
-            wgpu::VertexBufferLayout {
-                array_stride: std::mem::size_of::<CircleInstance>() as u64,
-                step_mode: wgpu::VertexStepMode::Instance,
-                attributes: &circle_attributes,
-            },
+            std::mem::size_of::<CircleInstance>(),
+            &circle_attributes,
         );
-        let line_pipeline = create_pipeline(
-            &device,
-            &layout,
-            format,
-            samples,
+        let line_pipeline = instanced(
             "line",
             include_str!("shaders/line.wgsl"),
-            wgpu::PrimitiveTopology::TriangleStrip,
-            wgpu::VertexBufferLayout {
-                array_stride: std::mem::size_of::<LineInstance>() as u64,
-                step_mode: wgpu::VertexStepMode::Instance,
-                attributes: &line_attributes,
-            },
+            std::mem::size_of::<LineInstance>(),
+            &line_attributes,
+        );
+        let shape_pipeline = instanced(
+            "shape",
+            include_str!("shaders/shape.wgsl"),
+            std::mem::size_of::<ShapeInstance>(),
+            &shape_attributes,
         );
         let polygon_pipeline = create_pipeline(
             &device,
@@ -444,20 +443,6 @@ impl Renderer {
                 array_stride: std::mem::size_of::<PolygonVertex>() as u64,
                 step_mode: wgpu::VertexStepMode::Vertex,
                 attributes: &polygon_attributes,
-            },
-        );
-        let shape_pipeline = create_pipeline(
-            &device,
-            &layout,
-            format,
-            samples,
-            "shape",
-            include_str!("shaders/shape.wgsl"),
-            wgpu::PrimitiveTopology::TriangleStrip,
-            wgpu::VertexBufferLayout {
-                array_stride: std::mem::size_of::<ShapeInstance>() as u64,
-                step_mode: wgpu::VertexStepMode::Instance,
-                attributes: &shape_attributes,
             },
         );
 
