@@ -250,6 +250,12 @@ struct TuneArgs {
     /// Timing rounds per setting (taken turn about over the settings in contention).
     #[arg(long, default_value_t = 3)]
     rounds: u32,
+    /// Runs at once, one thread each, as the bench's --jobs: every score is the same
+    /// whatever N; the timings are of runs taken beside each other, which read high
+    /// (about 10% on a 2-core machine), so the pick is then cautious. The default, 1,
+    /// times each run alone.
+    #[arg(long, value_name = "N", default_value_t = 1)]
+    jobs: usize,
     /// Folder for tune.md, tune.json, pareto.svg and solver.toml (created if missing).
     #[arg(long)]
     out: Option<PathBuf>,
@@ -1767,6 +1773,9 @@ fn tune(a: &TuneArgs) -> Result<(), Failure> {
             a.rounds
         )));
     }
+    if a.jobs == 0 {
+        return Err(Failure::input("--jobs must be at least 1"));
+    }
     let file = scene_file(&a.scene);
     if a.write && file.is_none() {
         return Err(Failure::input(format!(
@@ -1791,6 +1800,7 @@ fn tune(a: &TuneArgs) -> Result<(), Failure> {
         metric,
         steps: a.steps,
         rounds: a.rounds,
+        jobs: a.jobs,
     };
     let bar = progress(
         Some(sandbox2d::bench::settings_grid().len() as u64),

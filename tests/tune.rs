@@ -17,6 +17,7 @@ fn check_pick_beats_the_grid(scene: &str, metric: TuneMetric, steps: u64) {
         metric,
         steps,
         rounds: 1,
+        jobs: 1,
     };
     let report = tune::tune(scene, &def, &options, |_, _, _| {}).unwrap();
     let pick = &report.tried[report.pick.expect("a pick within a huge budget")];
@@ -76,6 +77,7 @@ fn the_worst_score_counts_what_the_scene_has() {
         metric: TuneMetric::Worst,
         steps: 60,
         rounds: 1,
+        jobs: 1,
     };
     let r = tune::tune("stack", &stack, &options, |_, _, _| {}).unwrap();
     assert!(r.applies.penetration && r.applies.drift);
@@ -89,6 +91,50 @@ fn the_worst_score_counts_what_the_scene_has() {
         r.applies
     );
     assert!(!r.applies.penetration);
+}
+
+#[test]
+fn runs_side_by_side_score_as_they_do_one_after_another() {
+    let def = sandbox2d::scene::load("stack").unwrap().world;
+    let run = |jobs| {
+        let options = TuneOptions {
+            budget_ms: 1e9,
+            // a raw measure: the default score divides by the best value among the
+            // settings tried, and which settings the fine pass tries can change with
+            // the timings (equal errors are parted by cost)
+            metric: TuneMetric::Penetration,
+            steps: 60,
+            rounds: 2,
+            jobs,
+        };
+        tune::tune("stack", &def, &options, |_, _, _| {}).unwrap()
+    };
+    let (alone, side_by_side) = (run(1), run(2));
+    let mut compared = 0;
+    for a in &alone.tried {
+        let Some(b) = side_by_side.tried.iter().find(|b| b.setting == a.setting) else {
+            assert_eq!(a.pass, tune::Pass::Fine, "{}", a.setting.label());
+            continue;
+        };
+        compared += 1;
+        assert_eq!(
+            a.score.map(f64::to_bits),
+            b.score.map(f64::to_bits),
+            "{}",
+            a.setting.label()
+        );
+        // every stable setting fits a budget this large, so each is timed `rounds`
+        // times either way
+        if a.score.is_some() {
+            assert_eq!(a.samples.len(), 2, "{}", a.setting.label());
+            assert_eq!(b.samples.len(), 2, "{}", b.setting.label());
+        }
+    }
+    assert!(compared >= settings_grid().len(), "{compared}");
+    assert_eq!(
+        alone.tried[alone.pick.unwrap()].score,
+        side_by_side.tried[side_by_side.pick.unwrap()].score
+    );
 }
 
 #[test]
@@ -112,6 +158,7 @@ fn bad_arguments_are_refused_before_any_run() {
         (&["--budget-ms", "0"][..], "--budget-ms"),
         (&["--budget-ms", "nan"][..], "--budget-ms"),
         (&["--budget-ms", "1", "--steps", "0"][..], "--steps"),
+        (&["--budget-ms", "1", "--jobs", "0"][..], "--jobs"),
         (&["--budget-ms", "1", "--write"][..], "built-in"),
     ] {
         let out = sandbox2d()

@@ -9,7 +9,8 @@
 //! are deterministic); its cost is the median of that run's ms/step and of further timing
 //! rounds, taken turn about over every candidate still in contention so that the
 //! machine's noise falls on all of them alike; a candidate within [`EDGE`] of the
-//! budget gets as many rounds again.
+//! budget gets as many rounds again. Runs can go several at once ([`TuneOptions::jobs`]),
+//! each round's in the same order.
 //!
 //! The error is one measure the user names, or by default the scene's *worst* measure
 //! normalised by the best value any stable setting reached: a score of 1 is as right as
@@ -120,6 +121,10 @@ pub struct TuneOptions {
     pub steps: u64,
     /// Timing rounds (the accuracy run is the first).
     pub rounds: u32,
+    /// Runs at once, one thread each (1: one after another), as the bench's `--jobs`:
+    /// the scores are the same whatever `jobs`; the timings are of runs taken beside
+    /// each other, so on a machine whose cores share much they read high.
+    pub jobs: usize,
 }
 
 /// Which pass proposed a setting.
@@ -390,31 +395,41 @@ pub fn tune(
     let mut total = coarse.len() * rounds;
     let mut done = 0usize;
     let mut tried: Vec<Tried> = Vec::new();
-    let mut measure = |s: &Setting, pass: Pass, tried: &mut Vec<Tried>, total: usize| {
-        if crate::output::interrupted() {
+    let jobs = options.jobs.max(1);
+    // the accuracy runs of `settings`, `jobs` at once, pushed to `tried` in order
+    let mut measure = |settings: &[Setting], pass: Pass, tried: &mut Vec<Tried>, total: usize| {
+        let (outcomes, complete) = super::run_jobs(
+            settings,
+            jobs,
+            |s| run_case(&scene, s, &accuracy_budget),
+            |i, _| {
+                done += 1;
+                progress(done, total, &settings[i].label());
+                Ok::<(), TuneError>(())
+            },
+        )?;
+        if !complete {
             return Err(TuneError::Interrupted);
         }
-        let outcome = run_case(&scene, s, &accuracy_budget);
-        let ms = match &outcome {
-            Outcome::Ran(m) => m.ms_per_step,
-            Outcome::Failed(_) => f64::NAN,
-        };
-        tried.push(Tried {
-            setting: *s,
-            pass,
-            outcome,
-            samples: vec![ms],
-            ms_per_step: ms,
-            score: None,
-            dropped: None,
-        });
-        done += 1;
-        progress(done, total, &s.label());
+        for (s, outcome) in settings.iter().zip(outcomes) {
+            let outcome = outcome.expect("complete");
+            let ms = match &outcome {
+                Outcome::Ran(m) => m.ms_per_step,
+                Outcome::Failed(_) => f64::NAN,
+            };
+            tried.push(Tried {
+                setting: *s,
+                pass,
+                outcome,
+                samples: vec![ms],
+                ms_per_step: ms,
+                score: None,
+                dropped: None,
+            });
+        }
         Ok(())
     };
-    for s in &coarse {
-        measure(s, Pass::Coarse, &mut tried, total)?;
-    }
+    measure(&coarse, Pass::Coarse, &mut tried, total)?;
     // the fine pass: around each solver kind's best coarse setting that fits (on its
     // first timing), so that a kind just behind on the grid can still win between its
     // grid points
@@ -435,9 +450,7 @@ pub fn tune(
         }
     }
     total += fine.len() * rounds;
-    for s in &fine {
-        measure(s, Pass::Fine, &mut tried, total)?;
-    }
+    measure(&fine, Pass::Fine, &mut tried, total)?;
     // timing rounds, turn about, over every stable setting that could still fit
     let contenders: Vec<usize> = (0..tried.len())
         .filter(|&i| {
@@ -449,20 +462,28 @@ pub fn tune(
         residual_samples: 0,
         ..scene.budget
     };
-    // `n` more rounds over `list`, turn about
+    // `n` more rounds over `list`, turn about (each round's runs `jobs` at once)
     let mut time_rounds =
         |list: &[usize], n: usize, tried: &mut Vec<Tried>, done: &mut usize, total: usize| {
+            let settings: Vec<Setting> = list.iter().map(|&i| tried[i].setting).collect();
             for _ in 0..n {
-                for &i in list {
-                    if crate::output::interrupted() {
-                        return Err(TuneError::Interrupted);
-                    }
-                    let s = tried[i].setting;
-                    if let Outcome::Ran(m) = run_case(&scene, &s, &timing) {
+                let (outcomes, complete) = super::run_jobs(
+                    &settings,
+                    jobs,
+                    |s| run_case(&scene, s, &timing),
+                    |k, _| {
+                        *done += 1;
+                        progress(*done, total, &settings[k].label());
+                        Ok::<(), TuneError>(())
+                    },
+                )?;
+                if !complete {
+                    return Err(TuneError::Interrupted);
+                }
+                for (&i, outcome) in list.iter().zip(outcomes) {
+                    if let Some(Outcome::Ran(m)) = outcome {
                         tried[i].samples.push(m.ms_per_step);
                     }
-                    *done += 1;
-                    progress(*done, total, &s.label());
                 }
             }
             Ok(())
@@ -930,6 +951,7 @@ pub fn json(report: &TuneReport) -> serde_json::Value {
         "budget_ms": report.options.budget_ms,
         "steps": report.options.steps,
         "rounds": report.options.rounds,
+        "jobs": report.options.jobs,
         "metric": report.options.metric.name(),
         "normalisers": report.normalisers.iter().map(|(m, n)| serde_json::json!({"measure": m.name(), "value": n})).collect::<Vec<_>>(),
         "pick": at(report.pick),
@@ -1119,6 +1141,7 @@ mod tests {
             metric: TuneMetric::Worst,
             steps: 10,
             rounds: 1,
+            jobs: 1,
         }
     }
 
