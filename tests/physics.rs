@@ -637,7 +637,9 @@ fn elastic_ball_keeps_its_height_bounce_after_bounce() {
     }
 }
 
-/// The soft step as the large pyramid scene runs it.
+/// The soft step at 4 substeps of 2 soft sweeps, 60 Hz, slop 1 mm (the large pyramid's
+/// setting until session 18, which takes 1 sweep at damping ratio 0.7: with it a lone
+/// box tilts up to 1.1e-4 rad while it sinks into the slop, then rests without creep).
 fn soft_settings() -> SolverSettings {
     let mut s = SolverSettings::soft();
     s.substeps = 4;
@@ -645,6 +647,32 @@ fn soft_settings() -> SolverSettings {
     s.contact_hertz = 60.0;
     s.slop = 0.001;
     s
+}
+
+/// The benchmark pyramid (5050 boxes, 100 rows) under its own setting, one soft sweep a
+/// substep as Box2D v3 does: it stands, and its top box sinks less than Box2D v3's and
+/// rapier2d's do on the same scene (0.73 and 0.75 m after 500 steps, in
+/// shared/benchmarks.md). Each row may sink by the slop and its springs' give.
+#[test]
+fn the_large_pyramid_stands_with_one_soft_sweep_a_substep() {
+    let sc = scene::load("large_pyramid").expect("built-in scene");
+    let s = sc.world.solver.resolve();
+    assert_eq!((s.substeps, s.iterations), (4, 1));
+    let mut w = World::from_def(&sc.world, s).expect("builds");
+    let start: Vec<Vec2> = w.bodies.iter().map(|b| b.position).collect();
+    let mut deepest = 0.0f32;
+    for _ in 0..500 {
+        w.step().unwrap();
+        deepest = deepest.max(w.stats().penetration);
+    }
+    let top = w.bodies.len() - 1;
+    let sink = start[top].y - w.bodies[top].position.y;
+    let sideways = (w.bodies[top].position.x - start[top].x).abs();
+    assert!(sink < 0.6, "the top box sank {sink} m");
+    assert!(sideways < 0.05, "the top box moved {sideways} m sideways");
+    assert!(deepest < 0.03, "overlap {deepest} m");
+    // no box fell through another or off the pile below the bottom row
+    assert!(w.bodies[1..].iter().all(|b| b.position.y > 0.4));
 }
 
 #[test]
