@@ -81,8 +81,9 @@ gravity = [0.0, -10.0]
 dt = 0.016666667
 kind = "soft"
 substeps = 4
-iterations = 2
+iterations = 1
 contact_hertz = 60.0
+contact_damping_ratio = 0.7
 slop = 0.001
 sleep = false
 [[body]]
