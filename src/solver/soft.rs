@@ -687,26 +687,27 @@ impl SoftSolver {
         self.colors.clear();
         let one_lane = testing::ONE_LANE.with(std::cell::Cell::get);
         let mut counts = [0u32; OVERFLOW + 1];
-        for c in contacts {
+        self.colors.resize(contacts.len(), 0);
+        // plain slices, so the loop keeps its pointers in registers
+        let (moves, body_colors) = (&self.moves[..], &mut self.body_colors[..]);
+        for (c, out) in contacts.iter().zip(self.colors.iter_mut()) {
             let (a, b) = (c.a as usize, c.b as usize);
-            let mut used = 0u64;
-            if self.moves[a] {
-                used |= self.body_colors[a];
-            }
-            if self.moves[b] {
-                used |= self.body_colors[b];
-            }
+            let (ma, mb) = (moves[a], moves[b]);
+            // a body that does not move takes no colour: its bit stays free
+            let used =
+                (if ma { body_colors[a] } else { 0 }) | (if mb { body_colors[b] } else { 0 });
             let color = (!used).trailing_zeros() as usize;
             if color < OVERFLOW {
-                if self.moves[a] {
-                    self.body_colors[a] |= 1 << color;
+                let bit = 1u64 << color;
+                if ma {
+                    body_colors[a] |= bit;
                 }
-                if self.moves[b] {
-                    self.body_colors[b] |= 1 << color;
+                if mb {
+                    body_colors[b] |= bit;
                 }
             }
             counts[color] += 1;
-            self.colors.push(color as u8);
+            *out = color as u8;
         }
         self.colors_used = counts.iter().filter(|&&n| n > 0).count();
         // first lane of each colour; a colour starts on a fresh wide constraint, and an
@@ -736,17 +737,19 @@ impl SoftSolver {
 
         // where each contact goes, and which contact each lane holds
         self.slot.clear();
+        self.slot.resize(contacts.len(), 0);
         self.lane_contact.clear();
         self.lane_contact.resize(n_wide * 4, u32::MAX);
-        for (i, &color) in self.colors.iter().enumerate() {
+        let lane_contact = &mut self.lane_contact[..];
+        for (i, (&color, slot)) in self.colors.iter().zip(self.slot.iter_mut()).enumerate() {
             let at = next[color as usize];
             next[color as usize] += if color as usize == OVERFLOW || one_lane {
                 4
             } else {
                 1
             };
-            self.slot.push(at);
-            self.lane_contact[at as usize] = i as u32;
+            *slot = at;
+            lane_contact[at as usize] = i as u32;
         }
         self.find_direct(contacts);
         // every wide constraint is written whole below: old contents do not matter
