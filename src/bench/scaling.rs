@@ -4,7 +4,7 @@
 //!
 //! Each size is the `[[pyramid]]` of `assets/scenes/large_pyramid.toml` at another base,
 //! boxes of 1 m on a static ground wider than the base, under that file's own `[solver]`
-//! table (the soft step, 4 substeps of 2 sweeps, contacts of 60 Hz, slop 1 mm, no
+//! table (the soft step, 4 substeps of 1 sweep, contacts of 60 Hz, slop 1 mm, no
 //! sleeping). For each size and thread count, [`run_one`] builds the world, sets its
 //! threads ([`World::set_threads`]), runs a warm-up, then times each step of the run and
 //! keeps the median; repeats alternate the thread counts (1, 2, 1, 2, ...) so noise on a
@@ -329,8 +329,8 @@ pub fn markdown(rows: &[Row], repeats: u32, cores: usize, command: &str) -> Stri
     let mut s = String::from("# Scaling: the benchmark pyramid from 1k to 80k boxes\n\n");
     s.push_str(&format!(
         "`{command}` on a machine of {cores} core(s). Each size is large_pyramid.toml's \
-         pyramid at another base, under its [solver] table (the soft step, 4 substeps x 2 \
-         sweeps, contacts 60 Hz, slop 1 mm, no sleeping). ms/step is the median over {repeats} \
+         pyramid at another base, under its [solver] table (the soft step, 4 substeps x 1 \
+         sweep, contacts 60 Hz at damping ratio 0.7, slop 1 mm, no sleeping). ms/step is the median over {repeats} \
          repeat(s) (thread counts alternating) of each run's median step after a \
          warm-up of {WARMUP_STEPS} steps (or of the timed steps' count, if fewer); \
          contacts: the mean number of touching pairs (manifolds) per step; us/contact: \
