@@ -131,6 +131,9 @@ fn runs_side_by_side_score_as_they_do_one_after_another() {
         }
     }
     assert!(compared >= settings_grid().len(), "{compared}");
+    // the report says how its timings were taken
+    assert!(tune::markdown(&side_by_side).contains("`--jobs 2`"));
+    assert!(!tune::markdown(&alone).contains("--jobs"));
     assert_eq!(
         alone.tried[alone.pick.unwrap()].score,
         side_by_side.tried[side_by_side.pick.unwrap()].score

@@ -820,6 +820,13 @@ pub fn markdown(report: &TuneReport) -> String {
         o.metric.name(),
         metric_line(report)
     );
+    if o.jobs > 1 {
+        s.push_str(&format!(
+            "Runs went {} at a time (`--jobs {}`): each timing was taken beside other runs \
+             and reads high (about 10% on a 2-core machine), so the pick is cautious.\n\n",
+            o.jobs, o.jobs
+        ));
+    }
     if let Some(p) = report.pick {
         s.push_str(&format!(
             "- most accurate within the budget: {}\n",
