@@ -398,21 +398,15 @@ pub fn tune(
     let jobs = options.jobs.max(1);
     // the accuracy runs of `settings`, `jobs` at once, pushed to `tried` in order
     let mut measure = |settings: &[Setting], pass: Pass, tried: &mut Vec<Tried>, total: usize| {
-        let (outcomes, complete) = super::run_jobs(
+        let outcomes = run_all(
+            &scene,
             settings,
+            &accuracy_budget,
             jobs,
-            |s| run_case(&scene, s, &accuracy_budget),
-            |i, _| {
-                done += 1;
-                progress(done, total, &settings[i].label());
-                Ok::<(), TuneError>(())
-            },
+            (&mut done, total),
+            &mut progress,
         )?;
-        if !complete {
-            return Err(TuneError::Interrupted);
-        }
         for (s, outcome) in settings.iter().zip(outcomes) {
-            let outcome = outcome.expect("complete");
             let ms = match &outcome {
                 Outcome::Ran(m) => m.ms_per_step,
                 Outcome::Failed(_) => f64::NAN,
@@ -467,21 +461,16 @@ pub fn tune(
         |list: &[usize], n: usize, tried: &mut Vec<Tried>, done: &mut usize, total: usize| {
             let settings: Vec<Setting> = list.iter().map(|&i| tried[i].setting).collect();
             for _ in 0..n {
-                let (outcomes, complete) = super::run_jobs(
+                let outcomes = run_all(
+                    &scene,
                     &settings,
+                    &timing,
                     jobs,
-                    |s| run_case(&scene, s, &timing),
-                    |k, _| {
-                        *done += 1;
-                        progress(*done, total, &settings[k].label());
-                        Ok::<(), TuneError>(())
-                    },
+                    (done, total),
+                    &mut progress,
                 )?;
-                if !complete {
-                    return Err(TuneError::Interrupted);
-                }
                 for (&i, outcome) in list.iter().zip(outcomes) {
-                    if let Some(Outcome::Ran(m)) = outcome {
+                    if let Outcome::Ran(m) = outcome {
                         tried[i].samples.push(m.ms_per_step);
                     }
                 }
@@ -546,6 +535,34 @@ pub fn tune(
         cheapest_close,
         pareto,
     })
+}
+
+/// Runs every setting of `settings` on `scene`, `jobs` at once, counting each into
+/// `count` (runs done, runs in all) and reporting it to `progress`; the outcomes in
+/// the settings' order, or `Interrupted` when a run was left out.
+fn run_all(
+    scene: &BenchScene,
+    settings: &[Setting],
+    budget: &Budget,
+    jobs: usize,
+    count: (&mut usize, usize),
+    progress: &mut impl FnMut(usize, usize, &str),
+) -> Result<Vec<Outcome>, TuneError> {
+    let (done, total) = count;
+    let (outcomes, complete) = super::run_jobs(
+        settings,
+        jobs,
+        |s| run_case(scene, s, budget),
+        |i, _| {
+            *done += 1;
+            progress(*done, total, &settings[i].label());
+            Ok::<(), TuneError>(())
+        },
+    )?;
+    if !complete {
+        return Err(TuneError::Interrupted);
+    }
+    Ok(outcomes.into_iter().map(|o| o.expect("complete")).collect())
 }
 
 /// The most accurate stable setting whose cost fits (ties: the cheaper, then the
