@@ -282,6 +282,34 @@ pub fn chunks_mut<T: Send>(
     })
 }
 
+/// [`chunks_mut`] over two slices of the same length cut at the same places:
+/// `f(thread, offset, chunk of a, chunk of b)`.
+pub fn chunks_mut2<A: Send, B: Send>(
+    pool: Option<&Pool>,
+    a: &mut [A],
+    b: &mut [B],
+    block: usize,
+    f: &(dyn Fn(usize, usize, &mut [A], &mut [B]) -> f32 + Sync),
+) -> f32 {
+    assert_eq!(a.len(), b.len(), "chunks_mut2 needs slices of one length");
+    let len = a.len();
+    if pool.is_none_or(|p| p.threads() == 1) || len <= block {
+        return f(0, 0, a, b);
+    }
+    let (pa, pb) = (SyncPtr(a.as_mut_ptr()), SyncPtr(b.as_mut_ptr()));
+    ranges_max(pool, len, block, &|t, r| {
+        // SAFETY: the blocks are disjoint and inside 0..len of both slices, and both are
+        // borrowed mutably for the whole call.
+        let (ca, cb) = unsafe {
+            (
+                std::slice::from_raw_parts_mut(pa.get().add(r.start), r.len()),
+                std::slice::from_raw_parts_mut(pb.get().add(r.start), r.len()),
+            )
+        };
+        f(t, r.start, ca, cb)
+    })
+}
+
 /// Sets `dst` to the blocks' items one after another, in block order, each block copied
 /// by whichever thread claims it. `starts` is scratch (each block's first index).
 pub(crate) fn concat<T: Copy + Send>(

@@ -771,21 +771,22 @@ impl SoftSolver {
             rest,
             sink,
         };
-        parallel::chunks_mut(pool, &mut self.wide, WIDE_BLOCK, &|_, offset, wide| {
-            for (i, w) in wide.iter_mut().enumerate() {
-                fill.wide(offset + i, w);
-            }
-            0.0
-        });
-        let restitution =
-            parallel::chunks_mut(pool, &mut self.cold, WIDE_BLOCK, &|_, offset, cold| {
+        // one pass over the contacts builds both halves of each wide constraint
+        let restitution = parallel::chunks_mut2(
+            pool,
+            &mut self.wide,
+            &mut self.cold,
+            WIDE_BLOCK,
+            &|_, offset, wide, cold| {
                 let mut any = false;
-                for (i, c) in cold.iter_mut().enumerate() {
+                for (i, (w, c)) in wide.iter_mut().zip(cold.iter_mut()).enumerate() {
+                    fill.wide(offset + i, w);
                     *c = fill.cold(offset + i);
                     any |= c.restitution.cmpne(Vec4::ZERO).any();
                 }
                 if any { 1.0 } else { 0.0 }
-            });
+            },
+        );
         self.restitution = restitution > 0.0;
         self.build_direct(contacts);
     }
