@@ -33,6 +33,11 @@ pub struct Body {
     pub model: BodyModel,
     /// Overlaps are reported, never resolved.
     pub sensor: bool,
+    /// Asleep (read by every step's loops over the bodies, so in the first cache line
+    /// with the state, where it fills a byte of padding): at rest with its whole island; not moved, integrated or solved until
+    /// something touches, pulls or pushes the island ([`crate::World`]'s sleep).
+    #[serde(default)]
+    pub asleep: bool,
     pub friction: f32,
     pub restitution: f32,
     /// kg (0 for static and kinematic bodies).
@@ -54,10 +59,6 @@ pub struct Body {
     pub color: Option<Color>,
     /// Unique name.
     pub name: String,
-    /// Asleep: at rest with its whole island; not moved, integrated or solved until
-    /// something touches, pulls or pushes the island ([`crate::World`]'s sleep).
-    #[serde(default)]
-    pub asleep: bool,
     /// How long (s) it has moved slower than the sleep thresholds.
     #[serde(default)]
     pub(crate) sleep_time: f32,

@@ -179,6 +179,10 @@ pub struct World {
     filtered: bool,
     /// Whether any body is a sensor (else the narrow phase skips the check).
     has_sensors: bool,
+    /// Whether this step's collide found no body asleep and no sleeping contact (then
+    /// none is asleep at the step's end either: only `update_sleep` puts bodies to
+    /// sleep), so the end of the step need not look again.
+    none_asleep: bool,
     /// Record contact and sensor events each step ([`World::events`]); off unless asked
     /// for or a sensor exists, so a world that needs no events pays nothing for them.
     pub record_events: bool,
@@ -257,6 +261,7 @@ impl World {
             no_collide: Vec::new(),
             filtered: false,
             has_sensors: false,
+            none_asleep: false,
             record_events: false,
             events: Vec::new(),
             touching: Vec::new(),
@@ -769,6 +774,8 @@ impl World {
             _ => new_stepper(kind),
         };
         let cx = StepContext::new(&self.settings);
+        // until collide finds otherwise
+        self.none_asleep = false;
         let mut clock = StageClock::start();
         let mut stats = stepper.step(self, &cx, &mut clock);
         self.unpark_joints();
@@ -776,16 +783,29 @@ impl World {
         self.stats = stats;
         self.stepper = Some(stepper);
         self.update_sleep();
-        for b in &mut self.bodies {
-            b.force = Vec2::ZERO;
-            b.torque = 0.0;
-        }
         if self.record_events {
             self.update_events();
         }
         self.step_count += 1;
         self.time += self.settings.dt as f64;
-        self.check_finite()
+        self.end_step()
+    }
+
+    /// The step's last pass over the bodies: clears the accumulated forces, and finds
+    /// the first body whose state is not finite (the step's error).
+    fn end_step(&mut self) -> Result<(), StepError> {
+        let mut bad = None;
+        for (i, b) in self.bodies.iter_mut().enumerate() {
+            b.force = Vec2::ZERO;
+            b.torque = 0.0;
+            if bad.is_none() && !body_finite(b) {
+                bad = Some(i);
+            }
+        }
+        match bad {
+            Some(i) => Err(self.non_finite(i)),
+            None => Ok(()),
+        }
     }
 
     /// The solver that ran the last step, as its own type (for tests and tools).
@@ -793,23 +813,16 @@ impl World {
         self.stepper.as_ref()?.as_any().downcast_ref::<T>()
     }
 
-    fn check_finite(&self) -> Result<(), StepError> {
-        for (i, b) in self.bodies.iter().enumerate() {
-            if !(b.position.is_finite()
-                && b.velocity.is_finite()
-                && b.angle.is_finite()
-                && b.angular_velocity.is_finite())
-            {
-                return Err(StepError::NonFinite {
-                    name: b.name.clone(),
-                    index: i,
-                    step: self.step_count,
-                    position: b.position,
-                    velocity: b.velocity,
-                });
-            }
+    /// The error for body `i`, whose state is not finite.
+    fn non_finite(&self, i: usize) -> StepError {
+        let b = &self.bodies[i];
+        StepError::NonFinite {
+            name: b.name.clone(),
+            index: i,
+            step: self.step_count,
+            position: b.position,
+            velocity: b.velocity,
         }
-        Ok(())
     }
 
     /// Semi-implicit Euler, velocity half: v += h (g + F/m), w += h tau / I; drag taken
@@ -862,6 +875,7 @@ impl World {
         clock: &mut StageClock,
     ) -> f32 {
         if self.sleeping_contacts.is_empty() && self.bodies.iter().all(|b| !b.asleep) {
+            self.none_asleep = true;
             return self.collide_awake(h, margin, speculative, clock);
         }
         // wake every island an awake body (or a moving kinematic one) reaches, then every
@@ -895,8 +909,9 @@ impl World {
         self.reach.clear();
         // the flags are read off the bodies each step, so bodies pushed straight into
         // `bodies` (the CLI's build, tools) count as well as those added one by one
-        let (mut filtered, mut sensors) = (false, false);
+        let (mut filtered, mut sensors, mut any_asleep) = (false, false, false);
         for b in &self.bodies {
+            any_asleep |= b.asleep;
             filtered |= b.filter != crate::defs::Filter::default();
             sensors |= b.has_sensor();
             let bb = b.aabb();
@@ -931,7 +946,7 @@ impl World {
 
         std::mem::swap(&mut self.contacts, &mut self.old_contacts);
         self.contacts.clear();
-        if self.bodies.iter().any(|b| b.asleep) {
+        if any_asleep {
             // contacts within sleeping islands (and of them with static bodies) are kept
             // aside with their impulses until the island wakes
             let bodies = &self.bodies;
@@ -1144,7 +1159,9 @@ impl World {
         const ANGULAR: f32 = 2.0 * std::f32::consts::PI / 180.0;
         const TIME_TO_SLEEP: f32 = 0.5;
         if !self.settings.sleep {
-            if self.bodies.iter().any(|b| b.asleep) || !self.sleeping_contacts.is_empty() {
+            if !self.none_asleep
+                && (self.bodies.iter().any(|b| b.asleep) || !self.sleeping_contacts.is_empty())
+            {
                 let islands: Vec<u32> = self
                     .bodies
                     .iter()
@@ -1390,6 +1407,14 @@ impl Narrow<'_> {
         }
         deepest
     }
+}
+
+/// Whether a body's position, velocity, angle and spin are all finite.
+fn body_finite(b: &Body) -> bool {
+    b.position.is_finite()
+        && b.velocity.is_finite()
+        && b.angle.is_finite()
+        && b.angular_velocity.is_finite()
 }
 
 /// An awake dynamic body, or a kinematic one that moves: what wakes a sleeping island

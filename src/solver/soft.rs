@@ -34,7 +34,7 @@
 use super::contact_cache::Contact;
 use super::pgs::SolveStats;
 use crate::body::Body;
-use crate::defs::SolverSettings;
+use crate::defs::{BodyModel, BodyType, SolverSettings};
 use crate::math::{Rot, Vec2, cross, cross_sv, uf_root, uf_union};
 use crate::parallel::{self, MAX_THREADS, Pool};
 use glam::Vec4;
@@ -664,22 +664,28 @@ impl SoftSolver {
         self.restitution = false;
         let nb = bodies.len();
         let (rest, sink) = (nb as u32, nb as u32 + 1);
+        // the bodies, the rest slot, then a sink per thread
         self.bodies.clear();
-        self.bodies.extend(bodies.iter().map(|b| SoftBody {
-            v: b.velocity,
-            w: b.angular_velocity,
-            ..Default::default()
-        }));
-        // the rest slot, then a sink per thread
         self.bodies
-            .extend(std::iter::repeat_n(SoftBody::default(), 1 + MAX_THREADS));
+            .resize(nb + 1 + MAX_THREADS, SoftBody::default());
         self.sink = sink;
         self.moves.clear();
-        self.moves.extend(bodies.iter().map(|b| b.is_dynamic()));
+        self.moves.resize(nb, false);
         // inverse mass and inertia, packed, so the contact loop reads no `Body`
         self.inv_mass.clear();
-        self.inv_mass
-            .extend(bodies.iter().map(|b| (b.inv_mass, b.inv_inertia)));
+        self.inv_mass.resize(nb, (0.0, 0.0));
+        // one pass over the bodies (large: each read is a cache miss on a big scene)
+        for (((b, s), m), im) in bodies
+            .iter()
+            .zip(&mut self.bodies[..nb])
+            .zip(&mut self.moves[..])
+            .zip(&mut self.inv_mass[..])
+        {
+            s.v = b.velocity;
+            s.w = b.angular_velocity;
+            *m = b.is_dynamic();
+            *im = (b.inv_mass, b.inv_inertia);
+        }
 
         // greedy colouring: the lowest colour neither moving body uses yet
         self.body_colors.clear();
@@ -780,6 +786,7 @@ impl SoftSolver {
             &|_, offset, wide, cold| {
                 let mut any = false;
                 for (i, (w, c)) in wide.iter_mut().zip(cold.iter_mut()).enumerate() {
+                    fill.prefetch(offset + i + PREFETCH_AHEAD);
                     fill.wide(offset + i, w);
                     *c = fill.cold(offset + i);
                     any |= c.restitution.cmpne(Vec4::ZERO).any();
@@ -892,6 +899,26 @@ impl SoftSolver {
         for (s, &(dv, dw)) in self.bodies.iter_mut().zip(&self.increments) {
             s.v += dv;
             s.w += dw;
+        }
+    }
+
+    /// The end of the step, in one pass over the bodies: the dynamic ones take their
+    /// solved velocities, and every body that is not static moves by its displacement
+    /// and turn since collide (x = x0 + sum h v, theta = theta0 + sum h w).
+    pub fn finish(&self, bodies: &mut [Body]) {
+        for ((s, b), &m) in self.bodies.iter().zip(bodies).zip(&self.moves) {
+            if m {
+                b.velocity = s.v;
+                b.angular_velocity = s.w;
+            }
+            if b.body_type == BodyType::Static {
+                continue;
+            }
+            b.position += s.dp;
+            if b.model == BodyModel::Rigid {
+                b.angle += s.dtheta;
+                b.rot = Rot::from_angle(b.angle);
+            }
         }
     }
 
@@ -1163,7 +1190,40 @@ struct Fill<'a> {
     sink: u32,
 }
 
+/// How many wide constraints ahead `prepare` asks for the contacts it will read: the
+/// lanes hold contacts colour by colour, an order the hardware cannot guess.
+const PREFETCH_AHEAD: usize = 4;
+
 impl Fill<'_> {
+    /// Asks the cache for the contacts of wide constraint `wi`'s lanes (nothing past
+    /// the end). A hint only: the results do not depend on it.
+    #[inline(always)]
+    fn prefetch(&self, wi: usize) {
+        #[cfg(target_arch = "x86_64")]
+        if let Some(lanes) = self.lane_contact.get(wi * 4..wi * 4 + 4) {
+            use std::arch::x86_64::{_MM_HINT_T0, _mm_prefetch};
+            for &i in lanes {
+                if let Some(c) = self.contacts.get(i as usize) {
+                    let p = (c as *const Contact).cast::<i8>();
+                    let size = std::mem::size_of::<Contact>();
+                    // SAFETY: prefetching has no effect on memory and cannot fault; the
+                    // addresses lie inside the contact, less than a cache line apart, so
+                    // every line it spans is asked for.
+                    unsafe {
+                        let mut at = 0;
+                        while at < size {
+                            _mm_prefetch::<_MM_HINT_T0>(p.add(at));
+                            at += 56;
+                        }
+                        _mm_prefetch::<_MM_HINT_T0>(p.add(size - 1));
+                    }
+                }
+            }
+        }
+        #[cfg(not(target_arch = "x86_64"))]
+        let _ = wi;
+    }
+
     /// The contacts of wide constraint `wi`'s lanes.
     fn lanes(&self, wi: usize) -> impl Iterator<Item = (usize, &Contact)> {
         self.lane_contact[wi * 4..wi * 4 + 4]

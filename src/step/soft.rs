@@ -6,8 +6,7 @@
 //! `solver::soft` (contacts) and `solver::soft_joints` (joints).
 
 use super::{Stage, StageClock, StepContext, Stepper};
-use crate::defs::{BodyModel, BodyType, SolverKind};
-use crate::math::Rot;
+use crate::defs::SolverKind;
 use crate::solver::soft::SoftSolver;
 use crate::solver::soft_joints::SoftJoints;
 use crate::world::{Speculative, StepStats, World};
@@ -94,23 +93,13 @@ impl Stepper for SoftStepper {
             clock.lap(Stage::Solve);
         }
         self.soft.apply_restitution(s.restitution_threshold);
-        self.soft.store_velocities(&mut world.bodies);
         self.soft.store_impulses(&mut world.contacts, pool);
         if joints {
             self.joints.store(&mut world.joints);
         }
         clock.lap(Stage::Solve);
-        // x = x0 + sum h v, theta = theta0 + sum h w
-        for (b, sb) in world.bodies.iter_mut().zip(&self.soft.bodies) {
-            if b.body_type == BodyType::Static {
-                continue;
-            }
-            b.position += sb.dp;
-            if b.model == BodyModel::Rigid {
-                b.angle += sb.dtheta;
-                b.rot = Rot::from_angle(b.angle);
-            }
-        }
+        // velocities, then x = x0 + sum h v, theta = theta0 + sum h w
+        self.soft.finish(&mut world.bodies);
         clock.lap(Stage::Integrate);
         StepStats {
             iterations,
