@@ -199,6 +199,13 @@ struct InvMass4 {
     iib: Vec4,
 }
 
+/// Whether a contact between two moving bodies of inverse masses `ia` and `ib` joins
+/// masses `direct::MASS_RATIO` apart or more.
+#[inline(always)]
+fn is_lopsided(ia: f32, ib: f32) -> bool {
+    ia > 0.0 && ib > 0.0 && (ia / ib).max(ib / ia) >= direct::MASS_RATIO
+}
+
 /// What restitution and the cache need, kept out of the sweeps' way.
 #[derive(Clone, Copy, Debug, Default)]
 struct WideCold {
@@ -644,6 +651,8 @@ pub struct SoftSolver {
     root_points: Vec<u32>,
     root_flagged: Vec<bool>,
     roots: Vec<u32>,
+    /// The contact points of the step's contacts.
+    points: usize,
 }
 
 impl SoftSolver {
@@ -696,9 +705,17 @@ impl SoftSolver {
         self.colors.resize(contacts.len(), 0);
         // plain slices, so the loop keeps its pointers in registers
         let (moves, body_colors) = (&self.moves[..], &mut self.body_colors[..]);
+        let inv_mass = &self.inv_mass[..];
+        // the same pass counts the points and looks for a lopsided contact (see
+        // `find_direct`): each pass over the contacts reads them from far in the cache
+        let (mut points, mut lopsided) = (0usize, false);
         for (c, out) in contacts.iter().zip(self.colors.iter_mut()) {
             let (a, b) = (c.a as usize, c.b as usize);
             let (ma, mb) = (moves[a], moves[b]);
+            points += c.manifold.count;
+            if ma && mb {
+                lopsided |= is_lopsided(inv_mass[a].0, inv_mass[b].0);
+            }
             // a body that does not move takes no colour: its bit stays free
             let used =
                 (if ma { body_colors[a] } else { 0 }) | (if mb { body_colors[b] } else { 0 });
@@ -757,7 +774,8 @@ impl SoftSolver {
             *slot = at;
             lane_contact[at as usize] = i as u32;
         }
-        self.find_direct(contacts);
+        self.points = points;
+        self.find_direct(contacts, lopsided);
         // every wide constraint is written whole below: old contents do not matter
         self.wide.resize(n_wide, WideConstraint::empty(rest, sink));
         self.cold.resize(n_wide, WideCold::default());
@@ -801,22 +819,18 @@ impl SoftSolver {
     /// Marks the contacts of islands to solve exactly (`direct`): bodies joined by
     /// contacts between moving bodies, with some contact joining masses
     /// `direct::MASS_RATIO` apart or more, and at most `direct::MAX_POINTS` points.
-    fn find_direct(&mut self, contacts: &[Contact]) {
+    /// `any_lopsided`: whether some contact is lopsided (found by the colouring pass).
+    fn find_direct(&mut self, contacts: &[Contact], any_lopsided: bool) {
         self.direct_contact.clear();
         self.direct.clear();
+        if !any_lopsided {
+            return;
+        }
         let (moves, inv_mass) = (&self.moves, &self.inv_mass);
         let lopsided = |c: &Contact| {
             let (a, b) = (c.a as usize, c.b as usize);
-            let (ia, ib) = (inv_mass[a].0, inv_mass[b].0);
-            moves[a]
-                && moves[b]
-                && ia > 0.0
-                && ib > 0.0
-                && (ia / ib).max(ib / ia) >= direct::MASS_RATIO
+            moves[a] && moves[b] && is_lopsided(inv_mass[a].0, inv_mass[b].0)
         };
-        if !contacts.iter().any(lopsided) {
-            return;
-        }
         let nb = self.moves.len();
         self.parent.clear();
         self.parent.extend(0..nb as u32);
@@ -871,6 +885,11 @@ impl SoftSolver {
         for l in &lanes {
             self.direct.add_island(l, &self.wide, &self.moves);
         }
+    }
+
+    /// The contact points `prepare` was given.
+    pub fn points(&self) -> usize {
+        self.points
     }
 
     /// Copies the bodies' velocities in (after the world integrated forces into them).

@@ -105,7 +105,7 @@ impl Stepper for SoftStepper {
             iterations,
             residual,
             position_iterations: 0,
-            contacts: world.contacts.iter().map(|c| c.manifold.count).sum(),
+            contacts: self.soft.points(),
             penetration,
             ..Default::default()
         }
