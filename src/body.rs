@@ -7,6 +7,21 @@ use crate::shape::Shape;
 /// Index of a body in its world, in creation order.
 pub type BodyId = usize;
 
+/// The bytes at the start of a [`Body`] that every step's passes over the bodies read
+/// (its state, masses, forces, type and sleep flag).
+pub(crate) const HOT_BYTES: usize = 56;
+
+/// The bytes at the start of a [`Body`] up to the end of a box's vertices and normals:
+/// what finding its bounding box reads.
+pub(crate) const SHAPE_BYTES: usize = 256;
+
+const _: () = {
+    // the hot fields lie in the first HOT_BYTES
+    assert!(std::mem::offset_of!(Body, asleep) < HOT_BYTES);
+    assert!(std::mem::offset_of!(Body, torque) + 4 <= HOT_BYTES);
+    assert!(std::mem::offset_of!(Body, shape) < SHAPE_BYTES);
+};
+
 /// A body of the world. Its frame's origin is the centre of mass.
 #[derive(Clone, Debug, serde::Serialize, serde::Deserialize)]
 // In this order in memory: the fields every step reads first, the shape (large: up

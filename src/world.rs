@@ -9,7 +9,8 @@ use crate::defs::{
     BodyDef, BodyModel, BodyType, DragDef, ForceDef, JointDef, ShapeDef, SolverSettings, WorldDef,
 };
 use crate::joint::{Joint, JointId, MouseJoint};
-use crate::math::{Aabb, Rot, Vec2, cross, uf_root, uf_union};
+use crate::body::{HOT_BYTES, SHAPE_BYTES};
+use crate::math::{Aabb, BODY_AHEAD, Rot, Vec2, cross, prefetch, uf_root, uf_union};
 use crate::parallel::{self, Pool};
 use crate::shape::{Shape, ShapeError};
 use crate::solver::contact_cache::{CacheCursor, Contact, match_points};
@@ -795,7 +796,9 @@ impl World {
     /// the first body whose state is not finite (the step's error).
     fn end_step(&mut self) -> Result<(), StepError> {
         let mut bad = None;
-        for (i, b) in self.bodies.iter_mut().enumerate() {
+        for i in 0..self.bodies.len() {
+            prefetch(&self.bodies, i + BODY_AHEAD, HOT_BYTES);
+            let b = &mut self.bodies[i];
             b.force = Vec2::ZERO;
             b.torque = 0.0;
             if bad.is_none() && !body_finite(b) {
@@ -842,7 +845,9 @@ impl World {
         }
         let g = self.gravity;
         let drag = self.drag;
-        for b in &mut self.bodies {
+        for i in 0..self.bodies.len() {
+            prefetch(&self.bodies, i + BODY_AHEAD, HOT_BYTES);
+            let b = &mut self.bodies[i];
             if !b.is_dynamic() || b.asleep {
                 continue;
             }
@@ -910,7 +915,9 @@ impl World {
         // the flags are read off the bodies each step, so bodies pushed straight into
         // `bodies` (the CLI's build, tools) count as well as those added one by one
         let (mut filtered, mut sensors, mut any_asleep) = (false, false, false);
-        for b in &self.bodies {
+        for (i, b) in self.bodies.iter().enumerate() {
+            // the box reads the shape too
+            prefetch(&self.bodies, i + BODY_AHEAD, SHAPE_BYTES);
             any_asleep |= b.asleep;
             filtered |= b.filter != crate::defs::Filter::default();
             sensors |= b.has_sensor();

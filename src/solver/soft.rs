@@ -35,7 +35,8 @@ use super::contact_cache::Contact;
 use super::pgs::SolveStats;
 use crate::body::Body;
 use crate::defs::{BodyModel, BodyType, SolverSettings};
-use crate::math::{Rot, Vec2, cross, cross_sv, uf_root, uf_union};
+use crate::math::{BODY_AHEAD, Rot, Vec2, cross, cross_sv, prefetch, uf_root, uf_union};
+use crate::body::HOT_BYTES;
 use crate::parallel::{self, MAX_THREADS, Pool};
 use glam::Vec4;
 
@@ -684,12 +685,14 @@ impl SoftSolver {
         self.inv_mass.clear();
         self.inv_mass.resize(nb, (0.0, 0.0));
         // one pass over the bodies (large: each read is a cache miss on a big scene)
-        for (((b, s), m), im) in bodies
-            .iter()
-            .zip(&mut self.bodies[..nb])
+        for (i, ((s, m), im)) in self.bodies[..nb]
+            .iter_mut()
             .zip(&mut self.moves[..])
             .zip(&mut self.inv_mass[..])
+            .enumerate()
         {
+            prefetch(bodies, i + BODY_AHEAD, HOT_BYTES);
+            let b = &bodies[i];
             s.v = b.velocity;
             s.w = b.angular_velocity;
             *m = b.is_dynamic();
@@ -925,7 +928,9 @@ impl SoftSolver {
     /// solved velocities, and every body that is not static moves by its displacement
     /// and turn since collide (x = x0 + sum h v, theta = theta0 + sum h w).
     pub fn finish(&self, bodies: &mut [Body]) {
-        for ((s, b), &m) in self.bodies.iter().zip(bodies).zip(&self.moves) {
+        for (i, (s, &m)) in self.bodies.iter().zip(&self.moves).enumerate() {
+            prefetch(bodies, i + BODY_AHEAD, HOT_BYTES);
+            let b = &mut bodies[i];
             if m {
                 b.velocity = s.v;
                 b.angular_velocity = s.w;
