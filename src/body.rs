@@ -20,6 +20,7 @@ const _: () = {
     assert!(std::mem::offset_of!(Body, asleep) < HOT_BYTES);
     assert!(std::mem::offset_of!(Body, torque) + 4 <= HOT_BYTES);
     assert!(std::mem::offset_of!(Body, shape) < SHAPE_BYTES);
+    assert!(std::mem::offset_of!(Body, parts) + 24 <= SHAPE_BYTES);
 };
 
 /// A body of the world. Its frame's origin is the centre of mass.
@@ -66,6 +67,11 @@ pub struct Body {
     pub(crate) correction_angle: f32,
     /// Which other bodies it may touch.
     pub filter: crate::defs::Filter,
+    /// A compound body's parts (then `shape` is [`Shape::Compound`]); empty for a body
+    /// of one shape. Before the shape: the narrow phase and the box loop ask every
+    /// body whether it has parts, and here they read it from the lines they read anyway.
+    #[serde(default)]
+    pub parts: Vec<crate::compound::Part>,
     /// The shape, centred on the centre of mass.
     pub shape: Shape,
     /// Where the scene's shape origin lies in the body frame (minus the centroid of the
@@ -80,10 +86,6 @@ pub struct Body {
     /// The island it fell asleep with (woken together).
     #[serde(default)]
     pub(crate) island: u32,
-    /// A compound body's parts (then `shape` is [`Shape::Compound`]); empty for a body
-    /// of one shape.
-    #[serde(default)]
-    pub parts: Vec<crate::compound::Part>,
 }
 
 impl Body {

@@ -1327,6 +1327,9 @@ fn swept_box(b: &Body, bb: Aabb, h: f32, margin: f32) -> Aabb {
     bb.fattened(0.5 * margin)
 }
 
+/// How many pairs ahead the narrow phase asks for the bodies it will read.
+const PAIR_AHEAD: usize = 4;
+
 /// What the narrow phase reads: the pairs of the broad phase and last step's contacts.
 struct Narrow<'a> {
     bodies: &'a [Body],
@@ -1351,7 +1354,11 @@ impl Narrow<'_> {
         let from = self.old.partition_point(|c| (c.a, c.b) < first);
         let mut cache = CacheCursor::new(&self.old[from..]);
         let mut deepest = 0.0f32;
-        for &(a, b) in pairs {
+        for (i, &(a, b)) in pairs.iter().enumerate() {
+            if let Some(&(na, nb)) = pairs.get(i + PAIR_AHEAD) {
+                prefetch(self.bodies, na as usize, SHAPE_BYTES);
+                prefetch(self.bodies, nb as usize, SHAPE_BYTES);
+            }
             let (ba, bb) = (&self.bodies[a as usize], &self.bodies[b as usize]);
             if self.has_sensors && (ba.sensor || bb.sensor) {
                 // heard (World::events), never resolved
