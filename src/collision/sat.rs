@@ -233,24 +233,25 @@ impl Quad {
     }
 }
 
-/// [`max_separation`] of four edges against four points, the four points of an edge in
-/// lanes: the same arithmetic lane by lane, so the same result.
+/// [`max_separation`] of four edges against four points: the same arithmetic for each
+/// edge and point, so the same separations. Lane i holds edge i: the separations of
+/// all four edges from point j come at once, their minimum over the points is each
+/// edge's separation, and the first edge of the greatest wins, as in the scalar loop.
 #[inline(always)]
 fn max_separation4(v1: &Quad, n1: &Quad, v2: &Quad) -> (usize, f32) {
-    let (vx, vy) = (v1.x.to_array(), v1.y.to_array());
-    let (nx, ny) = (n1.x.to_array(), n1.y.to_array());
-    let mut best = 0;
-    let mut best_sep = f32::MIN;
-    for i in 0..4 {
-        // n . (w - o) for the four w
-        let d = Vec4::splat(nx[i]) * (v2.x - Vec4::splat(vx[i]))
-            + Vec4::splat(ny[i]) * (v2.y - Vec4::splat(vy[i]));
-        let si = d.min_element();
-        if si > best_sep {
-            best_sep = si;
-            best = i;
-        }
-    }
+    let (wx, wy) = (v2.x.to_array(), v2.y.to_array());
+    // n_i . (w_j - o_i), lane i, for point j
+    let d = |j: usize| n1.x * (Vec4::splat(wx[j]) - v1.x) + n1.y * (Vec4::splat(wy[j]) - v1.y);
+    let sep = d(0).min(d(1)).min(d(2)).min(d(3));
+    let best_sep = sep.max_element();
+    // the first edge whose separation is the greatest (no lane matches only where a
+    // separation is NaN: then edge 0)
+    let mask = sep.cmpeq(Vec4::splat(best_sep)).bitmask();
+    let best = if mask == 0 {
+        0
+    } else {
+        mask.trailing_zeros() as usize
+    };
     (best, best_sep)
 }
 
