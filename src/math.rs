@@ -182,6 +182,31 @@ pub(crate) fn uf_union(parent: &mut [u32], a: u32, b: u32) {
     }
 }
 
+/// How many items ahead the passes over the bodies ask for the next ones: a body is
+/// hundreds of bytes, and the passes read its first cache line only.
+pub(crate) const BODY_AHEAD: usize = 8;
+
+/// Asks the cache for the first `bytes` bytes of `items[i]` (nothing past the end). A
+/// hint only: no result depends on it.
+#[inline(always)]
+pub(crate) fn prefetch<T>(items: &[T], i: usize, bytes: usize) {
+    #[cfg(target_arch = "x86_64")]
+    if let Some(x) = items.get(i) {
+        use std::arch::x86_64::{_MM_HINT_T0, _mm_prefetch};
+        let p = (x as *const T).cast::<i8>();
+        let end = bytes.min(std::mem::size_of::<T>());
+        let mut at = 0;
+        while at < end {
+            // SAFETY: prefetching has no effect on memory and cannot fault, and the
+            // address lies inside the item.
+            unsafe { _mm_prefetch::<_MM_HINT_T0>(p.add(at)) };
+            at += 56;
+        }
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    let _ = (items, i, bytes);
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -222,29 +247,4 @@ mod tests {
         let via = a.apply(rel.apply(v));
         assert!((direct - via).length() < 1e-5);
     }
-}
-
-/// How many items ahead the passes over the bodies ask for the next ones: a body is
-/// hundreds of bytes, and the passes read its first cache line only.
-pub(crate) const BODY_AHEAD: usize = 8;
-
-/// Asks the cache for the first `bytes` bytes of `items[i]` (nothing past the end). A
-/// hint only: no result depends on it.
-#[inline(always)]
-pub(crate) fn prefetch<T>(items: &[T], i: usize, bytes: usize) {
-    #[cfg(target_arch = "x86_64")]
-    if let Some(x) = items.get(i) {
-        use std::arch::x86_64::{_MM_HINT_T0, _mm_prefetch};
-        let p = (x as *const T).cast::<i8>();
-        let end = bytes.min(std::mem::size_of::<T>());
-        let mut at = 0;
-        while at < end {
-            // SAFETY: prefetching has no effect on memory and cannot fault, and the
-            // address lies inside the item.
-            unsafe { _mm_prefetch::<_MM_HINT_T0>(p.add(at)) };
-            at += 56;
-        }
-    }
-    #[cfg(not(target_arch = "x86_64"))]
-    let _ = (items, i, bytes);
 }

@@ -284,6 +284,7 @@ pub fn chunks_mut<T: Send>(
 
 /// [`chunks_mut`] over two slices of the same length cut at the same places:
 /// `f(thread, offset, chunk of a, chunk of b)`.
+#[allow(clippy::type_complexity)]
 pub fn chunks_mut2<A: Send, B: Send>(
     pool: Option<&Pool>,
     a: &mut [A],

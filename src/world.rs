@@ -3,13 +3,13 @@
 //! -> solver -> integrate positions -> step stats.
 
 use crate::body::{Body, BodyId};
+use crate::body::{HOT_BYTES, SHAPE_BYTES};
 use crate::collision::broad_phase::BroadPhase;
 use crate::collision::sat;
 use crate::defs::{
     BodyDef, BodyModel, BodyType, DragDef, ForceDef, JointDef, ShapeDef, SolverSettings, WorldDef,
 };
 use crate::joint::{Joint, JointId, MouseJoint};
-use crate::body::{HOT_BYTES, SHAPE_BYTES};
 use crate::math::{Aabb, BODY_AHEAD, Rot, Vec2, cross, prefetch, uf_root, uf_union};
 use crate::parallel::{self, Pool};
 use crate::shape::{Shape, ShapeError};

@@ -34,9 +34,9 @@
 use super::contact_cache::Contact;
 use super::pgs::SolveStats;
 use crate::body::Body;
+use crate::body::HOT_BYTES;
 use crate::defs::{BodyModel, BodyType, SolverSettings};
 use crate::math::{BODY_AHEAD, Rot, Vec2, cross, cross_sv, prefetch, uf_root, uf_union};
-use crate::body::HOT_BYTES;
 use crate::parallel::{self, MAX_THREADS, Pool};
 use glam::Vec4;
 
