@@ -16,7 +16,6 @@ use crate::shape::{Shape, ShapeError};
 use crate::solver::contact_cache::{CacheCursor, Contact, match_points};
 use crate::solver::joint_rows::apply_drives;
 use crate::step::{Stage, StageClock, StepContext, Stepper, new_stepper};
-use std::sync::atomic::{AtomicU32, Ordering};
 use std::sync::{Arc, Mutex};
 
 mod edit;
@@ -910,66 +909,27 @@ impl World {
         speculative: Speculative,
         clock: &mut StageClock,
     ) -> f32 {
-        // each body's swept box, reach and whether it is awake and dynamic, the bodies
-        // split between the threads; flags of what the step must look for, or-ed. The
-        // flags are read off the bodies each step, so bodies pushed straight into
+        self.aabbs.clear();
+        self.dynamic.clear();
+        self.reach.clear();
+        // the flags are read off the bodies each step, so bodies pushed straight into
         // `bodies` (the CLI's build, tools) count as well as those added one by one
-        let n = self.bodies.len();
-        self.aabbs.resize(
-            n,
-            Aabb {
-                min: Vec2::ZERO,
-                max: Vec2::ZERO,
-            },
-        );
-        self.reach.resize(n, 0.0);
-        self.dynamic.resize(n, false);
-        let flags = AtomicU32::new(0);
-        let pool = self.pool();
-        let bodies = &self.bodies;
-        parallel::chunks_mut3(
-            pool.as_deref(),
-            &mut self.aabbs,
-            &mut self.reach,
-            &mut self.dynamic,
-            BODY_BOX_BLOCK,
-            &|_, offset, aabbs, reach, dynamic| {
-                let mut f = 0u32;
-                for (i, ((aabb, reach), dynamic)) in
-                    aabbs.iter_mut().zip(reach).zip(dynamic).enumerate()
-                {
-                    let k = offset + i;
-                    // the box reads the shape too
-                    prefetch(bodies, k + BODY_AHEAD, SHAPE_BYTES);
-                    let b = &bodies[k];
-                    if b.asleep {
-                        f |= ANY_ASLEEP;
-                    }
-                    if b.filter != crate::defs::Filter::default() {
-                        f |= FILTERED;
-                    }
-                    if b.has_sensor() {
-                        f |= SENSORS;
-                    }
-                    let bb = b.aabb();
-                    // the most any point of the body moves in h: h (|v| + |w| r)
-                    let r = 0.5 * (bb.max - bb.min).length();
-                    *reach = h * (b.velocity.length() + b.angular_velocity.abs() * r);
-                    *aabb = swept_box(b, bb, h, margin);
-                    // a sleeping body is found only by the awake bodies near it, as a
-                    // static one
-                    *dynamic = b.is_dynamic() && !b.asleep;
-                }
-                flags.fetch_or(f, Ordering::Relaxed);
-                0.0
-            },
-        );
-        let flags = flags.into_inner();
-        let (filtered, sensors, any_asleep) = (
-            flags & FILTERED != 0,
-            flags & SENSORS != 0,
-            flags & ANY_ASLEEP != 0,
-        );
+        let (mut filtered, mut sensors, mut any_asleep) = (false, false, false);
+        for (i, b) in self.bodies.iter().enumerate() {
+            // the box reads the shape too
+            prefetch(&self.bodies, i + BODY_AHEAD, SHAPE_BYTES);
+            any_asleep |= b.asleep;
+            filtered |= b.filter != crate::defs::Filter::default();
+            sensors |= b.has_sensor();
+            let bb = b.aabb();
+            // the most any point of the body moves in h: h (|v| + |w| r)
+            let r = 0.5 * (bb.max - bb.min).length();
+            self.reach
+                .push(h * (b.velocity.length() + b.angular_velocity.abs() * r));
+            self.aabbs.push(swept_box(b, bb, h, margin));
+            // a sleeping body is found only by the awake bodies near it, as a static one
+            self.dynamic.push(b.is_dynamic() && !b.asleep);
+        }
         self.filtered = filtered;
         self.has_sensors = sensors;
         // a sensor is there to be heard
@@ -1011,6 +971,7 @@ impl World {
                 keep
             });
         }
+        let pool = self.pool();
         let narrow = Narrow {
             bodies: &self.bodies,
             pairs: &self.broad.pairs,
@@ -1365,14 +1326,6 @@ fn swept_box(b: &Body, bb: Aabb, h: f32, margin: f32) -> Aabb {
     };
     bb.fattened(0.5 * margin)
 }
-
-/// Bodies a thread claims at a time in the box loop.
-const BODY_BOX_BLOCK: usize = 512;
-/// Flags of the box loop: a body is asleep, has a filter other than the default, is or
-/// holds a sensor.
-const ANY_ASLEEP: u32 = 1;
-const FILTERED: u32 = 2;
-const SENSORS: u32 = 4;
 
 /// How many pairs ahead the narrow phase asks for the bodies it will read.
 const PAIR_AHEAD: usize = 4;
