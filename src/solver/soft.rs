@@ -907,7 +907,8 @@ impl SoftSolver {
     /// them: the change since `prepare` is kept as each later substep's increment.
     pub fn take_increments(&mut self, bodies: &[Body]) {
         self.increments.clear();
-        for (s, b) in self.bodies.iter_mut().zip(bodies) {
+        for (i, (s, b)) in self.bodies.iter_mut().zip(bodies).enumerate() {
+            prefetch(bodies, i + BODY_AHEAD, HOT_BYTES);
             // dv = v_after - v_before
             self.increments
                 .push((b.velocity - s.v, b.angular_velocity - s.w));
