@@ -186,8 +186,8 @@ pub(crate) fn uf_union(parent: &mut [u32], a: u32, b: u32) {
 /// hundreds of bytes, and the passes read its first cache line only.
 pub(crate) const BODY_AHEAD: usize = 8;
 
-/// Asks the cache for the first `bytes` bytes of `items[i]` (nothing past the end). A
-/// hint only: no result depends on it.
+/// Asks the cache for the first `bytes` bytes of `items[i]` (all of it for
+/// `usize::MAX`; nothing past the slice's end). A hint only: no result depends on it.
 #[inline(always)]
 pub(crate) fn prefetch<T>(items: &[T], i: usize, bytes: usize) {
     #[cfg(target_arch = "x86_64")]
@@ -195,12 +195,18 @@ pub(crate) fn prefetch<T>(items: &[T], i: usize, bytes: usize) {
         use std::arch::x86_64::{_MM_HINT_T0, _mm_prefetch};
         let p = (x as *const T).cast::<i8>();
         let end = bytes.min(std::mem::size_of::<T>());
+        // addresses less than a line apart, and the last byte: every line the bytes
+        // span is asked for, wherever the item starts in its line
         let mut at = 0;
         while at < end {
             // SAFETY: prefetching has no effect on memory and cannot fault, and the
             // address lies inside the item.
             unsafe { _mm_prefetch::<_MM_HINT_T0>(p.add(at)) };
             at += 56;
+        }
+        if end > 0 {
+            // SAFETY: as above (end <= the item's size).
+            unsafe { _mm_prefetch::<_MM_HINT_T0>(p.add(end - 1)) };
         }
     }
     #[cfg(not(target_arch = "x86_64"))]

@@ -1229,29 +1229,11 @@ impl Fill<'_> {
     /// the end). A hint only: the results do not depend on it.
     #[inline(always)]
     fn prefetch(&self, wi: usize) {
-        #[cfg(target_arch = "x86_64")]
         if let Some(lanes) = self.lane_contact.get(wi * 4..wi * 4 + 4) {
-            use std::arch::x86_64::{_MM_HINT_T0, _mm_prefetch};
             for &i in lanes {
-                if let Some(c) = self.contacts.get(i as usize) {
-                    let p = (c as *const Contact).cast::<i8>();
-                    let size = std::mem::size_of::<Contact>();
-                    // SAFETY: prefetching has no effect on memory and cannot fault; the
-                    // addresses lie inside the contact, less than a cache line apart, so
-                    // every line it spans is asked for.
-                    unsafe {
-                        let mut at = 0;
-                        while at < size {
-                            _mm_prefetch::<_MM_HINT_T0>(p.add(at));
-                            at += 56;
-                        }
-                        _mm_prefetch::<_MM_HINT_T0>(p.add(size - 1));
-                    }
-                }
+                prefetch(self.contacts, i as usize, usize::MAX);
             }
         }
-        #[cfg(not(target_arch = "x86_64"))]
-        let _ = wi;
     }
 
     /// The contacts of wide constraint `wi`'s lanes.
