@@ -311,6 +311,44 @@ pub fn chunks_mut2<A: Send, B: Send>(
     })
 }
 
+/// [`chunks_mut`] over three slices of the same length cut at the same places:
+/// `f(thread, offset, chunk of a, chunk of b, chunk of c)`.
+#[allow(clippy::type_complexity)]
+pub fn chunks_mut3<A: Send, B: Send, C: Send>(
+    pool: Option<&Pool>,
+    a: &mut [A],
+    b: &mut [B],
+    c: &mut [C],
+    block: usize,
+    f: &(dyn Fn(usize, usize, &mut [A], &mut [B], &mut [C]) -> f32 + Sync),
+) -> f32 {
+    assert!(
+        a.len() == b.len() && a.len() == c.len(),
+        "chunks_mut3 needs slices of one length"
+    );
+    let len = a.len();
+    if pool.is_none_or(|p| p.threads() == 1) || len <= block {
+        return f(0, 0, a, b, c);
+    }
+    let (pa, pb, pc) = (
+        SyncPtr(a.as_mut_ptr()),
+        SyncPtr(b.as_mut_ptr()),
+        SyncPtr(c.as_mut_ptr()),
+    );
+    ranges_max(pool, len, block, &|t, r| {
+        // SAFETY: the blocks are disjoint and inside 0..len of all three slices, and all
+        // are borrowed mutably for the whole call.
+        let (ca, cb, cc) = unsafe {
+            (
+                std::slice::from_raw_parts_mut(pa.get().add(r.start), r.len()),
+                std::slice::from_raw_parts_mut(pb.get().add(r.start), r.len()),
+                std::slice::from_raw_parts_mut(pc.get().add(r.start), r.len()),
+            )
+        };
+        f(t, r.start, ca, cb, cc)
+    })
+}
+
 /// Sets `dst` to the blocks' items one after another, in block order, each block copied
 /// by whichever thread claims it. `starts` is scratch (each block's first index).
 pub(crate) fn concat<T: Copy + Send>(

@@ -16,6 +16,7 @@ use crate::shape::{Shape, ShapeError};
 use crate::solver::contact_cache::{CacheCursor, Contact, match_points};
 use crate::solver::joint_rows::apply_drives;
 use crate::step::{Stage, StageClock, StepContext, Stepper, new_stepper};
+use std::sync::atomic::{AtomicU32, Ordering};
 use std::sync::{Arc, Mutex};
 
 mod edit;
@@ -235,6 +236,8 @@ impl std::fmt::Debug for NarrowScratch {
 const MIN_BODIES_FOR_THREADS: usize = 256;
 /// Body pairs a thread claims at a time in the narrow phase.
 const PAIR_BLOCK: usize = 256;
+/// Bodies per block of a parallel pass over the bodies.
+const BODY_PASS_BLOCK: usize = 256;
 
 impl World {
     /// An empty world with the given gravity and solver settings.
@@ -795,20 +798,29 @@ impl World {
     /// The step's last pass over the bodies: clears the accumulated forces, and finds
     /// the first body whose state is not finite (the step's error).
     fn end_step(&mut self) -> Result<(), StepError> {
-        let mut bad = None;
-        for i in 0..self.bodies.len() {
-            prefetch(&self.bodies, i + BODY_AHEAD, HOT_BYTES);
-            let b = &mut self.bodies[i];
-            b.force = Vec2::ZERO;
-            b.torque = 0.0;
-            if bad.is_none() && !body_finite(b) {
-                bad = Some(i);
-            }
+        let pool = self.pool();
+        let bad = parallel::chunks_mut(
+            pool.as_deref(),
+            &mut self.bodies,
+            BODY_PASS_BLOCK,
+            &|_, _, bodies| {
+                let mut bad = false;
+                for i in 0..bodies.len() {
+                    prefetch(bodies, i + BODY_AHEAD, HOT_BYTES);
+                    let b = &mut bodies[i];
+                    b.force = Vec2::ZERO;
+                    b.torque = 0.0;
+                    bad |= !body_finite(b);
+                }
+                if bad { 1.0 } else { 0.0 }
+            },
+        );
+        if bad <= 0.0 {
+            return Ok(());
         }
-        match bad {
-            Some(i) => Err(self.non_finite(i)),
-            None => Ok(()),
-        }
+        // the first one, by index (rare: the step failed)
+        let i = self.bodies.iter().position(|b| !body_finite(b));
+        Err(self.non_finite(i.unwrap_or(0)))
     }
 
     /// The solver that ran the last step, as its own type (for tests and tools).
@@ -845,29 +857,16 @@ impl World {
         }
         let g = self.gravity;
         let drag = self.drag;
-        for i in 0..self.bodies.len() {
-            prefetch(&self.bodies, i + BODY_AHEAD, HOT_BYTES);
-            let b = &mut self.bodies[i];
-            if !b.is_dynamic() || b.asleep {
-                continue;
-            }
-            let mut v = b.velocity + h * b.inv_mass * b.force;
-            if let Some(g) = g {
-                v += h * g;
-            }
-            if let Some(d) = drag {
-                // F = -(k1 + k2 |v|) v with k2 = quadratic + 1/2 rho Cd width; backward Euler in the factor
-                let speed = v.length();
-                let mut k = d.linear + d.quadratic * speed;
-                if d.fluid_density > 0.0 && d.drag_coefficient > 0.0 && speed > 0.0 {
-                    let width = b.shape.extent_across(&b.transform(), v / speed);
-                    k += 0.5 * d.fluid_density * d.drag_coefficient * width * speed;
-                }
-                v /= 1.0 + h * k * b.inv_mass;
-            }
-            b.velocity = v;
-            b.angular_velocity += h * b.inv_inertia * b.torque;
-        }
+        let pool = self.pool();
+        parallel::chunks_mut(
+            pool.as_deref(),
+            &mut self.bodies,
+            BODY_PASS_BLOCK,
+            &|_, _, bodies| {
+                integrate_velocities_of(bodies, h, g, drag);
+                0.0
+            },
+        );
     }
 
     /// Broad and narrow phase; returns the deepest overlap found (m, >= 0). How far out
@@ -909,36 +908,80 @@ impl World {
         speculative: Speculative,
         clock: &mut StageClock,
     ) -> f32 {
+        let n = self.bodies.len();
         self.aabbs.clear();
+        self.aabbs.resize(
+            n,
+            Aabb {
+                min: Vec2::ZERO,
+                max: Vec2::ZERO,
+            },
+        );
         self.dynamic.clear();
+        self.dynamic.resize(n, false);
         self.reach.clear();
+        self.reach.resize(n, 0.0);
         // the flags are read off the bodies each step, so bodies pushed straight into
         // `bodies` (the CLI's build, tools) count as well as those added one by one
-        let (mut filtered, mut sensors, mut any_asleep) = (false, false, false);
-        for (i, b) in self.bodies.iter().enumerate() {
-            // the box reads the shape too
-            prefetch(&self.bodies, i + BODY_AHEAD, SHAPE_BYTES);
-            any_asleep |= b.asleep;
-            filtered |= b.filter != crate::defs::Filter::default();
-            sensors |= b.has_sensor();
-            let bb = b.aabb();
-            // the most any point of the body moves in h: h (|v| + |w| r)
-            let r = 0.5 * (bb.max - bb.min).length();
-            self.reach
-                .push(h * (b.velocity.length() + b.angular_velocity.abs() * r));
-            self.aabbs.push(swept_box(b, bb, h, margin));
-            // a sleeping body is found only by the awake bodies near it, as a static one
-            self.dynamic.push(b.is_dynamic() && !b.asleep);
-        }
+        const ASLEEP: u32 = 1;
+        const FILTERED: u32 = 2;
+        const SENSORS: u32 = 4;
+        // the broad phase's kept boxes still hold every body (checked in the same pass)
+        const LEFT: u32 = 8;
+        let flags = AtomicU32::new(0);
+        let pool = self.pool();
+        let (bodies, broad) = (&self.bodies, &self.broad);
+        let kept = broad.kept_count() == n;
+        parallel::chunks_mut3(
+            pool.as_deref(),
+            &mut self.aabbs,
+            &mut self.reach,
+            &mut self.dynamic,
+            BODY_PASS_BLOCK,
+            &|_, offset, aabbs, reach, dynamic| {
+                let bodies = &bodies[offset..];
+                let mut f = 0u32;
+                for (i, ((bx, re), dy)) in aabbs.iter_mut().zip(reach).zip(dynamic).enumerate() {
+                    // the box reads the shape too
+                    prefetch(bodies, i + BODY_AHEAD, SHAPE_BYTES);
+                    let b = &bodies[i];
+                    f |= if b.asleep { ASLEEP } else { 0 };
+                    f |= if b.filter != crate::defs::Filter::default() {
+                        FILTERED
+                    } else {
+                        0
+                    };
+                    f |= if b.has_sensor() { SENSORS } else { 0 };
+                    let bb = b.aabb();
+                    // the most any point of the body moves in h: h (|v| + |w| r)
+                    let r = 0.5 * (bb.max - bb.min).length();
+                    *re = h * (b.velocity.length() + b.angular_velocity.abs() * r);
+                    *bx = swept_box(b, bb, h, margin);
+                    // a sleeping body is found only by the awake bodies near it, as a
+                    // static one
+                    *dy = b.is_dynamic() && !b.asleep;
+                    if kept && !broad.kept_holds(offset + i, bx, b.is_dynamic()) {
+                        f |= LEFT;
+                    }
+                }
+                flags.fetch_or(f, Ordering::Relaxed);
+                0.0
+            },
+        );
+        let flags = flags.into_inner();
+        let (filtered, sensors) = (flags & FILTERED != 0, flags & SENSORS != 0);
+        let any_asleep = flags & ASLEEP != 0;
+        let holds = kept && flags & LEFT == 0;
         self.filtered = filtered;
         self.has_sensors = sensors;
         // a sensor is there to be heard
         self.record_events |= sensors;
         let no_collide = &self.no_collide;
         let (bodies, filtered) = (&self.bodies, self.filtered);
-        self.broad.find_pairs_kept(
+        self.broad.find_pairs_kept_checked(
             &self.aabbs,
             &self.dynamic,
+            holds,
             |i| bodies[i].is_dynamic(),
             |a, b| {
                 (!filtered
@@ -1449,5 +1492,33 @@ pub(crate) fn joint_not_finite(j: &Joint) -> Option<&'static str> {
         Some("axis or reference angle")
     } else {
         None
+    }
+}
+
+/// The velocity half of semi-implicit Euler for `bodies` (see
+/// [`World::integrate_velocities`]): each dynamic, awake body on its own.
+fn integrate_velocities_of(bodies: &mut [Body], h: f32, g: Option<Vec2>, drag: Option<DragDef>) {
+    for i in 0..bodies.len() {
+        prefetch(bodies, i + BODY_AHEAD, HOT_BYTES);
+        let b = &mut bodies[i];
+        if !b.is_dynamic() || b.asleep {
+            continue;
+        }
+        let mut v = b.velocity + h * b.inv_mass * b.force;
+        if let Some(g) = g {
+            v += h * g;
+        }
+        if let Some(d) = drag {
+            // F = -(k1 + k2 |v|) v with k2 = quadratic + 1/2 rho Cd width; backward Euler in the factor
+            let speed = v.length();
+            let mut k = d.linear + d.quadratic * speed;
+            if d.fluid_density > 0.0 && d.drag_coefficient > 0.0 && speed > 0.0 {
+                let width = b.shape.extent_across(&b.transform(), v / speed);
+                k += 0.5 * d.fluid_density * d.drag_coefficient * width * speed;
+            }
+            v /= 1.0 + h * k * b.inv_mass;
+        }
+        b.velocity = v;
+        b.angular_velocity += h * b.inv_inertia * b.torque;
     }
 }

@@ -184,13 +184,38 @@ impl BroadPhase {
         may_move: impl Fn(usize) -> bool,
         can_collide: impl Fn(u32, u32) -> bool,
     ) {
-        let holds = self.kept_boxes.len() == aabbs.len()
+        let holds = self.kept_count() == aabbs.len()
             && aabbs
                 .iter()
-                .zip(&self.kept_boxes)
-                .zip(&self.kept_moves)
                 .enumerate()
-                .all(|(i, ((b, fat), &m))| fat.contains(b) && m == may_move(i));
+                .all(|(i, b)| self.kept_holds(i, b, may_move(i)));
+        self.find_pairs_kept_checked(aabbs, moves, holds, may_move, can_collide);
+    }
+
+    /// Bodies the kept boxes are for (0 before the first [`BroadPhase::find_pairs_kept`]).
+    pub fn kept_count(&self) -> usize {
+        self.kept_boxes.len()
+    }
+
+    /// Whether body `i`'s kept box (`i` < [`BroadPhase::kept_count`]) still holds its box
+    /// `b`, with `may_move` as it was.
+    #[inline]
+    pub fn kept_holds(&self, i: usize, b: &Aabb, may_move: bool) -> bool {
+        self.kept_boxes[i].contains(b) && self.kept_moves[i] == may_move
+    }
+
+    /// [`BroadPhase::find_pairs_kept`] where the caller has checked whether the kept
+    /// boxes hold (`holds`: the kept boxes are for `aabbs.len()` bodies and
+    /// [`BroadPhase::kept_holds`] holds for each), in a pass over the bodies it makes
+    /// anyway.
+    pub fn find_pairs_kept_checked(
+        &mut self,
+        aabbs: &[Aabb],
+        moves: &[bool],
+        holds: bool,
+        may_move: impl Fn(usize) -> bool,
+        can_collide: impl Fn(u32, u32) -> bool,
+    ) {
         if !holds {
             let mut fat = std::mem::take(&mut self.kept_boxes);
             let mut fat_moves = std::mem::take(&mut self.kept_moves);

@@ -204,7 +204,8 @@ struct InvMass4 {
 /// masses `direct::MASS_RATIO` apart or more.
 #[inline(always)]
 fn is_lopsided(ia: f32, ib: f32) -> bool {
-    ia > 0.0 && ib > 0.0 && (ia / ib).max(ib / ia) >= direct::MASS_RATIO
+    // max(ia / ib, ib / ia) is the larger over the smaller (division rounds monotonically)
+    ia > 0.0 && ib > 0.0 && ia.max(ib) / ia.min(ib) >= direct::MASS_RATIO
 }
 
 /// What restitution and the cache need, kept out of the sweeps' way.
@@ -675,34 +676,43 @@ impl SoftSolver {
         let nb = bodies.len();
         let (rest, sink) = (nb as u32, nb as u32 + 1);
         // the bodies, the rest slot, then a sink per thread
-        self.bodies.clear();
+        // (every body's entry, move flag and masses are written whole by the pass below:
+        // only the rest slot and the sinks are reset here)
         self.bodies
             .resize(nb + 1 + MAX_THREADS, SoftBody::default());
+        self.bodies[nb..].fill(SoftBody::default());
         self.sink = sink;
-        self.moves.clear();
         self.moves.resize(nb, false);
         // inverse mass and inertia, packed, so the contact loop reads no `Body`
-        self.inv_mass.clear();
         self.inv_mass.resize(nb, (0.0, 0.0));
-        // one pass over the bodies (large: each read is a cache miss on a big scene)
-        for (i, ((s, m), im)) in self.bodies[..nb]
-            .iter_mut()
-            .zip(&mut self.moves[..])
-            .zip(&mut self.inv_mass[..])
-            .enumerate()
-        {
-            prefetch(bodies, i + BODY_AHEAD, HOT_BYTES);
-            let b = &bodies[i];
-            s.v = b.velocity;
-            s.w = b.angular_velocity;
-            *m = b.is_dynamic();
-            *im = (b.inv_mass, b.inv_inertia);
-        }
+        // one pass over the bodies (large: each read is a cache miss on a big scene),
+        // split between the threads
+        parallel::chunks_mut3(
+            pool,
+            &mut self.bodies[..nb],
+            &mut self.moves[..],
+            &mut self.inv_mass[..],
+            BODY_PASS_BLOCK,
+            &|_, offset, soft, moves, inv_mass| {
+                let bodies = &bodies[offset..];
+                for (i, ((s, m), im)) in soft.iter_mut().zip(moves).zip(inv_mass).enumerate() {
+                    prefetch(bodies, i + BODY_AHEAD, HOT_BYTES);
+                    let b = &bodies[i];
+                    *s = SoftBody {
+                        v: b.velocity,
+                        w: b.angular_velocity,
+                        ..SoftBody::default()
+                    };
+                    *m = b.is_dynamic();
+                    *im = (b.inv_mass, b.inv_inertia);
+                }
+                0.0
+            },
+        );
 
         // greedy colouring: the lowest colour neither moving body uses yet
         self.body_colors.clear();
         self.body_colors.resize(nb, 0);
-        self.colors.clear();
         let one_lane = testing::ONE_LANE.with(std::cell::Cell::get);
         let mut counts = [0u32; OVERFLOW + 1];
         self.colors.resize(contacts.len(), 0);
@@ -762,7 +772,6 @@ impl SoftSolver {
         let omega = 2.0 * std::f32::consts::PI * hertz;
 
         // where each contact goes, and which contact each lane holds
-        self.slot.clear();
         self.slot.resize(contacts.len(), 0);
         self.lane_contact.clear();
         self.lane_contact.resize(n_wide * 4, u32::MAX);
@@ -905,46 +914,78 @@ impl SoftSolver {
 
     /// Takes the bodies' velocities after the world integrated one substep of forces into
     /// them: the change since `prepare` is kept as each later substep's increment.
-    pub fn take_increments(&mut self, bodies: &[Body]) {
+    pub fn take_increments(&mut self, bodies: &[Body], pool: Option<&Pool>) {
+        let n = bodies.len().min(self.bodies.len());
         self.increments.clear();
-        for (i, (s, b)) in self.bodies.iter_mut().zip(bodies).enumerate() {
-            prefetch(bodies, i + BODY_AHEAD, HOT_BYTES);
-            // dv = v_after - v_before
-            self.increments
-                .push((b.velocity - s.v, b.angular_velocity - s.w));
-            s.v = b.velocity;
-            s.w = b.angular_velocity;
-        }
+        self.increments.resize(n, (Vec2::ZERO, 0.0));
+        parallel::chunks_mut2(
+            pool,
+            &mut self.bodies[..n],
+            &mut self.increments,
+            BODY_PASS_BLOCK,
+            &|_, offset, soft, increments| {
+                let bodies = &bodies[offset..];
+                for (i, (s, inc)) in soft.iter_mut().zip(increments).enumerate() {
+                    prefetch(bodies, i + BODY_AHEAD, HOT_BYTES);
+                    let b = &bodies[i];
+                    // dv = v_after - v_before
+                    *inc = (b.velocity - s.v, b.angular_velocity - s.w);
+                    s.v = b.velocity;
+                    s.w = b.angular_velocity;
+                }
+                0.0
+            },
+        );
     }
 
     /// Adds the force increments of one substep: v += dv, w += dw.
-    pub fn apply_increments(&mut self) {
-        for (s, &(dv, dw)) in self.bodies.iter_mut().zip(&self.increments) {
-            s.v += dv;
-            s.w += dw;
-        }
+    pub fn apply_increments(&mut self, pool: Option<&Pool>) {
+        let n = self.increments.len();
+        let increments = &self.increments[..];
+        parallel::chunks_mut(
+            pool,
+            &mut self.bodies[..n],
+            BODY_BLOCK,
+            &|_, offset, soft| {
+                for (s, &(dv, dw)) in soft.iter_mut().zip(&increments[offset..]) {
+                    s.v += dv;
+                    s.w += dw;
+                }
+                0.0
+            },
+        );
     }
 
     /// The end of the step, in one pass over the bodies: the dynamic ones take their
     /// solved velocities, and every body that is not static moves by its displacement
     /// and turn since collide (x = x0 + sum h v, theta = theta0 + sum h w).
-    pub fn finish(&self, bodies: &mut [Body]) {
-        for (i, (s, &m)) in self.bodies.iter().zip(&self.moves).enumerate() {
-            prefetch(bodies, i + BODY_AHEAD, HOT_BYTES);
-            let b = &mut bodies[i];
-            if m {
-                b.velocity = s.v;
-                b.angular_velocity = s.w;
-            }
-            if b.body_type == BodyType::Static {
-                continue;
-            }
-            b.position += s.dp;
-            if b.model == BodyModel::Rigid {
-                b.angle += s.dtheta;
-                b.rot = Rot::from_angle(b.angle);
-            }
-        }
+    pub fn finish(&self, bodies: &mut [Body], pool: Option<&Pool>) {
+        let n = bodies.len().min(self.moves.len());
+        parallel::chunks_mut(
+            pool,
+            &mut bodies[..n],
+            BODY_PASS_BLOCK,
+            &|_, offset, bodies| {
+                let (soft, moves) = (&self.bodies[offset..], &self.moves[offset..]);
+                for (i, (s, &m)) in soft.iter().zip(moves).take(bodies.len()).enumerate() {
+                    prefetch(bodies, i + BODY_AHEAD, HOT_BYTES);
+                    let b = &mut bodies[i];
+                    if m {
+                        b.velocity = s.v;
+                        b.angular_velocity = s.w;
+                    }
+                    if b.body_type == BodyType::Static {
+                        continue;
+                    }
+                    b.position += s.dp;
+                    if b.model == BodyModel::Rigid {
+                        b.angle += s.dtheta;
+                        b.rot = Rot::from_angle(b.angle);
+                    }
+                }
+                0.0
+            },
+        );
     }
 
     /// Copies the solved velocities out to the dynamic bodies.
@@ -1382,6 +1423,8 @@ const MIN_LOAD_DEPTH: f32 = 1e-3;
 const WIDE_BLOCK: usize = 32;
 /// Bodies a thread claims at a time (integration).
 const BODY_BLOCK: usize = 1024;
+/// Bodies per block of a parallel pass over the world's bodies (`Body`, large).
+const BODY_PASS_BLOCK: usize = 256;
 /// Contacts a thread claims at a time (copying lambdas out).
 const CONTACT_BLOCK: usize = 512;
 

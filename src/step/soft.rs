@@ -50,9 +50,9 @@ impl Stepper for SoftStepper {
             if !uniform {
                 self.soft.load_velocities(&world.bodies);
             } else if i == 0 {
-                self.soft.take_increments(&world.bodies);
+                self.soft.take_increments(&world.bodies, pool);
             } else {
-                self.soft.apply_increments();
+                self.soft.apply_increments(pool);
             }
             clock.lap(Stage::Forces);
             let soft = &mut self.soft;
@@ -99,7 +99,7 @@ impl Stepper for SoftStepper {
         }
         clock.lap(Stage::Solve);
         // velocities, then x = x0 + sum h v, theta = theta0 + sum h w
-        self.soft.finish(&mut world.bodies);
+        self.soft.finish(&mut world.bodies, pool);
         clock.lap(Stage::Integrate);
         StepStats {
             iterations,
