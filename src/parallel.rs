@@ -213,12 +213,18 @@ impl Pool {
             }
         }
         let mut mine = Ok(());
+        // the blocks this thread ran are counted as done once it finds none left: one
+        // write to the shared counter per thread and job, not one per block
+        let mut ran = 0usize;
         while let Some(b) = s.claim(0, epoch, blocks) {
             let r = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| f(0, b)));
             if r.is_err() && mine.is_ok() {
                 mine = r;
             }
-            s.completed.fetch_add(1, Ordering::AcqRel);
+            ran += 1;
+        }
+        if ran > 0 {
+            s.completed.fetch_add(ran, Ordering::AcqRel);
         }
         let mut tries = 0u32;
         while s.completed.load(Ordering::Acquire) != blocks {
@@ -383,6 +389,40 @@ pub(crate) fn concat<T: Copy + Send>(
     unsafe { dst.set_len(total) };
 }
 
+/// A mutable slice that the blocks of one job (see [`ranges_max`]) write, each block
+/// in its own range: for passes that write more slices than [`chunks_mut3`] cuts.
+pub(crate) struct Disjoint<'a, T> {
+    ptr: SyncPtr<T>,
+    len: usize,
+    _borrow: std::marker::PhantomData<&'a mut [T]>,
+}
+
+impl<'a, T: Send> Disjoint<'a, T> {
+    /// Borrows `s` mutably for the job's length.
+    pub(crate) fn new(s: &'a mut [T]) -> Self {
+        Disjoint {
+            ptr: SyncPtr(s.as_mut_ptr()),
+            len: s.len(),
+            _borrow: std::marker::PhantomData,
+        }
+    }
+
+    /// The items in `r` (panics past the end).
+    ///
+    /// # Safety
+    /// No two ranges taken from one `Disjoint` may overlap while both are in use: each
+    /// block of a job takes only its own range.
+    #[allow(clippy::mut_from_ref)]
+    pub(crate) unsafe fn range(&self, r: Range<usize>) -> &mut [T] {
+        assert!(
+            r.start <= r.end && r.end <= self.len,
+            "range past the slice"
+        );
+        // SAFETY: inside the borrowed slice; the caller keeps the ranges apart.
+        unsafe { std::slice::from_raw_parts_mut(self.ptr.get().add(r.start), r.len()) }
+    }
+}
+
 /// A raw pointer the threads of one job share, each touching its own elements.
 struct SyncPtr<T>(*mut T);
 
@@ -442,14 +482,19 @@ fn worker(s: &Shared, index: usize) {
             continue;
         };
         seen = job.epoch;
+        let mut ran = 0usize;
         while let Some(b) = s.claim(index + 1, job.epoch, job.blocks) {
-            // SAFETY: a block of this epoch was claimed, so `Pool::blocks` is still
-            // waiting for it and the closure is alive.
+            // SAFETY: a block of this epoch was claimed, and the blocks this thread ran
+            // are counted as completed only below, so `Pool::blocks` is still waiting
+            // for it and the closure is alive.
             let f = unsafe { &*job.f };
             if std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| f(index + 1, b))).is_err() {
                 s.panicked.store(true, Ordering::SeqCst);
             }
-            s.completed.fetch_add(1, Ordering::AcqRel);
+            ran += 1;
+        }
+        if ran > 0 {
+            s.completed.fetch_add(ran, Ordering::AcqRel);
         }
     }
 }

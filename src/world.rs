@@ -1504,21 +1504,39 @@ fn integrate_velocities_of(bodies: &mut [Body], h: f32, g: Option<Vec2>, drag: O
         if !b.is_dynamic() || b.asleep {
             continue;
         }
-        let mut v = b.velocity + h * b.inv_mass * b.force;
-        if let Some(g) = g {
-            v += h * g;
+        let Some(d) = drag else {
+            (b.velocity, b.angular_velocity) = free_velocity(b, h, g);
+            continue;
+        };
+        let (mut v, w) = free_velocity(b, h, g);
+        // F = -(k1 + k2 |v|) v with k2 = quadratic + 1/2 rho Cd width; backward Euler in the factor
+        let speed = v.length();
+        let mut k = d.linear + d.quadratic * speed;
+        if d.fluid_density > 0.0 && d.drag_coefficient > 0.0 && speed > 0.0 {
+            let width = b.shape.extent_across(&b.transform(), v / speed);
+            k += 0.5 * d.fluid_density * d.drag_coefficient * width * speed;
         }
-        if let Some(d) = drag {
-            // F = -(k1 + k2 |v|) v with k2 = quadratic + 1/2 rho Cd width; backward Euler in the factor
-            let speed = v.length();
-            let mut k = d.linear + d.quadratic * speed;
-            if d.fluid_density > 0.0 && d.drag_coefficient > 0.0 && speed > 0.0 {
-                let width = b.shape.extent_across(&b.transform(), v / speed);
-                k += 0.5 * d.fluid_density * d.drag_coefficient * width * speed;
-            }
-            v /= 1.0 + h * k * b.inv_mass;
-        }
-        b.velocity = v;
-        b.angular_velocity += h * b.inv_inertia * b.torque;
+        v /= 1.0 + h * k * b.inv_mass;
+        (b.velocity, b.angular_velocity) = (v, w);
+    }
+}
+
+/// A dynamic body's velocities after `h` of gravity and its own force and torque,
+/// before drag: v + h (F / m + g), w + h tau / I.
+#[inline]
+pub(crate) fn free_velocity(b: &Body, h: f32, g: Option<Vec2>) -> (Vec2, f32) {
+    let mut v = b.velocity + h * b.inv_mass * b.force;
+    if let Some(g) = g {
+        v += h * g;
+    }
+    (v, b.angular_velocity + h * b.inv_inertia * b.torque)
+}
+
+impl World {
+    /// Whether the only forces are gravity and the bodies' own force and torque (no
+    /// drag, joint drives or point forces), so that a solver may integrate them in a
+    /// pass of its own (see `SoftSolver::prepare_integrating`).
+    pub(crate) fn plain_forces(&self) -> bool {
+        self.drag.is_none() && self.joints.is_empty() && self.forces.is_empty()
     }
 }

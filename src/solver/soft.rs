@@ -37,7 +37,7 @@ use crate::body::Body;
 use crate::body::HOT_BYTES;
 use crate::defs::{BodyModel, BodyType, SolverSettings};
 use crate::math::{BODY_AHEAD, Rot, Vec2, cross, cross_sv, prefetch, uf_root, uf_union};
-use crate::parallel::{self, MAX_THREADS, Pool};
+use crate::parallel::{self, Disjoint, MAX_THREADS, Pool};
 use glam::Vec4;
 
 mod direct;
@@ -669,22 +669,104 @@ impl SoftSolver {
         h: f32,
         pool: Option<&Pool>,
     ) {
-        self.inv_h = 1.0 / h;
-        self.slop = s.slop;
-        self.max_push = s.max_push_speed;
-        self.restitution = false;
+        self.size_bodies(bodies.len());
+        self.load_bodies(bodies, pool);
+        self.build(bodies.len(), contacts, s, h, pool);
+    }
+
+    /// [`SoftSolver::prepare`], with the first substep's forces integrated in the same
+    /// pass over the bodies: what `World::integrate_velocities(h)` and then
+    /// [`SoftSolver::take_increments`] do, to the same bits, for a world whose only
+    /// forces are gravity and each body's own force and torque (no drag, drives or point
+    /// forces: the caller checks). One pass over the bodies instead of three.
+    #[allow(clippy::too_many_arguments)]
+    pub fn prepare_integrating(
+        &mut self,
+        bodies: &mut [Body],
+        contacts: &[Contact],
+        s: &SolverSettings,
+        h: f32,
+        gravity: Option<Vec2>,
+        pool: Option<&Pool>,
+    ) {
         let nb = bodies.len();
-        let (rest, sink) = (nb as u32, nb as u32 + 1);
-        // the bodies, the rest slot, then a sink per thread
-        // (every body's entry, move flag and masses are written whole by the pass below:
-        // only the rest slot and the sinks are reset here)
+        self.size_bodies(nb);
+        self.increments.resize(nb, (Vec2::ZERO, 0.0));
+        let (soft, moves) = (
+            Disjoint::new(&mut self.bodies[..nb]),
+            Disjoint::new(&mut self.moves),
+        );
+        let inv_mass = Disjoint::new(&mut self.inv_mass);
+        let increments = Disjoint::new(&mut self.increments);
+        let all = Disjoint::new(bodies);
+        parallel::ranges_max(pool, nb, BODY_PASS_BLOCK, &|_, r| {
+            // SAFETY: each block takes only its own range of each slice
+            let (soft, moves, inv_mass, increments, bodies) = unsafe {
+                (
+                    soft.range(r.clone()),
+                    moves.range(r.clone()),
+                    inv_mass.range(r.clone()),
+                    increments.range(r.clone()),
+                    all.range(r),
+                )
+            };
+            for i in 0..bodies.len() {
+                prefetch(bodies, i + BODY_AHEAD, HOT_BYTES);
+                let b = &mut bodies[i];
+                let (v0, w0) = (b.velocity, b.angular_velocity);
+                if b.is_dynamic() && !b.asleep {
+                    (b.velocity, b.angular_velocity) = crate::world::free_velocity(b, h, gravity);
+                }
+                // the constraints are built from the velocities before the step (restitution
+                // keeps each point's approach speed): the new ones wait in `increments`
+                increments[i] = (b.velocity, b.angular_velocity);
+                soft[i] = SoftBody {
+                    v: v0,
+                    w: w0,
+                    ..SoftBody::default()
+                };
+                moves[i] = b.is_dynamic();
+                inv_mass[i] = (b.inv_mass, b.inv_inertia);
+            }
+            0.0
+        });
+        self.build(nb, contacts, s, h, pool);
+        // then take the new velocities, and keep dv = v_after - v_before as
+        // take_increments has it (a pass over the solver's own small arrays)
+        let n = self.increments.len();
+        parallel::chunks_mut2(
+            pool,
+            &mut self.bodies[..n],
+            &mut self.increments,
+            BODY_BLOCK,
+            &|_, _, soft, increments| {
+                for (s, inc) in soft.iter_mut().zip(increments) {
+                    let (v, w) = *inc;
+                    *inc = (v - s.v, w - s.w);
+                    s.v = v;
+                    s.w = w;
+                }
+                0.0
+            },
+        );
+    }
+
+    /// Sizes the solver's body arrays for `nb` bodies, the rest slot and the sinks, and
+    /// resets the rest slot and the sinks (the bodies' entries, move flags and masses
+    /// are written whole by the load pass).
+    fn size_bodies(&mut self, nb: usize) {
         self.bodies
             .resize(nb + 1 + MAX_THREADS, SoftBody::default());
         self.bodies[nb..].fill(SoftBody::default());
-        self.sink = sink;
+        self.sink = nb as u32 + 1;
         self.moves.resize(nb, false);
         // inverse mass and inertia, packed, so the contact loop reads no `Body`
         self.inv_mass.resize(nb, (0.0, 0.0));
+    }
+
+    /// Loads the bodies' velocities, move flags and masses.
+    fn load_bodies(&mut self, bodies: &[Body], pool: Option<&Pool>) {
+        let nb = bodies.len();
         // one pass over the bodies (large: each read is a cache miss on a big scene),
         // split between the threads
         parallel::chunks_mut3(
@@ -709,7 +791,23 @@ impl SoftSolver {
                 0.0
             },
         );
+    }
 
+    /// The rest of [`SoftSolver::prepare`], once the bodies are loaded: colours the
+    /// contacts and builds the wide constraints.
+    fn build(
+        &mut self,
+        nb: usize,
+        contacts: &[Contact],
+        s: &SolverSettings,
+        h: f32,
+        pool: Option<&Pool>,
+    ) {
+        self.inv_h = 1.0 / h;
+        self.slop = s.slop;
+        self.max_push = s.max_push_speed;
+        self.restitution = false;
+        let (rest, sink) = (nb as u32, nb as u32 + 1);
         // greedy colouring: the lowest colour neither moving body uses yet
         self.body_colors.clear();
         self.body_colors.resize(nb, 0);

@@ -31,8 +31,20 @@ impl Stepper for SoftStepper {
         // points out to the distance each pair can close in the step (speculative
         // contacts): a fast body meets what it would pass through
         let penetration = world.collide(cx.dt, cx.margin, Speculative::MarginOrMotion, clock);
-        self.soft
-            .prepare(&world.bodies, &world.contacts, &s, h, pool);
+        // without drag the forces change every substep's velocities by the same amount:
+        // integrate once, and the solver adds that increment in the later substeps
+        let uniform = world.drag.is_none();
+        // with only gravity and the bodies' own forces, the first substep's forces are
+        // integrated in prepare's pass over the bodies
+        let fused = world.plain_forces();
+        if fused {
+            let g = world.gravity;
+            self.soft
+                .prepare_integrating(&mut world.bodies, &world.contacts, &s, h, g, pool);
+        } else {
+            self.soft
+                .prepare(&world.bodies, &world.contacts, &s, h, pool);
+        }
         let joints = !world.joints.is_empty() || world.mouse.is_some();
         if joints {
             self.joints
@@ -40,17 +52,16 @@ impl Stepper for SoftStepper {
         }
         clock.lap(Stage::Solve);
         let (mut iterations, mut residual) = (0u32, 0.0f32);
-        // without drag the forces change every substep's velocities by the same amount:
-        // integrate once, and the solver adds that increment in the later substeps
-        let uniform = world.drag.is_none();
         for i in 0..n {
-            if !uniform || i == 0 {
+            if !uniform || (i == 0 && !fused) {
                 world.integrate_velocities(h);
             }
             if !uniform {
                 self.soft.load_velocities(&world.bodies);
             } else if i == 0 {
-                self.soft.take_increments(&world.bodies, pool);
+                if !fused {
+                    self.soft.take_increments(&world.bodies, pool);
+                }
             } else {
                 self.soft.apply_increments(pool);
             }
