@@ -185,6 +185,10 @@ pub struct World {
     /// none is asleep at the step's end either: only `update_sleep` puts bodies to
     /// sleep), so the end of the step need not look again.
     none_asleep: bool,
+    /// Set by a solver whose last pass over the bodies did the end of the step (cleared
+    /// the forces and checked the state): whether some body's state is not finite.
+    /// `World::step` then skips its own pass ([`World::end_step`]).
+    pub(crate) ended: Option<bool>,
     /// Record contact and sensor events each step ([`World::events`]); off unless asked
     /// for or a sensor exists, so a world that needs no events pays nothing for them.
     pub record_events: bool,
@@ -266,6 +270,7 @@ impl World {
             filtered: false,
             has_sensors: false,
             none_asleep: false,
+            ended: None,
             record_events: false,
             events: Vec::new(),
             touching: Vec::new(),
@@ -792,7 +797,17 @@ impl World {
         }
         self.step_count += 1;
         self.time += self.settings.dt as f64;
-        self.end_step()
+        match self.ended.take() {
+            Some(false) => Ok(()),
+            Some(true) => Err(self.first_non_finite()),
+            None => self.end_step(),
+        }
+    }
+
+    /// The error for the first body (by index) whose state is not finite.
+    fn first_non_finite(&self) -> StepError {
+        let i = self.bodies.iter().position(|b| !body_finite(b));
+        self.non_finite(i.unwrap_or(0))
     }
 
     /// The step's last pass over the bodies: clears the accumulated forces, and finds
@@ -819,8 +834,7 @@ impl World {
             return Ok(());
         }
         // the first one, by index (rare: the step failed)
-        let i = self.bodies.iter().position(|b| !body_finite(b));
-        Err(self.non_finite(i.unwrap_or(0)))
+        Err(self.first_non_finite())
     }
 
     /// The solver that ran the last step, as its own type (for tests and tools).
@@ -1467,7 +1481,7 @@ impl Narrow<'_> {
 }
 
 /// Whether a body's position, velocity, angle and spin are all finite.
-fn body_finite(b: &Body) -> bool {
+pub(crate) fn body_finite(b: &Body) -> bool {
     b.position.is_finite()
         && b.velocity.is_finite()
         && b.angle.is_finite()

@@ -556,13 +556,24 @@ fn a_runaway_world_names_the_body() {
         force: Vec2::new(3e38, 0.0),
         point: Vec2::ZERO,
     });
-    let mut w = World::from_def(&def, SolverSettings::pgs()).unwrap();
-    let err = (0..100)
-        .find_map(|_| w.step().err())
-        .expect("the state overflows");
-    let StepError::NonFinite { name, .. } = &err;
-    assert_eq!(name, "rocket");
-    assert!(err.to_string().contains("rocket"));
+    // every solver: the soft step checks the state in its own last pass over the bodies
+    for s in [
+        SolverSettings::pgs(),
+        SolverSettings::soft(),
+        SolverSettings::xpbd(),
+    ] {
+        let kind = s.kind;
+        let mut w = World::from_def(&def, s).unwrap();
+        let err = (0..100)
+            .find_map(|_| w.step().err())
+            .unwrap_or_else(|| panic!("{kind:?}: the state overflows"));
+        let StepError::NonFinite { name, step, .. } = &err;
+        assert_eq!(name, "rocket", "{kind:?}");
+        assert!(err.to_string().contains("rocket"));
+        // the step that failed is the one reported, and the world stops counting there
+        assert_eq!(*step, w.step_count(), "{kind:?}");
+        assert!(!w.bodies[0].position.is_finite() || !w.bodies[0].velocity.is_finite());
+    }
 }
 
 #[test]

@@ -1056,34 +1056,47 @@ impl SoftSolver {
 
     /// The end of the step, in one pass over the bodies: the dynamic ones take their
     /// solved velocities, and every body that is not static moves by its displacement
-    /// and turn since collide (x = x0 + sum h v, theta = theta0 + sum h w).
-    pub fn finish(&self, bodies: &mut [Body], pool: Option<&Pool>) {
+    /// and turn since collide (x = x0 + sum h v, theta = theta0 + sum h w). The same
+    /// pass does the world's end of step (see `World::end_step`): every body's force and
+    /// torque are cleared, and the return says whether some body's state is not finite.
+    pub fn finish(&self, bodies: &mut [Body], pool: Option<&Pool>) -> bool {
         let n = bodies.len().min(self.moves.len());
-        parallel::chunks_mut(
+        let bad = parallel::chunks_mut(
             pool,
             &mut bodies[..n],
             BODY_PASS_BLOCK,
             &|_, offset, bodies| {
                 let (soft, moves) = (&self.bodies[offset..], &self.moves[offset..]);
+                let mut bad = false;
                 for (i, (s, &m)) in soft.iter().zip(moves).take(bodies.len()).enumerate() {
                     prefetch(bodies, i + BODY_AHEAD, HOT_BYTES);
                     let b = &mut bodies[i];
+                    b.force = Vec2::ZERO;
+                    b.torque = 0.0;
                     if m {
                         b.velocity = s.v;
                         b.angular_velocity = s.w;
                     }
-                    if b.body_type == BodyType::Static {
-                        continue;
+                    if b.body_type != BodyType::Static {
+                        b.position += s.dp;
+                        if b.model == BodyModel::Rigid {
+                            b.angle += s.dtheta;
+                            b.rot = Rot::from_angle(b.angle);
+                        }
                     }
-                    b.position += s.dp;
-                    if b.model == BodyModel::Rigid {
-                        b.angle += s.dtheta;
-                        b.rot = Rot::from_angle(b.angle);
-                    }
+                    bad |= !crate::world::body_finite(b);
                 }
-                0.0
+                if bad { 1.0 } else { 0.0 }
             },
         );
+        // bodies past the solver's (none in a step) are checked and cleared too
+        let mut rest_bad = false;
+        for b in &mut bodies[n..] {
+            b.force = Vec2::ZERO;
+            b.torque = 0.0;
+            rest_bad |= !crate::world::body_finite(b);
+        }
+        bad > 0.0 || rest_bad
     }
 
     /// Copies the solved velocities out to the dynamic bodies.

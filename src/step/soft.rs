@@ -110,7 +110,7 @@ impl Stepper for SoftStepper {
         }
         clock.lap(Stage::Solve);
         // velocities, then x = x0 + sum h v, theta = theta0 + sum h w
-        self.soft.finish(&mut world.bodies, pool);
+        world.ended = Some(self.soft.finish(&mut world.bodies, pool));
         clock.lap(Stage::Integrate);
         StepStats {
             iterations,
