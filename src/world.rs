@@ -990,22 +990,29 @@ impl World {
         self.has_sensors = sensors;
         // a sensor is there to be heard
         self.record_events |= sensors;
-        let no_collide = &self.no_collide;
-        let (bodies, filtered) = (&self.bodies, self.filtered);
-        self.broad.find_pairs_kept_checked(
-            &self.aabbs,
-            &self.dynamic,
-            holds,
-            |i| bodies[i].is_dynamic(),
-            |a, b| {
-                (!filtered
-                    || bodies[a as usize]
-                        .filter
-                        .collides(&bodies[b as usize].filter))
-                    && (no_collide.is_empty()
-                        || no_collide.binary_search(&(a.min(b), a.max(b))).is_err())
-            },
-        );
+        let bodies = &self.bodies;
+        // without sensors (which read the pairs after the step) the narrow phase filters
+        // the kept pairs itself, split between the threads: no list of this step's pairs
+        let fused = !sensors;
+        if fused {
+            self.broad
+                .refresh_kept(&self.aabbs, holds, |i| bodies[i].is_dynamic());
+        } else {
+            let test = PairTest {
+                bodies,
+                aabbs: &[],
+                dynamic: &[],
+                filtered,
+                no_collide: &self.no_collide,
+            };
+            self.broad.find_pairs_kept_checked(
+                &self.aabbs,
+                &self.dynamic,
+                holds,
+                |i| bodies[i].is_dynamic(),
+                |a, b| test.may_collide(a, b),
+            );
+        }
         clock.lap(Stage::Broad);
 
         std::mem::swap(&mut self.contacts, &mut self.old_contacts);
@@ -1031,7 +1038,18 @@ impl World {
         let pool = self.pool();
         let narrow = Narrow {
             bodies: &self.bodies,
-            pairs: &self.broad.pairs,
+            pairs: if fused {
+                self.broad.kept_pairs()
+            } else {
+                &self.broad.pairs
+            },
+            test: fused.then_some(PairTest {
+                bodies: &self.bodies,
+                aabbs: &self.aabbs,
+                dynamic: &self.dynamic,
+                filtered,
+                no_collide: &self.no_collide,
+            }),
             old: &self.old_contacts,
             reach: &self.reach,
             has_sensors: self.has_sensors,
@@ -1388,9 +1406,47 @@ fn swept_box(b: &Body, bb: Aabb, h: f32, margin: f32) -> Aabb {
 const PAIR_AHEAD: usize = 4;
 
 /// What the narrow phase reads: the pairs of the broad phase and last step's contacts.
+/// Whether a candidate pair is a pair this step: the broad phase's test (one body
+/// moves, the boxes overlap) where `aabbs` is given, then the filters and the
+/// no-collide list.
+struct PairTest<'a> {
+    bodies: &'a [Body],
+    /// This step's boxes and movers; empty when the broad phase has tested them.
+    aabbs: &'a [Aabb],
+    dynamic: &'a [bool],
+    /// Some body has a collision filter other than the default.
+    filtered: bool,
+    no_collide: &'a [(u32, u32)],
+}
+
+impl PairTest<'_> {
+    /// The filters and the no-collide list (the broad phase's own test aside).
+    #[inline]
+    fn may_collide(&self, a: u32, b: u32) -> bool {
+        (!self.filtered
+            || self.bodies[a as usize]
+                .filter
+                .collides(&self.bodies[b as usize].filter))
+            && (self.no_collide.is_empty()
+                || self
+                    .no_collide
+                    .binary_search(&(a.min(b), a.max(b)))
+                    .is_err())
+    }
+
+    /// The whole test, for a kept pair.
+    #[inline]
+    fn holds(&self, a: u32, b: u32) -> bool {
+        BroadPhase::kept_pair_holds(self.aabbs, self.dynamic, a, b) && self.may_collide(a, b)
+    }
+}
+
 struct Narrow<'a> {
     bodies: &'a [Body],
+    /// The pairs to collide: this step's, or (with `test`) the broad phase's kept pairs,
+    /// which `test` filters.
     pairs: &'a [(u32, u32)],
+    test: Option<PairTest<'a>>,
     /// Last step's contacts, sorted by pair (the cache).
     old: &'a [Contact],
     reach: &'a [f32],
@@ -1412,6 +1468,11 @@ impl Narrow<'_> {
         let mut cache = CacheCursor::new(&self.old[from..]);
         let mut deepest = 0.0f32;
         for (i, &(a, b)) in pairs.iter().enumerate() {
+            if let Some(t) = &self.test
+                && !t.holds(a, b)
+            {
+                continue;
+            }
             if let Some(&(na, nb)) = pairs.get(i + PAIR_AHEAD) {
                 prefetch(self.bodies, na as usize, SHAPE_BYTES);
                 prefetch(self.bodies, nb as usize, SHAPE_BYTES);

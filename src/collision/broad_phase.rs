@@ -216,6 +216,21 @@ impl BroadPhase {
         may_move: impl Fn(usize) -> bool,
         can_collide: impl Fn(u32, u32) -> bool,
     ) {
+        self.refresh_kept(aabbs, holds, may_move);
+        self.pairs.clear();
+        for &(a, b) in &self.kept_pairs {
+            if Self::kept_pair_holds(aabbs, moves, a, b) && can_collide(a, b) {
+                self.pairs.push((a, b));
+            }
+        }
+    }
+
+    /// The first half of [`BroadPhase::find_pairs_kept_checked`]: rebuilds the kept
+    /// boxes and pairs unless `holds`. The caller then filters
+    /// [`BroadPhase::kept_pairs`] itself, with [`BroadPhase::kept_pair_holds`] and its
+    /// own test, in a pass over the pairs it makes anyway (the narrow phase); `pairs`
+    /// is left empty.
+    pub fn refresh_kept(&mut self, aabbs: &[Aabb], holds: bool, may_move: impl Fn(usize) -> bool) {
         if !holds {
             let mut fat = std::mem::take(&mut self.kept_boxes);
             let mut fat_moves = std::mem::take(&mut self.kept_moves);
@@ -235,12 +250,20 @@ impl BroadPhase {
             self.rebuilds += 1;
         }
         self.pairs.clear();
-        for &(a, b) in &self.kept_pairs {
-            let (ia, ib) = (a as usize, b as usize);
-            if (moves[ia] || moves[ib]) && aabbs[ia].overlaps(&aabbs[ib]) && can_collide(a, b) {
-                self.pairs.push((a, b));
-            }
-        }
+    }
+
+    /// Every pair of kept boxes, sorted: this step's pairs are those among them for
+    /// which [`BroadPhase::kept_pair_holds`] (and the caller's own test) holds.
+    pub fn kept_pairs(&self) -> &[Pair] {
+        &self.kept_pairs
+    }
+
+    /// Whether kept pair (a, b) is a pair this step: one of the bodies moves and their
+    /// boxes overlap.
+    #[inline]
+    pub fn kept_pair_holds(aabbs: &[Aabb], moves: &[bool], a: u32, b: u32) -> bool {
+        let (ia, ib) = (a as usize, b as usize);
+        (moves[ia] || moves[ib]) && aabbs[ia].overlaps(&aabbs[ib])
     }
 
     /// Sorts the pairs by (a, b): a counting sort by a, then each (short) run of equal a
