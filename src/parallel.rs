@@ -14,7 +14,7 @@
 //! moving body, bodies), and reductions are order-free (max) or done in a fixed order.
 
 use std::ops::Range;
-use std::sync::atomic::{AtomicBool, AtomicU32, AtomicU64, AtomicUsize, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicPtr, AtomicU32, AtomicU64, AtomicUsize, Ordering};
 use std::sync::{Arc, Mutex};
 use std::thread::JoinHandle;
 
@@ -43,23 +43,19 @@ pub fn available() -> usize {
         .min(MAX_THREADS)
 }
 
-/// A job as the workers see it: the closure with its lifetime erased, its epoch and its
-/// block count. The closure is alive while blocks of its epoch can still be claimed.
-#[derive(Clone, Copy)]
-struct Job {
-    epoch: u32,
-    f: *const (dyn Fn(usize, usize) + Sync),
-    blocks: usize,
-}
-
-// SAFETY: `f` is only called after a block of its epoch was claimed, and `Pool::blocks`
-// keeps the closure alive until every block it handed out has completed.
-unsafe impl Send for Job {}
+/// A job's closure as the workers see it, its lifetime erased. It is alive while blocks
+/// of its epoch can still be claimed.
+type JobFn = *const (dyn Fn(usize, usize) + Sync + 'static);
 
 struct Shared {
     /// The epoch of the latest job; a worker wakes when it changes.
     epoch: AtomicU32,
-    job: Mutex<Option<Job>>,
+    /// The latest job, published before `epoch`: (epoch << 32) | blocks, and where its
+    /// closure lies (a pointer to the caller's `JobFn`, on the caller's stack). A worker
+    /// calls the closure only after claiming a block of that epoch, which the caller
+    /// waits for: a pointer read for an epoch that has ended is never followed.
+    job_info: AtomicU64,
+    job_f: AtomicPtr<JobFn>,
     /// Per thread's segment of the blocks: (epoch << 32) | next block. A block is claimed
     /// by a compare-and-swap that checks the epoch, so a worker that comes late to a job
     /// claims nothing of the next one.
@@ -139,7 +135,8 @@ impl Pool {
         let workers = threads.clamp(1, MAX_THREADS) - 1;
         let shared = Arc::new(Shared {
             epoch: AtomicU32::new(0),
-            job: Mutex::new(None),
+            job_info: AtomicU64::new(0),
+            job_f: AtomicPtr::new(std::ptr::null_mut()),
             claim: (0..=workers).map(|_| Slot(AtomicU64::new(0))).collect(),
             completed: AtomicUsize::new(0),
             parked: (0..workers).map(|_| AtomicBool::new(false)).collect(),
@@ -193,14 +190,14 @@ impl Pool {
         // only for a block of this epoch it claimed, and this function returns (or
         // unwinds) only once every block of the epoch has completed.
         let f_ptr: *const (dyn Fn(usize, usize) + Sync) = f;
-        let f_ptr: *const (dyn Fn(usize, usize) + Sync + 'static) =
-            unsafe { std::mem::transmute(f_ptr) };
+        let f_ptr: JobFn = unsafe { std::mem::transmute(f_ptr) };
+        let blocks32 = u32::try_from(blocks).expect("a job of fewer than 2^32 blocks");
         s.completed.store(0, Ordering::SeqCst);
-        *s.job.lock().unwrap_or_else(|e| e.into_inner()) = Some(Job {
-            epoch,
-            f: f_ptr,
-            blocks,
-        });
+        // `f_ptr` stays on this frame until every block is done
+        s.job_f
+            .store(&f_ptr as *const JobFn as *mut JobFn, Ordering::Release);
+        s.job_info
+            .store(((epoch as u64) << 32) | blocks32 as u64, Ordering::Release);
         for (seg, slot) in s.claim.iter().enumerate() {
             let start = split(blocks, s.claim.len(), seg).start as u64;
             slot.0
@@ -476,18 +473,18 @@ fn worker(s: &Shared, index: usize) {
             }
             s.parked[index].store(false, Ordering::SeqCst);
         }
-        let job = *s.job.lock().unwrap_or_else(|e| e.into_inner());
-        let Some(job) = job else {
-            seen = s.epoch.load(Ordering::Acquire);
-            continue;
-        };
-        seen = job.epoch;
+        // the job is published before its epoch: this one is the epoch seen or later
+        let info = s.job_info.load(Ordering::Acquire);
+        let (epoch, blocks) = ((info >> 32) as u32, (info & 0xffff_ffff) as usize);
+        let f_at = s.job_f.load(Ordering::Acquire);
+        seen = epoch;
         let mut ran = 0usize;
-        while let Some(b) = s.claim(index + 1, job.epoch, job.blocks) {
-            // SAFETY: a block of this epoch was claimed, and the blocks this thread ran
-            // are counted as completed only below, so `Pool::blocks` is still waiting
-            // for it and the closure is alive.
-            let f = unsafe { &*job.f };
+        while let Some(b) = s.claim(index + 1, epoch, blocks) {
+            // SAFETY: a block of this epoch was claimed, so its job has not ended (the
+            // blocks this thread ran are counted as completed only below), and `f_at`,
+            // read after the job's info, is that job's: `Pool::blocks` is still waiting,
+            // and its closure and the `JobFn` on its stack are alive.
+            let f = unsafe { &**f_at };
             if std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| f(index + 1, b))).is_err() {
                 s.panicked.store(true, Ordering::SeqCst);
             }
