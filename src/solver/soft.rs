@@ -916,8 +916,11 @@ impl SoftSolver {
                 for (i, (w, c)) in wide.iter_mut().zip(cold.iter_mut()).enumerate() {
                     fill.prefetch(offset + i + PREFETCH_AHEAD);
                     fill.wide(offset + i, w);
-                    *c = fill.cold(offset + i);
-                    any |= c.restitution.cmpne(Vec4::ZERO).any();
+                    // (the flag comes from the lanes as they are written: reading the
+                    // four back as one vector would wait on the stores)
+                    let (cold, restitution) = fill.cold(offset + i);
+                    *c = cold;
+                    any |= restitution;
                 }
                 if any { 1.0 } else { 0.0 }
             },
@@ -1481,14 +1484,17 @@ impl Fill<'_> {
         }
     }
 
-    fn cold(&self, wi: usize) -> WideCold {
+    /// The cold half of wide constraint `wi`, and whether some lane has restitution.
+    fn cold(&self, wi: usize) -> (WideCold, bool) {
         let mut cold = WideCold::default();
+        let mut any = false;
         for (k, c) in self.lanes(wi) {
             cold.restitution[k] = c.restitution;
             cold.count[k] = c.manifold.count as u8;
             if c.restitution == 0.0 {
                 continue;
             }
+            any = true;
             // dv = vb + wb x rb - va - wa x ra (read only by restitution)
             let (ba, bb) = (self.bodies[c.a as usize], self.bodies[c.b as usize]);
             let n = c.manifold.normal;
@@ -1498,7 +1504,7 @@ impl Fill<'_> {
                 cold.relative_velocity[i][k] = n.dot(dv);
             }
         }
-        cold
+        (cold, any)
     }
 }
 
