@@ -786,6 +786,8 @@ impl World {
         // until collide finds otherwise
         self.none_asleep = false;
         let mut clock = StageClock::start();
+        // only this step's solver may say it ended the step
+        self.ended = None;
         let mut stats = stepper.step(self, &cx, &mut clock);
         self.unpark_joints();
         clock.fill(&mut stats);
@@ -922,8 +924,8 @@ impl World {
         speculative: Speculative,
         clock: &mut StageClock,
     ) -> f32 {
+        // sized, not cleared: the pass below writes every body's entry
         let n = self.bodies.len();
-        self.aabbs.clear();
         self.aabbs.resize(
             n,
             Aabb {
@@ -931,9 +933,7 @@ impl World {
                 max: Vec2::ZERO,
             },
         );
-        self.dynamic.clear();
         self.dynamic.resize(n, false);
-        self.reach.clear();
         self.reach.resize(n, 0.0);
         // the flags are read off the bodies each step, so bodies pushed straight into
         // `bodies` (the CLI's build, tools) count as well as those added one by one
