@@ -276,12 +276,10 @@ pub fn chunks_mut<T: Send>(
     if pool.is_none_or(|p| p.threads() == 1) || len <= block {
         return f(0, 0, data);
     }
-    let base = SyncPtr(data.as_mut_ptr());
+    let data = Disjoint::new(data);
     ranges_max(pool, len, block, &|t, r| {
-        // SAFETY: the blocks are disjoint and inside 0..len, and `data` is borrowed
-        // mutably for the whole call.
-        let chunk = unsafe { std::slice::from_raw_parts_mut(base.get().add(r.start), r.len()) };
-        f(t, r.start, chunk)
+        // SAFETY: each block takes only its own range
+        f(t, r.start, unsafe { data.range(r) })
     })
 }
 
@@ -300,16 +298,10 @@ pub fn chunks_mut2<A: Send, B: Send>(
     if pool.is_none_or(|p| p.threads() == 1) || len <= block {
         return f(0, 0, a, b);
     }
-    let (pa, pb) = (SyncPtr(a.as_mut_ptr()), SyncPtr(b.as_mut_ptr()));
+    let (a, b) = (Disjoint::new(a), Disjoint::new(b));
     ranges_max(pool, len, block, &|t, r| {
-        // SAFETY: the blocks are disjoint and inside 0..len of both slices, and both are
-        // borrowed mutably for the whole call.
-        let (ca, cb) = unsafe {
-            (
-                std::slice::from_raw_parts_mut(pa.get().add(r.start), r.len()),
-                std::slice::from_raw_parts_mut(pb.get().add(r.start), r.len()),
-            )
-        };
+        // SAFETY: each block takes only its own range of each slice
+        let (ca, cb) = unsafe { (a.range(r.clone()), b.range(r.clone())) };
         f(t, r.start, ca, cb)
     })
 }
@@ -333,21 +325,10 @@ pub fn chunks_mut3<A: Send, B: Send, C: Send>(
     if pool.is_none_or(|p| p.threads() == 1) || len <= block {
         return f(0, 0, a, b, c);
     }
-    let (pa, pb, pc) = (
-        SyncPtr(a.as_mut_ptr()),
-        SyncPtr(b.as_mut_ptr()),
-        SyncPtr(c.as_mut_ptr()),
-    );
+    let (a, b, c) = (Disjoint::new(a), Disjoint::new(b), Disjoint::new(c));
     ranges_max(pool, len, block, &|t, r| {
-        // SAFETY: the blocks are disjoint and inside 0..len of all three slices, and all
-        // are borrowed mutably for the whole call.
-        let (ca, cb, cc) = unsafe {
-            (
-                std::slice::from_raw_parts_mut(pa.get().add(r.start), r.len()),
-                std::slice::from_raw_parts_mut(pb.get().add(r.start), r.len()),
-                std::slice::from_raw_parts_mut(pc.get().add(r.start), r.len()),
-            )
-        };
+        // SAFETY: each block takes only its own range of each slice
+        let (ca, cb, cc) = unsafe { (a.range(r.clone()), b.range(r.clone()), c.range(r.clone())) };
         f(t, r.start, ca, cb, cc)
     })
 }
@@ -391,7 +372,9 @@ pub(crate) fn concat<T: Copy + Send>(
 pub(crate) struct Disjoint<'a, T> {
     ptr: SyncPtr<T>,
     len: usize,
-    _borrow: std::marker::PhantomData<&'a mut [T]>,
+    /// Holds the slice's borrow (the pointer carries the element type, so the threads
+    /// may share it for any `T: Send`, as each touches its own elements).
+    _borrow: std::marker::PhantomData<&'a mut ()>,
 }
 
 impl<'a, T: Send> Disjoint<'a, T> {

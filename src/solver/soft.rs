@@ -200,6 +200,16 @@ struct InvMass4 {
     iib: Vec4,
 }
 
+/// A body takes the velocities `v`, `w` after the first substep's forces, and keeps the
+/// increment for the later substeps: dv = v_after - v_before (`take_increments` and
+/// `prepare_integrating` both, so the two paths agree to the bit).
+#[inline(always)]
+fn take_velocity(s: &mut SoftBody, inc: &mut (Vec2, f32), v: Vec2, w: f32) {
+    *inc = (v - s.v, w - s.w);
+    s.v = v;
+    s.w = w;
+}
+
 /// Whether a contact between two moving bodies of inverse masses `ia` and `ib` joins
 /// masses `direct::MASS_RATIO` apart or more.
 #[inline(always)]
@@ -731,8 +741,8 @@ impl SoftSolver {
             0.0
         });
         self.build(nb, contacts, s, h, pool);
-        // then take the new velocities, and keep dv = v_after - v_before as
-        // take_increments has it (a pass over the solver's own small arrays)
+        // then take the new velocities and keep their increments, as take_increments
+        // does (a pass over the solver's own small arrays)
         let n = self.increments.len();
         parallel::chunks_mut2(
             pool,
@@ -742,9 +752,7 @@ impl SoftSolver {
             &|_, _, soft, increments| {
                 for (s, inc) in soft.iter_mut().zip(increments) {
                     let (v, w) = *inc;
-                    *inc = (v - s.v, w - s.w);
-                    s.v = v;
-                    s.w = w;
+                    take_velocity(s, inc, v, w);
                 }
                 0.0
             },
@@ -1029,10 +1037,7 @@ impl SoftSolver {
                 for (i, (s, inc)) in soft.iter_mut().zip(increments).enumerate() {
                     prefetch(bodies, i + BODY_AHEAD, HOT_BYTES);
                     let b = &bodies[i];
-                    // dv = v_after - v_before
-                    *inc = (b.velocity - s.v, b.angular_velocity - s.w);
-                    s.v = b.velocity;
-                    s.w = b.angular_velocity;
+                    take_velocity(s, inc, b.velocity, b.angular_velocity);
                 }
                 0.0
             },
