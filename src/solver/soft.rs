@@ -574,24 +574,44 @@ impl Group for Two<'_> {
         *f(self.0) = lo;
         *f(self.1) = hi;
     }
+    /// Loads eight bodies as four rows (lane k's body in the low half, lane k + 4's in
+    /// the high half: one load and one insert) and transposes each half in place: the
+    /// lanes [`WideBody::gather`] and [`F8::join`] give, in fewer shuffles.
     #[inline(always)]
     fn gather<const B: bool>(&self, bodies: BodyPtr) -> WideBody<F8> {
-        let pick = |c: &WideConstraint| if B { c.b } else { c.a };
-        let (lo, hi) = (
-            WideBody::gather(bodies, &pick(self.0)),
-            WideBody::gather(bodies, &pick(self.1)),
+        let (lo, hi) = if B {
+            (self.0.b, self.1.b)
+        } else {
+            (self.0.a, self.1.a)
+        };
+        // (no closures here: one not inlined would be compiled without AVX)
+        let (v, d) = (
+            transpose4x2([
+                row2(bodies, lo[0], hi[0], 0),
+                row2(bodies, lo[1], hi[1], 0),
+                row2(bodies, lo[2], hi[2], 0),
+                row2(bodies, lo[3], hi[3], 0),
+            ]),
+            transpose4x2([
+                row2(bodies, lo[0], hi[0], 4),
+                row2(bodies, lo[1], hi[1], 4),
+                row2(bodies, lo[2], hi[2], 4),
+                row2(bodies, lo[3], hi[3], 4),
+            ]),
         );
         WideBody {
-            vx: F8::join(lo.vx, hi.vx),
-            vy: F8::join(lo.vy, hi.vy),
-            w: F8::join(lo.w, hi.w),
-            dtheta: F8::join(lo.dtheta, hi.dtheta),
-            dpx: F8::join(lo.dpx, hi.dpx),
-            dpy: F8::join(lo.dpy, hi.dpy),
-            qc: F8::join(lo.qc, hi.qc),
-            qs: F8::join(lo.qs, hi.qs),
+            vx: F8::from_raw(v[0]),
+            vy: F8::from_raw(v[1]),
+            w: F8::from_raw(v[2]),
+            dtheta: F8::from_raw(v[3]),
+            dpx: F8::from_raw(d[0]),
+            dpy: F8::from_raw(d[1]),
+            qc: F8::from_raw(d[2]),
+            qs: F8::from_raw(d[3]),
         }
     }
+    /// Transposes v, w and the unchanged dtheta back into rows, as `gather` loads them,
+    /// and stores each half (one 16-byte store per body).
     #[inline(always)]
     fn scatter<const B: bool, const SHARED: bool>(
         &self,
@@ -599,24 +619,63 @@ impl Group for Two<'_> {
         [vx, vy, w]: [F8; 3],
         bodies: BodyPtr,
     ) {
-        let (vx, vy, w, dtheta) = (vx.split(), vy.split(), w.split(), s.dtheta.split());
-        let idx = |c: &WideConstraint| if B { c.wb } else { c.wa };
-        WideBody::<Vec4>::scatter_velocities::<SHARED>(
-            vx.0,
-            vy.0,
-            w.0,
-            dtheta.0,
-            bodies,
-            &idx(self.0),
-        );
-        WideBody::<Vec4>::scatter_velocities::<SHARED>(
-            vx.1,
-            vy.1,
-            w.1,
-            dtheta.1,
-            bodies,
-            &idx(self.1),
-        );
+        use std::arch::x86_64::*;
+        let (lo, hi) = if B {
+            (self.0.wb, self.1.wb)
+        } else {
+            (self.0.wa, self.1.wa)
+        };
+        let rows = transpose4x2([vx.raw(), vy.raw(), w.raw(), s.dtheta.raw()]);
+        for k in 0..4 {
+            let (p, q) = (
+                bodies.written::<SHARED>(lo[k]) as *mut f32,
+                bodies.written::<SHARED>(hi[k]) as *mut f32,
+            );
+            // SAFETY: as in `WideBody::scatter_velocities`; AVX as in `gather`.
+            unsafe {
+                _mm_store_ps(p, _mm256_castps256_ps128(rows[k]));
+                _mm_store_ps(q, _mm256_extractf128_ps::<1>(rows[k]));
+            }
+        }
+    }
+}
+
+/// Row `off..off + 4` of bodies `lo` (low half) and `hi` (high half).
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+fn row2(bodies: BodyPtr, lo: u32, hi: u32, off: usize) -> std::arch::x86_64::__m256 {
+    use std::arch::x86_64::*;
+    let (p, q) = (bodies.at(lo) as *const f32, bodies.at(hi) as *const f32);
+    // SAFETY: as in `WideBody::gather` (aligned 16-byte loads inside each body); AVX:
+    // reached only from the sweeps' AVX2 functions (see `F8`).
+    unsafe {
+        _mm256_insertf128_ps::<1>(
+            _mm256_castps128_ps256(_mm_load_ps(p.add(off))),
+            _mm_load_ps(q.add(off)),
+        )
+    }
+}
+
+/// [`transpose4`] in each 128-bit half of four AVX rows (the in-lane forms of the same
+/// unpacks and moves).
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+fn transpose4x2(r: [std::arch::x86_64::__m256; 4]) -> [std::arch::x86_64::__m256; 4] {
+    use std::arch::x86_64::*;
+    // SAFETY: AVX: reached only from the sweeps' AVX2 functions (see `F8`).
+    unsafe {
+        let t0 = _mm256_unpacklo_ps(r[0], r[1]);
+        let t1 = _mm256_unpacklo_ps(r[2], r[3]);
+        let t2 = _mm256_unpackhi_ps(r[0], r[1]);
+        let t3 = _mm256_unpackhi_ps(r[2], r[3]);
+        // shuffle 0x44: (a0, a1, b0, b1), as movelh; 0xEE: (a2, a3, b2, b3), as movehl
+        // with its operands swapped
+        [
+            _mm256_shuffle_ps::<0x44>(t0, t1),
+            _mm256_shuffle_ps::<0xEE>(t0, t1),
+            _mm256_shuffle_ps::<0x44>(t2, t3),
+            _mm256_shuffle_ps::<0xEE>(t2, t3),
+        ]
     }
 }
 

@@ -78,6 +78,16 @@ mod x86 {
         pub(in crate::solver) fn join(lo: Vec4, hi: Vec4) -> F8 {
             F8(unsafe { _mm256_set_m128(hi.into(), lo.into()) })
         }
+        /// The register.
+        #[inline(always)]
+        pub(in crate::solver) fn raw(self) -> __m256 {
+            self.0
+        }
+        /// From a register.
+        #[inline(always)]
+        pub(in crate::solver) fn from_raw(v: __m256) -> F8 {
+            F8(v)
+        }
         /// (lanes 0..4, lanes 4..8)
         #[inline(always)]
         pub(in crate::solver) fn split(self) -> (Vec4, Vec4) {
