@@ -24,6 +24,11 @@ pub struct Polygon {
     pub count: usize,
     /// Rounding radius (m); 0 for sharp corners.
     pub radius: f32,
+    /// Whether each edge normalised is its normal turned back, to the bit (see
+    /// [`Polygon::edges_match_normals`]): the SAT's clipping then takes the edge's
+    /// direction from the normal, without a square root. True for a polygon made from
+    /// points; worked out again when one is moved or restored.
+    pub exact_edges: bool,
 }
 
 /// A polygon as a saved state holds it: only the vertices and normals in use.
@@ -67,9 +72,11 @@ impl TryFrom<PolygonRepr> for Polygon {
             normals: [Vec2::ZERO; MAX_POLYGON_VERTICES],
             count: n,
             radius: r.radius,
+            exact_edges: false,
         };
         p.vertices[..n].copy_from_slice(&r.vertices);
         p.normals[..n].copy_from_slice(&r.normals);
+        p.exact_edges = p.edges_match_normals();
         Ok(p)
     }
 }
@@ -113,6 +120,7 @@ impl Polygon {
             normals: [Vec2::ZERO; MAX_POLYGON_VERTICES],
             count: points.len(),
             radius: 0.0,
+            exact_edges: false,
         };
         for (i, &v) in points.iter().enumerate() {
             p.vertices[i] = v;
@@ -122,7 +130,20 @@ impl Polygon {
             // outward normal of a CCW edge: e rotated by -90 degrees
             p.normals[i] = Vec2::new(e.y, -e.x).normalize();
         }
+        // (e.y, -e.x) normalised and e normalised take the same squares, summed in the
+        // other order (which rounds the same), and the same reciprocal: so this holds
+        p.exact_edges = p.edges_match_normals();
         p
+    }
+
+    /// Whether every edge, normalised, is its normal turned back by 90 degrees to the
+    /// bit: (v[i+1] - v[i]) / |v[i+1] - v[i]| == (-n.y, n.x).
+    pub fn edges_match_normals(&self) -> bool {
+        let v = self.verts();
+        self.normals[..self.count].iter().enumerate().all(|(i, n)| {
+            let t = (v[(i + 1) % v.len()] - v[i]).normalize();
+            t.x.to_bits() == (-n.y).to_bits() && t.y.to_bits() == n.x.to_bits()
+        })
     }
 
     /// The convex hull of `points`, or a reason it does not exist.
@@ -143,6 +164,8 @@ impl Polygon {
         for v in &mut p.vertices[..p.count] {
             *v += d;
         }
+        // a moved edge can round differently from the normal made before
+        p.exact_edges = p.edges_match_normals();
         p
     }
 

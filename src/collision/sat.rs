@@ -346,7 +346,15 @@ fn collide_polygons_n<const CAP: usize>(
     let inc2 = (inc + 1) % iv.len();
     let r1 = rv[ref_edge];
     let r2 = rv[(ref_edge + 1) % rv.len()];
-    let t = (r2 - r1).normalize();
+    // the reference edge's direction, normalised. On A (not flipped) the edge and its
+    // normal are A's own: where A's normals are its edges turned and normalised to the
+    // bit (`Polygon::exact_edges`), the direction is the normal turned back, without the
+    // square root and division. B's edge was moved into A's frame: normalised here.
+    let t = if !flipped && pa.exact_edges {
+        Vec2::new(-n.y, n.x)
+    } else {
+        (r2 - r1).normalize()
+    };
 
     // The incident segment with a feature id per end: the reference edge and the
     // incident vertex that end starts from. An end keeps its id when it is clipped: in
@@ -902,6 +910,35 @@ mod tests {
             let four = collide_polygons_n::<4>(&pa, 4, &ta, &pb, 4, &tb, margin);
             let general = collide_polygons_n::<MAX_POLYGON_VERTICES>(&pa, 4, &ta, &pb, 4, &tb, margin);
             proptest::prop_assert_eq!(format!("{four:?}"), format!("{general:?}"));
+        }
+
+        /// A polygon made from points (a box, a hull) has exact edges; a moved one
+        /// says whether it still has; and where a polygon says so, the SAT's clipping
+        /// gives the bits of the path that normalises the edge.
+        #[test]
+        fn the_edge_from_the_normal_gives_the_normalised_edges_bits(
+            w in 0.01f32..40.0, h in 0.01f32..40.0,
+            pts in proptest::collection::vec((-20.0f32..20.0, -20.0f32..20.0), 3..12),
+            d in (-3.0f32..3.0, -3.0f32..3.0),
+            xb in (-3.0f32..3.0, -3.0f32..3.0, -7.0f32..7.0),
+            margin in 0.0f32..0.2,
+        ) {
+            use crate::shape::Polygon;
+            let hull = Polygon::hull(&pts.iter().map(|&(x, y)| Vec2::new(x, y)).collect::<Vec<_>>()).ok();
+            let made = std::iter::once(Polygon::new_box(w, h)).chain(hull);
+            for p in made {
+                proptest::prop_assert!(p.exact_edges && p.edges_match_normals());
+                let moved = p.translated(Vec2::new(d.0, d.1));
+                proptest::prop_assert_eq!(moved.exact_edges, moved.edges_match_normals());
+                for a in [p, moved] {
+                    let b = Polygon::new_box(w, h);
+                    let (ta, tb) = (at(0.0, 0.0, 0.0), at(xb.0, xb.1, xb.2));
+                    let plain = Polygon { exact_edges: false, ..a };
+                    let fast = collide_polygons(&a, &ta, &b, &tb, margin);
+                    let slow = collide_polygons(&plain, &ta, &b, &tb, margin);
+                    proptest::prop_assert_eq!(format!("{fast:?}"), format!("{slow:?}"));
+                }
+            }
         }
     }
 }
