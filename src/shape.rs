@@ -137,7 +137,7 @@ impl Polygon {
     }
 
     /// Whether every edge, normalised, is its normal turned back by 90 degrees to the
-    /// bit: (v[i+1] - v[i]) / |v[i+1] - v[i]| == (-n.y, n.x).
+    /// bit: `(v[i+1] - v[i]) / |v[i+1] - v[i]| == (-n.y, n.x)`.
     pub fn edges_match_normals(&self) -> bool {
         let v = self.verts();
         self.normals[..self.count].iter().enumerate().all(|(i, n)| {
