@@ -897,7 +897,14 @@ fn simulate(a: &SimulateArgs) -> Result<(), Failure> {
             },
             "steps": summary.steps,
             // threads the steps could use, and whether they did (a small world runs on one)
-            "threads": { "allowed": world.threads(), "parallel_jobs": world.parallel_jobs() },
+            // with threads, also how dear a hand-off between cores was just after the
+            // run (ns a cache line takes there and back): a virtual machine's cores may
+            // share a cache or not, and two threads' figures depend on which
+            "threads": {
+                "allowed": world.threads(),
+                "parallel_jobs": world.parallel_jobs(),
+                "core_round_trip_ns": (world.threads() > 1).then(sandbox2d::parallel::core_round_trip_ns).flatten(),
+            },
             "bodies": world.bodies.len(),
             "ms_per_step": { "median": median, "mean": mean, "p95": p95 },
             "contacts": { "mean": summary.contacts_mean, "max": summary.contacts_max },

@@ -43,6 +43,55 @@ pub fn available() -> usize {
         .min(MAX_THREADS)
 }
 
+/// How long a cache line takes to go from one core to another and back (ns), measured
+/// now by a thread of its own bouncing a counter with the caller: what each hand-off of
+/// the step between threads costs on this machine at this moment. The cores of a
+/// virtual machine may share a cache (tens of ns) or not (hundreds), and that can change
+/// as its host moves them: two threads then run the step at very different speeds. At
+/// most about 20 ms. None where one core is all there is.
+pub fn core_round_trip_ns() -> Option<f64> {
+    if available() < 2 {
+        return None;
+    }
+    const STOP: u64 = u64::MAX;
+    let line = Slot(AtomicU64::new(0));
+    let start = std::time::Instant::now();
+    let limit = std::time::Duration::from_millis(20);
+    let mut rounds = 0u64;
+    std::thread::scope(|s| {
+        s.spawn(|| {
+            // answer each odd count with the next even one, until told to stop
+            let mut want = 1u64;
+            loop {
+                let v = line.0.load(Ordering::Acquire);
+                if v == STOP {
+                    return;
+                }
+                if v == want {
+                    line.0.store(want + 1, Ordering::Release);
+                    want += 2;
+                } else {
+                    std::hint::spin_loop();
+                }
+            }
+        });
+        'outer: for i in 0..20_000u64 {
+            line.0.store(2 * i + 1, Ordering::Release);
+            let mut spins = 0u32;
+            while line.0.load(Ordering::Acquire) != 2 * i + 2 {
+                std::hint::spin_loop();
+                spins = spins.wrapping_add(1);
+                if spins.is_multiple_of(1024) && start.elapsed() > limit {
+                    break 'outer;
+                }
+            }
+            rounds += 1;
+        }
+        line.0.store(STOP, Ordering::Release);
+    });
+    (rounds > 0).then(|| start.elapsed().as_nanos() as f64 / rounds as f64)
+}
+
 /// A job's closure as the workers see it, its lifetime erased. It is alive while blocks
 /// of its epoch can still be claimed.
 type JobFn = *const (dyn Fn(usize, usize) + Sync + 'static);
@@ -251,10 +300,19 @@ pub fn ranges_max(
         Some(p) if p.threads() > 1 && blocks > 1 => p,
         _ => return f(0, 0..len),
     };
+    blocks_max(pool, blocks, &|t, b| {
+        f(t, b * block..((b + 1) * block).min(len))
+    })
+}
+
+/// Runs `f(thread, block)` for every block in 0..blocks on the pool's threads (each
+/// thread first takes its own equal run of the blocks, as [`Pool::blocks`] does);
+/// returns the largest value any call returned.
+pub fn blocks_max(pool: &Pool, blocks: usize, f: &(dyn Fn(usize, usize) -> f32 + Sync)) -> f32 {
     let out: [AtomicU32; MAX_THREADS] =
         std::array::from_fn(|_| AtomicU32::new(f32::NEG_INFINITY.to_bits()));
     pool.blocks(blocks, &|t, b| {
-        let v = f(t, b * block..((b + 1) * block).min(len));
+        let v = f(t, b);
         let was = f32::from_bits(out[t].load(Ordering::Relaxed));
         out[t].store(was.max(v).to_bits(), Ordering::Relaxed);
     });
@@ -262,6 +320,53 @@ pub fn ranges_max(
         .iter()
         .map(|v| f32::from_bits(v.load(Ordering::Relaxed)))
         .fold(f32::NEG_INFINITY, f32::max)
+}
+
+/// [`chunks_mut`] with each thread's share set by the caller: thread t first takes the
+/// blocks of `data[cuts[t]..cuts[t + 1]]`, each share cut into the same number of
+/// blocks of about `block` items, and a thread done with its own share goes on to the
+/// others' as in [`chunks_mut`]. `cuts` holds the pool's threads + 1 ascending offsets,
+/// 0 first and `data.len()` last. Which thread runs which items changes nothing but
+/// whose cache they are in: a pass that cuts its data where the last pass did finds its
+/// items in its own core's cache. Returns the largest value any call returned.
+pub fn chunks_mut_cut<T: Send>(
+    pool: &Pool,
+    data: &mut [T],
+    cuts: &[usize],
+    block: usize,
+    f: &(dyn Fn(usize, usize, &mut [T]) -> f32 + Sync),
+) -> f32 {
+    let n = pool.threads();
+    assert!(
+        cuts.len() == n + 1
+            && cuts[0] == 0
+            && cuts[n] == data.len()
+            && cuts.windows(2).all(|w| w[0] <= w[1]),
+        "chunks_mut_cut needs the pool's threads + 1 ascending cuts from 0 to the length"
+    );
+    if n == 1 {
+        return f(0, 0, data);
+    }
+    // every share gets as many blocks, so the pool's even split of the blocks between
+    // its threads gives each thread its share
+    let per = cuts
+        .windows(2)
+        .map(|w| (w[1] - w[0]).div_ceil(block.max(1)))
+        .max()
+        .unwrap_or(0)
+        .max(1);
+    let data = Disjoint::new(data);
+    blocks_max(pool, n * per, &|t, b| {
+        let (share, k) = (b / per, b % per);
+        let (start, len) = (cuts[share], cuts[share + 1] - cuts[share]);
+        let r = start + len * k / per..start + len * (k + 1) / per;
+        if r.is_empty() {
+            return f32::NEG_INFINITY;
+        }
+        // SAFETY: the blocks' ranges do not overlap (each share is cut into `per`
+        // ranges that tile it, and the shares tile the data)
+        f(t, r.start, unsafe { data.range(r) })
+    })
 }
 
 /// Runs `f(thread, offset, chunk)` over `data` cut into chunks of `block` items, as
@@ -530,6 +635,58 @@ mod tests {
         // without a pool the caller does it alone, as one range
         let m = ranges_max(None, 10, 3, &|t, r| (t * 1000 + r.len()) as f32);
         assert_eq!(m, 10.0);
+    }
+
+    #[test]
+    fn cut_chunks_cover_the_slice_once_and_stay_inside_their_share() {
+        let pool = Pool::new(3);
+        for cuts in [
+            [0, 100, 700, 1000],
+            [0, 0, 500, 1000],
+            [0, 1000, 1000, 1000],
+        ] {
+            let mut v = vec![0u32; 1000];
+            let chunks = Mutex::new(Vec::new());
+            let m = chunks_mut_cut(&pool, &mut v, &cuts, 64, &|_, off, c| {
+                for (i, x) in c.iter_mut().enumerate() {
+                    *x += (off + i) as u32 + 1;
+                }
+                chunks.lock().unwrap().push(off..off + c.len());
+                c.len() as f32
+            });
+            // every item once
+            assert!(v.iter().enumerate().all(|(i, &x)| x == i as u32 + 1));
+            let chunks = chunks.into_inner().unwrap();
+            // no chunk crosses a cut, none is empty, and none is longer than a block
+            for r in &chunks {
+                assert!(!r.is_empty() && r.len() <= 64, "{r:?} for {cuts:?}");
+                assert!(
+                    cuts.windows(2).any(|w| w[0] <= r.start && r.end <= w[1]),
+                    "{r:?} crosses a cut of {cuts:?}"
+                );
+            }
+            assert_eq!(m, chunks.iter().map(|r| r.len()).max().unwrap() as f32);
+        }
+    }
+
+    #[test]
+    #[should_panic(expected = "ascending cuts")]
+    fn cuts_out_of_order_are_refused() {
+        let pool = Pool::new(2);
+        let mut v = vec![0u8; 10];
+        chunks_mut_cut(&pool, &mut v, &[0, 11, 10], 4, &|_, _, _| 0.0);
+    }
+
+    #[test]
+    fn a_line_round_trip_takes_some_time_and_stays_in_bounds() {
+        let t = std::time::Instant::now();
+        if let Some(ns) = core_round_trip_ns() {
+            // a round trip is two transfers of a line: more than a nanosecond, and a
+            // busy machine's worst is a scheduler slice each way
+            assert!(ns > 1.0 && ns < 1e8, "{ns} ns");
+        }
+        // the probe stops itself (20 ms of rounds, then the last one answered)
+        assert!(t.elapsed() < std::time::Duration::from_secs(5));
     }
 
     #[test]

@@ -690,6 +690,20 @@ pub struct SoftSolver {
     /// Each colour's wide constraints, [start, end), in order; the overflow group follows
     /// the last.
     color_ranges: Vec<(u32, u32)>,
+    /// With a pool of `cut_threads` threads: per colour range, where each thread's share
+    /// starts (`cut_threads` + 1 wide indices: the range's start, the inner cuts, its
+    /// end). The shares are cut where the contacts are (see `build`), so a thread solves
+    /// about the same bodies colour after colour.
+    color_cuts: Vec<u32>,
+    cut_threads: usize,
+    /// Per inner cut, the lane each colour had reached there (scratch of `build`).
+    cut_lanes: Vec<[u32; OVERFLOW + 1]>,
+    /// The blocks of wide constraints the build fills, thread by thread (as many per
+    /// thread, empty ones last): each thread's share of every colour, so that it fills
+    /// the constraints it will solve.
+    fill_blocks: Vec<(u32, u32)>,
+    /// The wide constraints of the step (the colours' and the overflow group's).
+    wide_len: u32,
     /// Whether the solver moves body i (dynamic).
     moves: Vec<bool>,
     /// (1/m, 1/I) of body i.
@@ -941,7 +955,19 @@ impl SoftSolver {
         self.lane_contact.clear();
         self.lane_contact.resize(n_wide * 4, u32::MAX);
         let lane_contact = &mut self.lane_contact[..];
+        // with threads, each takes an equal run of the contacts in contact order (which
+        // follows the bodies' order: pairs are found and kept sorted) from every colour:
+        // what each colour had reached at the contacts' quantiles is where it is cut
+        let threads = pool.map_or(1, Pool::threads);
+        self.wide_len = n_wide as u32;
+        self.cut_lanes.clear();
+        let quantile = |k: usize| contacts.len() * k / threads;
+        let mut next_cut = 1;
         for (i, (&color, slot)) in self.colors.iter().zip(self.slot.iter_mut()).enumerate() {
+            while next_cut < threads && i == quantile(next_cut) {
+                self.cut_lanes.push(next);
+                next_cut += 1;
+            }
             let at = next[color as usize];
             next[color as usize] += if color as usize == OVERFLOW || one_lane {
                 4
@@ -951,6 +977,11 @@ impl SoftSolver {
             *slot = at;
             lane_contact[at as usize] = i as u32;
         }
+        while next_cut < threads {
+            self.cut_lanes.push(next);
+            next_cut += 1;
+        }
+        self.cut_colors(threads, &counts);
         self.points = points;
         self.find_direct(contacts, lopsided);
         // every wide constraint is written whole below: old contents do not matter
@@ -973,27 +1004,108 @@ impl SoftSolver {
             sink,
         };
         // one pass over the contacts builds both halves of each wide constraint
-        let restitution = parallel::chunks_mut2(
-            pool,
-            &mut self.wide,
-            &mut self.cold,
-            WIDE_BLOCK,
-            &|_, offset, wide, cold| {
-                let mut any = false;
-                for (i, (w, c)) in wide.iter_mut().zip(cold.iter_mut()).enumerate() {
-                    fill.prefetch(offset + i + PREFETCH_AHEAD);
-                    fill.wide(offset + i, w);
-                    // (the flag comes from the lanes as they are written: reading the
-                    // four back as one vector would wait on the stores)
-                    let (cold, restitution) = fill.cold(offset + i);
-                    *c = cold;
-                    any |= restitution;
-                }
-                if any { 1.0 } else { 0.0 }
-            },
-        );
+        let fill_range = |offset: usize, wide: &mut [WideConstraint], cold: &mut [WideCold]| {
+            let mut any = false;
+            for (i, (w, c)) in wide.iter_mut().zip(cold.iter_mut()).enumerate() {
+                fill.prefetch(offset + i + PREFETCH_AHEAD);
+                fill.wide(offset + i, w);
+                // (the flag comes from the lanes as they are written: reading the
+                // four back as one vector would wait on the stores)
+                let (cold, restitution) = fill.cold(offset + i);
+                *c = cold;
+                any |= restitution;
+            }
+            if any { 1.0 } else { 0.0 }
+        };
+        let restitution = match pool {
+            Some(pool) if threads > 1 => {
+                // each thread fills its share of every colour: the constraints it solves
+                let (wide, cold) = (Disjoint::new(&mut self.wide), Disjoint::new(&mut self.cold));
+                let blocks = &self.fill_blocks;
+                parallel::blocks_max(pool, blocks.len(), &|_, b| {
+                    let r = blocks[b].0 as usize..blocks[b].1 as usize;
+                    if r.is_empty() {
+                        return 0.0;
+                    }
+                    // SAFETY: the blocks' ranges do not overlap (see `cut_colors`)
+                    let (w, c) = unsafe { (wide.range(r.clone()), cold.range(r.clone())) };
+                    fill_range(r.start, w, c)
+                })
+            }
+            _ => parallel::chunks_mut2(
+                pool,
+                &mut self.wide,
+                &mut self.cold,
+                WIDE_BLOCK,
+                &|_, offset, wide, cold| fill_range(offset, wide, cold),
+            ),
+        };
         self.restitution = restitution > 0.0;
         self.build_direct(contacts);
+    }
+
+    /// Cuts each colour's wide constraints between `threads` threads where the contacts'
+    /// quantiles fell (`cut_lanes`): the lane a colour had reached, rounded up to its
+    /// wide constraint.
+    fn cut_colors(&mut self, threads: usize, counts: &[u32; OVERFLOW + 1]) {
+        self.color_cuts.clear();
+        self.cut_threads = threads;
+        if threads < 2 {
+            return;
+        }
+        // the ranges are the used colours, in order
+        let used = (0..OVERFLOW).filter(|&c| counts[c] > 0);
+        for (&(start, end), color) in self.color_ranges.iter().zip(used) {
+            self.color_cuts.push(start);
+            let len = end - start;
+            for (k, lanes) in self.cut_lanes.iter().enumerate() {
+                // no further than a sixteenth of the colour from an even cut: a colour
+                // whose constraints bunch up (the last, small ones) is shared evenly
+                let even = start + (len as usize * (k + 1) / threads) as u32;
+                let slack = len / 16;
+                let cut = lanes[color].div_ceil(4);
+                let lo = even.saturating_sub(slack).max(start);
+                let hi = (even + slack).min(end);
+                self.color_cuts.push(cut.clamp(lo, hi));
+            }
+            self.color_cuts.push(end);
+        }
+        // the fill's blocks: thread t's share of each colour, a block at a time; the
+        // overflow group (one constraint per wide constraint, after the colours) goes to
+        // the first thread
+        let n_wide = self.wide_len;
+        let done = self.color_ranges.last().map_or(0, |r| r.1);
+        let share_blocks = |t: usize| {
+            let shares = self
+                .color_cuts
+                .chunks(threads + 1)
+                .map(|c| (c[t], c[t + 1]));
+            let extra = (t == 0).then_some((done, n_wide));
+            shares
+                .chain(extra)
+                .map(|(a, b)| (b - a).div_ceil(WIDE_BLOCK as u32) as usize)
+                .sum::<usize>()
+        };
+        let per = (0..threads).map(share_blocks).max().unwrap_or(0).max(1);
+        self.fill_blocks.clear();
+        for t in 0..threads {
+            let shares = self
+                .color_cuts
+                .chunks(threads + 1)
+                .map(|c| (c[t], c[t + 1]));
+            let extra = (t == 0).then_some((done, n_wide));
+            let first = self.fill_blocks.len();
+            for (a, b) in shares.chain(extra) {
+                let mut at = a;
+                while at < b {
+                    let to = (at + WIDE_BLOCK as u32).min(b);
+                    self.fill_blocks.push((at, to));
+                    at = to;
+                }
+            }
+            let pad = per - (self.fill_blocks.len() - first);
+            self.fill_blocks.extend(std::iter::repeat_n((0, 0), pad));
+        }
     }
 
     /// Marks the contacts of islands to solve exactly (`direct`): bodies joined by
@@ -1229,10 +1341,21 @@ impl SoftSolver {
         let pool = pool.filter(|p| p.threads() > 1);
         let mut r = f32::NEG_INFINITY;
         let mut done = 0usize;
-        for &(start, end) in &self.color_ranges {
+        for (color, &(start, end)) in self.color_ranges.iter().enumerate() {
             let (start, end) = (start as usize, end as usize);
             let wide = &mut self.wide[start..end];
             r = r.max(match pool {
+                Some(pool) if pool.threads() == self.cut_threads => {
+                    let n = self.cut_threads;
+                    let at = &self.color_cuts[color * (n + 1)..][..n + 1];
+                    let mut cuts = [0usize; MAX_THREADS + 1];
+                    for (cut, &a) in cuts.iter_mut().zip(at) {
+                        *cut = (a - at[0]) as usize;
+                    }
+                    parallel::chunks_mut_cut(pool, wide, &cuts[..n + 1], WIDE_BLOCK, &|t, _, c| {
+                        f(Some(t), c, true)
+                    })
+                }
                 Some(pool) => parallel::chunks_mut(Some(pool), wide, WIDE_BLOCK, &|t, _, c| {
                     f(Some(t), c, true)
                 }),
