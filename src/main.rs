@@ -800,6 +800,11 @@ fn simulate(a: &SimulateArgs) -> Result<(), Failure> {
         out: f as &mut dyn Write,
         every: a.trace_every,
     });
+    // with threads, how dear a hand-off between the cores is just before the run (the
+    // world's workers start at its first step, so none is in the way)
+    let round_trip = (world.threads() > 1)
+        .then(sandbox2d::parallel::core_round_trip_ns)
+        .flatten();
     let result = sim::run(&mut world, a.steps, trace, |k, w| {
         if k % 16 == 0 {
             bar.set_position(k);
@@ -897,13 +902,13 @@ fn simulate(a: &SimulateArgs) -> Result<(), Failure> {
             },
             "steps": summary.steps,
             // threads the steps could use, and whether they did (a small world runs on one)
-            // with threads, also how dear a hand-off between cores was just after the
-            // run (ns a cache line takes there and back): a virtual machine's cores may
-            // share a cache or not, and two threads' figures depend on which
+            // with threads, also the ns a cache line took from one core to another and
+            // back just before the run: a virtual machine's cores may share a cache or
+            // not, and two threads' figures depend on which
             "threads": {
                 "allowed": world.threads(),
                 "parallel_jobs": world.parallel_jobs(),
-                "core_round_trip_ns": (world.threads() > 1).then(sandbox2d::parallel::core_round_trip_ns).flatten(),
+                "core_round_trip_ns": round_trip,
             },
             "bodies": world.bodies.len(),
             "ms_per_step": { "median": median, "mean": mean, "p95": p95 },
