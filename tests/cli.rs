@@ -1398,6 +1398,14 @@ fn threads_give_the_same_bits_and_bad_counts_are_refused() {
         two["threads"]["parallel_jobs"].as_u64().unwrap() > 20,
         "{two}"
     );
+    // the cores' round trip is measured only with threads: null on one, and on two a
+    // time (or null where the other core never answered in time)
+    assert!(one["threads"]["core_round_trip_ns"].is_null(), "{one}");
+    let rt = &two["threads"]["core_round_trip_ns"];
+    assert!(
+        rt.is_null() || rt.as_f64().is_some_and(|ns| ns > 1.0),
+        "{two}"
+    );
     assert_eq!(one["state_hash"], two["state_hash"]);
     for bad in ["0", "65", "x"] {
         let out = sandbox2d()
