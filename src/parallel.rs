@@ -452,8 +452,8 @@ pub fn chunks_mut3<A: Send, B: Send, C: Send>(
     })
 }
 
-/// Sets `dst` to the blocks' items one after another, in block order, each block copied
-/// by whichever thread claims it. `starts` is scratch (each block's first index).
+/// Appends the blocks' items to `dst` one after another, in block order, each block
+/// copied by whichever thread claims it. `starts` is scratch (each block's first index).
 pub(crate) fn concat<T: Copy + Send>(
     pool: Option<&Pool>,
     blocks: &mut [Mutex<Vec<T>>],
@@ -466,9 +466,10 @@ pub(crate) fn concat<T: Copy + Send>(
         starts.push(total);
         total += m.get_mut().unwrap_or_else(|e| e.into_inner()).len();
     }
-    dst.clear();
+    let kept = dst.len();
     dst.reserve(total);
-    let base = SyncPtr(dst.as_mut_ptr());
+    // SAFETY: `kept` items are initialised and the capacity holds `total` more
+    let base = SyncPtr(unsafe { dst.as_mut_ptr().add(kept) });
     let (blocks, starts) = (&*blocks, &*starts);
     let copy = |b: usize| {
         let src = blocks[b].lock().unwrap_or_else(|e| e.into_inner());
@@ -482,8 +483,8 @@ pub(crate) fn concat<T: Copy + Send>(
         Some(p) if p.threads() > 1 => p.blocks(blocks.len(), &|_, b| copy(b)),
         _ => (0..blocks.len()).for_each(copy),
     }
-    // SAFETY: every item of 0..total was written above.
-    unsafe { dst.set_len(total) };
+    // SAFETY: every item of kept..kept + total was written above.
+    unsafe { dst.set_len(kept + total) };
 }
 
 /// A mutable slice that the blocks of one job (see [`ranges_max`]) write, each block
@@ -680,6 +681,24 @@ mod tests {
                 );
             }
             assert_eq!(m, chunks.iter().map(|r| r.len()).max().unwrap() as f32);
+        }
+    }
+
+    #[test]
+    fn concat_appends_the_blocks_in_order_after_what_the_list_holds() {
+        let pool = Pool::new(2);
+        for kept in [0usize, 3] {
+            let mut blocks: Vec<Mutex<Vec<usize>>> = (0..40)
+                .map(|b| Mutex::new((0..b % 5).map(|k| b * 10 + k).collect()))
+                .collect();
+            let mut dst: Vec<usize> = (0..kept).map(|k| 1000 + k).collect();
+            let mut starts = Vec::new();
+            concat(Some(&pool), &mut blocks, &mut starts, &mut dst);
+            let want: Vec<usize> = (0..kept)
+                .map(|k| 1000 + k)
+                .chain((0..40).flat_map(|b| (0..b % 5).map(move |k| b * 10 + k)))
+                .collect();
+            assert_eq!(dst, want);
         }
     }
 

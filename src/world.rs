@@ -1059,26 +1059,37 @@ impl World {
         let pairs = narrow.pairs.len();
         let deepest = match pool.as_deref() {
             Some(pool) if pairs > PAIR_BLOCK => {
-                // each block of pairs goes into its own buffer; the buffers are put back
-                // together in pair order, so the contacts are those of one thread
+                // the caller writes the blocks it takes in order from the first straight
+                // into the contact list (it takes its own share first, in order); every
+                // other block goes into its own buffer, and the buffers are appended in
+                // pair order, so the contacts are those of one thread
                 let blocks = pairs.div_ceil(PAIR_BLOCK);
                 let outs = &mut self.narrow_out.0;
                 if outs.len() < blocks {
                     outs.resize_with(blocks, Default::default);
                 }
                 let outs = &outs[..blocks];
-                let deepest = parallel::ranges_max(Some(pool), pairs, PAIR_BLOCK, &|_, range| {
-                    let mut out = outs[range.start / PAIR_BLOCK]
-                        .lock()
-                        .unwrap_or_else(|e| e.into_inner());
+                // (the list, and the blocks written into it)
+                let direct = Mutex::new((&mut self.contacts, 0usize));
+                let deepest = parallel::ranges_max(Some(pool), pairs, PAIR_BLOCK, &|t, range| {
+                    let b = range.start / PAIR_BLOCK;
+                    if t == 0 {
+                        let mut d = direct.lock().unwrap_or_else(|e| e.into_inner());
+                        if d.1 == b {
+                            d.1 += 1;
+                            return narrow.run(range, d.0);
+                        }
+                    }
+                    let mut out = outs[b].lock().unwrap_or_else(|e| e.into_inner());
                     out.clear();
                     narrow.run(range, &mut out)
                 });
+                let (contacts, written) = direct.into_inner().unwrap_or_else(|e| e.into_inner());
                 parallel::concat(
                     Some(pool),
-                    &mut self.narrow_out.0[..blocks],
+                    &mut self.narrow_out.0[written..blocks],
                     &mut self.narrow_starts,
-                    &mut self.contacts,
+                    contacts,
                 );
                 deepest
             }
