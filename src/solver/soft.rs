@@ -702,8 +702,6 @@ pub struct SoftSolver {
     /// thread, empty ones last): each thread's share of every colour, so that it fills
     /// the constraints it will solve.
     fill_blocks: Vec<(u32, u32)>,
-    /// The wide constraints of the step (the colours' and the overflow group's).
-    wide_len: u32,
     /// Whether the solver moves body i (dynamic).
     moves: Vec<bool>,
     /// (1/m, 1/I) of body i.
@@ -959,7 +957,6 @@ impl SoftSolver {
         // follows the bodies' order: pairs are found and kept sorted) from every colour:
         // what each colour had reached at the contacts' quantiles is where it is cut
         let threads = pool.map_or(1, Pool::threads);
-        self.wide_len = n_wide as u32;
         self.cut_lanes.clear();
         let quantile = |k: usize| contacts.len() * k / threads;
         let mut next_cut = 1;
@@ -981,7 +978,7 @@ impl SoftSolver {
             self.cut_lanes.push(next);
             next_cut += 1;
         }
-        self.cut_colors(threads, &counts);
+        self.cut_colors(threads, &counts, n_wide as u32);
         self.points = points;
         self.find_direct(contacts, lopsided);
         // every wide constraint is written whole below: old contents do not matter
@@ -1046,8 +1043,8 @@ impl SoftSolver {
 
     /// Cuts each colour's wide constraints between `threads` threads where the contacts'
     /// quantiles fell (`cut_lanes`): the lane a colour had reached, rounded up to its
-    /// wide constraint.
-    fn cut_colors(&mut self, threads: usize, counts: &[u32; OVERFLOW + 1]) {
+    /// wide constraint. Then lists the fill's blocks of the `n_wide` wide constraints.
+    fn cut_colors(&mut self, threads: usize, counts: &[u32; OVERFLOW + 1], n_wide: u32) {
         self.color_cuts.clear();
         self.cut_threads = threads;
         if threads < 2 {
@@ -1073,29 +1070,24 @@ impl SoftSolver {
         // the fill's blocks: thread t's share of each colour, a block at a time; the
         // overflow group (one constraint per wide constraint, after the colours) goes to
         // the first thread
-        let n_wide = self.wide_len;
         let done = self.color_ranges.last().map_or(0, |r| r.1);
-        let share_blocks = |t: usize| {
-            let shares = self
-                .color_cuts
-                .chunks(threads + 1)
-                .map(|c| (c[t], c[t + 1]));
-            let extra = (t == 0).then_some((done, n_wide));
-            shares
-                .chain(extra)
-                .map(|(a, b)| (b - a).div_ceil(WIDE_BLOCK as u32) as usize)
-                .sum::<usize>()
+        let cuts = &self.color_cuts;
+        let shares = |t: usize| {
+            let overflow = (t == 0).then_some((done, n_wide));
+            cuts.chunks(threads + 1)
+                .map(move |c| (c[t], c[t + 1]))
+                .chain(overflow)
         };
-        let per = (0..threads).map(share_blocks).max().unwrap_or(0).max(1);
+        let blocks_of = |(a, b): (u32, u32)| (b - a).div_ceil(WIDE_BLOCK as u32) as usize;
+        let per = (0..threads)
+            .map(|t| shares(t).map(blocks_of).sum::<usize>())
+            .max()
+            .unwrap_or(0)
+            .max(1);
         self.fill_blocks.clear();
         for t in 0..threads {
-            let shares = self
-                .color_cuts
-                .chunks(threads + 1)
-                .map(|c| (c[t], c[t + 1]));
-            let extra = (t == 0).then_some((done, n_wide));
             let first = self.fill_blocks.len();
-            for (a, b) in shares.chain(extra) {
+            for (a, b) in shares(t) {
                 let mut at = a;
                 while at < b {
                     let to = (at + WIDE_BLOCK as u32).min(b);
