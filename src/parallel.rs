@@ -358,7 +358,8 @@ pub fn chunks_mut_cut<T: Send>(
             && cuts.windows(2).all(|w| w[0] <= w[1]),
         "chunks_mut_cut needs the pool's threads + 1 ascending cuts from 0 to the length"
     );
-    if n == 1 {
+    if n == 1 || data.len() <= block {
+        // one block's work: not worth a job (as `chunks_mut`)
         return f(0, 0, data);
     }
     // every share gets as many blocks, so the pool's even split of the blocks between

@@ -1015,7 +1015,7 @@ impl SoftSolver {
             if any { 1.0 } else { 0.0 }
         };
         let restitution = match pool {
-            Some(pool) if threads > 1 => {
+            Some(pool) if threads > 1 && n_wide > WIDE_BLOCK => {
                 // each thread fills its share of every colour: the constraints it solves
                 let (wide, cold) = (Disjoint::new(&mut self.wide), Disjoint::new(&mut self.cold));
                 let blocks = &self.fill_blocks;
