@@ -453,15 +453,21 @@ pub fn chunks_mut3<A: Send, B: Send, C: Send>(
     })
 }
 
-/// Appends the blocks' items to `dst` one after another, in block order, each block
-/// copied by whichever thread claims it. `starts` is scratch (each block's first index).
+/// Appends the items of `blocks[skip..]` to `dst` one after another, in block order,
+/// each block copied by whichever thread claims it. `starts` is scratch (each block's
+/// first index).
 pub(crate) fn concat<T: Copy + Send>(
     pool: Option<&Pool>,
     blocks: &mut [Mutex<Vec<T>>],
+    skip: usize,
     starts: &mut Vec<usize>,
     dst: &mut Vec<T>,
 ) {
+    // room for every block, whatever the skip: a later step may skip fewer
     starts.clear();
+    starts.reserve(blocks.len());
+    let skip = skip.min(blocks.len());
+    let blocks = &mut blocks[skip..];
     let mut total = 0usize;
     for m in blocks.iter_mut() {
         starts.push(total);
@@ -686,20 +692,20 @@ mod tests {
     }
 
     #[test]
-    fn concat_appends_the_blocks_in_order_after_what_the_list_holds() {
+    fn concat_appends_the_blocks_past_the_skipped_in_order_after_what_the_list_holds() {
         let pool = Pool::new(2);
-        for kept in [0usize, 3] {
+        for (kept, skip) in [(0usize, 0usize), (3, 0), (3, 2), (0, 25), (1, 40)] {
             let mut blocks: Vec<Mutex<Vec<usize>>> = (0..40)
                 .map(|b| Mutex::new((0..b % 5).map(|k| b * 10 + k).collect()))
                 .collect();
             let mut dst: Vec<usize> = (0..kept).map(|k| 1000 + k).collect();
             let mut starts = Vec::new();
-            concat(Some(&pool), &mut blocks, &mut starts, &mut dst);
+            concat(Some(&pool), &mut blocks, skip, &mut starts, &mut dst);
             let want: Vec<usize> = (0..kept)
                 .map(|k| 1000 + k)
-                .chain((0..40).flat_map(|b| (0..b % 5).map(move |k| b * 10 + k)))
+                .chain((skip..40).flat_map(|b| (0..b % 5).map(move |k| b * 10 + k)))
                 .collect();
-            assert_eq!(dst, want);
+            assert_eq!(dst, want, "kept {kept}, skip {skip}");
         }
     }
 

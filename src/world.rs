@@ -1066,7 +1066,10 @@ impl World {
                 let blocks = pairs.div_ceil(PAIR_BLOCK);
                 let outs = &mut self.narrow_out.0;
                 if outs.len() < blocks {
-                    outs.resize_with(blocks, Default::default);
+                    // room for a contact a pair from the start: a block the caller
+                    // usually writes in place may go through its buffer in any step,
+                    // and a steady step allocates nothing
+                    outs.resize_with(blocks, || Mutex::new(Vec::with_capacity(PAIR_BLOCK)));
                 }
                 let outs = &outs[..blocks];
                 // (the list, and the blocks written into it)
@@ -1087,7 +1090,8 @@ impl World {
                 let (contacts, written) = direct.into_inner().unwrap_or_else(|e| e.into_inner());
                 parallel::concat(
                     Some(pool),
-                    &mut self.narrow_out.0[written..blocks],
+                    &mut self.narrow_out.0[..blocks],
+                    written,
                     &mut self.narrow_starts,
                     contacts,
                 );

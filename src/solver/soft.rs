@@ -1084,7 +1084,12 @@ impl SoftSolver {
             .max()
             .unwrap_or(0)
             .max(1);
+        // room for the most blocks these constraints could make, so that a share grown
+        // by a block in a steady step allocates nothing
         self.fill_blocks.clear();
+        let colors = self.color_ranges.len() + 1;
+        self.fill_blocks
+            .reserve(threads * ((n_wide as usize).div_ceil(WIDE_BLOCK) + colors));
         for t in 0..threads {
             let first = self.fill_blocks.len();
             for (a, b) in shares(t) {
