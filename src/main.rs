@@ -771,6 +771,12 @@ fn simulate(a: &SimulateArgs) -> Result<(), Failure> {
     if a.events.is_some() {
         world.record_events = true;
     }
+    // with threads, how dear a hand-off between the cores is just before the run (the
+    // world's workers start at its first step, so none is in the way; and before any
+    // output file is opened, so none waits on it)
+    let round_trip = (world.threads() > 1)
+        .then(sandbox2d::parallel::core_round_trip_ns)
+        .flatten();
     // from here an interrupt stops the run cleanly (before the trace exists, so that no
     // interrupt can leave its temporary file behind)
     GRACEFUL.store(true, Ordering::Relaxed);
@@ -800,11 +806,6 @@ fn simulate(a: &SimulateArgs) -> Result<(), Failure> {
         out: f as &mut dyn Write,
         every: a.trace_every,
     });
-    // with threads, how dear a hand-off between the cores is just before the run (the
-    // world's workers start at its first step, so none is in the way)
-    let round_trip = (world.threads() > 1)
-        .then(sandbox2d::parallel::core_round_trip_ns)
-        .flatten();
     let result = sim::run(&mut world, a.steps, trace, |k, w| {
         if k % 16 == 0 {
             bar.set_position(k);

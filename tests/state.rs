@@ -282,11 +282,18 @@ fn cli_save_then_load_continues_the_run() {
             "{}",
             String::from_utf8_lossy(&first.stderr)
         );
-        let dir = std::path::Path::new(f).parent().unwrap();
+        // this run's own temporary file (`.name.pid.tmp`): the other tests of this file
+        // write theirs in the same folder at the same time
+        let path = std::path::Path::new(f);
+        let (dir, name) = (path.parent().unwrap(), path.file_name().unwrap());
+        let own = format!(".{}.", name.to_string_lossy());
         let leftovers: Vec<_> = std::fs::read_dir(dir)
             .unwrap()
             .filter_map(|e| e.ok())
-            .filter(|e| e.file_name().to_string_lossy().ends_with(".tmp"))
+            .filter(|e| {
+                let n = e.file_name().to_string_lossy().into_owned();
+                n.starts_with(&own) && n.ends_with(".tmp")
+            })
             .collect();
         assert!(leftovers.is_empty(), "temporary files left: {leftovers:?}");
         let resumed = simulate(&[
