@@ -56,27 +56,35 @@ pub fn core_round_trip_ns() -> Option<f64> {
     if available() < 2 {
         return None;
     }
+    round_trip_within(std::time::Duration::from_millis(100))
+}
+
+/// The probe of [`core_round_trip_ns`], giving up after `limit`.
+fn round_trip_within(limit: std::time::Duration) -> Option<f64> {
     const STOP: u64 = u64::MAX;
     const BATCH: u64 = 500;
     const BATCHES: u64 = 40;
     let line = Slot(AtomicU64::new(0));
     let start = std::time::Instant::now();
-    let limit = std::time::Duration::from_millis(100);
     let mut best: Option<f64> = None;
     std::thread::scope(|s| {
         s.spawn(|| {
-            // answer each odd count with the next even one, until told to stop
+            // answer each odd count with the next even one, until told to stop. The
+            // answer only replaces the count it answers: a plain store could overwrite
+            // a STOP that the caller, tired of waiting, wrote between this thread's read
+            // and its write, and this thread would then wait for ever (and the caller
+            // with it, at the scope's end).
             let mut want = 1u64;
             loop {
-                let v = line.0.load(Ordering::Acquire);
-                if v == STOP {
-                    return;
-                }
-                if v == want {
-                    line.0.store(want + 1, Ordering::Release);
-                    want += 2;
-                } else {
-                    std::hint::spin_loop();
+                match line.0.compare_exchange_weak(
+                    want,
+                    want + 1,
+                    Ordering::AcqRel,
+                    Ordering::Acquire,
+                ) {
+                    Ok(_) => want += 2,
+                    Err(STOP) => return,
+                    Err(_) => std::hint::spin_loop(),
                 }
             }
         });
@@ -727,6 +735,41 @@ mod tests {
         }
         // the probe stops itself (100 ms of rounds at most, then the last one answered)
         assert!(t.elapsed() < std::time::Duration::from_secs(5));
+    }
+
+    #[test]
+    fn a_probe_that_gives_up_mid_round_trip_still_ends() {
+        // Probes of 1 ms, one after another for 2 s, with more busy threads than cores:
+        // the answering thread is descheduled now and then between reading a count and
+        // answering it, the caller gives up waiting meanwhile, and the answerer must
+        // still see the caller's stop (a CI run once hung for ever here; with a plain
+        // store for the answer this test hung 1 run in 5). A watchdog turns a hang into
+        // a failure.
+        let busy = std::sync::Arc::new(AtomicBool::new(true));
+        let hogs: Vec<_> = (0..3)
+            .map(|_| {
+                let busy = busy.clone();
+                std::thread::spawn(move || {
+                    while busy.load(Ordering::Relaxed) {
+                        std::hint::spin_loop();
+                    }
+                })
+            })
+            .collect();
+        let (tx, rx) = std::sync::mpsc::channel();
+        std::thread::spawn(move || {
+            let t = std::time::Instant::now();
+            while t.elapsed() < std::time::Duration::from_secs(2) {
+                let _ = round_trip_within(std::time::Duration::from_millis(1));
+            }
+            tx.send(()).unwrap();
+        });
+        let ended = rx.recv_timeout(std::time::Duration::from_secs(30)).is_ok();
+        busy.store(false, Ordering::Relaxed);
+        for h in hogs {
+            h.join().unwrap();
+        }
+        assert!(ended, "a probe did not end");
     }
 
     #[test]
