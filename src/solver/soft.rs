@@ -39,6 +39,7 @@ use crate::defs::{BodyModel, BodyType, SolverSettings};
 use crate::math::{BODY_AHEAD, Rot, Vec2, cross, cross_sv, prefetch, uf_root, uf_union};
 use crate::parallel::{self, Disjoint, MAX_THREADS, Pool};
 use glam::Vec4;
+use std::sync::atomic::{AtomicU32, Ordering};
 
 mod direct;
 mod lanes;
@@ -216,6 +217,66 @@ fn take_velocity(s: &mut SoftBody, inc: &mut (Vec2, f32), v: Vec2, w: f32) {
 fn is_lopsided(ia: f32, ib: f32) -> bool {
     // max(ia / ib, ib / ia) is the larger over the smaller (division rounds monotonically)
     ia > 0.0 && ib > 0.0 && ia.max(ib) / ia.min(ib) >= direct::MASS_RATIO
+}
+
+/// The least and the largest positive 1/m of the moving bodies in one block of a pass
+/// over the bodies, as f32 bits (positive floats order as their bits).
+#[derive(Clone, Copy)]
+struct MassRange {
+    least: u32,
+    most: u32,
+}
+
+impl Default for MassRange {
+    fn default() -> Self {
+        MassRange {
+            least: u32::MAX,
+            most: 0,
+        }
+    }
+}
+
+impl MassRange {
+    #[inline(always)]
+    fn add(&mut self, moves: bool, inv_mass: f32) {
+        if moves && inv_mass > 0.0 {
+            let bits = inv_mass.to_bits();
+            self.least = self.least.min(bits);
+            self.most = self.most.max(bits);
+        }
+    }
+
+    /// Folds this block's range into the pass's.
+    fn publish(self, to: &SharedMassRange) {
+        if self.least <= self.most {
+            to.0.fetch_min(self.least, Ordering::Relaxed);
+            to.1.fetch_max(self.most, Ordering::Relaxed);
+        }
+    }
+}
+
+/// Whether some contact between moving bodies whose positive 1/m lie in `range` (as
+/// [`SharedMassRange::get`] gives it) may be lopsided: the larger over the smaller of two
+/// such masses is at most the largest over the least (division rounds monotonically).
+fn may_be_lopsided((least, most): (u32, u32)) -> bool {
+    least <= most && f32::from_bits(most) / f32::from_bits(least) >= direct::MASS_RATIO
+}
+
+/// A pass's [`MassRange`], folded from its blocks on any thread.
+struct SharedMassRange(AtomicU32, AtomicU32);
+
+impl SharedMassRange {
+    fn new() -> Self {
+        SharedMassRange(AtomicU32::new(u32::MAX), AtomicU32::new(0))
+    }
+
+    /// (least, most); least > most where no moving body has a positive 1/m.
+    fn get(&self) -> (u32, u32) {
+        (
+            self.0.load(Ordering::Relaxed),
+            self.1.load(Ordering::Relaxed),
+        )
+    }
 }
 
 /// What restitution and the cache need, kept out of the sweeps' way.
@@ -706,6 +767,11 @@ pub struct SoftSolver {
     moves: Vec<bool>,
     /// (1/m, 1/I) of body i.
     pub(crate) inv_mass: Vec<(f32, f32)>,
+    /// The least and the largest positive 1/m of the moving bodies, as the bits of an
+    /// f32 (which order positive floats as the floats): where the largest is less than
+    /// `direct::MASS_RATIO` times the least, no contact can be lopsided, and the
+    /// colouring skips the test.
+    inv_mass_range: (u32, u32),
     /// Velocity change per substep from forces, (dv, dw), when it is the same each substep.
     increments: Vec<(Vec2, f32)>,
     /// The constraints, four to a wide constraint, colour by colour.
@@ -780,6 +846,7 @@ impl SoftSolver {
         let inv_mass = Disjoint::new(&mut self.inv_mass);
         let increments = Disjoint::new(&mut self.increments);
         let all = Disjoint::new(bodies);
+        let shared_range = SharedMassRange::new();
         parallel::ranges_max(pool, nb, BODY_PASS_BLOCK, &|_, r| {
             // SAFETY: each block takes only its own range of each slice
             let (soft, moves, inv_mass, increments, bodies) = unsafe {
@@ -791,6 +858,7 @@ impl SoftSolver {
                     all.range(r),
                 )
             };
+            let mut range = MassRange::default();
             for i in 0..bodies.len() {
                 prefetch(bodies, i + BODY_AHEAD, HOT_BYTES);
                 let b = &mut bodies[i];
@@ -808,9 +876,12 @@ impl SoftSolver {
                 };
                 moves[i] = b.is_dynamic();
                 inv_mass[i] = (b.inv_mass, b.inv_inertia);
+                range.add(moves[i], b.inv_mass);
             }
+            range.publish(&shared_range);
             0.0
         });
+        self.inv_mass_range = shared_range.get();
         self.build(nb, contacts, s, h, pool);
         // then take the new velocities and keep their increments, as take_increments
         // does (a pass over the solver's own small arrays)
@@ -846,6 +917,7 @@ impl SoftSolver {
     /// Loads the bodies' velocities, move flags and masses.
     fn load_bodies(&mut self, bodies: &[Body], pool: Option<&Pool>) {
         let nb = bodies.len();
+        let shared_range = SharedMassRange::new();
         // one pass over the bodies (large: each read is a cache miss on a big scene),
         // split between the threads
         parallel::chunks_mut3(
@@ -856,6 +928,7 @@ impl SoftSolver {
             BODY_PASS_BLOCK,
             &|_, offset, soft, moves, inv_mass| {
                 let bodies = &bodies[offset..];
+                let mut range = MassRange::default();
                 for (i, ((s, m), im)) in soft.iter_mut().zip(moves).zip(inv_mass).enumerate() {
                     prefetch(bodies, i + BODY_AHEAD, HOT_BYTES);
                     let b = &bodies[i];
@@ -866,10 +939,13 @@ impl SoftSolver {
                     };
                     *m = b.is_dynamic();
                     *im = (b.inv_mass, b.inv_inertia);
+                    range.add(*m, b.inv_mass);
                 }
+                range.publish(&shared_range);
                 0.0
             },
         );
+        self.inv_mass_range = shared_range.get();
     }
 
     /// The rest of [`SoftSolver::prepare`], once the bodies are loaded: colours the
@@ -899,11 +975,13 @@ impl SoftSolver {
         // the same pass counts the points and looks for a lopsided contact (see
         // `find_direct`): each pass over the contacts reads them from far in the cache
         let (mut points, mut lopsided) = (0usize, false);
+        // (the moving bodies' masses may be too close for any contact to be lopsided)
+        let may_lopsided = may_be_lopsided(self.inv_mass_range);
         for (c, out) in contacts.iter().zip(self.colors.iter_mut()) {
             let (a, b) = (c.a as usize, c.b as usize);
             let (ma, mb) = (moves[a], moves[b]);
             points += c.manifold.count;
-            if ma && mb {
+            if may_lopsided && ma && mb {
                 lopsided |= is_lopsided(inv_mass[a].0, inv_mass[b].0);
             }
             // a body that does not move takes no colour: its bit stays free
@@ -960,10 +1038,17 @@ impl SoftSolver {
         self.cut_lanes.clear();
         let quantile = |k: usize| contacts.len() * k / threads;
         let mut next_cut = 1;
+        // (the next cut's contact, or none: no division per contact)
+        let mut cut_at = if threads > 1 { quantile(1) } else { usize::MAX };
         for (i, (&color, slot)) in self.colors.iter().zip(self.slot.iter_mut()).enumerate() {
-            while next_cut < threads && i == quantile(next_cut) {
+            while i == cut_at {
                 self.cut_lanes.push(next);
                 next_cut += 1;
+                cut_at = if next_cut < threads {
+                    quantile(next_cut)
+                } else {
+                    usize::MAX
+                };
             }
             let at = next[color as usize];
             next[color as usize] += if color as usize == OVERFLOW || one_lane {
@@ -1976,9 +2061,47 @@ fn solve_group<G: Group, const BIAS: bool, const MAX_IMPULSE: bool, const SHARED
 
 #[cfg(test)]
 mod tests {
-    use super::Softness;
+    use super::{MassRange, SharedMassRange, Softness, is_lopsided, may_be_lopsided};
     use crate::defs::SolverKind;
     use crate::step::testing::{normal_sum, resting_box};
+
+    #[test]
+    fn a_lopsided_pair_is_never_missed_by_the_mass_range() {
+        // blocks of bodies fold their ranges; any pair of them that is lopsided finds
+        // the range saying it may be, and a range of close masses rules every pair out
+        let masses = [0.5f32, 0.051, 0.0501, 5.0, 0.49, 0.0, 7.9, 1e-30, 1e30];
+        let shared = SharedMassRange::new();
+        for block in masses.chunks(2) {
+            let mut r = MassRange::default();
+            for &m in block {
+                r.add(true, m);
+            }
+            r.add(false, 1e6); // a body that does not move does not count
+            r.publish(&shared);
+        }
+        let range = shared.get();
+        assert_eq!(range, (1e-30f32.to_bits(), 1e30f32.to_bits()));
+        for &a in &masses {
+            for &b in &masses {
+                let mut r = MassRange::default();
+                r.add(true, a);
+                r.add(true, b);
+                if is_lopsided(a, b) {
+                    assert!(may_be_lopsided((r.least, r.most)), "{a} {b}");
+                    assert!(may_be_lopsided(range));
+                }
+            }
+        }
+        // masses within a factor 10: no pair is lopsided, and the range says so
+        let mut r = MassRange::default();
+        for m in [0.5f32, 0.051, 0.4999, 0.1] {
+            r.add(true, m);
+        }
+        assert!(!may_be_lopsided((r.least, r.most)));
+        assert!(may_be_lopsided((0.05f32.to_bits(), 0.5f32.to_bits())));
+        let none = MassRange::default();
+        assert!(!may_be_lopsided((none.least, none.most)));
+    }
 
     #[test]
     fn softness_has_the_closed_form_of_an_implicit_spring() {
