@@ -6,8 +6,10 @@
 //! is done, so a job may borrow from the caller's stack. Claiming, not a fixed split,
 //! keeps a busy machine from stalling the step: a worker that the system has not
 //! scheduled yet claims nothing, and the caller does its share. Between jobs the workers
-//! spin for a few microseconds (a step posts a job per colour per sweep, a few hundred a
-//! step), then yield, then sleep until the next job.
+//! spin for a few microseconds (a step posts a few dozen jobs), then yield, then sleep
+//! until the next job. A pass over the soft step's colours is one job of several phases
+//! (`phases_max`): the threads go from colour to colour meeting at counters of their
+//! own, not through a job per colour.
 //!
 //! Results never depend on the thread count: the stages split only work whose items
 //! are independent (pairs in the narrow phase, constraints of one colour that share no
@@ -344,52 +346,154 @@ pub fn blocks_max(pool: &Pool, blocks: usize, f: &(dyn Fn(usize, usize) -> f32 +
         .fold(f32::NEG_INFINITY, f32::max)
 }
 
-/// [`chunks_mut`] with each thread's share set by the caller: thread t first takes the
-/// blocks of `data[cuts[t]..cuts[t + 1]]`, each share cut into the same number of
-/// blocks of about `block` items, and a thread done with its own share goes on to the
-/// others' as in [`chunks_mut`]. `cuts` holds the pool's threads + 1 ascending offsets,
-/// 0 first and `data.len()` last. Which thread runs which items changes nothing but
-/// whose cache they are in: a pass that cuts its data where the last pass did finds its
-/// items in its own core's cache. Returns the largest value any call returned.
-pub fn chunks_mut_cut<T: Send>(
+/// Phases a [`Phases`] has counters for from its first job (a step's colours: a job
+/// with more phases makes room for them then).
+const PHASE_ROOM: usize = 64;
+
+/// The counters of a phased job ([`phases_max`]), kept from job to job so that a step's
+/// jobs allocate nothing. Each counter has a cache line of its own and is tagged with its
+/// job's number, so none is reset between jobs: a thread's counters stay in its core's
+/// cache, and a phase ends without any word going through the pool.
+#[derive(Default)]
+pub(crate) struct Phases {
+    /// Per thread and phase (`thread * room + phase`): (job << 32) | the next block of
+    /// that thread's share of the phase.
+    claim: Vec<Slot>,
+    /// Per thread and phase: (job << 32) | blocks that thread finished in the phase.
+    done: Vec<Slot>,
+    /// Phases each thread has counters for, and for how many threads.
+    room: usize,
+    threads: usize,
+    /// The current job's number (never 0: new counters are tagged 0).
+    job: u32,
+}
+
+impl Clone for Phases {
+    /// A new, empty set: the counters belong to the jobs of one owner.
+    fn clone(&self) -> Self {
+        Phases::default()
+    }
+}
+
+impl std::fmt::Debug for Phases {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Phases")
+            .field("room", &self.room)
+            .field("threads", &self.threads)
+            .finish()
+    }
+}
+
+impl Phases {
+    /// The count in `slot` if it is this job's, else 0.
+    fn count(slot: &Slot, job: u32) -> usize {
+        let v = slot.0.load(Ordering::Acquire);
+        if (v >> 32) as u32 == job {
+            (v & 0xffff_ffff) as usize
+        } else {
+            0
+        }
+    }
+
+    /// Claims the next of `per` blocks of counter `i` for job `job`.
+    fn claim(&self, i: usize, job: u32, per: usize) -> Option<usize> {
+        let slot = &self.claim[i].0;
+        let mut v = slot.load(Ordering::Acquire);
+        loop {
+            let next = if (v >> 32) as u32 == job {
+                (v & 0xffff_ffff) as usize
+            } else {
+                0
+            };
+            if next >= per {
+                return None;
+            }
+            let claimed = ((job as u64) << 32) | (next as u64 + 1);
+            match slot.compare_exchange_weak(v, claimed, Ordering::AcqRel, Ordering::Acquire) {
+                Ok(_) => return Some(next),
+                Err(now) => v = now,
+            }
+        }
+    }
+}
+
+/// Runs `phases` phases one after another in one job of the pool: in phase p, every
+/// thread's share is cut into `per(p)` blocks, and `f(thread, p, share, block)` runs once
+/// for each block of each share, thread t taking the blocks of share t first and then
+/// the others' (so each thread keeps to the same part of the data, phase after phase,
+/// and it stays in its core's cache); a thread goes on to phase p + 1 only once
+/// every block of phase p is done, whoever ran it. One job in place of one a phase: the
+/// threads meet at each phase's end through counters each writes alone, and no phase
+/// waits on a job being posted and found. A thread never waits for a block nobody has
+/// claimed (it claims what is left first), so a worker that comes late, or not at all,
+/// only leaves its share to the others. Returns the largest value any call returned; a
+/// panic in `f` is raised here once every block is done.
+pub(crate) fn phases_max(
     pool: &Pool,
-    data: &mut [T],
-    cuts: &[usize],
-    block: usize,
-    f: &(dyn Fn(usize, usize, &mut [T]) -> f32 + Sync),
+    state: &mut Phases,
+    phases: usize,
+    per: &(dyn Fn(usize) -> usize + Sync),
+    f: &(dyn Fn(usize, usize, usize, usize) -> f32 + Sync),
 ) -> f32 {
     let n = pool.threads();
-    assert!(
-        cuts.len() == n + 1
-            && cuts[0] == 0
-            && cuts[n] == data.len()
-            && cuts.windows(2).all(|w| w[0] <= w[1]),
-        "chunks_mut_cut needs the pool's threads + 1 ascending cuts from 0 to the length"
-    );
-    if n == 1 || data.len() <= block {
-        // one block's work: not worth a job (as `chunks_mut`)
-        return f(0, 0, data);
+    if state.room < phases || state.threads != n {
+        let room = phases.max(state.room).max(PHASE_ROOM);
+        let fresh = |_| Slot(AtomicU64::new(0));
+        state.claim = (0..n * room).map(fresh).collect();
+        state.done = (0..n * room).map(fresh).collect();
+        state.room = room;
+        state.threads = n;
+        state.job = 0;
     }
-    // every share gets as many blocks, so the pool's even split of the blocks between
-    // its threads gives each thread its share
-    let per = cuts
-        .windows(2)
-        .map(|w| (w[1] - w[0]).div_ceil(block.max(1)))
-        .max()
-        .unwrap_or(0)
-        .max(1);
-    let data = Disjoint::new(data);
-    blocks_max(pool, n * per, &|t, b| {
-        let (share, k) = (b / per, b % per);
-        let (start, len) = (cuts[share], cuts[share + 1] - cuts[share]);
-        let r = start + len * k / per..start + len * (k + 1) / per;
-        if r.is_empty() {
-            return f32::NEG_INFINITY;
+    state.job = state.job.wrapping_add(1).max(1);
+    let (job, room, state) = (state.job, state.room, &*state);
+    let panic: Mutex<Option<Box<dyn std::any::Any + Send>>> = Mutex::new(None);
+    let r = blocks_max(pool, n, &|t, _| {
+        let mut r = f32::NEG_INFINITY;
+        for p in 0..phases {
+            let per = per(p);
+            let mut mine = 0;
+            for share in (0..n).map(|k| (t + k) % n) {
+                while let Some(b) = state.claim(share * room + p, job, per) {
+                    // a block that panics still counts as done, so no thread waits on it
+                    match std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
+                        f(t, p, share, b)
+                    })) {
+                        Ok(v) => r = r.max(v),
+                        Err(e) => {
+                            let mut first = panic.lock().unwrap_or_else(|e| e.into_inner());
+                            first.get_or_insert(e);
+                        }
+                    }
+                    mine += 1;
+                }
+            }
+            if mine > 0 {
+                // this thread alone writes its counter (threads run their blocks one
+                // after another, and thread numbers are the pool's)
+                let slot = &state.done[t * room + p];
+                let had = Phases::count(slot, job);
+                slot.0.store(
+                    ((job as u64) << 32) | (had + mine) as u64,
+                    Ordering::Release,
+                );
+            }
+            let all = per * n;
+            let mut tries = 0u32;
+            while (0..n)
+                .map(|k| Phases::count(&state.done[k * room + p], job))
+                .sum::<usize>()
+                != all
+            {
+                backoff(&mut tries);
+            }
         }
-        // SAFETY: the blocks' ranges do not overlap (each share is cut into `per`
-        // ranges that tile it, and the shares tile the data)
-        f(t, r.start, unsafe { data.range(r) })
-    })
+        r
+    });
+    if let Some(e) = panic.into_inner().unwrap_or_else(|e| e.into_inner()) {
+        std::panic::resume_unwind(e);
+    }
+    r
 }
 
 /// Runs `f(thread, offset, chunk)` over `data` cut into chunks of `block` items, as
@@ -668,38 +772,6 @@ mod tests {
     }
 
     #[test]
-    fn cut_chunks_cover_the_slice_once_and_stay_inside_their_share() {
-        let pool = Pool::new(3);
-        for cuts in [
-            [0, 100, 700, 1000],
-            [0, 0, 500, 1000],
-            [0, 1000, 1000, 1000],
-        ] {
-            let mut v = vec![0u32; 1000];
-            let chunks = Mutex::new(Vec::new());
-            let m = chunks_mut_cut(&pool, &mut v, &cuts, 64, &|_, off, c| {
-                for (i, x) in c.iter_mut().enumerate() {
-                    *x += (off + i) as u32 + 1;
-                }
-                chunks.lock().unwrap().push(off..off + c.len());
-                c.len() as f32
-            });
-            // every item once
-            assert!(v.iter().enumerate().all(|(i, &x)| x == i as u32 + 1));
-            let chunks = chunks.into_inner().unwrap();
-            // no chunk crosses a cut, none is empty, and none is longer than a block
-            for r in &chunks {
-                assert!(!r.is_empty() && r.len() <= 64, "{r:?} for {cuts:?}");
-                assert!(
-                    cuts.windows(2).any(|w| w[0] <= r.start && r.end <= w[1]),
-                    "{r:?} crosses a cut of {cuts:?}"
-                );
-            }
-            assert_eq!(m, chunks.iter().map(|r| r.len()).max().unwrap() as f32);
-        }
-    }
-
-    #[test]
     fn concat_appends_the_blocks_past_the_skipped_in_order_after_what_the_list_holds() {
         let pool = Pool::new(2);
         for (kept, skip) in [(0usize, 0usize), (3, 0), (3, 2), (0, 25), (1, 40)] {
@@ -715,14 +787,6 @@ mod tests {
                 .collect();
             assert_eq!(dst, want, "kept {kept}, skip {skip}");
         }
-    }
-
-    #[test]
-    #[should_panic(expected = "ascending cuts")]
-    fn cuts_out_of_order_are_refused() {
-        let pool = Pool::new(2);
-        let mut v = vec![0u8; 10];
-        chunks_mut_cut(&pool, &mut v, &[0, 11, 10], 4, &|_, _, _| 0.0);
     }
 
     #[test]
@@ -770,6 +834,133 @@ mod tests {
             h.join().unwrap();
         }
         assert!(ended, "a probe did not end");
+    }
+
+    /// Runs `job` on another thread and fails if it does not end within 30 s (a hang
+    /// becomes a failure, not a test run that never ends).
+    fn within_30s(job: impl FnOnce() + Send + 'static) {
+        let (tx, rx) = std::sync::mpsc::channel();
+        std::thread::spawn(move || {
+            job();
+            tx.send(()).unwrap();
+        });
+        assert!(
+            rx.recv_timeout(std::time::Duration::from_secs(30)).is_ok(),
+            "the job did not end (or panicked)"
+        );
+    }
+
+    #[test]
+    fn phases_run_every_block_once_and_one_phase_after_another() {
+        within_30s(|| {
+            for threads in [2, 3, 4] {
+                let pool = Pool::new(threads);
+                let mut state = Phases::default();
+                // jobs of a growing then shrinking number of phases on the same counters
+                for (job, phases) in (0..120).map(|j| (j, [3, 17, 40, 5][j % 4])) {
+                    let per = |p: usize| (p + job) % 5 + 1;
+                    let runs: Vec<AtomicUsize> = (0..phases).map(|_| AtomicUsize::new(0)).collect();
+                    let early = AtomicBool::new(false);
+                    let seen: Vec<Vec<AtomicBool>> = (0..phases)
+                        .map(|p| {
+                            (0..threads * per(p))
+                                .map(|_| AtomicBool::new(false))
+                                .collect()
+                        })
+                        .collect();
+                    let twice = AtomicBool::new(false);
+                    let r = phases_max(&pool, &mut state, phases, &per, &|t, p, share, b| {
+                        assert!(t < threads && share < threads && b < per(p));
+                        // every block of the phase before is done already
+                        if p > 0 && runs[p - 1].load(Ordering::SeqCst) != threads * per(p - 1) {
+                            early.store(true, Ordering::SeqCst);
+                        }
+                        if seen[p][share * per(p) + b].swap(true, Ordering::SeqCst) {
+                            twice.store(true, Ordering::SeqCst);
+                        }
+                        runs[p].fetch_add(1, Ordering::SeqCst);
+                        (p * 1000 + share * 10 + b) as f32
+                    });
+                    assert!(
+                        !early.load(Ordering::SeqCst),
+                        "a phase began before the last ended"
+                    );
+                    assert!(!twice.load(Ordering::SeqCst), "a block ran twice");
+                    for (p, n) in runs.iter().enumerate() {
+                        assert_eq!(n.load(Ordering::SeqCst), threads * per(p), "phase {p}");
+                    }
+                    let last = phases - 1;
+                    let most = last * 1000 + (threads - 1) * 10 + per(last) - 1;
+                    assert_eq!(r, most as f32, "the largest value returned");
+                }
+            }
+        });
+    }
+
+    #[test]
+    fn a_panic_in_a_phase_reaches_the_caller_without_a_hang_and_the_pool_goes_on() {
+        within_30s(|| {
+            let pool = Pool::new(2);
+            let mut state = Phases::default();
+            let later = AtomicUsize::new(0);
+            let r = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
+                phases_max(&pool, &mut state, 8, &|_| 4, &|_, p, share, b| {
+                    // the other thread's share fails in phase 3: the phases after it
+                    // still run (the block counts as done), then the panic is raised
+                    assert!(!(p == 3 && share == 1 && b == 2), "block fails");
+                    if p > 3 {
+                        later.fetch_add(1, Ordering::SeqCst);
+                    }
+                    0.0
+                });
+            }));
+            assert!(r.is_err(), "the panic reached the caller");
+            assert_eq!(later.load(Ordering::SeqCst), 4 * 2 * 4);
+            let n = AtomicUsize::new(0);
+            phases_max(&pool, &mut state, 8, &|_| 4, &|_, _, _, _| {
+                n.fetch_add(1, Ordering::SeqCst);
+                0.0
+            });
+            assert_eq!(
+                n.load(Ordering::SeqCst),
+                8 * 2 * 4,
+                "the next job runs whole"
+            );
+        });
+    }
+
+    #[test]
+    fn phases_end_when_the_workers_are_starved_of_cores() {
+        // more busy threads than cores: a worker may be descheduled for a long time, and
+        // the caller must take its share rather than wait for it
+        let busy = std::sync::Arc::new(AtomicBool::new(true));
+        let hogs: Vec<_> = (0..3)
+            .map(|_| {
+                let busy = busy.clone();
+                std::thread::spawn(move || {
+                    while busy.load(Ordering::Relaxed) {
+                        std::hint::spin_loop();
+                    }
+                })
+            })
+            .collect();
+        within_30s(|| {
+            let pool = Pool::new(3);
+            let mut state = Phases::default();
+            let t = std::time::Instant::now();
+            while t.elapsed() < std::time::Duration::from_secs(1) {
+                let n = AtomicUsize::new(0);
+                phases_max(&pool, &mut state, 12, &|p| p % 3 + 1, &|_, _, _, _| {
+                    n.fetch_add(1, Ordering::Relaxed);
+                    0.0
+                });
+                assert_eq!(n.load(Ordering::Relaxed), 3 * (4 * (1 + 2 + 3)));
+            }
+        });
+        busy.store(false, Ordering::Relaxed);
+        for h in hogs {
+            h.join().unwrap();
+        }
     }
 
     #[test]

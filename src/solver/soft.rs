@@ -757,6 +757,8 @@ pub struct SoftSolver {
     /// about the same bodies colour after colour.
     color_cuts: Vec<u32>,
     cut_threads: usize,
+    /// The counters of the jobs that run the colours one after another (`for_colors`).
+    phases: parallel::Phases,
     /// Per inner cut, the lane each colour had reached there (scratch of `build`).
     cut_lanes: Vec<[u32; OVERFLOW + 1]>,
     /// The blocks of wide constraints the build fills, thread by thread (as many per
@@ -1421,30 +1423,58 @@ impl SoftSolver {
     /// bodies, so one by one). Returns the largest value `f` returned.
     fn for_colors(&mut self, pool: Option<&Pool>, f: &ColorKernel<'_>) -> f32 {
         let pool = pool.filter(|p| p.threads() > 1);
-        let mut r = f32::NEG_INFINITY;
-        let mut done = 0usize;
-        for (color, &(start, end)) in self.color_ranges.iter().enumerate() {
-            let (start, end) = (start as usize, end as usize);
-            let wide = &mut self.wide[start..end];
-            r = r.max(match pool {
-                Some(pool) if pool.threads() == self.cut_threads => {
-                    let n = self.cut_threads;
-                    let at = &self.color_cuts[color * (n + 1)..][..n + 1];
-                    let mut cuts = [0usize; MAX_THREADS + 1];
-                    for (cut, &a) in cuts.iter_mut().zip(at) {
-                        *cut = (a - at[0]) as usize;
-                    }
-                    parallel::chunks_mut_cut(pool, wide, &cuts[..n + 1], WIDE_BLOCK, &|t, _, c| {
-                        f(Some(t), c, true)
-                    })
+        let done = self.color_ranges.last().map_or(0, |r| r.1 as usize);
+        let r = match pool {
+            // the colours one after another in one job, each thread solving its share
+            // of each colour first
+            Some(pool) if pool.threads() == self.cut_threads => {
+                let n = self.cut_threads;
+                let cuts = &self.color_cuts;
+                let share = |p: usize, j: usize| {
+                    let c = &cuts[p * (n + 1) + j..][..2];
+                    (c[0] as usize, (c[1] - c[0]) as usize)
+                };
+                let per = |p: usize| {
+                    (0..n)
+                        .map(|j| share(p, j).1.div_ceil(WIDE_BLOCK))
+                        .max()
+                        .unwrap_or(0)
+                        .max(1)
+                };
+                let wide = Disjoint::new(&mut self.wide[..done]);
+                parallel::phases_max(
+                    pool,
+                    &mut self.phases,
+                    self.color_ranges.len(),
+                    &per,
+                    &|t, p, j, k| {
+                        let ((start, len), per) = (share(p, j), per(p));
+                        let r = start + len * k / per..start + len * (k + 1) / per;
+                        if r.is_empty() {
+                            return f32::NEG_INFINITY;
+                        }
+                        // SAFETY: the blocks of one phase tile its colour's shares, which
+                        // tile the colour, and the phases run one after another
+                        f(Some(t), unsafe { wide.range(r) }, true)
+                    },
+                )
+            }
+            _ => {
+                let mut r = f32::NEG_INFINITY;
+                for &(start, end) in &self.color_ranges {
+                    let wide = &mut self.wide[start as usize..end as usize];
+                    r = r.max(match pool {
+                        Some(pool) => {
+                            parallel::chunks_mut(Some(pool), wide, WIDE_BLOCK, &|t, _, c| {
+                                f(Some(t), c, true)
+                            })
+                        }
+                        None => f(None, wide, true),
+                    });
                 }
-                Some(pool) => parallel::chunks_mut(Some(pool), wide, WIDE_BLOCK, &|t, _, c| {
-                    f(Some(t), c, true)
-                }),
-                None => f(None, wide, true),
-            });
-            done = end;
-        }
+                r
+            }
+        };
         r.max(f(None, &mut self.wide[done..], false))
     }
 
