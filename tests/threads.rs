@@ -157,6 +157,82 @@ fn a_soft_solve_split_between_threads_gives_the_same_bits() {
 }
 
 #[test]
+fn all_substeps_in_one_job_give_the_bits_of_the_substeps_one_by_one() {
+    let mut w = world(SolverKind::Soft, 1);
+    for _ in 0..30 {
+        w.step().unwrap();
+    }
+    let (s, substeps) = (w.settings, w.settings.substeps as usize);
+    let h = s.dt / substeps as f32;
+    let pool = Pool::new(2);
+    let bits = |solver: &SoftSolver, r: f32| {
+        let mut lam = Vec::new();
+        solver.lambdas(&mut lam);
+        solver.bodies[..w.bodies.len()]
+            .iter()
+            .flat_map(|b| [b.v.x, b.v.y, b.w, b.dp.x, b.dp.y, b.dtheta])
+            .chain(lam)
+            .chain([r])
+            .map(f32::to_bits)
+            .collect::<Vec<u32>>()
+    };
+    // one thread, substep after substep, as the step does without a pool
+    let mut one = SoftSolver::default();
+    one.prepare(&w.bodies, w.contacts(), &s, h, None);
+    one.take_increments(&w.bodies, None);
+    assert!(!one.can_run_substeps_in_one_job(None));
+    let mut r = 0.0;
+    for i in 0..substeps {
+        if i > 0 {
+            one.apply_increments(None);
+        }
+        one.warm_start(None);
+        for _ in 0..s.iterations {
+            one.sweep::<true>(None);
+        }
+        one.integrate_positions(h, None);
+        r = one.sweep::<false>(None);
+    }
+    // two threads, every substep in one job
+    let mut two = SoftSolver::default();
+    two.prepare(&w.bodies, w.contacts(), &s, h, Some(&pool));
+    two.take_increments(&w.bodies, Some(&pool));
+    assert!(two.can_run_substeps_in_one_job(Some(&pool)));
+    let jobs = pool.jobs();
+    let r2 = two.substeps_in_one_job(substeps, &s, h, &pool);
+    assert_eq!(pool.jobs(), jobs + 1, "one job for every substep");
+    assert!(r > 0.0, "the contacts did some work");
+    assert_eq!(bits(&one, r), bits(&two, r2));
+}
+
+#[test]
+fn a_step_of_contacts_alone_is_bit_identical_whatever_the_thread_count() {
+    // no joints: the soft step runs its substeps in one job of the pool
+    let text = "name = \"pile\"\n[world]\ngravity = [0.0, -10.0]\n\
+                [[body]]\nname = \"ground\"\ntype = \"static\"\nshape = { box = [200.0, 2.0] }\nposition = [0.0, -1.0]\n\
+                [[pyramid]]\nbase = 29\n\
+                [[grid]]\nrows = 1\ncolumns = 20\nspacing = [1.5, 1.0]\norigin = [-14.0, 34.0]\nshape = { circle = 0.4 }\n";
+    let run = |threads| {
+        let sc = load_str(text, "pile.toml").unwrap();
+        let mut w = World::from_def(&sc.world, SolverSettings::soft()).unwrap();
+        w.set_threads(threads);
+        let hashes: Vec<u64> = (0..60)
+            .map(|_| {
+                w.step().unwrap();
+                w.state_hash()
+            })
+            .collect();
+        (hashes, w.parallel_jobs())
+    };
+    let (one, _) = run(1);
+    for threads in [2, 3] {
+        let (many, jobs) = run(threads);
+        assert!(jobs >= 60, "{threads} threads: {jobs} jobs");
+        assert_eq!(one, many, "{threads} threads");
+    }
+}
+
+#[test]
 fn threads_are_clamped_and_default_to_one() {
     let mut w = world(SolverKind::Soft, 1);
     assert_eq!(World::new(None, SolverSettings::soft()).threads(), 1);

@@ -340,6 +340,17 @@ impl BodyPtr {
         unsafe { self.p.add(i as usize) }
     }
 
+    /// Bodies `r`, to write.
+    ///
+    /// # Safety
+    /// In bounds, and no other thread touches them while the slice is in use.
+    #[allow(clippy::mut_from_ref)]
+    unsafe fn range<'a>(self, r: std::ops::Range<usize>) -> &'a mut [SoftBody] {
+        assert!(r.start <= r.end && r.end <= self.len, "bodies past the end");
+        // SAFETY: in bounds (checked); the caller keeps the threads apart.
+        unsafe { std::slice::from_raw_parts_mut(self.p.add(r.start), r.len()) }
+    }
+
     /// Body i, to write: with `SHARED` (threads of a job write at once) the sink goes to
     /// this thread's own; alone, to the shared sink.
     #[inline(always)]
@@ -757,8 +768,11 @@ pub struct SoftSolver {
     /// about the same bodies colour after colour.
     color_cuts: Vec<u32>,
     cut_threads: usize,
-    /// The counters of the jobs that run the colours one after another (`for_colors`).
+    /// The counters of the jobs that run the colours one after another (`for_colors`,
+    /// `substeps_in_one_job`).
     phases: parallel::Phases,
+    /// The phases of `substeps_in_one_job`, in order: what each does (scratch).
+    fused: Vec<(Pass, u8)>,
     /// Per inner cut, the lane each colour had reached there (scratch of `build`).
     cut_lanes: Vec<[u32; OVERFLOW + 1]>,
     /// The blocks of wide constraints the build fills, thread by thread (as many per
@@ -1308,10 +1322,7 @@ impl SoftSolver {
             &mut self.bodies[..n],
             BODY_BLOCK,
             &|_, offset, soft| {
-                for (s, &(dv, dw)) in soft.iter_mut().zip(&increments[offset..]) {
-                    s.v += dv;
-                    s.w += dw;
-                }
+                add_increments(soft, &increments[offset..]);
                 0.0
             },
         );
@@ -1482,18 +1493,7 @@ impl SoftSolver {
     /// q += h w q_perp (normalised).
     pub fn integrate_positions(&mut self, h: f32, pool: Option<&Pool>) {
         parallel::chunks_mut(pool, &mut self.bodies, BODY_BLOCK, &|_, _, bodies| {
-            for s in bodies {
-                s.dp += h * s.v;
-                s.dtheta += h * s.w;
-                // q' = q + h w (-s, c), then |q'| = 1
-                let hw = h * s.w;
-                let (c, sn) = (s.dq.c - hw * s.dq.s, s.dq.s + hw * s.dq.c);
-                let inv = 1.0 / (c * c + sn * sn).sqrt();
-                s.dq = Rot {
-                    c: c * inv,
-                    s: sn * inv,
-                };
-            }
+            integrate_range(bodies, h);
             0.0
         });
     }
@@ -1563,6 +1563,121 @@ impl SoftSolver {
         self.integrate_positions(h, pool);
         stats.residual = self.sweep::<false>(pool);
         stats.iterations += 1;
+    }
+
+    /// Whether [`SoftSolver::substeps_in_one_job`] can run this step's substeps: with a
+    /// pool of threads the colours were cut for, and every constraint in a colour (no
+    /// overflow group, no lopsided contact solved apart).
+    pub fn can_run_substeps_in_one_job(&self, pool: Option<&Pool>) -> bool {
+        let colored = self.color_ranges.last().map_or(0, |r| r.1 as usize);
+        pool.is_some_and(|p| p.threads() > 1 && p.threads() == self.cut_threads)
+            && colored == self.wide.len()
+            && colored > 0
+            && self.direct.is_empty()
+    }
+
+    /// `substeps` substeps of the contacts alone (no joints), each but the first
+    /// beginning with the force increments: warm start, `iterations` soft sweeps,
+    /// positions, one relax sweep, as [`SoftSolver::substep`] does, but all in one job
+    /// of the pool whose phases are each pass's colours (and the passes over the
+    /// bodies): the threads meet at each phase's end and no job is posted between them.
+    /// The same bits as the substeps one by one. Returns the last relax sweep's
+    /// residual. Call only when [`SoftSolver::can_run_substeps_in_one_job`] says so.
+    pub fn substeps_in_one_job(
+        &mut self,
+        substeps: usize,
+        s: &SolverSettings,
+        h: f32,
+        pool: &Pool,
+    ) -> f32 {
+        assert!(self.can_run_substeps_in_one_job(Some(pool)), "cannot fuse");
+        let colors = self.color_ranges.len();
+        self.fused.clear();
+        for i in 0..substeps {
+            if i > 0 {
+                self.fused.push((Pass::Increments, 0));
+            }
+            let passes = [
+                (Pass::WarmStart, usize::from(s.warm_start)),
+                (Pass::Sweep, s.iterations as usize),
+            ];
+            for (pass, times) in passes {
+                for _ in 0..times {
+                    self.fused.extend((0..colors).map(|c| (pass, c as u8)));
+                }
+            }
+            self.fused.push((Pass::Integrate, 0));
+            self.fused
+                .extend((0..colors).map(|c| (Pass::Relax, c as u8)));
+        }
+        // the last relax sweep's colours
+        let last_relax = self.fused.len() - colors;
+        let k = SweepConsts {
+            inv_h: self.inv_h,
+            slop: self.slop,
+            max_push: self.max_push,
+            max_impulse: self.restitution,
+            avx2: use_avx2(),
+        };
+        let n = self.cut_threads;
+        let nb = self.bodies.len();
+        let (cuts, fused, increments) = (&self.color_cuts, &self.fused, &self.increments);
+        let bodies = BodyPtr::new(&mut self.bodies, self.sink);
+        let wide = Disjoint::new(&mut self.wide);
+        // each thread's share of a colour, or of the bodies a pass goes over
+        let share = |p: usize, j: usize| -> (usize, usize) {
+            let (pass, c) = fused[p];
+            let len = match pass {
+                Pass::Increments => increments.len(),
+                Pass::Integrate => nb,
+                _ => {
+                    let c = &cuts[c as usize * (n + 1) + j..][..2];
+                    return (c[0] as usize, (c[1] - c[0]) as usize);
+                }
+            };
+            (len * j / n, len * (j + 1) / n - len * j / n)
+        };
+        let block = |p: usize| match fused[p].0 {
+            Pass::Increments | Pass::Integrate => BODY_BLOCK,
+            _ => WIDE_BLOCK,
+        };
+        let per = |p: usize| {
+            (0..n)
+                .map(|j| share(p, j).1.div_ceil(block(p)))
+                .max()
+                .unwrap_or(0)
+                .max(1)
+        };
+        let (avx2, pairs) = (k.avx2, true);
+        parallel::phases_max(pool, &mut self.phases, fused.len(), &per, &|t, p, j, b| {
+            let ((start, len), per) = (share(p, j), per(p));
+            let r = start + len * b / per..start + len * (b + 1) / per;
+            if r.is_empty() {
+                return f32::NEG_INFINITY;
+            }
+            let mine = bodies.for_thread(t);
+            // SAFETY (each arm): the blocks of a phase tile the shares of its colour or
+            // of the bodies, which tile them, and the phases run one after another
+            match fused[p].0 {
+                Pass::Increments => {
+                    add_increments(unsafe { bodies.range(r.clone()) }, &increments[r]);
+                }
+                Pass::Integrate => integrate_range(unsafe { bodies.range(r) }, h),
+                Pass::WarmStart => {
+                    warm_start_range::<true>(unsafe { wide.range(r) }, mine, avx2, pairs);
+                }
+                Pass::Sweep => {
+                    sweep_range::<true, true>(unsafe { wide.range(r) }, mine, &k, pairs);
+                }
+                Pass::Relax => {
+                    let d = sweep_range::<false, true>(unsafe { wide.range(r) }, mine, &k, pairs);
+                    if p >= last_relax {
+                        return d;
+                    }
+                }
+            }
+            f32::NEG_INFINITY
+        })
     }
 
     /// Writes the lambdas back into the contacts, for next step's warm start.
@@ -1891,6 +2006,43 @@ impl<L: Lanes> Consts<L> {
 
 /// Warm start of the constraints `wide`; `pairs`: they are of one colour, so the AVX2
 /// build may take them two at a time.
+/// Adds each body's force increment for one substep: v += dv, w += dw.
+fn add_increments(bodies: &mut [SoftBody], increments: &[(Vec2, f32)]) {
+    for (s, &(dv, dw)) in bodies.iter_mut().zip(increments) {
+        s.v += dv;
+        s.w += dw;
+    }
+}
+
+/// Moves each body by its velocity for one substep of `h`.
+fn integrate_range(bodies: &mut [SoftBody], h: f32) {
+    for s in bodies {
+        s.dp += h * s.v;
+        s.dtheta += h * s.w;
+        // q' = q + h w (-s, c), then |q'| = 1
+        let hw = h * s.w;
+        let (c, sn) = (s.dq.c - hw * s.dq.s, s.dq.s + hw * s.dq.c);
+        let inv = 1.0 / (c * c + sn * sn).sqrt();
+        s.dq = Rot {
+            c: c * inv,
+            s: sn * inv,
+        };
+    }
+}
+
+/// What a phase of [`SoftSolver::substeps_in_one_job`] does.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Pass {
+    /// The substep's force increments (every substep after the first).
+    Increments,
+    /// One colour's warm start, soft sweep or relax sweep.
+    WarmStart,
+    Sweep,
+    Relax,
+    /// Positions.
+    Integrate,
+}
+
 fn warm_start_range<const SHARED: bool>(
     wide: &mut [WideConstraint],
     bodies: BodyPtr,

@@ -3,7 +3,10 @@
 //! biased sweeps (joints, then contacts: soft rows that pull errors out), integrate
 //! positions, one relax sweep (rigid rows, no bias). After the last substep:
 //! restitution, and the bodies take their new velocities and positions. See
-//! `solver::soft` (contacts) and `solver::soft_joints` (joints).
+//! `solver::soft` (contacts) and `solver::soft_joints` (joints). With threads, no joints
+//! and the same force increment each substep, the substeps run as one job of the pool
+//! (`SoftSolver::substeps_in_one_job`; the stage clock then counts the later substeps'
+//! increments as solver time).
 
 use super::{Stage, StageClock, StepContext, Stepper};
 use crate::defs::SolverKind;
@@ -52,7 +55,22 @@ impl Stepper for SoftStepper {
         }
         clock.lap(Stage::Solve);
         let (mut iterations, mut residual) = (0u32, 0.0f32);
-        for i in 0..n {
+        // with threads, and only contacts, every substep in one job of the pool
+        let in_one_job = uniform && !joints && self.soft.can_run_substeps_in_one_job(pool);
+        if let (true, Some(pool)) = (in_one_job, pool) {
+            if !fused {
+                world.integrate_velocities(h);
+                self.soft.take_increments(&world.bodies, Some(pool));
+            }
+            clock.lap(Stage::Forces);
+            residual = self
+                .soft
+                .substeps_in_one_job(n as usize, &s, h, pool)
+                .max(0.0);
+            iterations = n * (s.iterations + 1);
+            clock.lap(Stage::Solve);
+        }
+        for i in 0..if in_one_job { 0 } else { n } {
             if !uniform || (i == 0 && !fused) {
                 world.integrate_velocities(h);
             }
