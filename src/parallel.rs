@@ -350,6 +350,10 @@ pub fn blocks_max(pool: &Pool, blocks: usize, f: &(dyn Fn(usize, usize) -> f32 +
 /// with more phases makes room for them then).
 const PHASE_ROOM: usize = 64;
 
+/// Spins a thread waits at a phase's end before it takes the blocks others have not
+/// claimed yet (and again after as many more).
+const STEAL_AFTER: u32 = 16;
+
 /// The counters of a phased job ([`phases_max`]), kept from job to job so that a step's
 /// jobs allocate nothing. Each counter has a cache line of its own and is tagged with its
 /// job's number, so none is reset between jobs: a thread's counters stay in its core's
@@ -419,14 +423,15 @@ impl Phases {
 
 /// Runs `phases` phases one after another in one job of the pool: in phase p, every
 /// thread's share is cut into `per(p)` blocks, and `f(thread, p, share, block)` runs once
-/// for each block of each share, thread t taking the blocks of share t first and then
-/// the others' (so each thread keeps to the same part of the data, phase after phase,
-/// and it stays in its core's cache); a thread goes on to phase p + 1 only once
+/// for each block of each share, thread t taking the blocks of share t first and then,
+/// if they are slow to come, what is left of the others' (so each thread keeps to the
+/// same part of the data, phase after phase, and it stays in its core's cache); a
+/// thread goes on to phase p + 1 only once
 /// every block of phase p is done, whoever ran it. One job in place of one a phase: the
 /// threads meet at each phase's end through counters each writes alone, and no phase
-/// waits on a job being posted and found. A thread never waits for a block nobody has
-/// claimed (it claims what is left first), so a worker that comes late, or not at all,
-/// only leaves its share to the others. Returns the largest value any call returned; a
+/// waits on a job being posted and found. A thread waiting at a phase's end claims what
+/// is left every few spins, so it never waits long for a block nobody has claimed: a
+/// worker that comes late, or not at all, only leaves its share to the others. Returns the largest value any call returned; a
 /// panic in `f` is raised here once every block is done.
 pub(crate) fn phases_max(
     pool: &Pool,
@@ -450,34 +455,39 @@ pub(crate) fn phases_max(
     let panic: Mutex<Option<Box<dyn std::any::Any + Send>>> = Mutex::new(None);
     let r = blocks_max(pool, n, &|t, _| {
         let mut r = f32::NEG_INFINITY;
+        // runs the blocks of `share` in phase p that nobody has claimed yet; how many
+        let run = |p: usize, per: usize, share: usize, r: &mut f32| {
+            let mut ran = 0;
+            while let Some(b) = state.claim(share * room + p, job, per) {
+                // a block that panics still counts as done, so no thread waits on it
+                match std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| f(t, p, share, b))) {
+                    Ok(v) => *r = r.max(v),
+                    Err(e) => {
+                        let mut first = panic.lock().unwrap_or_else(|e| e.into_inner());
+                        first.get_or_insert(e);
+                    }
+                }
+                ran += 1;
+            }
+            ran
+        };
+        // this thread alone writes its counters (threads run their blocks one after
+        // another, and thread numbers are the pool's)
+        let publish = |p: usize, ran: usize| {
+            let slot = &state.done[t * room + p];
+            let had = Phases::count(slot, job);
+            slot.0
+                .store(((job as u64) << 32) | (had + ran) as u64, Ordering::Release);
+        };
         for p in 0..phases {
             let per = per(p);
-            let mut mine = 0;
-            for share in (0..n).map(|k| (t + k) % n) {
-                while let Some(b) = state.claim(share * room + p, job, per) {
-                    // a block that panics still counts as done, so no thread waits on it
-                    match std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
-                        f(t, p, share, b)
-                    })) {
-                        Ok(v) => r = r.max(v),
-                        Err(e) => {
-                            let mut first = panic.lock().unwrap_or_else(|e| e.into_inner());
-                            first.get_or_insert(e);
-                        }
-                    }
-                    mine += 1;
-                }
-            }
+            let mine = run(p, per, t, &mut r);
             if mine > 0 {
-                // this thread alone writes its counter (threads run their blocks one
-                // after another, and thread numbers are the pool's)
-                let slot = &state.done[t * room + p];
-                let had = Phases::count(slot, job);
-                slot.0.store(
-                    ((job as u64) << 32) | (had + mine) as u64,
-                    Ordering::Release,
-                );
+                publish(p, mine);
             }
+            // then wait for the others' shares, and take what is left of them once
+            // they seem slow to come (a look at another thread's counter takes its line
+            // from that thread's cache: not done while they are likely at work)
             let all = per * n;
             let mut tries = 0u32;
             while (0..n)
@@ -485,6 +495,12 @@ pub(crate) fn phases_max(
                 .sum::<usize>()
                 != all
             {
+                if tries >= STEAL_AFTER && tries.is_multiple_of(STEAL_AFTER) {
+                    let ran: usize = (1..n).map(|k| run(p, per, (t + k) % n, &mut r)).sum();
+                    if ran > 0 {
+                        publish(p, ran);
+                    }
+                }
                 backoff(&mut tries);
             }
         }
