@@ -441,7 +441,8 @@ pub(crate) fn phases_max(
     f: &(dyn Fn(usize, usize, usize, usize) -> f32 + Sync),
 ) -> f32 {
     let n = pool.threads();
-    if state.room < phases || state.threads != n {
+    // (new counters too once the job numbers run out: an old tag must never match)
+    if state.room < phases || state.threads != n || state.job == u32::MAX {
         let room = phases.max(state.room).max(PHASE_ROOM);
         let fresh = |_| Slot(AtomicU64::new(0));
         state.claim = (0..n * room).map(fresh).collect();
@@ -450,7 +451,7 @@ pub(crate) fn phases_max(
         state.threads = n;
         state.job = 0;
     }
-    state.job = state.job.wrapping_add(1).max(1);
+    state.job += 1;
     let (job, room, state) = (state.job, state.room, &*state);
     let panic: Mutex<Option<Box<dyn std::any::Any + Send>>> = Mutex::new(None);
     let r = blocks_max(pool, n, &|t, _| {
@@ -910,6 +911,29 @@ mod tests {
                     assert_eq!(r, most as f32, "the largest value returned");
                 }
             }
+        });
+    }
+
+    #[test]
+    fn phases_run_whole_when_the_job_numbers_run_out() {
+        within_30s(|| {
+            let pool = Pool::new(2);
+            let mut state = Phases::default();
+            let count = |state: &mut Phases| {
+                let n = AtomicUsize::new(0);
+                phases_max(&pool, state, 6, &|p| p + 1, &|_, _, _, _| {
+                    n.fetch_add(1, Ordering::SeqCst);
+                    0.0
+                });
+                n.load(Ordering::SeqCst)
+            };
+            assert_eq!(count(&mut state), 2 * 21);
+            // the counters hold tags of jobs 1..; the numbers wrap round to them
+            state.job = u32::MAX - 2;
+            for _ in 0..5 {
+                assert_eq!(count(&mut state), 2 * 21);
+            }
+            assert!(state.job < 10, "the numbers began again");
         });
     }
 
