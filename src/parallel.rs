@@ -175,7 +175,7 @@ impl Shared {
 }
 
 /// The i-th of `t` near-equal contiguous ranges of 0..len.
-fn split(len: usize, t: usize, i: usize) -> Range<usize> {
+pub(crate) fn split(len: usize, t: usize, i: usize) -> Range<usize> {
     (len * i / t)..(len * (i + 1) / t)
 }
 
@@ -421,24 +421,26 @@ impl Phases {
     }
 }
 
-/// Runs `phases` phases one after another in one job of the pool: in phase p, every
-/// thread's share is cut into `per(p)` blocks, and `f(thread, p, share, block)` runs once
-/// for each block of each share, thread t taking the blocks of share t first and then,
-/// if they are slow to come, what is left of the others' (so each thread keeps to the
-/// same part of the data, phase after phase, and it stays in its core's cache); a
-/// thread goes on to phase p + 1 only once
-/// every block of phase p is done, whoever ran it. One job in place of one a phase: the
-/// threads meet at each phase's end through counters each writes alone, and no phase
+/// Runs `phases` phases one after another in one job of the pool. Phase p covers, for
+/// each thread j, the items `share(p, j)`, every share cut into as many blocks of about
+/// `block(p)` items; `f(thread, p, items)` runs once for each block that is not empty,
+/// thread t taking the blocks of share t first and then, if they are slow to come, what
+/// is left of the others' (so each thread keeps to the same part of the data, phase
+/// after phase, and it stays in its core's cache). A thread goes on to phase p + 1 only
+/// once every block of phase p is done, whoever ran it. One job in place of one a phase:
+/// the threads meet at each phase's end through counters each writes alone, and no phase
 /// waits on a job being posted and found. A thread waiting at a phase's end claims what
 /// is left every few spins, so it never waits long for a block nobody has claimed: a
-/// worker that comes late, or not at all, only leaves its share to the others. Returns the largest value any call returned; a
-/// panic in `f` is raised here once every block is done.
+/// worker that comes late, or not at all, only leaves its share to the others. Returns
+/// the largest value any call returned; a panic in `f` is raised here once every block
+/// is done.
 pub(crate) fn phases_max(
     pool: &Pool,
     state: &mut Phases,
     phases: usize,
-    per: &(dyn Fn(usize) -> usize + Sync),
-    f: &(dyn Fn(usize, usize, usize, usize) -> f32 + Sync),
+    share: &(dyn Fn(usize, usize) -> Range<usize> + Sync),
+    block: &(dyn Fn(usize) -> usize + Sync),
+    f: &(dyn Fn(usize, usize, Range<usize>) -> f32 + Sync),
 ) -> f32 {
     let n = pool.threads();
     // (new counters too once the job numbers run out: an old tag must never match)
@@ -454,18 +456,33 @@ pub(crate) fn phases_max(
     state.job += 1;
     let (job, room, state) = (state.job, state.room, &*state);
     let panic: Mutex<Option<Box<dyn std::any::Any + Send>>> = Mutex::new(None);
+    // blocks a share of phase p is cut into: as many for every share
+    let per = |p: usize| {
+        let block = block(p).max(1);
+        (0..n)
+            .map(|j| share(p, j).len().div_ceil(block))
+            .max()
+            .unwrap_or(0)
+            .max(1)
+    };
     let r = blocks_max(pool, n, &|t, _| {
         let mut r = f32::NEG_INFINITY;
-        // runs the blocks of `share` in phase p that nobody has claimed yet; how many
-        let run = |p: usize, per: usize, share: usize, r: &mut f32| {
+        // runs the blocks of share j in phase p that nobody has claimed yet; how many
+        let run = |p: usize, per: usize, j: usize, r: &mut f32| {
             let mut ran = 0;
-            while let Some(b) = state.claim(share * room + p, job, per) {
-                // a block that panics still counts as done, so no thread waits on it
-                match std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| f(t, p, share, b))) {
-                    Ok(v) => *r = r.max(v),
-                    Err(e) => {
-                        let mut first = panic.lock().unwrap_or_else(|e| e.into_inner());
-                        first.get_or_insert(e);
+            while let Some(b) = state.claim(j * room + p, job, per) {
+                let items = share(p, j);
+                let len = items.len();
+                let items = items.start + len * b / per..items.start + len * (b + 1) / per;
+                if !items.is_empty() {
+                    // a block that panics still counts as done, so no thread waits on it
+                    match std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| f(t, p, items)))
+                    {
+                        Ok(v) => *r = r.max(v),
+                        Err(e) => {
+                            let mut first = panic.lock().unwrap_or_else(|e| e.into_inner());
+                            first.get_or_insert(e);
+                        }
                     }
                 }
                 ran += 1;
@@ -867,51 +884,94 @@ mod tests {
         );
     }
 
+    /// Phase p's shares for `threads` threads over `len(p)` items: near-equal, but with
+    /// the first share empty in every third phase.
+    fn test_share(len: usize, threads: usize, p: usize, j: usize) -> Range<usize> {
+        let at = |j: usize| {
+            if p.is_multiple_of(3) && j == 1 {
+                0
+            } else {
+                len * j / threads
+            }
+        };
+        at(j)..at(j + 1)
+    }
+
     #[test]
-    fn phases_run_every_block_once_and_one_phase_after_another() {
+    fn phases_run_every_item_once_and_one_phase_after_another() {
         within_30s(|| {
             for threads in [2, 3, 4] {
                 let pool = Pool::new(threads);
                 let mut state = Phases::default();
                 // jobs of a growing then shrinking number of phases on the same counters
                 for (job, phases) in (0..120).map(|j| (j, [3, 17, 40, 5][j % 4])) {
-                    let per = |p: usize| (p + job) % 5 + 1;
+                    let len = |p: usize| ((p + job) % 5) * 40 + 3;
                     let runs: Vec<AtomicUsize> = (0..phases).map(|_| AtomicUsize::new(0)).collect();
                     let early = AtomicBool::new(false);
                     let seen: Vec<Vec<AtomicBool>> = (0..phases)
-                        .map(|p| {
-                            (0..threads * per(p))
-                                .map(|_| AtomicBool::new(false))
-                                .collect()
-                        })
+                        .map(|p| (0..len(p)).map(|_| AtomicBool::new(false)).collect())
                         .collect();
-                    let twice = AtomicBool::new(false);
-                    let r = phases_max(&pool, &mut state, phases, &per, &|t, p, share, b| {
-                        assert!(t < threads && share < threads && b < per(p));
-                        // every block of the phase before is done already
-                        if p > 0 && runs[p - 1].load(Ordering::SeqCst) != threads * per(p - 1) {
-                            early.store(true, Ordering::SeqCst);
-                        }
-                        if seen[p][share * per(p) + b].swap(true, Ordering::SeqCst) {
-                            twice.store(true, Ordering::SeqCst);
-                        }
-                        runs[p].fetch_add(1, Ordering::SeqCst);
-                        (p * 1000 + share * 10 + b) as f32
-                    });
+                    let (twice, big) = (AtomicBool::new(false), AtomicBool::new(false));
+                    let share = |p: usize, j: usize| test_share(len(p), threads, p, j);
+                    let r = phases_max(
+                        &pool,
+                        &mut state,
+                        phases,
+                        &share,
+                        &|_| 16,
+                        &|t, p, items| {
+                            assert!(t < threads && !items.is_empty() && items.end <= len(p));
+                            // no block crosses a share's end or is much longer than asked
+                            if items.len() > 2 * 16
+                                || !(0..threads).any(|j| {
+                                    let s = share(p, j);
+                                    s.start <= items.start && items.end <= s.end
+                                })
+                            {
+                                big.store(true, Ordering::SeqCst);
+                            }
+                            // every item of the phase before is done already
+                            if p > 0 && runs[p - 1].load(Ordering::SeqCst) != len(p - 1) {
+                                early.store(true, Ordering::SeqCst);
+                            }
+                            for i in items.clone() {
+                                if seen[p][i].swap(true, Ordering::SeqCst) {
+                                    twice.store(true, Ordering::SeqCst);
+                                }
+                            }
+                            runs[p].fetch_add(items.len(), Ordering::SeqCst);
+                            items.end as f32
+                        },
+                    );
                     assert!(
                         !early.load(Ordering::SeqCst),
                         "a phase began before the last ended"
                     );
-                    assert!(!twice.load(Ordering::SeqCst), "a block ran twice");
+                    assert!(!twice.load(Ordering::SeqCst), "an item ran twice");
+                    assert!(
+                        !big.load(Ordering::SeqCst),
+                        "a block crossed a share or grew"
+                    );
                     for (p, n) in runs.iter().enumerate() {
-                        assert_eq!(n.load(Ordering::SeqCst), threads * per(p), "phase {p}");
+                        assert_eq!(n.load(Ordering::SeqCst), len(p), "phase {p}");
                     }
-                    let last = phases - 1;
-                    let most = last * 1000 + (threads - 1) * 10 + per(last) - 1;
+                    let most = (0..phases).map(len).max().unwrap();
                     assert_eq!(r, most as f32, "the largest value returned");
                 }
             }
         });
+    }
+
+    /// Items `phases_max` ran over `phases` phases of `len` items each, cut for the pool.
+    fn items_run(pool: &Pool, state: &mut Phases, phases: usize, len: usize) -> usize {
+        let n = AtomicUsize::new(0);
+        let threads = pool.threads();
+        let share = |p: usize, j: usize| test_share(len, threads, p, j);
+        phases_max(pool, state, phases, &share, &|_| 8, &|_, _, items| {
+            n.fetch_add(items.len(), Ordering::SeqCst);
+            0.0
+        });
+        n.load(Ordering::SeqCst)
     }
 
     #[test]
@@ -919,19 +979,11 @@ mod tests {
         within_30s(|| {
             let pool = Pool::new(2);
             let mut state = Phases::default();
-            let count = |state: &mut Phases| {
-                let n = AtomicUsize::new(0);
-                phases_max(&pool, state, 6, &|p| p + 1, &|_, _, _, _| {
-                    n.fetch_add(1, Ordering::SeqCst);
-                    0.0
-                });
-                n.load(Ordering::SeqCst)
-            };
-            assert_eq!(count(&mut state), 2 * 21);
+            assert_eq!(items_run(&pool, &mut state, 6, 50), 6 * 50);
             // the counters hold tags of jobs 1..; the numbers wrap round to them
             state.job = u32::MAX - 2;
             for _ in 0..5 {
-                assert_eq!(count(&mut state), 2 * 21);
+                assert_eq!(items_run(&pool, &mut state, 6, 50), 6 * 50);
             }
             assert!(state.job < 10, "the numbers began again");
         });
@@ -943,27 +995,23 @@ mod tests {
             let pool = Pool::new(2);
             let mut state = Phases::default();
             let later = AtomicUsize::new(0);
+            let share = |p: usize, j: usize| test_share(64, 2, p, j);
             let r = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
-                phases_max(&pool, &mut state, 8, &|_| 4, &|_, p, share, b| {
-                    // the other thread's share fails in phase 3: the phases after it
-                    // still run (the block counts as done), then the panic is raised
-                    assert!(!(p == 3 && share == 1 && b == 2), "block fails");
-                    if p > 3 {
-                        later.fetch_add(1, Ordering::SeqCst);
+                phases_max(&pool, &mut state, 8, &share, &|_| 8, &|_, p, items| {
+                    // the second share fails in phase 4: the phases after it still run
+                    // (the block counts as done), then the panic is raised
+                    assert!(!(p == 4 && items.contains(&40)), "block fails");
+                    if p > 4 {
+                        later.fetch_add(items.len(), Ordering::SeqCst);
                     }
                     0.0
                 });
             }));
             assert!(r.is_err(), "the panic reached the caller");
-            assert_eq!(later.load(Ordering::SeqCst), 4 * 2 * 4);
-            let n = AtomicUsize::new(0);
-            phases_max(&pool, &mut state, 8, &|_| 4, &|_, _, _, _| {
-                n.fetch_add(1, Ordering::SeqCst);
-                0.0
-            });
+            assert_eq!(later.load(Ordering::SeqCst), 3 * 64);
             assert_eq!(
-                n.load(Ordering::SeqCst),
-                8 * 2 * 4,
+                items_run(&pool, &mut state, 8, 64),
+                8 * 64,
                 "the next job runs whole"
             );
         });
@@ -989,12 +1037,7 @@ mod tests {
             let mut state = Phases::default();
             let t = std::time::Instant::now();
             while t.elapsed() < std::time::Duration::from_secs(1) {
-                let n = AtomicUsize::new(0);
-                phases_max(&pool, &mut state, 12, &|p| p % 3 + 1, &|_, _, _, _| {
-                    n.fetch_add(1, Ordering::Relaxed);
-                    0.0
-                });
-                assert_eq!(n.load(Ordering::Relaxed), 3 * (4 * (1 + 2 + 3)));
+                assert_eq!(items_run(&pool, &mut state, 12, 30), 12 * 30);
             }
         });
         busy.store(false, Ordering::Relaxed);

@@ -1439,35 +1439,17 @@ impl SoftSolver {
             // the colours one after another in one job, each thread solving its share
             // of each colour first
             Some(pool) if pool.threads() == self.cut_threads => {
-                let n = self.cut_threads;
-                let cuts = &self.color_cuts;
-                let share = |p: usize, j: usize| {
-                    let c = &cuts[p * (n + 1) + j..][..2];
-                    (c[0] as usize, (c[1] - c[0]) as usize)
-                };
-                let per = |p: usize| {
-                    (0..n)
-                        .map(|j| share(p, j).1.div_ceil(WIDE_BLOCK))
-                        .max()
-                        .unwrap_or(0)
-                        .max(1)
-                };
+                let (n, cuts) = (self.cut_threads, &self.color_cuts);
                 let wide = Disjoint::new(&mut self.wide[..done]);
                 parallel::phases_max(
                     pool,
                     &mut self.phases,
                     self.color_ranges.len(),
-                    &per,
-                    &|t, p, j, k| {
-                        let ((start, len), per) = (share(p, j), per(p));
-                        let r = start + len * k / per..start + len * (k + 1) / per;
-                        if r.is_empty() {
-                            return f32::NEG_INFINITY;
-                        }
-                        // SAFETY: the blocks of one phase tile its colour's shares, which
-                        // tile the colour, and the phases run one after another
-                        f(Some(t), unsafe { wide.range(r) }, true)
-                    },
+                    &|c, j| color_share(cuts, n, c, j),
+                    &|_| WIDE_BLOCK,
+                    // SAFETY: the blocks of one phase tile its colour's shares, which
+                    // tile the colour, and the phases run one after another
+                    &|t, _, r| f(Some(t), unsafe { wide.range(r) }, true),
                 )
             }
             _ => {
@@ -1625,59 +1607,48 @@ impl SoftSolver {
         let bodies = BodyPtr::new(&mut self.bodies, self.sink);
         let wide = Disjoint::new(&mut self.wide);
         // each thread's share of a colour, or of the bodies a pass goes over
-        let share = |p: usize, j: usize| -> (usize, usize) {
-            let (pass, c) = fused[p];
-            let len = match pass {
-                Pass::Increments => increments.len(),
-                Pass::Integrate => nb,
-                _ => {
-                    let c = &cuts[c as usize * (n + 1) + j..][..2];
-                    return (c[0] as usize, (c[1] - c[0]) as usize);
-                }
-            };
-            (len * j / n, len * (j + 1) / n - len * j / n)
+        let share = |p: usize, j: usize| match fused[p] {
+            (Pass::Increments, _) => parallel::split(increments.len(), n, j),
+            (Pass::Integrate, _) => parallel::split(nb, n, j),
+            (_, c) => color_share(cuts, n, c as usize, j),
         };
         let block = |p: usize| match fused[p].0 {
             Pass::Increments | Pass::Integrate => BODY_BLOCK,
             _ => WIDE_BLOCK,
         };
-        let per = |p: usize| {
-            (0..n)
-                .map(|j| share(p, j).1.div_ceil(block(p)))
-                .max()
-                .unwrap_or(0)
-                .max(1)
-        };
         let (avx2, pairs) = (k.avx2, true);
-        parallel::phases_max(pool, &mut self.phases, fused.len(), &per, &|t, p, j, b| {
-            let ((start, len), per) = (share(p, j), per(p));
-            let r = start + len * b / per..start + len * (b + 1) / per;
-            if r.is_empty() {
-                return f32::NEG_INFINITY;
-            }
-            let mine = bodies.for_thread(t);
-            // SAFETY (each arm): the blocks of a phase tile the shares of its colour or
-            // of the bodies, which tile them, and the phases run one after another
-            match fused[p].0 {
-                Pass::Increments => {
-                    add_increments(unsafe { bodies.range(r.clone()) }, &increments[r]);
-                }
-                Pass::Integrate => integrate_range(unsafe { bodies.range(r) }, h),
-                Pass::WarmStart => {
-                    warm_start_range::<true>(unsafe { wide.range(r) }, mine, avx2, pairs);
-                }
-                Pass::Sweep => {
-                    sweep_range::<true, true>(unsafe { wide.range(r) }, mine, &k, pairs);
-                }
-                Pass::Relax => {
-                    let d = sweep_range::<false, true>(unsafe { wide.range(r) }, mine, &k, pairs);
-                    if p >= last_relax {
-                        return d;
+        parallel::phases_max(
+            pool,
+            &mut self.phases,
+            fused.len(),
+            &share,
+            &block,
+            &|t, p, r| {
+                let mine = bodies.for_thread(t);
+                // SAFETY (each arm): the blocks of a phase tile the shares of its colour or
+                // of the bodies, which tile them, and the phases run one after another
+                match fused[p].0 {
+                    Pass::Increments => {
+                        add_increments(unsafe { bodies.range(r.clone()) }, &increments[r]);
+                    }
+                    Pass::Integrate => integrate_range(unsafe { bodies.range(r) }, h),
+                    Pass::WarmStart => {
+                        warm_start_range::<true>(unsafe { wide.range(r) }, mine, avx2, pairs);
+                    }
+                    Pass::Sweep => {
+                        sweep_range::<true, true>(unsafe { wide.range(r) }, mine, &k, pairs);
+                    }
+                    Pass::Relax => {
+                        let d =
+                            sweep_range::<false, true>(unsafe { wide.range(r) }, mine, &k, pairs);
+                        if p >= last_relax {
+                            return d;
+                        }
                     }
                 }
-            }
-            f32::NEG_INFINITY
-        })
+                f32::NEG_INFINITY
+            },
+        )
     }
 
     /// Writes the lambdas back into the contacts, for next step's warm start.
@@ -2004,8 +1975,13 @@ impl<L: Lanes> Consts<L> {
     }
 }
 
-/// Warm start of the constraints `wide`; `pairs`: they are of one colour, so the AVX2
-/// build may take them two at a time.
+/// Thread j's share of colour `color` (wide constraints), with the colours cut for `n`
+/// threads in `cuts` (see `SoftSolver::color_cuts`).
+fn color_share(cuts: &[u32], n: usize, color: usize, j: usize) -> std::ops::Range<usize> {
+    let c = &cuts[color * (n + 1) + j..][..2];
+    c[0] as usize..c[1] as usize
+}
+
 /// Adds each body's force increment for one substep: v += dv, w += dw.
 fn add_increments(bodies: &mut [SoftBody], increments: &[(Vec2, f32)]) {
     for (s, &(dv, dw)) in bodies.iter_mut().zip(increments) {
@@ -2043,6 +2019,8 @@ enum Pass {
     Integrate,
 }
 
+/// Warm start of the constraints `wide`; `pairs`: they are of one colour, so the AVX2
+/// build may take them two at a time.
 fn warm_start_range<const SHARED: bool>(
     wide: &mut [WideConstraint],
     bodies: BodyPtr,
