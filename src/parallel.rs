@@ -843,31 +843,46 @@ mod tests {
         // still see the caller's stop (a CI run once hung for ever here; with a plain
         // store for the answer this test hung 1 run in 5). A watchdog turns a hang into
         // a failure.
-        let busy = std::sync::Arc::new(AtomicBool::new(true));
-        let hogs: Vec<_> = (0..3)
-            .map(|_| {
-                let busy = busy.clone();
-                std::thread::spawn(move || {
-                    while busy.load(Ordering::Relaxed) {
-                        std::hint::spin_loop();
-                    }
-                })
-            })
-            .collect();
-        let (tx, rx) = std::sync::mpsc::channel();
-        std::thread::spawn(move || {
+        let _busy = BusyThreads::new(3);
+        within_30s(|| {
             let t = std::time::Instant::now();
             while t.elapsed() < std::time::Duration::from_secs(2) {
                 let _ = round_trip_within(std::time::Duration::from_millis(1));
             }
-            tx.send(()).unwrap();
         });
-        let ended = rx.recv_timeout(std::time::Duration::from_secs(30)).is_ok();
-        busy.store(false, Ordering::Relaxed);
-        for h in hogs {
-            h.join().unwrap();
+    }
+
+    /// Threads that spin until dropped (with the test's, more busy threads than cores).
+    struct BusyThreads {
+        busy: std::sync::Arc<AtomicBool>,
+        hogs: Vec<JoinHandle<()>>,
+    }
+
+    impl BusyThreads {
+        fn new(n: usize) -> BusyThreads {
+            let busy = std::sync::Arc::new(AtomicBool::new(true));
+            let hogs = (0..n)
+                .map(|_| {
+                    let busy = busy.clone();
+                    std::thread::spawn(move || {
+                        while busy.load(Ordering::Relaxed) {
+                            std::hint::spin_loop();
+                        }
+                    })
+                })
+                .collect();
+            BusyThreads { busy, hogs }
         }
-        assert!(ended, "a probe did not end");
+    }
+
+    impl Drop for BusyThreads {
+        /// Stops and joins them, also when the test fails.
+        fn drop(&mut self) {
+            self.busy.store(false, Ordering::Relaxed);
+            for h in self.hogs.drain(..) {
+                let _ = h.join();
+            }
+        }
     }
 
     /// Runs `job` on another thread and fails if it does not end within 30 s (a hang
@@ -1021,17 +1036,7 @@ mod tests {
     fn phases_end_when_the_workers_are_starved_of_cores() {
         // more busy threads than cores: a worker may be descheduled for a long time, and
         // the caller must take its share rather than wait for it
-        let busy = std::sync::Arc::new(AtomicBool::new(true));
-        let hogs: Vec<_> = (0..3)
-            .map(|_| {
-                let busy = busy.clone();
-                std::thread::spawn(move || {
-                    while busy.load(Ordering::Relaxed) {
-                        std::hint::spin_loop();
-                    }
-                })
-            })
-            .collect();
+        let _busy = BusyThreads::new(3);
         within_30s(|| {
             let pool = Pool::new(3);
             let mut state = Phases::default();
@@ -1040,10 +1045,6 @@ mod tests {
                 assert_eq!(items_run(&pool, &mut state, 12, 30), 12 * 30);
             }
         });
-        busy.store(false, Ordering::Relaxed);
-        for h in hogs {
-            h.join().unwrap();
-        }
     }
 
     #[test]

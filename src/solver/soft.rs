@@ -1396,10 +1396,9 @@ impl SoftSolver {
         });
     }
 
-    /// One sweep over every row: with `BIAS`, soft rows that push overlap out; without,
-    /// rigid rows that only remove approach speed (relax). Returns max |delta lambda|.
-    pub fn sweep<const BIAS: bool>(&mut self, pool: Option<&Pool>) -> f32 {
-        let k = SweepConsts {
+    /// The sweeps' constants for this step.
+    fn sweep_consts(&self) -> SweepConsts {
+        SweepConsts {
             inv_h: self.inv_h,
             slop: self.slop,
             max_push: self.max_push,
@@ -1407,7 +1406,13 @@ impl SoftSolver {
             // only when some contact of the step has restitution
             max_impulse: self.restitution,
             avx2: use_avx2(),
-        };
+        }
+    }
+
+    /// One sweep over every row: with `BIAS`, soft rows that push overlap out; without,
+    /// rigid rows that only remove approach speed (relax). Returns max |delta lambda|.
+    pub fn sweep<const BIAS: bool>(&mut self, pool: Option<&Pool>) -> f32 {
+        let k = self.sweep_consts();
         let bodies = BodyPtr::new(&mut self.bodies, self.sink);
         let r = self.for_colors(pool, &|t, chunk, pairs| match t {
             Some(t) => sweep_range::<BIAS, true>(chunk, bodies.for_thread(t), &k, pairs),
@@ -1594,13 +1599,7 @@ impl SoftSolver {
         }
         // the last relax sweep's colours
         let last_relax = self.fused.len() - colors;
-        let k = SweepConsts {
-            inv_h: self.inv_h,
-            slop: self.slop,
-            max_push: self.max_push,
-            max_impulse: self.restitution,
-            avx2: use_avx2(),
-        };
+        let k = self.sweep_consts();
         let n = self.cut_threads;
         let nb = self.bodies.len();
         let (cuts, fused, increments) = (&self.color_cuts, &self.fused, &self.increments);
