@@ -389,6 +389,22 @@ impl std::fmt::Debug for Phases {
 }
 
 impl Phases {
+    /// Numbers a new job of `phases` phases on `n` threads, with counters for it.
+    fn next_job(&mut self, phases: usize, n: usize) -> u32 {
+        // (new counters too once the job numbers run out: an old tag must never match)
+        if self.room < phases || self.threads != n || self.job == u32::MAX {
+            let room = phases.max(self.room).max(PHASE_ROOM);
+            let fresh = |_| Slot(AtomicU64::new(0));
+            self.claim = (0..n * room).map(fresh).collect();
+            self.done = (0..n * room).map(fresh).collect();
+            self.room = room;
+            self.threads = n;
+            self.job = 0;
+        }
+        self.job += 1;
+        self.job
+    }
+
     /// The count in `slot` if it is this job's, else 0.
     fn count(slot: &Slot, job: u32) -> usize {
         let v = slot.0.load(Ordering::Acquire);
@@ -443,18 +459,8 @@ pub(crate) fn phases_max(
     f: &(dyn Fn(usize, usize, Range<usize>) -> f32 + Sync),
 ) -> f32 {
     let n = pool.threads();
-    // (new counters too once the job numbers run out: an old tag must never match)
-    if state.room < phases || state.threads != n || state.job == u32::MAX {
-        let room = phases.max(state.room).max(PHASE_ROOM);
-        let fresh = |_| Slot(AtomicU64::new(0));
-        state.claim = (0..n * room).map(fresh).collect();
-        state.done = (0..n * room).map(fresh).collect();
-        state.room = room;
-        state.threads = n;
-        state.job = 0;
-    }
-    state.job += 1;
-    let (job, room, state) = (state.job, state.room, &*state);
+    let job = state.next_job(phases, n);
+    let (room, state) = (state.room, &*state);
     let panic: Mutex<Option<Box<dyn std::any::Any + Send>>> = Mutex::new(None);
     // blocks a share of phase p is cut into: as many for every share
     let per = |p: usize| {
@@ -521,6 +527,109 @@ pub(crate) fn phases_max(
                 }
                 backoff(&mut tries);
             }
+        }
+        r
+    });
+    if let Some(e) = panic.into_inner().unwrap_or_else(|e| e.into_inner()) {
+        std::panic::resume_unwind(e);
+    }
+    r
+}
+
+/// A thread's mark in a phase of [`phases_ahead`]: the blocks the others wait for are
+/// done (`AHEAD`), and all of its blocks are (`ALL`, with `AHEAD`).
+const AHEAD: usize = 1;
+const ALL: usize = 3;
+
+/// Runs a phased job as [`phases_max`] does, but a thread need not wait at the end of a
+/// phase for every other thread's share of it: only for the blocks of theirs that its
+/// next phase may touch. Each thread runs its own share of each phase, and no thread
+/// takes another's blocks (a thread that comes late holds the others up; it never
+/// leaves a block undone).
+///
+/// `full(p)`: phase p touches what any thread's share of the phase before or after it
+/// may touch (a pass over the bodies), so it begins once every thread has finished the
+/// phase before, and the phase after it begins once every thread has finished it.
+/// Otherwise `ahead(p, t) = (k, reversed)`, asked only by thread t (so it may come from
+/// what t worked out in an earlier phase): t runs the first k items of its share of
+/// phase p (the last k if `reversed`) as one block, then the others may begin phase
+/// p + 1, while t runs the rest of its share a block at a time (from the end if
+/// `reversed`). The caller makes sure that none of those later items touches anything
+/// another thread's share of phase p + 1 touches, nor the other way round.
+/// Returns the largest value any call of `f` returned; a panic in `f` is raised here
+/// once every block is done.
+#[allow(clippy::type_complexity, clippy::too_many_arguments)]
+pub(crate) fn phases_ahead(
+    pool: &Pool,
+    state: &mut Phases,
+    phases: usize,
+    share: &(dyn Fn(usize, usize) -> Range<usize> + Sync),
+    block: &(dyn Fn(usize) -> usize + Sync),
+    full: &(dyn Fn(usize) -> bool + Sync),
+    ahead: &(dyn Fn(usize, usize) -> (usize, bool) + Sync),
+    f: &(dyn Fn(usize, usize, Range<usize>) -> f32 + Sync),
+) -> f32 {
+    let n = pool.threads();
+    let job = state.next_job(phases, n);
+    let (room, state) = (state.room, &*state);
+    let panic: Mutex<Option<Box<dyn std::any::Any + Send>>> = Mutex::new(None);
+    let r = blocks_max(pool, n, &|t, _| {
+        let mut r = f32::NEG_INFINITY;
+        let mark = |p: usize, what: usize| {
+            state.done[t * room + p]
+                .0
+                .store(((job as u64) << 32) | what as u64, Ordering::Release);
+        };
+        for p in 0..phases {
+            // wait for what this phase may touch of the others' last phase
+            if p > 0 {
+                let need = if full(p) || full(p - 1) { ALL } else { AHEAD };
+                let mut tries = 0u32;
+                while (0..n)
+                    .filter(|&k| k != t)
+                    .any(|k| Phases::count(&state.done[k * room + p - 1], job) & need != need)
+                {
+                    backoff(&mut tries);
+                }
+            }
+            let items = share(p, t);
+            // the items the others wait for first, as one block (all of them in a phase
+            // over the bodies), then the rest a block at a time, in the thread's order
+            let (k, reversed) = if full(p) { (0, false) } else { ahead(p, t) };
+            let k = k.min(items.len());
+            let (first, rest) = if reversed {
+                (items.end - k..items.end, items.start..items.end - k)
+            } else {
+                (items.start..items.start + k, items.start + k..items.end)
+            };
+            let len = rest.len();
+            let per = len.div_ceil(block(p).max(1));
+            let mut run = |range: Range<usize>| {
+                if !range.is_empty() {
+                    // a block that panics still counts as done, so no thread waits on it
+                    match std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| f(t, p, range)))
+                    {
+                        Ok(v) => r = r.max(v),
+                        Err(e) => {
+                            let mut first = panic.lock().unwrap_or_else(|e| e.into_inner());
+                            first.get_or_insert(e);
+                        }
+                    }
+                }
+            };
+            if full(p) {
+                for b in 0..per {
+                    run(rest.start + len * b / per..rest.start + len * (b + 1) / per);
+                }
+            } else {
+                run(first);
+                mark(p, AHEAD);
+                for i in 0..per {
+                    let b = if reversed { per - 1 - i } else { i };
+                    run(rest.start + len * b / per..rest.start + len * (b + 1) / per);
+                }
+            }
+            mark(p, ALL);
         }
         r
     });
@@ -1029,6 +1138,160 @@ mod tests {
                 8 * 64,
                 "the next job runs whole"
             );
+        });
+    }
+
+    /// Runs `jobs` jobs of `phases_ahead` over a row of cells in which each phase's items
+    /// touch cells the next phase's items of the other share touch too, and returns
+    /// (items run, cells touched out of phase order). Two threads share `2 * half`
+    /// items; item i owns cell 2i, and the odd cell 2i + 1 is touched by item i in even
+    /// phases and by item i + 1 in odd ones. So only share 0's last item and share 1's
+    /// first touch a cell of the other share (cell 2 half - 1): share 0 runs from its
+    /// end and each tells the other to go on after its first item. Every seventh phase
+    /// is a pass over all the cells (`full`). Items spin for varied times, so the
+    /// threads run ahead of each other.
+    fn ahead_run(pool: &Pool, jobs: usize, half: usize) -> (usize, usize) {
+        let mut state = Phases::default();
+        let (mut ran, mut late) = (0, 0);
+        for job in 0..jobs {
+            let phases = 30 + job % 7;
+            let items = 2 * half;
+            let cells: Vec<AtomicUsize> = (0..2 * items).map(|_| AtomicUsize::new(0)).collect();
+            let (count, bad) = (AtomicUsize::new(0), AtomicUsize::new(0));
+            let full = |p: usize| p % 7 == 6;
+            // touch cell c in phase p: the last phase that touched it was an earlier one
+            let touch = |c: usize, p: usize| {
+                let was = cells[c].swap(p + 1, Ordering::SeqCst);
+                if was > p {
+                    bad.fetch_add(1, Ordering::SeqCst);
+                }
+            };
+            phases_ahead(
+                pool,
+                &mut state,
+                phases,
+                &|_, j| j * half..(j + 1) * half,
+                &|_| 3,
+                &full,
+                &|_, t| (1, t == 0),
+                &|_, p, r| {
+                    for i in r {
+                        // 0 to about 2 microseconds of work, varied by phase and item
+                        for _ in 0..(i * 7 + p * 13 + job) % 23 * 8 {
+                            std::hint::spin_loop();
+                        }
+                        touch(2 * i, p);
+                        // (a pass over all the cells touches the odd ones too)
+                        if full(p) || p % 2 == 0 {
+                            touch(2 * i + 1, p);
+                        } else if i > 0 {
+                            touch(2 * i - 1, p);
+                        }
+                        count.fetch_add(1, Ordering::SeqCst);
+                    }
+                    0.0
+                },
+            );
+            ran += count.into_inner();
+            late += bad.into_inner();
+        }
+        (ran, late)
+    }
+
+    #[test]
+    fn phases_ahead_keep_every_cell_in_phase_order() {
+        within_30s(|| {
+            let pool = Pool::new(2);
+            for half in [1, 2, 5, 40] {
+                let jobs = 60;
+                let (ran, late) = ahead_run(&pool, jobs, half);
+                let phases: usize = (0..jobs).map(|j| 30 + j % 7).sum();
+                assert_eq!(ran, phases * 2 * half, "every item once a phase");
+                assert_eq!(late, 0, "a cell was touched out of phase order");
+            }
+        });
+    }
+
+    #[test]
+    fn a_thread_told_to_go_on_too_early_touches_a_cell_out_of_order() {
+        // the check above can fail: thread 0 tells thread 1 to go on before its one
+        // item (0 items first), then waits for thread 1's next phase to touch the cell
+        // they share before it touches it itself; the cell sees phase 1 before phase 0
+        within_30s(|| {
+            let pool = Pool::new(2);
+            let mut state = Phases::default();
+            let cell = AtomicUsize::new(0);
+            let late = AtomicBool::new(false);
+            phases_ahead(
+                &pool,
+                &mut state,
+                2,
+                &|_, j| j..j + 1,
+                &|_| 1,
+                &|_| false,
+                &|_, _| (0, false),
+                &|t, p, _| {
+                    if t == 0 && p == 0 {
+                        let start = std::time::Instant::now();
+                        while cell.load(Ordering::SeqCst) == 0
+                            && start.elapsed() < std::time::Duration::from_secs(10)
+                        {
+                            std::thread::yield_now();
+                        }
+                    }
+                    if t == p {
+                        // thread 1 in phase 1 or thread 0 in phase 0: the shared cell
+                        if cell.swap(p + 1, Ordering::SeqCst) > p {
+                            late.store(true, Ordering::SeqCst);
+                        }
+                    }
+                    0.0
+                },
+            );
+            assert!(late.into_inner(), "the cell saw phase 1 before phase 0");
+        });
+    }
+
+    #[test]
+    fn phases_ahead_end_when_the_workers_are_starved_of_cores() {
+        // nobody takes another thread's share: a descheduled worker holds the caller up
+        // until it runs again, and the cells still keep their order
+        let _busy = BusyThreads::new(3);
+        within_30s(|| {
+            let pool = Pool::new(2);
+            let t = std::time::Instant::now();
+            while t.elapsed() < std::time::Duration::from_secs(1) {
+                assert_eq!(ahead_run(&pool, 5, 5).1, 0);
+            }
+        });
+    }
+
+    #[test]
+    fn a_panic_in_a_phase_ahead_reaches_the_caller_and_the_pool_goes_on() {
+        within_30s(|| {
+            let pool = Pool::new(2);
+            let mut state = Phases::default();
+            let ran = AtomicUsize::new(0);
+            let r = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
+                phases_ahead(
+                    &pool,
+                    &mut state,
+                    9,
+                    &|_, j| j * 50..(j + 1) * 50,
+                    &|_| 8,
+                    &|p| p == 4,
+                    &|_, t| (3, t == 0),
+                    &|_, p, r| {
+                        ran.fetch_add(r.len(), Ordering::SeqCst);
+                        assert!(!(p == 2 && r.contains(&70)), "block fails");
+                        0.0
+                    },
+                )
+            }));
+            assert!(r.is_err(), "the panic reached the caller");
+            // every block ran, the one that panicked too
+            assert_eq!(ran.into_inner(), 9 * 100);
+            assert_eq!(ahead_run(&pool, 3, 5), ((30 + 31 + 32) * 10, 0));
         });
     }
 

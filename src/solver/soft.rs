@@ -246,11 +246,17 @@ impl MassRange {
         }
     }
 
-    /// Folds this block's range into the pass's.
-    fn publish(self, to: &SharedMassRange) {
+    /// Folds this block's range into the pass's, as thread `t` of the pass's job (the
+    /// blocks of one thread run one after another).
+    fn publish(self, to: &SharedMassRange, t: usize) {
         if self.least <= self.most {
-            to.0.fetch_min(self.least, Ordering::Relaxed);
-            to.1.fetch_max(self.most, Ordering::Relaxed);
+            let slot = &to.0[t];
+            let (least, most) = (
+                slot.0.load(Ordering::Relaxed),
+                slot.1.load(Ordering::Relaxed),
+            );
+            slot.0.store(least.min(self.least), Ordering::Relaxed);
+            slot.1.store(most.max(self.most), Ordering::Relaxed);
         }
     }
 }
@@ -262,20 +268,31 @@ fn may_be_lopsided((least, most): (u32, u32)) -> bool {
     least <= most && f32::from_bits(most) / f32::from_bits(least) >= direct::MASS_RATIO
 }
 
-/// A pass's [`MassRange`], folded from its blocks on any thread.
-struct SharedMassRange(AtomicU32, AtomicU32);
+/// A pass's [`MassRange`], folded from its blocks: per thread of the pass's job, each on
+/// a cache line of its own that only that thread writes (one shared pair of counters,
+/// folded into with an atomic min and max per block, moved its line between the cores
+/// some twenty times a pass).
+struct SharedMassRange([ThreadMassRange; MAX_THREADS]);
+
+/// One thread's least and largest 1/m bits.
+#[repr(align(64))]
+struct ThreadMassRange(AtomicU32, AtomicU32);
 
 impl SharedMassRange {
     fn new() -> Self {
-        SharedMassRange(AtomicU32::new(u32::MAX), AtomicU32::new(0))
+        SharedMassRange(std::array::from_fn(|_| {
+            ThreadMassRange(AtomicU32::new(u32::MAX), AtomicU32::new(0))
+        }))
     }
 
     /// (least, most); least > most where no moving body has a positive 1/m.
     fn get(&self) -> (u32, u32) {
-        (
-            self.0.load(Ordering::Relaxed),
-            self.1.load(Ordering::Relaxed),
-        )
+        self.0.iter().fold((u32::MAX, 0), |(least, most), t| {
+            (
+                least.min(t.0.load(Ordering::Relaxed)),
+                most.max(t.1.load(Ordering::Relaxed)),
+            )
+        })
     }
 }
 
@@ -773,6 +790,13 @@ pub struct SoftSolver {
     phases: parallel::Phases,
     /// The phases of `substeps_in_one_job`, in order: what each does (scratch).
     fused: Vec<(Pass, u8)>,
+    /// Per thread's share of the colours: the least and the largest body it writes
+    /// (least > largest for none), from the fill.
+    share_bodies: Vec<(u32, u32)>,
+    /// Per thread and colour (`thread * colours + colour`): the blocks of its share, in
+    /// the order it runs them, that may touch a body another thread's share writes
+    /// (worked out by each thread at the start of `substeps_in_one_job`).
+    ahead_blocks: Vec<u32>,
     /// Per inner cut, the lane each colour had reached there (scratch of `build`).
     cut_lanes: Vec<[u32; OVERFLOW + 1]>,
     /// The blocks of wide constraints the build fills, thread by thread (as many per
@@ -863,7 +887,7 @@ impl SoftSolver {
         let increments = Disjoint::new(&mut self.increments);
         let all = Disjoint::new(bodies);
         let shared_range = SharedMassRange::new();
-        parallel::ranges_max(pool, nb, BODY_PASS_BLOCK, &|_, r| {
+        parallel::ranges_max(pool, nb, BODY_PASS_BLOCK, &|t, r| {
             // SAFETY: each block takes only its own range of each slice
             let (soft, moves, inv_mass, increments, bodies) = unsafe {
                 (
@@ -894,7 +918,7 @@ impl SoftSolver {
                 inv_mass[i] = (b.inv_mass, b.inv_inertia);
                 range.add(moves[i], b.inv_mass);
             }
-            range.publish(&shared_range);
+            range.publish(&shared_range, t);
             0.0
         });
         self.inv_mass_range = shared_range.get();
@@ -942,7 +966,7 @@ impl SoftSolver {
             &mut self.moves[..],
             &mut self.inv_mass[..],
             BODY_PASS_BLOCK,
-            &|_, offset, soft, moves, inv_mass| {
+            &|t, offset, soft, moves, inv_mass| {
                 let bodies = &bodies[offset..];
                 let mut range = MassRange::default();
                 for (i, ((s, m), im)) in soft.iter_mut().zip(moves).zip(inv_mass).enumerate() {
@@ -957,7 +981,7 @@ impl SoftSolver {
                     *im = (b.inv_mass, b.inv_inertia);
                     range.add(*m, b.inv_mass);
                 }
-                range.publish(&shared_range);
+                range.publish(&shared_range, t);
                 0.0
             },
         );
@@ -1115,20 +1139,47 @@ impl SoftSolver {
             }
             if any { 1.0 } else { 0.0 }
         };
+        self.share_bodies.clear();
         let restitution = match pool {
             Some(pool) if threads > 1 && n_wide > WIDE_BLOCK => {
                 // each thread fills its share of every colour: the constraints it solves
                 let (wide, cold) = (Disjoint::new(&mut self.wide), Disjoint::new(&mut self.cold));
                 let blocks = &self.fill_blocks;
-                parallel::blocks_max(pool, blocks.len(), &|_, b| {
+                // the bodies each thread's share writes (the fill's blocks are laid out
+                // thread by thread, as many for each)
+                let per = blocks.len() / threads;
+                let written = SharedMassRange::new();
+                let r = parallel::blocks_max(pool, blocks.len(), &|_, b| {
                     let r = blocks[b].0 as usize..blocks[b].1 as usize;
                     if r.is_empty() {
                         return 0.0;
                     }
                     // SAFETY: the blocks' ranges do not overlap (see `cut_colors`)
                     let (w, c) = unsafe { (wide.range(r.clone()), cold.range(r.clone())) };
-                    fill_range(r.start, w, c)
-                })
+                    let any = fill_range(r.start, w, c);
+                    let (mut least, mut most) = (u32::MAX, 0);
+                    for c in w.iter() {
+                        for &i in c.wa.iter().chain(&c.wb) {
+                            // (a body that does not move is written to a sink)
+                            if i < rest {
+                                least = least.min(i);
+                                most = most.max(i);
+                            }
+                        }
+                    }
+                    // (a thread's blocks may run on another thread: shared counters)
+                    let slot = &written.0[b / per];
+                    slot.0.fetch_min(least, Ordering::Relaxed);
+                    slot.1.fetch_max(most, Ordering::Relaxed);
+                    any
+                });
+                self.share_bodies.clear();
+                self.share_bodies.extend(
+                    written.0[..threads]
+                        .iter()
+                        .map(|s| (s.0.load(Ordering::Relaxed), s.1.load(Ordering::Relaxed))),
+                );
+                r
             }
             _ => parallel::chunks_mut2(
                 pool,
@@ -1157,10 +1208,12 @@ impl SoftSolver {
             self.color_cuts.push(start);
             let len = end - start;
             for (k, lanes) in self.cut_lanes.iter().enumerate() {
-                // no further than a sixteenth of the colour from an even cut: a colour
-                // whose constraints bunch up (the last, small ones) is shared evenly
+                // no further than a quarter of the colour from an even cut: a colour
+                // whose constraints bunch up (the last, small ones) is still shared. (A
+                // tighter bound, a sixteenth, balanced the shares better but moved more
+                // bodies between the cores from colour to colour: 1.02 of the time)
                 let even = start + (len as usize * (k + 1) / threads) as u32;
-                let slack = len / 16;
+                let slack = len / 4;
                 let cut = lanes[color].div_ceil(4);
                 let lo = even.saturating_sub(slack).max(start);
                 let hi = (even + slack).min(end);
@@ -1451,7 +1504,7 @@ impl SoftSolver {
                     &mut self.phases,
                     self.color_ranges.len(),
                     &|c, j| color_share(cuts, n, c, j),
-                    &|_| WIDE_BLOCK,
+                    &|_| PHASE_BLOCK,
                     // SAFETY: the blocks of one phase tile its colour's shares, which
                     // tile the colour, and the phases run one after another
                     &|t, _, r| f(Some(t), unsafe { wide.range(r) }, true),
@@ -1597,57 +1650,98 @@ impl SoftSolver {
             self.fused
                 .extend((0..colors).map(|c| (Pass::Relax, c as u8)));
         }
+        // with two threads, each may run ahead into the next colour once the other has
+        // done the blocks of its share that touch bodies of the first's share (see
+        // `phases_ahead`): each works out which those are in a first phase
+        let n = self.cut_threads;
+        let ahead = n == 2 && self.share_bodies.len() == n;
+        if ahead {
+            self.fused.insert(0, (Pass::Bounds, 0));
+            self.ahead_blocks.clear();
+            self.ahead_blocks.resize(n * colors, 0);
+        }
         // the last relax sweep's colours
         let last_relax = self.fused.len() - colors;
         let k = self.sweep_consts();
-        let n = self.cut_threads;
         let nb = self.bodies.len();
         let (cuts, fused, increments) = (&self.color_cuts, &self.fused, &self.increments);
+        let share_bodies = &self.share_bodies;
         let bodies = BodyPtr::new(&mut self.bodies, self.sink);
         let wide = Disjoint::new(&mut self.wide);
+        let ahead_blocks = Disjoint::new(&mut self.ahead_blocks);
         // each thread's share of a colour, or of the bodies a pass goes over
         let share = |p: usize, j: usize| match fused[p] {
             (Pass::Increments, _) => parallel::split(increments.len(), n, j),
             (Pass::Integrate, _) => parallel::split(nb, n, j),
+            (Pass::Bounds, _) => j..j + 1,
             (_, c) => color_share(cuts, n, c as usize, j),
         };
         let block = |p: usize| match fused[p].0 {
             Pass::Increments | Pass::Integrate => BODY_BLOCK,
-            _ => WIDE_BLOCK,
+            Pass::Bounds => 1,
+            _ => PHASE_BLOCK,
         };
         let (avx2, pairs) = (k.avx2, true);
-        parallel::phases_max(
-            pool,
-            &mut self.phases,
-            fused.len(),
-            &share,
-            &block,
-            &|t, p, r| {
-                let mine = bodies.for_thread(t);
-                // SAFETY (each arm): the blocks of a phase tile the shares of its colour or
-                // of the bodies, which tile them, and the phases run one after another
-                match fused[p].0 {
-                    Pass::Increments => {
-                        add_increments(unsafe { bodies.range(r.clone()) }, &increments[r]);
-                    }
-                    Pass::Integrate => integrate_range(unsafe { bodies.range(r) }, h),
-                    Pass::WarmStart => {
-                        warm_start_range::<true>(unsafe { wide.range(r) }, mine, avx2, pairs);
-                    }
-                    Pass::Sweep => {
-                        sweep_range::<true, true>(unsafe { wide.range(r) }, mine, &k, pairs);
-                    }
-                    Pass::Relax => {
-                        let d =
-                            sweep_range::<false, true>(unsafe { wide.range(r) }, mine, &k, pairs);
-                        if p >= last_relax {
-                            return d;
-                        }
+        let kernel = |t: usize, p: usize, r: std::ops::Range<usize>| {
+            let mine = bodies.for_thread(t);
+            // SAFETY (each arm): the blocks of a phase tile the shares of its colour or
+            // of the bodies, which tile them, and the phases run one after another (or
+            // ahead only where `Pass::Bounds` found they touch nothing of each other's)
+            match fused[p].0 {
+                Pass::Bounds => {
+                    // SAFETY: this thread's own row, and its own shares of the colours
+                    // (only read, while the other thread may write its own)
+                    let row = unsafe { ahead_blocks.range(t * colors..(t + 1) * colors) };
+                    let (least, most) = share_bodies[1 - t];
+                    for (c, k) in row.iter_mut().enumerate() {
+                        let items = color_share(cuts, n, c, t);
+                        let w = unsafe { wide.range(items) };
+                        *k = reach_touching(w, t == 0, least, most) as u32;
                     }
                 }
-                f32::NEG_INFINITY
-            },
-        )
+                Pass::Increments => {
+                    add_increments(unsafe { bodies.range(r.clone()) }, &increments[r]);
+                }
+                Pass::Integrate => integrate_range(unsafe { bodies.range(r) }, h),
+                Pass::WarmStart => {
+                    warm_start_range::<true>(unsafe { wide.range(r) }, mine, avx2, pairs);
+                }
+                Pass::Sweep => {
+                    sweep_range::<true, true>(unsafe { wide.range(r) }, mine, &k, pairs);
+                }
+                Pass::Relax => {
+                    let d = sweep_range::<false, true>(unsafe { wide.range(r) }, mine, &k, pairs);
+                    if p >= last_relax {
+                        return d;
+                    }
+                }
+            }
+            f32::NEG_INFINITY
+        };
+        if ahead {
+            let full = |p: usize| matches!(fused[p].0, Pass::Increments | Pass::Integrate);
+            let run_ahead = |p: usize, t: usize| match fused[p] {
+                (Pass::Bounds, _) => (0, false),
+                // SAFETY: asked only by thread t, of its own row (written in phase 0)
+                (_, c) => {
+                    let at = t * colors + c as usize;
+                    let k = unsafe { ahead_blocks.range(at..at + 1) }[0];
+                    (k as usize, t == 0)
+                }
+            };
+            parallel::phases_ahead(
+                pool,
+                &mut self.phases,
+                fused.len(),
+                &share,
+                &block,
+                &full,
+                &run_ahead,
+                &kernel,
+            )
+        } else {
+            parallel::phases_max(pool, &mut self.phases, fused.len(), &share, &block, &kernel)
+        }
     }
 
     /// Writes the lambdas back into the contacts, for next step's warm start.
@@ -1920,8 +2014,14 @@ fn prefetch_impulses(wide: &[WideConstraint], wi: usize) {
 /// The depth past the slop a contact's load may hold it at, when the slop is less.
 const MIN_LOAD_DEPTH: f32 = 1e-3;
 
-/// Wide constraints a thread claims at a time (about a microsecond of work).
+/// Wide constraints a thread fills at a time (about a microsecond of work).
 const WIDE_BLOCK: usize = 32;
+/// Wide constraints a thread claims at a time in a sweep over the colours (a few
+/// microseconds of work): each claim is a locked instruction, which waits on the
+/// block's stores, and a block taken by the other thread moves its constraints and
+/// bodies to that core and back. With 32, two threads took 1.04 of the time on the large
+/// pyramid.
+const PHASE_BLOCK: usize = 128;
 /// Bodies a thread claims at a time (integration).
 const BODY_BLOCK: usize = 1024;
 /// Bodies per block of a parallel pass over the world's bodies (`Body`, large).
@@ -1981,6 +2081,18 @@ fn color_share(cuts: &[u32], n: usize, color: usize, j: usize) -> std::ops::Rang
     c[0] as usize..c[1] as usize
 }
 
+/// How many of the wide constraints `w`, counted in the order they run (from the last
+/// if `reversed`), reach the last one in that order that touches a body in
+/// `least..=most`: 0 if none does.
+fn reach_touching(w: &[WideConstraint], reversed: bool, least: u32, most: u32) -> usize {
+    let touches = |c: &WideConstraint| c.wa.iter().chain(&c.wb).any(|&i| least <= i && i <= most);
+    if reversed {
+        w.iter().position(touches).map_or(0, |i| w.len() - i)
+    } else {
+        w.iter().rposition(touches).map_or(0, |i| i + 1)
+    }
+}
+
 /// Adds each body's force increment for one substep: v += dv, w += dw.
 fn add_increments(bodies: &mut [SoftBody], increments: &[(Vec2, f32)]) {
     for (s, &(dv, dw)) in bodies.iter_mut().zip(increments) {
@@ -2008,6 +2120,8 @@ fn integrate_range(bodies: &mut [SoftBody], h: f32) {
 /// What a phase of [`SoftSolver::substeps_in_one_job`] does.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 enum Pass {
+    /// Each thread works out which of its blocks of each colour the other may wait for.
+    Bounds,
     /// The substep's force increments (every substep after the first).
     Increments,
     /// One colour's warm start, soft sweep or relax sweep.
@@ -2230,13 +2344,14 @@ mod tests {
         // the range saying it may be, and a range of close masses rules every pair out
         let masses = [0.5f32, 0.051, 0.0501, 5.0, 0.49, 0.0, 7.9, 1e-30, 1e30];
         let shared = SharedMassRange::new();
-        for block in masses.chunks(2) {
+        // (blocks on three threads, some running more than one block)
+        for (i, block) in masses.chunks(2).enumerate() {
             let mut r = MassRange::default();
             for &m in block {
                 r.add(true, m);
             }
             r.add(false, 1e6); // a body that does not move does not count
-            r.publish(&shared);
+            r.publish(&shared, i % 3);
         }
         let range = shared.get();
         assert_eq!(range, (1e-30f32.to_bits(), 1e30f32.to_bits()));
