@@ -9,7 +9,9 @@
 //! spin for a few microseconds (a step posts a few dozen jobs), then yield, then sleep
 //! until the next job. A pass over the soft step's colours is one job of several phases
 //! (`phases_max`): the threads go from colour to colour meeting at counters of their
-//! own, not through a job per colour.
+//! own, not through a job per colour. With two threads, the soft step's substeps run as
+//! one such job in which a thread waits at a colour's end only for the other's
+//! constraints that touch bodies its own share writes (`phases_ahead`).
 //!
 //! Results never depend on the thread count: the stages split only work whose items
 //! are independent (pairs in the narrow phase, constraints of one colour that share no
