@@ -352,6 +352,40 @@ pub fn blocks_max(pool: &Pool, blocks: usize, f: &(dyn Fn(usize, usize) -> f32 +
 /// with more phases makes room for them then).
 const PHASE_ROOM: usize = 64;
 
+/// The first panic of a phased job's blocks, raised on the caller once every block is
+/// done (a block that panics still counts as done, so no thread waits on it).
+struct FirstPanic(Mutex<Option<Box<dyn std::any::Any + Send>>>);
+
+impl FirstPanic {
+    fn new() -> Self {
+        FirstPanic(Mutex::new(None))
+    }
+
+    /// Runs `block`, folding its value into `r` (max), or keeps its panic.
+    fn run(&self, r: &mut f32, block: impl FnOnce() -> f32) {
+        match std::panic::catch_unwind(std::panic::AssertUnwindSafe(block)) {
+            Ok(v) => *r = r.max(v),
+            Err(e) => {
+                let mut first = self.0.lock().unwrap_or_else(|e| e.into_inner());
+                first.get_or_insert(e);
+            }
+        }
+    }
+
+    /// Raises the kept panic, if any.
+    fn raise(self) {
+        if let Some(e) = self.0.into_inner().unwrap_or_else(|e| e.into_inner()) {
+            std::panic::resume_unwind(e);
+        }
+    }
+}
+
+/// Block b of `items` cut into `per` near-equal blocks.
+fn nth_block(items: &Range<usize>, per: usize, b: usize) -> Range<usize> {
+    let len = items.len();
+    items.start + len * b / per..items.start + len * (b + 1) / per
+}
+
 /// Spins a thread waits at a phase's end before it takes the blocks others have not
 /// claimed yet (and again after as many more).
 const STEAL_AFTER: u32 = 16;
@@ -463,7 +497,7 @@ pub(crate) fn phases_max(
     let n = pool.threads();
     let job = state.next_job(phases, n);
     let (room, state) = (state.room, &*state);
-    let panic: Mutex<Option<Box<dyn std::any::Any + Send>>> = Mutex::new(None);
+    let panic = FirstPanic::new();
     // blocks a share of phase p is cut into: as many for every share
     let per = |p: usize| {
         let block = block(p).max(1);
@@ -479,19 +513,9 @@ pub(crate) fn phases_max(
         let run = |p: usize, per: usize, j: usize, r: &mut f32| {
             let mut ran = 0;
             while let Some(b) = state.claim(j * room + p, job, per) {
-                let items = share(p, j);
-                let len = items.len();
-                let items = items.start + len * b / per..items.start + len * (b + 1) / per;
+                let items = nth_block(&share(p, j), per, b);
                 if !items.is_empty() {
-                    // a block that panics still counts as done, so no thread waits on it
-                    match std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| f(t, p, items)))
-                    {
-                        Ok(v) => *r = r.max(v),
-                        Err(e) => {
-                            let mut first = panic.lock().unwrap_or_else(|e| e.into_inner());
-                            first.get_or_insert(e);
-                        }
-                    }
+                    panic.run(r, || f(t, p, items));
                 }
                 ran += 1;
             }
@@ -532,9 +556,7 @@ pub(crate) fn phases_max(
         }
         r
     });
-    if let Some(e) = panic.into_inner().unwrap_or_else(|e| e.into_inner()) {
-        std::panic::resume_unwind(e);
-    }
+    panic.raise();
     r
 }
 
@@ -574,7 +596,7 @@ pub(crate) fn phases_ahead(
     let n = pool.threads();
     let job = state.next_job(phases, n);
     let (room, state) = (state.room, &*state);
-    let panic: Mutex<Option<Box<dyn std::any::Any + Send>>> = Mutex::new(None);
+    let panic = FirstPanic::new();
     let r = blocks_max(pool, n, &|t, _| {
         let mut r = f32::NEG_INFINITY;
         let mark = |p: usize, what: usize| {
@@ -604,40 +626,25 @@ pub(crate) fn phases_ahead(
             } else {
                 (items.start..items.start + k, items.start + k..items.end)
             };
-            let len = rest.len();
-            let per = len.div_ceil(block(p).max(1));
+            let per = rest.len().div_ceil(block(p).max(1));
             let mut run = |range: Range<usize>| {
                 if !range.is_empty() {
-                    // a block that panics still counts as done, so no thread waits on it
-                    match std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| f(t, p, range)))
-                    {
-                        Ok(v) => r = r.max(v),
-                        Err(e) => {
-                            let mut first = panic.lock().unwrap_or_else(|e| e.into_inner());
-                            first.get_or_insert(e);
-                        }
-                    }
+                    panic.run(&mut r, || f(t, p, range));
                 }
             };
-            if full(p) {
-                for b in 0..per {
-                    run(rest.start + len * b / per..rest.start + len * (b + 1) / per);
-                }
-            } else {
+            if !full(p) {
                 run(first);
                 mark(p, AHEAD);
-                for i in 0..per {
-                    let b = if reversed { per - 1 - i } else { i };
-                    run(rest.start + len * b / per..rest.start + len * (b + 1) / per);
-                }
+            }
+            for i in 0..per {
+                let b = if reversed { per - 1 - i } else { i };
+                run(nth_block(&rest, per, b));
             }
             mark(p, ALL);
         }
         r
     });
-    if let Some(e) = panic.into_inner().unwrap_or_else(|e| e.into_inner()) {
-        std::panic::resume_unwind(e);
-    }
+    panic.raise();
     r
 }
 
