@@ -1146,7 +1146,9 @@ impl SoftSolver {
                 let (wide, cold) = (Disjoint::new(&mut self.wide), Disjoint::new(&mut self.cold));
                 let blocks = &self.fill_blocks;
                 // the bodies each thread's share writes (the fill's blocks are laid out
-                // thread by thread, as many for each)
+                // thread by thread, as many for each), for the substeps' job to run ahead:
+                // only with two threads (see `substeps_in_one_job`)
+                let ranges = threads == 2;
                 let per = blocks.len() / threads;
                 let written = SharedMassRange::new();
                 let r = parallel::blocks_max(pool, blocks.len(), &|_, b| {
@@ -1157,6 +1159,9 @@ impl SoftSolver {
                     // SAFETY: the blocks' ranges do not overlap (see `cut_colors`)
                     let (w, c) = unsafe { (wide.range(r.clone()), cold.range(r.clone())) };
                     let any = fill_range(r.start, w, c);
+                    if !ranges {
+                        return any;
+                    }
                     let (mut least, mut most) = (u32::MAX, 0);
                     for c in w.iter() {
                         for &i in c.wa.iter().chain(&c.wb) {
@@ -1173,12 +1178,13 @@ impl SoftSolver {
                     slot.1.fetch_max(most, Ordering::Relaxed);
                     any
                 });
-                self.share_bodies.clear();
-                self.share_bodies.extend(
-                    written.0[..threads]
-                        .iter()
-                        .map(|s| (s.0.load(Ordering::Relaxed), s.1.load(Ordering::Relaxed))),
-                );
+                if ranges {
+                    self.share_bodies.extend(
+                        written.0[..threads]
+                            .iter()
+                            .map(|s| (s.0.load(Ordering::Relaxed), s.1.load(Ordering::Relaxed))),
+                    );
+                }
                 r
             }
             _ => parallel::chunks_mut2(
