@@ -792,6 +792,16 @@ impl<'a, T: Send> Disjoint<'a, T> {
         // SAFETY: inside the borrowed slice; the caller keeps the ranges apart.
         unsafe { std::slice::from_raw_parts_mut(self.ptr.get().add(r.start), r.len()) }
     }
+
+    /// Writes item `i` (panics past the end).
+    ///
+    /// # Safety
+    /// No other block of the job may touch item `i`, nor take a range holding it.
+    pub(crate) unsafe fn set(&self, i: usize, v: T) {
+        assert!(i < self.len, "item past the slice");
+        // SAFETY: inside the borrowed slice; the caller keeps the items apart.
+        unsafe { *self.ptr.get().add(i) = v };
+    }
 }
 
 /// A raw pointer the threads of one job share, each touching its own elements.

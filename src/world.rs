@@ -185,6 +185,9 @@ pub struct World {
     /// none is asleep at the step's end either: only `update_sleep` puts bodies to
     /// sleep), so the end of the step need not look again.
     none_asleep: bool,
+    /// Whether this step's collide found `dynamic` for every body with none asleep: it
+    /// then says which bodies are dynamic ([`World::bodies_with_movers`]).
+    movers_found: bool,
     /// Set by a solver whose last pass over the bodies did the end of the step (cleared
     /// the forces and checked the state): whether some body's state is not finite.
     /// `World::step` then skips its own pass ([`World::end_step`]).
@@ -270,6 +273,7 @@ impl World {
             filtered: false,
             has_sensors: false,
             none_asleep: false,
+            movers_found: false,
             ended: None,
             record_events: false,
             events: Vec::new(),
@@ -785,6 +789,7 @@ impl World {
         let cx = StepContext::new(&self.settings);
         // until collide finds otherwise
         self.none_asleep = false;
+        self.movers_found = false;
         let mut clock = StageClock::start();
         // only this step's solver may say it ended the step
         self.ended = None;
@@ -885,6 +890,28 @@ impl World {
         );
     }
 
+    /// The bodies and this step's contacts, with whether each body is dynamic where
+    /// this step's collide found it for every body (none was asleep).
+    pub(crate) fn bodies_with_movers(&mut self) -> (&mut [Body], &[Contact], Option<&[bool]>) {
+        let movers = (self.movers_found && self.dynamic.len() == self.bodies.len())
+            .then_some(&self.dynamic[..]);
+        (&mut self.bodies, &self.contacts, movers)
+    }
+
+    /// Whether some body is asleep: a pass over the bodies (large), split between the
+    /// threads.
+    fn any_asleep(&mut self) -> bool {
+        let pool = self.pool();
+        let bodies = &self.bodies;
+        parallel::ranges_max(pool.as_deref(), bodies.len(), BODY_PASS_BLOCK, &|_, r| {
+            if bodies[r].iter().any(|b| b.asleep) {
+                1.0
+            } else {
+                0.0
+            }
+        }) > 0.0
+    }
+
     /// Broad and narrow phase; returns the deepest overlap found (m, >= 0). How far out
     /// a pair keeps points is `speculative`'s choice (see [`Speculative`]).
     pub(crate) fn collide(
@@ -894,7 +921,7 @@ impl World {
         speculative: Speculative,
         clock: &mut StageClock,
     ) -> f32 {
-        if self.sleeping_contacts.is_empty() && self.bodies.iter().all(|b| !b.asleep) {
+        if self.sleeping_contacts.is_empty() && !self.any_asleep() {
             self.none_asleep = true;
             return self.collide_awake(h, margin, speculative, clock);
         }
@@ -985,6 +1012,8 @@ impl World {
         let flags = flags.into_inner();
         let (filtered, sensors) = (flags & FILTERED != 0, flags & SENSORS != 0);
         let any_asleep = flags & ASLEEP != 0;
+        // (with none asleep, `dynamic` is whether each body is dynamic)
+        self.movers_found = !any_asleep;
         let holds = kept && flags & LEFT == 0;
         self.filtered = filtered;
         self.has_sensors = sensors;

@@ -39,6 +39,7 @@ use crate::defs::{BodyModel, BodyType, SolverSettings};
 use crate::math::{BODY_AHEAD, Rot, Vec2, cross, cross_sv, prefetch, uf_root, uf_union};
 use crate::parallel::{self, Disjoint, MAX_THREADS, Pool};
 use glam::Vec4;
+use std::sync::Mutex;
 use std::sync::atomic::{AtomicU32, Ordering};
 
 mod direct;
@@ -308,6 +309,78 @@ struct WideCold {
 
 /// Colour of a constraint no colour was free for: it gets a wide constraint to itself.
 const OVERFLOW: usize = 64;
+
+/// What [`color_contacts`] counted.
+struct Colored {
+    /// Contacts per colour.
+    counts: [u32; OVERFLOW + 1],
+    /// Contact points.
+    points: usize,
+    /// Whether some contact is lopsided (looked for only where masses were given).
+    lopsided: bool,
+}
+
+/// Greedy colouring, in contact order: each contact takes the lowest colour neither of
+/// its moving bodies (`moves`) uses yet, [`OVERFLOW`] where none is free; a body that
+/// does not move takes no colour. Writes each contact's colour to `colors`, and to
+/// `cut_counts` what each colour had counted at the start of each of the `threads` even
+/// runs of the contacts but the first (the layout cuts the colours there). With
+/// `inv_mass`, also looks for a lopsided contact (see `SoftSolver::find_direct`): each
+/// pass over the contacts reads them from far in the cache.
+fn color_contacts(
+    contacts: &[Contact],
+    moves: &[bool],
+    inv_mass: Option<&[(f32, f32)]>,
+    threads: usize,
+    body_colors: &mut Vec<u64>,
+    colors: &mut Vec<u8>,
+    cut_counts: &mut Vec<[u32; OVERFLOW + 1]>,
+) -> Colored {
+    body_colors.clear();
+    body_colors.resize(moves.len(), 0);
+    colors.resize(contacts.len(), 0);
+    cut_counts.clear();
+    let mut counts = [0u32; OVERFLOW + 1];
+    let (mut points, mut lopsided) = (0usize, false);
+    // plain slices, so the loop keeps its pointers in registers
+    let body_colors = &mut body_colors[..];
+    for k in 0..threads {
+        if k > 0 {
+            cut_counts.push(counts);
+        }
+        let run = parallel::split(contacts.len(), threads, k);
+        for (c, out) in contacts[run.clone()].iter().zip(&mut colors[run]) {
+            let (a, b) = (c.a as usize, c.b as usize);
+            let (ma, mb) = (moves[a], moves[b]);
+            points += c.manifold.count;
+            if let Some(inv_mass) = inv_mass
+                && ma
+                && mb
+            {
+                lopsided |= is_lopsided(inv_mass[a].0, inv_mass[b].0);
+            }
+            let used =
+                (if ma { body_colors[a] } else { 0 }) | (if mb { body_colors[b] } else { 0 });
+            let color = (!used).trailing_zeros() as usize;
+            if color < OVERFLOW {
+                let bit = 1u64 << color;
+                if ma {
+                    body_colors[a] |= bit;
+                }
+                if mb {
+                    body_colors[b] |= bit;
+                }
+            }
+            counts[color] += 1;
+            *out = color as u8;
+        }
+    }
+    Colored {
+        counts,
+        points,
+        lopsided,
+    }
+}
 
 /// The soft bodies as one job's threads share them. Within a colour no two constraints
 /// share a moving body, so the threads of a job read and write disjoint bodies, apart
@@ -842,6 +915,8 @@ pub struct SoftSolver {
     roots: Vec<u32>,
     /// The contact points of the step's contacts.
     points: usize,
+    /// Whether the last `prepare_integrating` coloured the contacts beside its load pass.
+    colored_beside_load: bool,
 }
 
 impl SoftSolver {
@@ -866,11 +941,16 @@ impl SoftSolver {
     /// [`SoftSolver::take_increments`] do, to the same bits, for a world whose only
     /// forces are gravity and each body's own force and torque (no drag, drives or point
     /// forces: the caller checks). One pass over the bodies instead of three.
+    ///
+    /// `movers`, where the caller has it: whether each body is dynamic, as the solver's
+    /// own load pass finds it. With threads, one of them then colours the contacts while
+    /// the others run that pass (the colouring reads no body), instead of after it.
     #[allow(clippy::too_many_arguments)]
     pub fn prepare_integrating(
         &mut self,
         bodies: &mut [Body],
         contacts: &[Contact],
+        movers: Option<&[bool]>,
         s: &SolverSettings,
         h: f32,
         gravity: Option<Vec2>,
@@ -887,7 +967,7 @@ impl SoftSolver {
         let increments = Disjoint::new(&mut self.increments);
         let all = Disjoint::new(bodies);
         let shared_range = SharedMassRange::new();
-        parallel::ranges_max(pool, nb, BODY_PASS_BLOCK, &|t, r| {
+        let load = |t: usize, r: std::ops::Range<usize>| {
             // SAFETY: each block takes only its own range of each slice
             let (soft, moves, inv_mass, increments, bodies) = unsafe {
                 (
@@ -920,9 +1000,61 @@ impl SoftSolver {
             }
             range.publish(&shared_range, t);
             0.0
-        });
-        self.inv_mass_range = shared_range.get();
-        self.build(nb, contacts, s, h, pool);
+        };
+        let threads = pool.map_or(1, Pool::threads);
+        let side_by_side = match (pool, movers) {
+            (Some(pool), Some(movers))
+                if threads > 1 && contacts.len() >= PARALLEL_COLORING && movers.len() == nb =>
+            {
+                Some((pool, movers))
+            }
+            _ => None,
+        };
+        self.colored_beside_load = side_by_side.is_some();
+        if let Some((pool, movers)) = side_by_side {
+            // block 0 colours the contacts (the caller claims it first); the others are
+            // the load pass's, which the other threads take meanwhile
+            let coloring = Mutex::new((
+                &mut self.body_colors,
+                &mut self.colors,
+                &mut self.cut_lanes,
+                None,
+            ));
+            parallel::blocks_max(pool, 1 + nb.div_ceil(BODY_PASS_BLOCK), &|t, b| {
+                if b > 0 {
+                    let at = (b - 1) * BODY_PASS_BLOCK;
+                    return load(t, at..(at + BODY_PASS_BLOCK).min(nb));
+                }
+                let mut c = coloring.lock().unwrap_or_else(|e| e.into_inner());
+                let (body_colors, colors, cut_lanes, found) = &mut *c;
+                *found = Some(color_contacts(
+                    contacts,
+                    movers,
+                    None,
+                    threads,
+                    body_colors,
+                    colors,
+                    cut_lanes,
+                ));
+                0.0
+            });
+            let found = coloring.into_inner().unwrap_or_else(|e| e.into_inner()).3;
+            let mut found = found.expect("the colouring block ran");
+            self.inv_mass_range = shared_range.get();
+            if may_be_lopsided(self.inv_mass_range) {
+                // (the masses were not loaded yet when the contacts were coloured)
+                let (moves, inv_mass) = (&self.moves, &self.inv_mass);
+                found.lopsided = contacts.iter().any(|c| {
+                    let (a, b) = (c.a as usize, c.b as usize);
+                    moves[a] && moves[b] && is_lopsided(inv_mass[a].0, inv_mass[b].0)
+                });
+            }
+            self.build_colored(nb, contacts, found, s, h, Some(pool));
+        } else {
+            parallel::ranges_max(pool, nb, BODY_PASS_BLOCK, &load);
+            self.inv_mass_range = shared_range.get();
+            self.build(nb, contacts, s, h, pool);
+        }
         // then take the new velocities and keep their increments, as take_increments
         // does (a pass over the solver's own small arrays)
         let n = self.increments.len();
@@ -998,57 +1130,53 @@ impl SoftSolver {
         h: f32,
         pool: Option<&Pool>,
     ) {
+        let threads = pool.map_or(1, Pool::threads);
+        let may_lopsided = may_be_lopsided(self.inv_mass_range);
+        let found = color_contacts(
+            contacts,
+            &self.moves,
+            may_lopsided.then_some(&self.inv_mass[..]),
+            threads,
+            &mut self.body_colors,
+            &mut self.colors,
+            &mut self.cut_lanes,
+        );
+        self.build_colored(nb, contacts, found, s, h, pool);
+    }
+
+    /// The rest of [`SoftSolver::build`], once the contacts are coloured (`found`, and
+    /// `colors`, `cut_lanes` as [`color_contacts`] leaves them): lays the constraints out
+    /// colour by colour and fills them.
+    fn build_colored(
+        &mut self,
+        nb: usize,
+        contacts: &[Contact],
+        found: Colored,
+        s: &SolverSettings,
+        h: f32,
+        pool: Option<&Pool>,
+    ) {
         self.inv_h = 1.0 / h;
         self.slop = s.slop;
         self.max_push = s.max_push_speed;
         self.restitution = false;
         let (rest, sink) = (nb as u32, nb as u32 + 1);
-        // greedy colouring: the lowest colour neither moving body uses yet
-        self.body_colors.clear();
-        self.body_colors.resize(nb, 0);
         let one_lane = testing::ONE_LANE.with(std::cell::Cell::get);
-        let mut counts = [0u32; OVERFLOW + 1];
-        self.colors.resize(contacts.len(), 0);
-        // plain slices, so the loop keeps its pointers in registers
-        let (moves, body_colors) = (&self.moves[..], &mut self.body_colors[..]);
-        let inv_mass = &self.inv_mass[..];
-        // the same pass counts the points and looks for a lopsided contact (see
-        // `find_direct`): each pass over the contacts reads them from far in the cache
-        let (mut points, mut lopsided) = (0usize, false);
-        // (the moving bodies' masses may be too close for any contact to be lopsided)
-        let may_lopsided = may_be_lopsided(self.inv_mass_range);
-        for (c, out) in contacts.iter().zip(self.colors.iter_mut()) {
-            let (a, b) = (c.a as usize, c.b as usize);
-            let (ma, mb) = (moves[a], moves[b]);
-            points += c.manifold.count;
-            if may_lopsided && ma && mb {
-                lopsided |= is_lopsided(inv_mass[a].0, inv_mass[b].0);
-            }
-            // a body that does not move takes no colour: its bit stays free
-            let used =
-                (if ma { body_colors[a] } else { 0 }) | (if mb { body_colors[b] } else { 0 });
-            let color = (!used).trailing_zeros() as usize;
-            if color < OVERFLOW {
-                let bit = 1u64 << color;
-                if ma {
-                    body_colors[a] |= bit;
-                }
-                if mb {
-                    body_colors[b] |= bit;
-                }
-            }
-            counts[color] += 1;
-            *out = color as u8;
-        }
+        let Colored {
+            counts,
+            points,
+            lopsided,
+        } = found;
         self.colors_used = counts.iter().filter(|&&n| n > 0).count();
         // first lane of each colour; a colour starts on a fresh wide constraint, and an
         // overflow constraint has one to itself
+        let step = |color: usize| if color == OVERFLOW || one_lane { 4 } else { 1 };
         let mut next = [0u32; OVERFLOW + 1];
         let mut acc = 0u32;
         self.color_ranges.clear();
         for (color, (nx, &n)) in next.iter_mut().zip(&counts).enumerate() {
             *nx = acc;
-            acc += if color == OVERFLOW || one_lane {
+            acc += if step(color) == 4 {
                 4 * n
             } else {
                 n.div_ceil(4) * 4
@@ -1058,7 +1186,56 @@ impl SoftSolver {
             }
         }
         let n_wide = (acc / 4) as usize;
-
+        // with threads, each takes an equal run of the contacts in contact order (which
+        // follows the bodies' order: pairs are found and kept sorted) from every colour:
+        // the lane each colour had reached at the contacts' quantiles (counted by the
+        // colouring) is where it is cut, and where that thread's run starts laying out
+        let threads = pool.map_or(1, Pool::threads);
+        for counted in &mut self.cut_lanes {
+            for (color, (lane, &start)) in counted.iter_mut().zip(&next).enumerate() {
+                *lane = start + *lane * step(color);
+            }
+        }
+        // where each contact goes, and which contact each lane holds
+        self.slot.resize(contacts.len(), 0);
+        self.lane_contact.clear();
+        self.lane_contact.resize(n_wide * 4, u32::MAX);
+        {
+            let (colors, cut_lanes) = (&self.colors[..], &self.cut_lanes[..]);
+            let (slots, lanes) = (
+                Disjoint::new(&mut self.slot[..]),
+                Disjoint::new(&mut self.lane_contact[..]),
+            );
+            // run k of the contacts, from the lanes each colour had reached there
+            let lay_out = |k: usize| {
+                let run = parallel::split(contacts.len(), threads, k);
+                let mut at = if k == 0 { next } else { cut_lanes[k - 1] };
+                // SAFETY: the runs tile the contacts, and the lanes a run fills are its
+                // own: from each colour's lane at the run's start to the next run's
+                let slot = unsafe { slots.range(run.clone()) };
+                for ((i, &color), out) in run.clone().zip(&colors[run]).zip(slot) {
+                    let lane = &mut at[color as usize];
+                    *out = *lane;
+                    // SAFETY: as above
+                    unsafe { lanes.set(*lane as usize, i as u32) };
+                    *lane += step(color as usize);
+                }
+                0.0
+            };
+            match pool {
+                Some(pool) if threads > 1 && contacts.len() >= PARALLEL_LAYOUT => {
+                    parallel::blocks_max(pool, threads, &|_, k| lay_out(k));
+                }
+                _ => {
+                    for k in 0..threads {
+                        lay_out(k);
+                    }
+                }
+            }
+        }
+        self.cut_colors(threads, &counts, n_wide as u32);
+        self.points = points;
+        self.find_direct(contacts, lopsided);
         // rigid contacts soften to a quarter of the substep rate at most; against a body
         // that does not move, twice as stiff
         let hertz = s.contact_hertz.min(0.25 * self.inv_h);
@@ -1066,46 +1243,6 @@ impl SoftSolver {
         let soft_static = Softness::new(2.0 * hertz, s.contact_damping_ratio, h);
         let omega = 2.0 * std::f32::consts::PI * hertz;
 
-        // where each contact goes, and which contact each lane holds
-        self.slot.resize(contacts.len(), 0);
-        self.lane_contact.clear();
-        self.lane_contact.resize(n_wide * 4, u32::MAX);
-        let lane_contact = &mut self.lane_contact[..];
-        // with threads, each takes an equal run of the contacts in contact order (which
-        // follows the bodies' order: pairs are found and kept sorted) from every colour:
-        // what each colour had reached at the contacts' quantiles is where it is cut
-        let threads = pool.map_or(1, Pool::threads);
-        self.cut_lanes.clear();
-        let quantile = |k: usize| contacts.len() * k / threads;
-        let mut next_cut = 1;
-        // (the next cut's contact, or none: no division per contact)
-        let mut cut_at = if threads > 1 { quantile(1) } else { usize::MAX };
-        for (i, (&color, slot)) in self.colors.iter().zip(self.slot.iter_mut()).enumerate() {
-            while i == cut_at {
-                self.cut_lanes.push(next);
-                next_cut += 1;
-                cut_at = if next_cut < threads {
-                    quantile(next_cut)
-                } else {
-                    usize::MAX
-                };
-            }
-            let at = next[color as usize];
-            next[color as usize] += if color as usize == OVERFLOW || one_lane {
-                4
-            } else {
-                1
-            };
-            *slot = at;
-            lane_contact[at as usize] = i as u32;
-        }
-        while next_cut < threads {
-            self.cut_lanes.push(next);
-            next_cut += 1;
-        }
-        self.cut_colors(threads, &counts, n_wide as u32);
-        self.points = points;
-        self.find_direct(contacts, lopsided);
         // every wide constraint is written whole below: old contents do not matter
         self.wide.resize(n_wide, WideConstraint::empty(rest, sink));
         self.cold.resize(n_wide, WideCold::default());
@@ -2032,6 +2169,10 @@ const PHASE_BLOCK: usize = 128;
 const BODY_BLOCK: usize = 1024;
 /// Bodies per block of a parallel pass over the world's bodies (`Body`, large).
 const BODY_PASS_BLOCK: usize = 256;
+/// Contacts from which one thread colours them while the others load the bodies.
+const PARALLEL_COLORING: usize = 1024;
+/// Contacts from which the layout of the constraints is split between the threads.
+const PARALLEL_LAYOUT: usize = 2048;
 /// Contacts a thread claims at a time (copying lambdas out).
 const CONTACT_BLOCK: usize = 512;
 
@@ -2340,9 +2481,93 @@ fn solve_group<G: Group, const BIAS: bool, const MAX_IMPULSE: bool, const SHARED
 
 #[cfg(test)]
 mod tests {
-    use super::{MassRange, SharedMassRange, Softness, is_lopsided, may_be_lopsided};
+    use super::{
+        MassRange, PARALLEL_LAYOUT, SharedMassRange, SoftSolver, Softness, is_lopsided,
+        may_be_lopsided,
+    };
     use crate::defs::SolverKind;
+    use crate::defs::SolverSettings;
+    use crate::parallel::Pool;
     use crate::step::testing::{normal_sum, resting_box};
+
+    #[test]
+    fn coloring_beside_the_load_pass_gives_the_bits_of_coloring_after_it() {
+        // a pyramid of 1,830 boxes (enough contacts for one thread to colour them while
+        // the other loads the bodies, and for the layout to be split), a box 100 times
+        // heavier at its foot (lopsided contacts, looked for after the colouring on that
+        // path), and a heavy box on a light one, apart (an island solved exactly)
+        let sc = crate::scene::load_str(
+            "name = \"pile\"\n[world]\ngravity = [0.0, -10.0]\n\
+             [[body]]\nname = \"ground\"\ntype = \"static\"\nshape = { box = [400.0, 2.0] }\nposition = [0.0, -1.0]\n\
+             [[pyramid]]\nbase = 60\n\
+             [[body]]\nname = \"light\"\nshape = { box = [1.0, 1.0] }\nposition = [150.0, 0.5]\n\
+             [[body]]\nname = \"heavy\"\nshape = { box = [1.0, 1.0] }\nposition = [150.0, 1.5]\ndensity = 100.0\n",
+            "pile.toml",
+        )
+        .unwrap();
+        let settings = SolverSettings::soft();
+        let mut w = crate::World::from_def(&sc.world, settings).unwrap();
+        let foot = w.bodies.iter().position(|b| b.is_dynamic()).unwrap();
+        w.bodies[foot].inv_mass *= 0.01;
+        w.bodies[foot].inv_inertia *= 0.01;
+        for _ in 0..5 {
+            w.step().unwrap();
+        }
+        assert!(
+            w.contacts().len() > 2 * PARALLEL_LAYOUT,
+            "{}",
+            w.contacts().len()
+        );
+        let h = settings.dt / settings.substeps as f32;
+        let movers: Vec<bool> = w.bodies.iter().map(|b| b.is_dynamic()).collect();
+        let pool = Pool::new(2);
+        let run = |movers: Option<&[bool]>, pool: Option<&Pool>, beside: bool| {
+            let mut bodies = w.bodies.clone();
+            let mut s = SoftSolver::default();
+            s.prepare_integrating(
+                &mut bodies,
+                w.contacts(),
+                movers,
+                &settings,
+                h,
+                w.gravity,
+                pool,
+            );
+            assert_eq!(s.colored_beside_load, beside);
+            assert!(
+                s.direct_contact.iter().any(|&d| d),
+                "an island solved exactly"
+            );
+            let layout = (
+                s.colors.clone(),
+                s.slot.clone(),
+                s.lane_contact.clone(),
+                s.color_cuts.clone(),
+                s.direct_contact.clone(),
+            );
+            s.warm_start(pool);
+            let r = s.sweep::<true>(pool);
+            s.integrate_positions(h, pool);
+            let r = r.max(s.sweep::<false>(pool));
+            let mut lam = Vec::new();
+            s.lambdas(&mut lam);
+            let bits: Vec<u32> = s.bodies[..bodies.len()]
+                .iter()
+                .flat_map(|b| [b.v.x, b.v.y, b.w, b.dp.x, b.dp.y, b.dtheta])
+                .chain(bodies.iter().flat_map(|b| [b.velocity.x, b.velocity.y]))
+                .chain(lam)
+                .chain([r])
+                .map(f32::to_bits)
+                .collect();
+            (layout, bits)
+        };
+        let serial = run(Some(&movers), Some(&pool), true);
+        assert_eq!(serial, run(None, Some(&pool), false));
+        // (one thread lays out the contacts as one run: only the cuts differ)
+        let (one_layout, one_bits) = run(Some(&movers), None, false);
+        assert_eq!(one_bits, serial.1);
+        assert_eq!(one_layout.0, serial.0.0);
+    }
 
     #[test]
     fn a_lopsided_pair_is_never_missed_by_the_mass_range() {

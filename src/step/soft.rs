@@ -42,8 +42,11 @@ impl Stepper for SoftStepper {
         let fused = world.plain_forces();
         if fused {
             let g = world.gravity;
+            // (this step's flags of the bodies the solver moves, where the collide found
+            // them: the colouring need not wait for the solver's own pass over the bodies)
+            let (bodies, contacts, movers) = world.bodies_with_movers();
             self.soft
-                .prepare_integrating(&mut world.bodies, &world.contacts, &s, h, g, pool);
+                .prepare_integrating(bodies, contacts, movers, &s, h, g, pool);
         } else {
             self.soft
                 .prepare(&world.bodies, &world.contacts, &s, h, pool);
@@ -172,5 +175,38 @@ mod tests {
         let st = w.stepper_as::<SoftStepper>().expect("a soft stepper");
         assert!(st.soft.lanes_are_independent(w.contacts()));
         assert!(st.soft.color_count() >= 2);
+    }
+
+    #[test]
+    fn the_solver_hears_which_bodies_are_dynamic_only_from_a_collide_with_none_asleep() {
+        // (the collide's flags say "dynamic and awake": the same only with none asleep.)
+        // A box at rest on the ground, and a ball far away that falls for ever: the box
+        // sleeps while the ball keeps the world stepping
+        let sc = crate::scene::load_str(
+            "name = \"two\"\n[world]\ngravity = [0.0, -10.0]\n\
+             [[body]]\nname = \"ground\"\ntype = \"static\"\nshape = { box = [10.0, 1.0] }\nposition = [0.0, -0.5]\n\
+             [[body]]\nname = \"box\"\nshape = { box = [1.0, 1.0] }\nposition = [0.0, 0.5]\n\
+             [[body]]\nname = \"ball\"\nshape = { circle = 0.5 }\nposition = [100.0, 0.0]\n",
+            "two.toml",
+        )
+        .unwrap();
+        let mut w = World::from_def(&sc.world, SolverSettings::soft()).unwrap();
+        assert!(w.settings.sleep);
+        let all = Some(&[false, true, true][..]);
+        w.step().unwrap();
+        assert_eq!(w.bodies_with_movers().2, all);
+        let mut asleep = false;
+        for _ in 0..120 {
+            // (asleep at the step's start, as its collide finds it)
+            asleep = w.bodies[1].asleep;
+            w.step().unwrap();
+            assert_eq!(w.bodies_with_movers().2, if asleep { None } else { all });
+        }
+        assert!(asleep, "the box falls asleep within 2 s");
+        assert!(!w.bodies[2].asleep, "the ball falls");
+        // woken, the next collide finds every flag again
+        w.wake(1);
+        w.step().unwrap();
+        assert_eq!(w.bodies_with_movers().2, all);
     }
 }
