@@ -220,6 +220,13 @@ fn is_lopsided(ia: f32, ib: f32) -> bool {
     ia > 0.0 && ib > 0.0 && ia.max(ib) / ia.min(ib) >= direct::MASS_RATIO
 }
 
+/// Whether contact `c` joins two moving bodies (`moves`) whose masses (`inv_mass`) are
+/// lopsided.
+fn is_lopsided_contact(c: &Contact, moves: &[bool], inv_mass: &[(f32, f32)]) -> bool {
+    let (a, b) = (c.a as usize, c.b as usize);
+    moves[a] && moves[b] && is_lopsided(inv_mass[a].0, inv_mass[b].0)
+}
+
 /// The least and the largest positive 1/m of the moving bodies in one block of a pass
 /// over the bodies, as f32 bits (positive floats order as their bits).
 #[derive(Clone, Copy)]
@@ -870,7 +877,8 @@ pub struct SoftSolver {
     /// the order it runs them, that may touch a body another thread's share writes
     /// (worked out by each thread at the start of `substeps_in_one_job`).
     ahead_blocks: Vec<u32>,
-    /// Per inner cut, the lane each colour had reached there (scratch of `build`).
+    /// Per inner cut, the lane each colour had reached there (scratch of `build`: the
+    /// colouring counts each colour there, the layout turns the counts into lanes).
     cut_lanes: Vec<[u32; OVERFLOW + 1]>,
     /// The blocks of wide constraints the build fills, thread by thread (as many per
     /// thread, empty ones last): each thread's share of every colour, so that it fills
@@ -1044,10 +1052,9 @@ impl SoftSolver {
             if may_be_lopsided(self.inv_mass_range) {
                 // (the masses were not loaded yet when the contacts were coloured)
                 let (moves, inv_mass) = (&self.moves, &self.inv_mass);
-                found.lopsided = contacts.iter().any(|c| {
-                    let (a, b) = (c.a as usize, c.b as usize);
-                    moves[a] && moves[b] && is_lopsided(inv_mass[a].0, inv_mass[b].0)
-                });
+                found.lopsided = contacts
+                    .iter()
+                    .any(|c| is_lopsided_contact(c, moves, inv_mass));
             }
             self.build_colored(nb, contacts, found, s, h, Some(pool));
         } else {
@@ -1413,10 +1420,7 @@ impl SoftSolver {
             return;
         }
         let (moves, inv_mass) = (&self.moves, &self.inv_mass);
-        let lopsided = |c: &Contact| {
-            let (a, b) = (c.a as usize, c.b as usize);
-            moves[a] && moves[b] && is_lopsided(inv_mass[a].0, inv_mass[b].0)
-        };
+        let lopsided = |c: &Contact| is_lopsided_contact(c, moves, inv_mass);
         let nb = self.moves.len();
         self.parent.clear();
         self.parent.extend(0..nb as u32);
