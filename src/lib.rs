@@ -47,5 +47,5 @@ pub use draw::{Camera, DrawList};
 pub use joint::{Joint, JointId, MouseJoint};
 pub use world::{
     BodyKey, BuildError, ContactEvent, EventKind, JointKey, RayHit, RemoveError, StateError,
-    StepError, StepStats, World, WorldState,
+    StepError, StepStats, ThreadUse, Threads, World, WorldState,
 };

@@ -36,6 +36,11 @@ struct Cli {
     /// report (the published figures are one thread's).
     #[arg(long, global = true, value_name = "N")]
     threads: Option<usize>,
+    /// Every step on exactly the threads allowed. Without it, simulate, render and run
+    /// measure whether the extra threads pay (they do not while another program holds
+    /// a core) and step on one thread while they do not, trying again now and then.
+    #[arg(long, global = true)]
+    fixed_threads: bool,
 }
 
 #[derive(Subcommand)]
@@ -58,6 +63,9 @@ enum Command {
     /// bench's grid on the scene, then a finer pass around each solver's best, and prints the
     /// pick, the cheapest setting nearly as good, and the Pareto front.
     Tune(TuneArgs),
+    /// Spins on one core until its parent is gone (the contention suite's busy process).
+    #[command(hide = true)]
+    BusyLoop,
 }
 
 /// Debug overlays for `render`.
@@ -166,6 +174,7 @@ enum SuiteArg {
     Standard,
     Extremes,
     Scaling,
+    Contention,
 }
 
 #[derive(Args)]
@@ -174,7 +183,10 @@ struct BenchArgs {
     /// stability sweeps), scaling (the benchmark pyramid at 1k, 5k, 20k and 80k boxes on
     /// 1 and 2 threads, and every core above 2: scaling.csv, scaling.md, scaling.svg; a
     /// few minutes; --filter picks sizes by label, e.g. 5k; it sets its own thread counts
-    /// (--threads does not apply) and refuses --jobs and --shard).
+    /// (--threads does not apply) and refuses --jobs and --shard), contention (the large
+    /// pyramid and many pyramids on 1 and 2 threads, idle and beside a busy process the
+    /// suite starts and stops: contention.csv, contention.md; a few minutes; as scaling,
+    /// it sets its own threads and refuses --jobs and --shard).
     #[arg(long, value_enum, default_value = "quick")]
     suite: SuiteArg,
     /// Directory for the results (created if missing).
@@ -589,6 +601,8 @@ fn main() -> ExitCode {
         None if timing => {}
         None => sandbox2d::parallel::set_default_threads(sandbox2d::parallel::available()),
     }
+    // (bench and tune time what they are told to: every step on the threads allowed)
+    sandbox2d::parallel::set_default_adaptive(!timing && !cli.fixed_threads);
     let result = match cli.command {
         None => default_command(),
         Some(Command::Scenes) => list_scenes(),
@@ -599,6 +613,7 @@ fn main() -> ExitCode {
         Some(Command::Run(a)) => run(&a),
         Some(Command::Bench(a)) => bench(&a),
         Some(Command::Tune(a)) => tune(&a),
+        Some(Command::BusyLoop) => busy_loop(),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,
@@ -908,6 +923,10 @@ fn simulate(a: &SimulateArgs) -> Result<(), Failure> {
             // not, and two threads' figures depend on which
             "threads": {
                 "allowed": world.threads(),
+                "adaptive": matches!(world.thread_policy(), sandbox2d::Threads::UpTo(_)),
+                "steps_on_one": world.thread_use().steps_on_one,
+                "steps_on_many": world.thread_use().steps_on_many,
+                "switches": world.thread_use().switches,
                 "parallel_jobs": world.parallel_jobs(),
                 "core_round_trip_ns": round_trip,
             },
@@ -957,12 +976,21 @@ fn simulate(a: &SimulateArgs) -> Result<(), Failure> {
                 settings.joint_damping_ratio
             );
         }
+        let used = world.thread_use();
         println!(
-            "steps        {} ({} bodies, {} thread{})",
+            "steps        {} ({} bodies, {} thread{}{})",
             summary.steps,
             world.bodies.len(),
             world.threads(),
-            if world.threads() == 1 { "" } else { "s" }
+            if world.threads() == 1 { "" } else { "s" },
+            if used.steps_on_one + used.steps_on_many > 0 {
+                format!(
+                    " allowed: {} steps on them, {} on one",
+                    used.steps_on_many, used.steps_on_one
+                )
+            } else {
+                String::new()
+            }
         );
         println!("ms/step      median {median:.3}  mean {mean:.3}  p95 {p95:.3}");
         println!(
@@ -1459,6 +1487,7 @@ fn bench(a: &BenchArgs) -> Result<(), Failure> {
         SuiteArg::Standard => Suite::Standard,
         SuiteArg::Extremes => Suite::Extremes,
         SuiteArg::Scaling => return bench_scaling(a, part.is_some()),
+        SuiteArg::Contention => return bench_contention(a, part.is_some()),
     };
     let filter = a.filter.clone();
     let key = shard::RunKey {
@@ -1670,6 +1699,136 @@ fn bench_scaling(a: &BenchArgs, sharded: bool) -> Result<(), Failure> {
         rows.len()
     );
     Ok(())
+}
+
+/// `bench --suite contention`: each scene at one thread and two, idle and beside busy
+/// processes the suite starts (every core but one), one run at a time, then
+/// contention.csv and contention.md.
+fn bench_contention(a: &BenchArgs, sharded: bool) -> Result<(), Failure> {
+    use sandbox2d::bench::contention;
+    if sharded || a.jobs != 1 {
+        return Err(Failure::input(
+            "--suite contention runs one case at a time (it times threads against each other): --jobs and --shard do not apply",
+        ));
+    }
+    let scenes = contention::scenes(a.filter.as_deref());
+    if scenes.is_empty() {
+        return Err(Failure::input(format!(
+            "--filter {:?} matches no scene of the contention suite (large_pyramid, many_pyramids)",
+            a.filter.clone().unwrap_or_default()
+        )));
+    }
+    writable_dir(&a.out)?;
+    let cores = sandbox2d::parallel::available();
+    let rounds = a.repeats.unwrap_or(contention::ROUNDS);
+    let runs = contention::runs(&scenes, rounds);
+    let bar = bench_progress(runs.len());
+    let mut defs: Vec<(&str, sandbox2d::WorldDef)> = Vec::new();
+    let mut timed = Vec::with_capacity(runs.len());
+    let mut busy: Option<BusyProcesses> = None;
+    for (i, r) in runs.iter().enumerate() {
+        if output::interrupted() {
+            return Err(Failure::interrupted("interrupted: nothing was written"));
+        }
+        // the busy processes run exactly while the busy runs do
+        if r.busy != busy.is_some() {
+            busy = if r.busy {
+                Some(BusyProcesses::start(cores.saturating_sub(1).max(1))?)
+            } else {
+                None
+            };
+        }
+        bar.set_message(r.label(rounds));
+        let def = match defs.iter().find(|(n, _)| *n == r.scene.name) {
+            Some((_, d)) => d,
+            None => {
+                let d = contention::scene(r.scene.name).map_err(Failure::run)?;
+                defs.push((r.scene.name, d));
+                &defs[defs.len() - 1].1
+            }
+        };
+        let steps = a.steps.unwrap_or(r.scene.steps);
+        let warmup = contention::WARMUP_STEPS.min(steps);
+        log::debug!("bench: {}", r.label(rounds));
+        let t = contention::run_one(def, r.mode.policy(cores), warmup, steps)
+            .map_err(|e| Failure::run(format!("{}: {e}", r.label(rounds))))?;
+        timed.push(t);
+        bar.set_position(i as u64 + 1);
+    }
+    drop(busy);
+    bar.finish_and_clear();
+    let rows = contention::assemble(&runs, &timed);
+    let mut command = String::from("sandbox2d bench --suite contention");
+    if let Some(f) = &a.filter {
+        command.push_str(&format!(" --filter {f}"));
+    }
+    if let Some(s) = a.steps {
+        command.push_str(&format!(" --steps {s}"));
+    }
+    if let Some(r) = a.repeats {
+        command.push_str(&format!(" --repeats {r}"));
+    }
+    command.push_str(&format!(" --out {}", a.out.display()));
+    write_file(&a.out.join("contention.csv"), &contention::csv(&rows))?;
+    let md = contention::markdown(&rows, rounds, cores, &command);
+    write_file(&a.out.join("contention.md"), &md)?;
+    println!(
+        "wrote {}: contention.csv and contention.md ({} rows)",
+        a.out.display(),
+        rows.len()
+    );
+    Ok(())
+}
+
+/// Processes that spin on a core each (this program's hidden `busy-loop`), killed when
+/// dropped.
+struct BusyProcesses(Vec<std::process::Child>);
+
+impl BusyProcesses {
+    fn start(n: usize) -> Result<BusyProcesses, Failure> {
+        let exe = std::env::current_exe().map_err(|e| {
+            Failure::run(format!(
+                "cannot find this program to start a busy process: {e}"
+            ))
+        })?;
+        let mut started = BusyProcesses(Vec::with_capacity(n));
+        for _ in 0..n {
+            let child = std::process::Command::new(&exe)
+                .arg("busy-loop")
+                .stdin(std::process::Stdio::null())
+                .stdout(std::process::Stdio::null())
+                .stderr(std::process::Stdio::null())
+                .spawn()
+                .map_err(|e| Failure::run(format!("cannot start a busy process: {e}")))?;
+            started.0.push(child);
+        }
+        Ok(started)
+    }
+}
+
+impl Drop for BusyProcesses {
+    fn drop(&mut self) {
+        for c in &mut self.0 {
+            let _ = c.kill();
+            let _ = c.wait();
+        }
+    }
+}
+
+/// The hidden `busy-loop` command: spins on one core until its parent is gone (the
+/// contention suite kills it; this is in case the suite itself was killed).
+fn busy_loop() -> Result<(), Failure> {
+    #[cfg(unix)]
+    let parent = std::os::unix::process::parent_id();
+    loop {
+        for _ in 0..(1 << 20) {
+            std::hint::spin_loop();
+        }
+        #[cfg(unix)]
+        if std::os::unix::process::parent_id() != parent {
+            return Ok(());
+        }
+    }
 }
 
 /// Writes stability.md (the extremes suite's report) into `out`.

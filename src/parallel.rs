@@ -34,6 +34,20 @@ pub fn default_threads() -> usize {
     DEFAULT_THREADS.load(Ordering::Relaxed)
 }
 
+/// Whether a new world measures if its extra threads pay (see [`crate::Threads`]).
+static DEFAULT_ADAPTIVE: AtomicBool = AtomicBool::new(false);
+
+/// Whether a new world measures if its extra threads pay and steps on one thread while
+/// they do not ([`crate::Threads::UpTo`]; false unless the program said otherwise).
+pub fn default_adaptive() -> bool {
+    DEFAULT_ADAPTIVE.load(Ordering::Relaxed)
+}
+
+/// Sets whether every world made from now on adapts its threads.
+pub fn set_default_adaptive(on: bool) {
+    DEFAULT_ADAPTIVE.store(on, Ordering::Relaxed);
+}
+
 /// Sets the threads every world made from now on may use (clamped to 1..=[`MAX_THREADS`]).
 pub fn set_default_threads(n: usize) {
     DEFAULT_THREADS.store(n.clamp(1, MAX_THREADS), Ordering::Relaxed);
@@ -142,13 +156,79 @@ struct Shared {
     quit: AtomicBool,
     /// A job panicked on a worker: the caller panics too, once every block is done.
     panicked: AtomicBool,
+    /// Threads asleep in a wait inside a job (bit t: thread t, the caller being 0): each
+    /// block done wakes them (see [`Shared::pause`]).
+    sleeping: Slot,
+    /// The thread that posted the current job, and the workers (thread t at t), to wake.
+    caller: Mutex<Option<std::thread::Thread>>,
+    workers: std::sync::OnceLock<Vec<std::thread::Thread>>,
 }
 
 /// A claim counter on a cache line of its own.
 #[repr(align(64))]
 struct Slot(AtomicU64);
 
+/// How long a thread with nothing to do spins, then yields, before it sleeps until the
+/// work it waits for is done: a wait at a phase's end on a machine with a core for each
+/// thread is a few microseconds; one that lasts longer is most likely a thread the
+/// system has descheduled, and the core is better given back.
+const SPIN_FOR: std::time::Duration = std::time::Duration::from_micros(50);
+const YIELD_FOR: std::time::Duration = std::time::Duration::from_micros(100);
+/// The longest a thread sleeps before it looks again (a wake-up is never lost; this only
+/// bounds the damage if the system's wake-up were).
+const SLEEP_AT_MOST: std::time::Duration = std::time::Duration::from_millis(2);
+
 impl Shared {
+    /// One round of waiting for thread `t`, idle since `since`, until `ready()`: a spin
+    /// at first, then a yield, then, past [`YIELD_FOR`], a sleep until some block is
+    /// done ([`Shared::wake_sleepers`]) if `ready()` is still false once the thread has
+    /// said it sleeps.
+    fn pause(&self, t: usize, since: std::time::Instant, ready: &dyn Fn() -> bool) {
+        let waited = since.elapsed();
+        if waited < SPIN_FOR {
+            for _ in 0..8 {
+                std::hint::spin_loop();
+            }
+        } else if waited < YIELD_FOR {
+            std::thread::yield_now();
+        } else {
+            // say so, then look (a block done after the look sees the bit and wakes this
+            // thread: both sides are full barriers), then sleep
+            let bit = 1u64 << t;
+            self.sleeping.0.fetch_or(bit, Ordering::SeqCst);
+            std::sync::atomic::fence(Ordering::SeqCst);
+            if !ready() {
+                std::thread::park_timeout(SLEEP_AT_MOST);
+            }
+            self.sleeping.0.fetch_and(!bit, Ordering::SeqCst);
+        }
+    }
+
+    /// Waits until `ready()` as [`Shared::pause`] does.
+    fn wait(&self, t: usize, ready: &dyn Fn() -> bool) {
+        let since = std::time::Instant::now();
+        while !ready() {
+            self.pause(t, since, ready);
+        }
+    }
+
+    /// Wakes the threads asleep in a wait of the job (call after the sequentially
+    /// consistent read-modify-write that publishes what they wait for).
+    fn wake_sleepers(&self) {
+        let mut s = self.sleeping.0.load(Ordering::SeqCst);
+        while s != 0 {
+            let t = s.trailing_zeros() as usize;
+            s &= s - 1;
+            if t == 0 {
+                if let Some(c) = &*self.caller.lock().unwrap_or_else(|e| e.into_inner()) {
+                    c.unpark();
+                }
+            } else if let Some(w) = self.workers.get().and_then(|w| w.get(t - 1)) {
+                w.unpark();
+            }
+        }
+    }
+
     /// Claims the next block of job `epoch` for thread `t`: from its own segment first
     /// (so each thread keeps to the same part of the data, colour after colour, and its
     /// bodies stay in its cache), then from the others'. `None` when none is left.
@@ -217,6 +297,9 @@ impl Pool {
             parked: (0..workers).map(|_| AtomicBool::new(false)).collect(),
             quit: AtomicBool::new(false),
             panicked: AtomicBool::new(false),
+            sleeping: Slot(AtomicU64::new(0)),
+            caller: Mutex::new(None),
+            workers: std::sync::OnceLock::new(),
         });
         let workers = (0..workers)
             .map(|i| {
@@ -226,7 +309,10 @@ impl Pool {
                     .spawn(move || worker(&shared, i))
                     .expect("spawn a worker thread")
             })
-            .collect();
+            .collect::<Vec<JoinHandle<()>>>();
+        let _ = shared
+            .workers
+            .set(workers.iter().map(|w| w.thread().clone()).collect());
         Pool {
             shared,
             workers,
@@ -267,6 +353,14 @@ impl Pool {
         let f_ptr: *const (dyn Fn(usize, usize) + Sync) = f;
         let f_ptr: JobFn = unsafe { std::mem::transmute(f_ptr) };
         let blocks32 = u32::try_from(blocks).expect("a job of fewer than 2^32 blocks");
+        {
+            // the thread to wake if it sleeps in this job's waits
+            let mut caller = s.caller.lock().unwrap_or_else(|e| e.into_inner());
+            let me = std::thread::current();
+            if caller.as_ref().is_none_or(|c| c.id() != me.id()) {
+                *caller = Some(me);
+            }
+        }
         s.completed.store(0, Ordering::SeqCst);
         // `f_ptr` stays on this frame until every block is done
         s.job_f
@@ -298,10 +392,9 @@ impl Pool {
         if ran > 0 {
             s.completed.fetch_add(ran, Ordering::AcqRel);
         }
-        let mut tries = 0u32;
-        while s.completed.load(Ordering::Acquire) != blocks {
-            backoff(&mut tries);
-        }
+        // the workers' blocks: a worker descheduled in the middle of one is waited for
+        // asleep once the wait is long
+        s.wait(0, &|| s.completed.load(Ordering::Acquire) == blocks);
         if let Err(p) = mine {
             std::panic::resume_unwind(p);
         }
@@ -386,26 +479,32 @@ fn nth_block(items: &Range<usize>, per: usize, b: usize) -> Range<usize> {
     items.start + len * b / per..items.start + len * (b + 1) / per
 }
 
-/// Spins a thread waits at a phase's end before it takes the blocks others have not
-/// claimed yet (and again after as many more).
-const STEAL_AFTER: u32 = 16;
+/// How long a thread at a loose end looks only at its own share before it also takes
+/// the blocks of the others' shares that nobody has claimed yet: a thread at work on its
+/// share ends it sooner than this, and taking its blocks would only move its data to
+/// another core; a thread that the system has descheduled is gone for much longer.
+const STEAL_AFTER: std::time::Duration = std::time::Duration::from_micros(20);
 
-/// The counters of a phased job ([`phases_max`]), kept from job to job so that a step's
-/// jobs allocate nothing. Each counter has a cache line of its own and is tagged with its
-/// job's number, so none is reset between jobs: a thread's counters stay in its core's
-/// cache, and a phase ends without any word going through the pool.
+/// The counters of a phased job ([`phases_max`], [`phases_ahead`]), kept from job to job
+/// so that a step's jobs allocate nothing. Each counter has a cache line of its own and
+/// is tagged with its job's number, so none is reset between jobs: the counters of a
+/// share stay in the cache of the core that usually runs it.
 #[derive(Default)]
 pub(crate) struct Phases {
-    /// Per thread and phase (`thread * room + phase`): (job << 32) | the next block of
-    /// that thread's share of the phase.
+    /// Per share and phase (`share * room + phase`): (job << 32) | blocks claimed.
     claim: Vec<Slot>,
-    /// Per thread and phase: (job << 32) | blocks that thread finished in the phase.
+    /// Per share and phase: (job << 32) | `AHEAD_DONE` once the share's first block is
+    /// done | `ALL_DONE` once every block is | blocks done.
     done: Vec<Slot>,
-    /// Phases each thread has counters for, and for how many threads.
+    /// Phases each share has counters for, and for how many shares.
     room: usize,
     threads: usize,
     /// The current job's number (never 0: new counters are tagged 0).
     job: u32,
+    /// A test's stall: the thread of this number does nothing in a job until every
+    /// block of the job is done (0: none; thread t stalls at t + 1).
+    #[cfg(test)]
+    pub(crate) stall: usize,
 }
 
 impl Clone for Phases {
@@ -424,6 +523,12 @@ impl std::fmt::Debug for Phases {
     }
 }
 
+/// In a share's done counter: its first block (the one the others may wait for alone)
+/// is done.
+const AHEAD_DONE: u64 = 1 << 31;
+/// In a share's done counter: every block of the share's phase is done.
+const ALL_DONE: u64 = 1 << 30;
+
 impl Phases {
     /// Numbers a new job of `phases` phases on `n` threads, with counters for it.
     fn next_job(&mut self, phases: usize, n: usize) -> u32 {
@@ -441,18 +546,18 @@ impl Phases {
         self.job
     }
 
-    /// The count in `slot` if it is this job's, else 0.
-    fn count(slot: &Slot, job: u32) -> usize {
+    /// The value of `slot` below the tag if it is this job's, else 0.
+    fn value(slot: &Slot, job: u32) -> u64 {
         let v = slot.0.load(Ordering::Acquire);
         if (v >> 32) as u32 == job {
-            (v & 0xffff_ffff) as usize
+            v & 0xffff_ffff
         } else {
             0
         }
     }
 
-    /// Claims the next of `per` blocks of counter `i` for job `job`.
-    fn claim(&self, i: usize, job: u32, per: usize) -> Option<usize> {
+    /// Claims the next of `total` blocks of counter `i` for job `job`.
+    fn claim(&self, i: usize, job: u32, total: usize) -> Option<usize> {
         let slot = &self.claim[i].0;
         let mut v = slot.load(Ordering::Acquire);
         loop {
@@ -461,7 +566,7 @@ impl Phases {
             } else {
                 0
             };
-            if next >= per {
+            if next >= total {
                 return None;
             }
             let claimed = ((job as u64) << 32) | (next as u64 + 1);
@@ -471,21 +576,171 @@ impl Phases {
             }
         }
     }
+
+    /// Blocks of counter `i` claimed so far in job `job`.
+    fn claimed(&self, i: usize, job: u32) -> usize {
+        Phases::value(&self.claim[i], job) as usize
+    }
+
+    /// Counts one more block done on counter `i` of `total` (and the first one's mark if
+    /// `first`). A full barrier: a thread about to sleep, which said so before it looked
+    /// at the counters, is seen by the caller's look for sleepers after this.
+    fn finish(&self, i: usize, job: u32, total: usize, first: bool) {
+        let slot = &self.done[i].0;
+        let mut v = slot.load(Ordering::Relaxed);
+        loop {
+            let had = if (v >> 32) as u32 == job {
+                v & 0xffff_ffff
+            } else {
+                0
+            };
+            let count = (had & !(AHEAD_DONE | ALL_DONE)) + 1;
+            let mut now = ((job as u64) << 32) | (had & AHEAD_DONE) | count;
+            if first {
+                now |= AHEAD_DONE;
+            }
+            if count == total as u64 {
+                now |= ALL_DONE;
+            }
+            match slot.compare_exchange_weak(v, now, Ordering::SeqCst, Ordering::Relaxed) {
+                Ok(_) => return,
+                Err(seen) => v = seen,
+            }
+        }
+    }
+}
+
+/// How the phases of one phased job are cut: see [`phases_ahead`].
+struct PhasedJob<'a> {
+    phases: usize,
+    threads: usize,
+    job: u32,
+    room: usize,
+    state: &'a Phases,
+    share: &'a (dyn Fn(usize, usize) -> Range<usize> + Sync),
+    block: &'a (dyn Fn(usize) -> usize + Sync),
+    full: &'a (dyn Fn(usize) -> bool + Sync),
+    ahead: &'a (dyn Fn(usize, usize) -> (usize, bool) + Sync),
+}
+
+/// Share j's part of one phase: its first block (the items the other shares' next phase
+/// may wait for alone; none in a full phase) and the rest, cut into `per` blocks run in
+/// the share's order (from the end if `reversed`).
+struct Part {
+    first: Option<Range<usize>>,
+    rest: Range<usize>,
+    per: usize,
+    reversed: bool,
+}
+
+impl Part {
+    /// Blocks in all.
+    fn total(&self) -> usize {
+        self.per + usize::from(self.first.is_some())
+    }
+
+    /// The items of block b (in the order blocks are claimed).
+    fn items(&self, b: usize) -> Range<usize> {
+        let b = match &self.first {
+            Some(first) if b == 0 => return first.clone(),
+            Some(_) => b - 1,
+            None => b,
+        };
+        let i = if self.reversed { self.per - 1 - b } else { b };
+        nth_block(&self.rest, self.per, i)
+    }
+}
+
+impl PhasedJob<'_> {
+    fn at(&self, j: usize, p: usize) -> usize {
+        j * self.room + p
+    }
+
+    /// Share j's part of phase p. `ahead` is asked only once share j's first phase is
+    /// done (see [`phases_ahead`]).
+    fn part(&self, p: usize, j: usize) -> Part {
+        let items = (self.share)(p, j);
+        let block = (self.block)(p).max(1);
+        if (self.full)(p) {
+            return Part {
+                first: None,
+                per: items.len().div_ceil(block),
+                rest: items,
+                reversed: false,
+            };
+        }
+        let (k, reversed) = (self.ahead)(p, j);
+        let k = k.min(items.len());
+        let (first, rest) = if reversed {
+            (items.end - k..items.end, items.start..items.end - k)
+        } else {
+            (items.start..items.start + k, items.start + k..items.end)
+        };
+        Part {
+            first: Some(first),
+            per: rest.len().div_ceil(block),
+            rest,
+            reversed,
+        }
+    }
+
+    /// Every block of share j's phase p is done (the mark the last block left, or a
+    /// share of no blocks).
+    fn all_done(&self, j: usize, p: usize) -> bool {
+        let done = Phases::value(&self.state.done[self.at(j, p)], self.job);
+        done & ALL_DONE != 0 || (done == 0 && self.part(p, j).total() == 0)
+    }
+
+    /// Share j's phase p may begin: its own phase before is done, and what it may touch
+    /// of the others' (all of it where either phase is full, else their first blocks).
+    fn may_begin(&self, j: usize, p: usize) -> bool {
+        if p == 0 {
+            return true;
+        }
+        if !self.all_done(j, p - 1) {
+            return false;
+        }
+        let whole = (self.full)(p) || (self.full)(p - 1);
+        (0..self.threads).filter(|&k| k != j).all(|k| {
+            if whole {
+                self.all_done(k, p - 1)
+            } else {
+                let done = Phases::value(&self.state.done[self.at(k, p - 1)], self.job);
+                done & (AHEAD_DONE | ALL_DONE) != 0
+            }
+        })
+    }
+
+    /// The next block of share j that may run now, from the phase `cursor` on (moved
+    /// past the phases whose blocks are all claimed): claimed, with its phase and
+    /// part, if `take`; else only whether there is one.
+    fn next(&self, j: usize, cursor: &mut usize, take: bool) -> Option<(usize, Part, usize)> {
+        while *cursor < self.phases {
+            let p = *cursor;
+            if !self.may_begin(j, p) {
+                return None;
+            }
+            let part = self.part(p, j);
+            let i = self.at(j, p);
+            if !take {
+                if self.state.claimed(i, self.job) < part.total() {
+                    return Some((p, part, 0));
+                }
+            } else if let Some(b) = self.state.claim(i, self.job, part.total()) {
+                return Some((p, part, b));
+            }
+            *cursor += 1;
+        }
+        None
+    }
 }
 
 /// Runs `phases` phases one after another in one job of the pool. Phase p covers, for
-/// each thread j, the items `share(p, j)`, every share cut into as many blocks of about
-/// `block(p)` items; `f(thread, p, items)` runs once for each block that is not empty,
-/// thread t taking the blocks of share t first and then, if they are slow to come, what
-/// is left of the others' (so each thread keeps to the same part of the data, phase
-/// after phase, and it stays in its core's cache). A thread goes on to phase p + 1 only
-/// once every block of phase p is done, whoever ran it. One job in place of one a phase:
-/// the threads meet at each phase's end through counters each writes alone, and no phase
-/// waits on a job being posted and found. A thread waiting at a phase's end claims what
-/// is left every few spins, so it never waits long for a block nobody has claimed: a
-/// worker that comes late, or not at all, only leaves its share to the others. Returns
-/// the largest value any call returned; a panic in `f` is raised here once every block
-/// is done.
+/// each share j (one a thread), the items `share(p, j)`, every share cut into blocks of
+/// about `block(p)` items; `f(thread, p, items)` runs once for each block that is not
+/// empty. A phase begins only once every block of the phase before is done, whoever ran
+/// it: see [`phases_ahead`] (this is it with every phase full). Returns the largest
+/// value any call returned; a panic in `f` is raised here once every block is done.
 pub(crate) fn phases_max(
     pool: &Pool,
     state: &mut Phases,
@@ -494,94 +749,47 @@ pub(crate) fn phases_max(
     block: &(dyn Fn(usize) -> usize + Sync),
     f: &(dyn Fn(usize, usize, Range<usize>) -> f32 + Sync),
 ) -> f32 {
-    let n = pool.threads();
-    let job = state.next_job(phases, n);
-    let (room, state) = (state.room, &*state);
-    let panic = FirstPanic::new();
-    // blocks a share of phase p is cut into: as many for every share
-    let per = |p: usize| {
-        let block = block(p).max(1);
-        (0..n)
-            .map(|j| share(p, j).len().div_ceil(block))
-            .max()
-            .unwrap_or(0)
-            .max(1)
-    };
-    let r = blocks_max(pool, n, &|t, _| {
-        let mut r = f32::NEG_INFINITY;
-        // runs the blocks of share j in phase p that nobody has claimed yet; how many
-        let run = |p: usize, per: usize, j: usize, r: &mut f32| {
-            let mut ran = 0;
-            while let Some(b) = state.claim(j * room + p, job, per) {
-                let items = nth_block(&share(p, j), per, b);
-                if !items.is_empty() {
-                    panic.run(r, || f(t, p, items));
-                }
-                ran += 1;
-            }
-            ran
-        };
-        // this thread alone writes its counters (threads run their blocks one after
-        // another, and thread numbers are the pool's)
-        let publish = |p: usize, ran: usize| {
-            let slot = &state.done[t * room + p];
-            let had = Phases::count(slot, job);
-            slot.0
-                .store(((job as u64) << 32) | (had + ran) as u64, Ordering::Release);
-        };
-        for p in 0..phases {
-            let per = per(p);
-            let mine = run(p, per, t, &mut r);
-            if mine > 0 {
-                publish(p, mine);
-            }
-            // then wait for the others' shares, and take what is left of them once
-            // they seem slow to come (a look at another thread's counter takes its line
-            // from that thread's cache: not done while they are likely at work)
-            let all = per * n;
-            let mut tries = 0u32;
-            while (0..n)
-                .map(|k| Phases::count(&state.done[k * room + p], job))
-                .sum::<usize>()
-                != all
-            {
-                if tries >= STEAL_AFTER && tries.is_multiple_of(STEAL_AFTER) {
-                    let ran: usize = (1..n).map(|k| run(p, per, (t + k) % n, &mut r)).sum();
-                    if ran > 0 {
-                        publish(p, ran);
-                    }
-                }
-                backoff(&mut tries);
-            }
-        }
-        r
-    });
-    panic.raise();
-    r
+    phases_ahead(
+        pool,
+        state,
+        phases,
+        share,
+        block,
+        &|_| true,
+        &|_, _| (0, false),
+        f,
+    )
 }
 
-/// A thread's mark in a phase of [`phases_ahead`]: the blocks the others wait for are
-/// done (`AHEAD`), and all of its blocks are (`ALL`, with `AHEAD`).
-const AHEAD: usize = 1;
-const ALL: usize = 3;
-
-/// Runs a phased job as [`phases_max`] does, but a thread need not wait at the end of a
-/// phase for every other thread's share of it: only for the blocks of theirs that its
-/// next phase may touch. Each thread runs its own share of each phase, and no thread
-/// takes another's blocks (a thread that comes late holds the others up; it never
-/// leaves a block undone).
+/// Runs `phases` phases in one job of the pool: phase p covers, for each share j (one
+/// a thread), the items `share(p, j)`; `f(thread, p, items)` runs once for each block of
+/// them that is not empty, on whichever thread claims it. One job in place of one a
+/// phase: the threads meet at each phase's end through counters, and no phase waits on
+/// a job being posted and found.
 ///
-/// `full(p)`: phase p touches what any thread's share of the phase before or after it
-/// may touch (a pass over the bodies), so it begins once every thread has finished the
-/// phase before, and the phase after it begins once every thread has finished it.
-/// Otherwise `ahead(p, t) = (k, reversed)`, asked only by thread t (so it may come from
-/// what t worked out in an earlier phase): t runs the first k items of its share of
-/// phase p (the last k if `reversed`) as one block, then the others may begin phase
-/// p + 1, while t runs the rest of its share a block at a time (from the end if
-/// `reversed`). The caller makes sure that none of those later items touches anything
-/// another thread's share of phase p + 1 touches, nor the other way round.
+/// Thread t runs the blocks of share t first, phase after phase (so each thread keeps
+/// to the same part of the data and it stays in its core's cache). When it has nothing
+/// of its own that may run, it waits a few rounds, then takes the blocks of the others'
+/// shares that may run and that nobody has claimed yet: a thread that the system has
+/// descheduled, or that comes late to the job, holds the others up by at most the block
+/// it is running. A thread with nothing to do spins a little, yields, then sleeps until
+/// a block is done. Which thread runs a block changes nothing but the thread number `f`
+/// is given.
+///
+/// When a share's phase may begin: once its own phase before is done, and
+/// - `full(p)`: phase p touches what any share of the phase before or after it may
+///   touch (a pass over the bodies): it begins once every share has finished the phase
+///   before, and the phase after it begins once every share has finished it;
+/// - otherwise `ahead(p, j) = (k, reversed)`: share j's first k items of phase p (the
+///   last k if `reversed`) are its first block, and the other shares may begin phase
+///   p + 1 once it is done, while share j's rest runs (from the end if `reversed`). The
+///   caller makes sure that none of those later items touches anything another share of
+///   phase p + 1 touches, nor the other way round. `ahead(p, j)` is asked only once
+///   share j's phase 0 is done (so it may come from what phase 0 worked out), and must
+///   give the same answer whoever asks.
+///
 /// Returns the largest value any call of `f` returned; a panic in `f` is raised here
-/// once every block is done.
+/// once every block is done (a block that panics counts as done).
 #[allow(clippy::type_complexity, clippy::too_many_arguments)]
 pub(crate) fn phases_ahead(
     pool: &Pool,
@@ -595,52 +803,90 @@ pub(crate) fn phases_ahead(
 ) -> f32 {
     let n = pool.threads();
     let job = state.next_job(phases, n);
-    let (room, state) = (state.room, &*state);
+    #[cfg(test)]
+    let stall = state.stall;
+    let room = state.room;
+    let state = &*state;
+    let cut = PhasedJob {
+        phases,
+        threads: n,
+        job,
+        room,
+        state,
+        share,
+        block,
+        full,
+        ahead,
+    };
+    let shared = &*pool.shared;
     let panic = FirstPanic::new();
     let r = blocks_max(pool, n, &|t, _| {
         let mut r = f32::NEG_INFINITY;
-        let mark = |p: usize, what: usize| {
-            state.done[t * room + p]
-                .0
-                .store(((job as u64) << 32) | what as u64, Ordering::Release);
-        };
-        for p in 0..phases {
-            // wait for what this phase may touch of the others' last phase
-            if p > 0 {
-                let need = if full(p) || full(p - 1) { ALL } else { AHEAD };
-                let mut tries = 0u32;
-                while (0..n)
-                    .filter(|&k| k != t)
-                    .any(|k| Phases::count(&state.done[k * room + p - 1], job) & need != need)
-                {
-                    backoff(&mut tries);
+        // per share, the first phase that may still have blocks nobody has claimed
+        let mut cursor = [0usize; MAX_THREADS];
+        let cursor = &mut cursor[..n];
+        #[cfg(test)]
+        if stall == t + 1 {
+            // a test's stalled thread: back only once the others have done every block
+            let all = || (0..n).all(|j| (0..phases).all(|p| cut.all_done(j, p)));
+            shared.wait(t, &all);
+        }
+        // idle since; and whether this thread took another's block since it last found
+        // none to take (it then takes them at once: that thread is likely descheduled)
+        let mut idle_since: Option<std::time::Instant> = None;
+        let mut eager = false;
+        let mut rounds = 0u32;
+        loop {
+            // this thread's own share first; the others' once it has waited a while (the
+            // clock read every few rounds)
+            rounds = rounds.wrapping_add(1);
+            let patient = !eager
+                && idle_since
+                    .is_none_or(|t| !rounds.is_multiple_of(8) || t.elapsed() < STEAL_AFTER);
+            let look = if patient { 1 } else { n };
+            let found = (0..look).find_map(|k| {
+                let j = (t + k) % n;
+                cut.next(j, &mut cursor[j], true).map(|x| (j, x))
+            });
+            if let Some((j, (p, part, b))) = found {
+                let items = part.items(b);
+                if !items.is_empty() {
+                    panic.run(&mut r, || f(t, p, items));
                 }
+                let first = b == 0 && part.first.is_some();
+                state.finish(cut.at(j, p), job, part.total(), first);
+                shared.wake_sleepers();
+                idle_since = None;
+                eager |= j != t;
+                continue;
             }
-            let items = share(p, t);
-            // the items the others wait for first, as one block (all of them in a phase
-            // over the bodies), then the rest a block at a time, in the thread's order
-            let (k, reversed) = if full(p) { (0, false) } else { ahead(p, t) };
-            let k = k.min(items.len());
-            let (first, rest) = if reversed {
-                (items.end - k..items.end, items.start..items.end - k)
-            } else {
-                (items.start..items.start + k, items.start + k..items.end)
-            };
-            let per = rest.len().div_ceil(block(p).max(1));
-            let mut run = |range: Range<usize>| {
-                if !range.is_empty() {
-                    panic.run(&mut r, || f(t, p, range));
+            if cursor.iter().all(|&c| c == phases) {
+                break;
+            }
+            // nothing may run yet: a block others run is still going
+            if !patient {
+                eager = false;
+            }
+            let since = *idle_since.get_or_insert_with(std::time::Instant::now);
+            if patient {
+                std::hint::spin_loop();
+                continue;
+            }
+            let seen: [usize; MAX_THREADS] =
+                std::array::from_fn(|j| cursor.get(j).copied().unwrap_or(0));
+            // a block may run now, or every block is claimed
+            let ready = || {
+                let mut all_claimed = true;
+                for (j, &c) in seen[..n].iter().enumerate() {
+                    let mut c = c;
+                    if cut.next(j, &mut c, false).is_some() {
+                        return true;
+                    }
+                    all_claimed &= c == phases;
                 }
+                all_claimed
             };
-            if !full(p) {
-                run(first);
-                mark(p, AHEAD);
-            }
-            for i in 0..per {
-                let b = if reversed { per - 1 - i } else { i };
-                run(nth_block(&rest, per, b));
-            }
-            mark(p, ALL);
+            shared.pause(t, since, &ready);
         }
         r
     });
@@ -875,7 +1121,8 @@ fn worker(s: &Shared, index: usize) {
             ran += 1;
         }
         if ran > 0 {
-            s.completed.fetch_add(ran, Ordering::AcqRel);
+            s.completed.fetch_add(ran, Ordering::SeqCst);
+            s.wake_sleepers();
         }
     }
 }
@@ -893,7 +1140,7 @@ impl Drop for Pool {
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
 
     #[test]
@@ -1015,7 +1262,7 @@ mod tests {
 
     /// Runs `job` on another thread and fails if it does not end within 30 s (a hang
     /// becomes a failure, not a test run that never ends).
-    fn within_30s(job: impl FnOnce() + Send + 'static) {
+    pub(crate) fn within_30s(job: impl FnOnce() + Send + 'static) {
         let (tx, rx) = std::sync::mpsc::channel();
         std::thread::spawn(move || {
             job();
@@ -1169,8 +1416,11 @@ mod tests {
     /// end and each tells the other to go on after its first item. Every seventh phase
     /// is a pass over all the cells (`full`). Items spin for varied times, so the
     /// threads run ahead of each other.
-    fn ahead_run(pool: &Pool, jobs: usize, half: usize) -> (usize, usize) {
-        let mut state = Phases::default();
+    fn ahead_run(pool: &Pool, jobs: usize, half: usize, stall: usize) -> (usize, usize) {
+        let mut state = Phases {
+            stall,
+            ..Phases::default()
+        };
         let (mut ran, mut late) = (0, 0);
         for job in 0..jobs {
             let phases = 30 + job % 7;
@@ -1223,7 +1473,7 @@ mod tests {
             let pool = Pool::new(2);
             for half in [1, 2, 5, 40] {
                 let jobs = 60;
-                let (ran, late) = ahead_run(&pool, jobs, half);
+                let (ran, late) = ahead_run(&pool, jobs, half, 0);
                 let phases: usize = (0..jobs).map(|j| 30 + j % 7).sum();
                 assert_eq!(ran, phases * 2 * half, "every item once a phase");
                 assert_eq!(late, 0, "a cell was touched out of phase order");
@@ -1233,9 +1483,9 @@ mod tests {
 
     #[test]
     fn a_thread_told_to_go_on_too_early_touches_a_cell_out_of_order() {
-        // the check above can fail: thread 0 tells thread 1 to go on before its one
-        // item (0 items first), then waits for thread 1's next phase to touch the cell
-        // they share before it touches it itself; the cell sees phase 1 before phase 0
+        // the check above can fail: share 0 tells share 1 to go on before its one item
+        // (0 items first), then waits for share 1's next phase to touch the cell they
+        // share before it touches it itself; the cell sees phase 1 before phase 0
         within_30s(|| {
             let pool = Pool::new(2);
             let mut state = Phases::default();
@@ -1249,8 +1499,10 @@ mod tests {
                 &|_| 1,
                 &|_| false,
                 &|_, _| (0, false),
-                &|t, p, _| {
-                    if t == 0 && p == 0 {
+                &|_, p, items| {
+                    // (share j's one item is j)
+                    let j = items.start;
+                    if j == 0 && p == 0 {
                         let start = std::time::Instant::now();
                         while cell.load(Ordering::SeqCst) == 0
                             && start.elapsed() < std::time::Duration::from_secs(10)
@@ -1258,8 +1510,8 @@ mod tests {
                             std::thread::yield_now();
                         }
                     }
-                    if t == p {
-                        // thread 1 in phase 1 or thread 0 in phase 0: the shared cell
+                    if j == p {
+                        // share 1 in phase 1 or share 0 in phase 0: the shared cell
                         if cell.swap(p + 1, Ordering::SeqCst) > p {
                             late.store(true, Ordering::SeqCst);
                         }
@@ -1273,14 +1525,14 @@ mod tests {
 
     #[test]
     fn phases_ahead_end_when_the_workers_are_starved_of_cores() {
-        // nobody takes another thread's share: a descheduled worker holds the caller up
-        // until it runs again, and the cells still keep their order
+        // a descheduled worker's share is taken by the caller, and the cells still keep
+        // their order
         let _busy = BusyThreads::new(3);
         within_30s(|| {
             let pool = Pool::new(2);
             let t = std::time::Instant::now();
             while t.elapsed() < std::time::Duration::from_secs(1) {
-                assert_eq!(ahead_run(&pool, 5, 5).1, 0);
+                assert_eq!(ahead_run(&pool, 5, 5, 0).1, 0);
             }
         });
     }
@@ -1310,7 +1562,7 @@ mod tests {
             assert!(r.is_err(), "the panic reached the caller");
             // every block ran, the one that panicked too
             assert_eq!(ran.into_inner(), 9 * 100);
-            assert_eq!(ahead_run(&pool, 3, 5), ((30 + 31 + 32) * 10, 0));
+            assert_eq!(ahead_run(&pool, 3, 5, 0), ((30 + 31 + 32) * 10, 0));
         });
     }
 
@@ -1326,6 +1578,55 @@ mod tests {
             while t.elapsed() < std::time::Duration::from_secs(1) {
                 assert_eq!(items_run(&pool, &mut state, 12, 30), 12 * 30);
             }
+        });
+    }
+
+    #[test]
+    fn phases_complete_on_the_others_while_a_thread_is_stalled() {
+        // the stalled thread does nothing until every block of the job is done: only
+        // the others can do them, its share included, phases in order
+        within_30s(|| {
+            for (threads, stall) in [(2, 2), (2, 1), (3, 2), (3, 3)] {
+                let pool = Pool::new(threads);
+                let mut state = Phases {
+                    stall,
+                    ..Phases::default()
+                };
+                for _ in 0..20 {
+                    assert_eq!(items_run(&pool, &mut state, 9, 40), 9 * 40);
+                }
+            }
+            let pool = Pool::new(2);
+            for stall in [1, 2] {
+                for half in [1, 5, 40] {
+                    let (ran, late) = ahead_run(&pool, 10, half, stall);
+                    let phases: usize = (0..10).map(|j| 30 + j % 7).sum();
+                    assert_eq!(ran, phases * 2 * half, "every item once a phase");
+                    assert_eq!(late, 0, "a cell was touched out of phase order");
+                }
+            }
+        });
+    }
+
+    #[test]
+    fn a_stalled_thread_is_waited_for_only_through_its_blocks() {
+        // the caller takes the stalled worker's share in every phase: the worker runs
+        // nothing (the check of the test above could not tell)
+        within_30s(|| {
+            let pool = Pool::new(2);
+            let mut state = Phases {
+                stall: 2,
+                ..Phases::default()
+            };
+            let by_worker = AtomicUsize::new(0);
+            let share = |p: usize, j: usize| test_share(64, 2, p, j);
+            phases_max(&pool, &mut state, 12, &share, &|_| 8, &|t, _, items| {
+                if t == 1 {
+                    by_worker.fetch_add(items.len(), Ordering::SeqCst);
+                }
+                0.0
+            });
+            assert_eq!(by_worker.into_inner(), 0);
         });
     }
 

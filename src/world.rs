@@ -24,12 +24,14 @@ mod events;
 mod measure;
 mod query;
 mod state;
+mod threads;
 
 pub use edit::{BodyKey, JointKey, RemoveError};
 pub use events::{ContactEvent, EventKind};
 pub use measure::{FAR_FROM_ORIGIN, far_from_origin};
 pub use query::RayHit;
 pub use state::{STATE_FORMAT, STATE_VERSION, StateError, WorldState};
+pub use threads::{ThreadUse, Threads};
 
 /// How far out a pair keeps contact points (speculative contacts).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -209,8 +211,13 @@ pub struct World {
     /// Where this world's (0, 0) is (m): positions in it are relative to this
     /// ([`WorldDef::origin`]); [`World::world_position`] adds it back.
     pub origin: glam::DVec2,
-    /// Threads the step may use ([`World::set_threads`]).
+    /// Threads the step may use ([`World::set_threads`]), and whether the step measures
+    /// if they pay and uses one while they do not ([`World::set_thread_policy`]).
     threads: usize,
+    adaptive: bool,
+    tuner: threads::ThreadTuner,
+    /// This step runs on many threads (the tuner's choice; true when it does not adapt).
+    step_many: bool,
     /// The worker threads, made at the first step that has work for them; clones share
     /// it (taking turns).
     pool: Option<Arc<Pool>>,
@@ -285,6 +292,9 @@ impl World {
             time: 0.0,
             origin: glam::DVec2::ZERO,
             threads: parallel::default_threads(),
+            adaptive: parallel::default_adaptive(),
+            tuner: threads::ThreadTuner::default(),
+            step_many: true,
             pool: None,
             body_keys: edit::Keys::default(),
             joint_keys: edit::Keys::default(),
@@ -293,21 +303,54 @@ impl World {
         }
     }
 
-    /// Lets the step use `n` threads (1 = the caller alone; clamped to
-    /// 1..=[`parallel::MAX_THREADS`]). The results are the same to the bit whatever `n`:
-    /// only independent work is split (pairs, constraints of one colour, bodies). A new
-    /// world takes [`parallel::default_threads`] (1 unless the program set it).
+    /// Lets every step use exactly `n` threads (1 = the caller alone; clamped to
+    /// 1..=[`parallel::MAX_THREADS`]): `set_thread_policy(Threads::Fixed(n))`. The results
+    /// are the same to the bit whatever `n`: only independent work is split (pairs,
+    /// constraints of one colour, bodies). A new world takes
+    /// [`parallel::default_threads`] (1 unless the program set it).
     pub fn set_threads(&mut self, n: usize) {
-        let n = n.clamp(1, parallel::MAX_THREADS);
+        self.set_thread_policy(Threads::Fixed(n));
+    }
+
+    /// How many threads the steps use: exactly n, or up to n, measured as the world
+    /// steps (see [`Threads`]). The results are the same to the bit either way.
+    pub fn set_thread_policy(&mut self, policy: Threads) {
+        let n = policy.most().clamp(1, parallel::MAX_THREADS);
         if n != self.threads {
             self.threads = n;
             self.pool = None;
+        }
+        let adaptive = matches!(policy, Threads::UpTo(_));
+        if adaptive != self.adaptive {
+            self.adaptive = adaptive;
+            self.tuner = threads::ThreadTuner::default();
         }
     }
 
     /// Threads the step may use.
     pub fn threads(&self) -> usize {
         self.threads
+    }
+
+    /// The thread policy in force.
+    pub fn thread_policy(&self) -> Threads {
+        if self.adaptive {
+            Threads::UpTo(self.threads)
+        } else {
+            Threads::Fixed(self.threads)
+        }
+    }
+
+    /// How the steps so far were shared between one thread and many (an adapting world
+    /// with several threads allowed; zeros otherwise).
+    pub fn thread_use(&self) -> ThreadUse {
+        self.tuner.used()
+    }
+
+    /// Whether the step has a choice of threads to measure: several allowed, adapting,
+    /// and a world large enough for the worker threads.
+    fn tunes_threads(&self) -> bool {
+        self.adaptive && self.threads > 1 && self.bodies.len() >= MIN_BODIES_FOR_THREADS
     }
 
     /// Parallel jobs the steps of this world (and its clones) have run so far: 0 with one
@@ -318,7 +361,7 @@ impl World {
 
     /// The pool for this step: `None` for one thread or a small world.
     pub(crate) fn pool(&mut self) -> Option<Arc<Pool>> {
-        if self.threads < 2 || self.bodies.len() < MIN_BODIES_FOR_THREADS {
+        if self.threads < 2 || self.bodies.len() < MIN_BODIES_FOR_THREADS || !self.step_many {
             return None;
         }
         Some(Arc::clone(
@@ -787,6 +830,9 @@ impl World {
             _ => new_stepper(kind),
         };
         let cx = StepContext::new(&self.settings);
+        let tune = self.tunes_threads();
+        self.step_many = !tune || self.tuner.choose();
+        let started = tune.then(std::time::Instant::now);
         // until collide finds otherwise
         self.none_asleep = false;
         self.movers_found = false;
@@ -804,11 +850,18 @@ impl World {
         }
         self.step_count += 1;
         self.time += self.settings.dt as f64;
-        match self.ended.take() {
+        let ended = self.ended.take();
+        let result = match ended {
             Some(false) => Ok(()),
             Some(true) => Err(self.first_non_finite()),
             None => self.end_step(),
+        };
+        if let Some(started) = started {
+            self.tuner
+                .record(self.step_many, started.elapsed(), self.threads);
         }
+        self.step_many = true;
+        result
     }
 
     /// The error for the first body (by index) whose state is not finite.

@@ -511,6 +511,49 @@ fn the_scaling_suite_times_1_and_2_threads_to_the_same_bits() {
 }
 
 #[test]
+fn the_contention_suite_times_threads_idle_and_busy_to_the_same_bits() {
+    let dir = tmp("contention-large");
+    let _ = std::fs::remove_dir_all(&dir);
+    let out = sandbox2d()
+        .args(["bench", "--suite", "contention", "--filter", "large"])
+        .args(["--steps", "3", "--repeats", "1"])
+        .arg("--out")
+        .arg(&dir)
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{err}");
+    let csv = std::fs::read_to_string(dir.join("contention.csv")).unwrap();
+    let header: Vec<&str> = csv.lines().next().unwrap().split(',').collect();
+    let col = |name: &str| header.iter().position(|h| *h == name).expect(name);
+    let rows: Vec<Vec<&str>> = csv
+        .lines()
+        .skip(1)
+        .map(|l| l.split(',').collect())
+        .collect();
+    // idle and busy, each at the four thread settings, the same state at the end
+    assert_eq!(rows.len(), 8, "{csv}");
+    for (r, load) in rows.iter().zip(["idle"; 4].into_iter().chain(["busy"; 4])) {
+        assert_eq!(r[col("scene")], "large_pyramid", "{csv}");
+        assert_eq!(r[col("load")], load, "{csv}");
+        assert_eq!(r[col("same_bits")], "yes", "{csv}");
+        let ms: f64 = r[col("mean_ms")].parse().unwrap();
+        assert!(ms > 0.0 && ms.is_finite(), "{csv}");
+    }
+    assert_eq!(rows[0][col("over_one_thread")], "1.0000", "{csv}");
+    let md = std::fs::read_to_string(dir.join("contention.md")).unwrap();
+    assert!(md.contains("- large_pyramid: idle "), "{md}");
+    // the busy process is gone with the suite
+    std::thread::sleep(std::time::Duration::from_millis(200));
+    let busy = std::process::Command::new("pgrep")
+        .args(["-f", "sandbox2d busy-loop"])
+        .output();
+    if let Ok(b) = busy {
+        assert!(b.stdout.is_empty(), "a busy process outlived the suite");
+    }
+}
+
+#[test]
 fn the_scaling_suite_refuses_jobs_shard_and_an_unknown_size() {
     let dir = tmp("scaling-bad");
     let _ = std::fs::remove_dir_all(&dir);

@@ -1380,7 +1380,7 @@ fn threads_give_the_same_bits_and_bad_counts_are_refused() {
                 "20",
                 "--json",
             ])
-            .args(["--threads", threads])
+            .args(threads.split(' '))
             .output()
             .unwrap();
         assert!(
@@ -1390,10 +1390,23 @@ fn threads_give_the_same_bits_and_bad_counts_are_refused() {
         );
         serde_json::from_slice::<serde_json::Value>(&out.stdout).unwrap()
     };
-    let (one, two) = (run("1"), run("2"));
+    let (one, two) = (run("--threads 1"), run("--threads 2 --fixed-threads"));
     assert_eq!(one["threads"]["allowed"], 1);
     assert_eq!(one["threads"]["parallel_jobs"], 0);
     assert_eq!(two["threads"]["allowed"], 2);
+    assert_eq!(two["threads"]["adaptive"], false);
+    assert_eq!(
+        two["threads"]["steps_on_many"], 0,
+        "a fixed count is not measured"
+    );
+    // without --fixed-threads the steps measure whether two threads pay, and take one
+    // or two step by step: every step counted, the same bits
+    let up_to = run("--threads 2");
+    assert_eq!(up_to["threads"]["adaptive"], true);
+    let counted = up_to["threads"]["steps_on_one"].as_u64().unwrap()
+        + up_to["threads"]["steps_on_many"].as_u64().unwrap();
+    assert_eq!(counted, 20, "{up_to}");
+    assert_eq!(up_to["state_hash"], one["state_hash"]);
     assert!(
         two["threads"]["parallel_jobs"].as_u64().unwrap() > 20,
         "{two}"

@@ -4,7 +4,7 @@
 use sandbox2d::parallel::Pool;
 use sandbox2d::scene::load_str;
 use sandbox2d::solver::soft::SoftSolver;
-use sandbox2d::{SolverKind, SolverSettings, World};
+use sandbox2d::{SolverKind, SolverSettings, Threads, World};
 
 /// A pyramid of 435 boxes, a row of bouncing balls over it, and a 12 x 12 hinged grid
 /// hanging from two static cells: contacts (many colours), restitution and joints, with
@@ -243,4 +243,37 @@ fn threads_are_clamped_and_default_to_one() {
     assert_eq!(w.threads(), 1);
     w.set_threads(10_000);
     assert_eq!(w.threads(), sandbox2d::parallel::MAX_THREADS);
+}
+
+#[test]
+fn every_built_in_scene_ends_in_the_same_state_whatever_the_threads() {
+    // 1, 2 and 3 threads on every step, and up to 3 measured (the world picks one thread
+    // or three step by step): the same state hash after every step
+    for name in sandbox2d::scene::builtin_names() {
+        let sc = sandbox2d::scene::load(name).unwrap();
+        let steps = if sc.world.bodies.len() > 1000 { 8 } else { 40 };
+        let run = |policy: Threads| {
+            let mut w = World::from_def(&sc.world, sc.world.solver.resolve()).unwrap();
+            w.set_thread_policy(policy);
+            let hashes: Vec<u64> = (0..steps)
+                .map(|_| {
+                    w.step().unwrap();
+                    w.state_hash()
+                })
+                .collect();
+            (hashes, w.thread_use())
+        };
+        let (one, _) = run(Threads::Fixed(1));
+        for policy in [Threads::Fixed(2), Threads::Fixed(3), Threads::UpTo(3)] {
+            let (many, used) = run(policy);
+            assert_eq!(one, many, "{name} under {policy:?}");
+            if policy == Threads::UpTo(3) && sc.world.bodies.len() >= 256 {
+                assert_eq!(
+                    used.steps_on_one + used.steps_on_many,
+                    steps as u64,
+                    "{name}"
+                );
+            }
+        }
+    }
 }

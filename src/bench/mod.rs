@@ -13,6 +13,7 @@
 //! [`extremes`] the one-thing-at-a-time stability sweeps behind `stability.md`;
 //! [`scaling`] times the benchmark pyramid from 1k to 80k boxes on 1 and 2 threads.
 
+pub mod contention;
 pub mod extremes;
 pub mod plot;
 pub mod report;

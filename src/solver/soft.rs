@@ -876,7 +876,7 @@ pub struct SoftSolver {
     /// Per thread and colour (`thread * colours + colour`): the blocks of its share, in
     /// the order it runs them, that may touch a body another thread's share writes
     /// (worked out by each thread at the start of `substeps_in_one_job`).
-    ahead_blocks: Vec<u32>,
+    ahead_blocks: Scratch<AtomicU32>,
     /// Per inner cut, the lane each colour had reached there (scratch of `build`: the
     /// colouring counts each colour there, the layout turns the counts into lanes).
     cut_lanes: Vec<[u32; OVERFLOW + 1]>,
@@ -1804,8 +1804,10 @@ impl SoftSolver {
         let ahead = n == 2 && self.share_bodies.len() == n;
         if ahead {
             self.fused.insert(0, (Pass::Bounds, 0));
-            self.ahead_blocks.clear();
-            self.ahead_blocks.resize(n * colors, 0);
+            self.ahead_blocks.0.clear();
+            self.ahead_blocks
+                .0
+                .resize_with(n * colors, || AtomicU32::new(0));
         }
         // the last relax sweep's colours
         let last_relax = self.fused.len() - colors;
@@ -1815,7 +1817,7 @@ impl SoftSolver {
         let share_bodies = &self.share_bodies;
         let bodies = BodyPtr::new(&mut self.bodies, self.sink);
         let wide = Disjoint::new(&mut self.wide);
-        let ahead_blocks = Disjoint::new(&mut self.ahead_blocks);
+        let ahead_blocks = &self.ahead_blocks.0;
         // each thread's share of a colour, or of the bodies a pass goes over
         let share = |p: usize, j: usize| match fused[p] {
             (Pass::Increments, _) => parallel::split(increments.len(), n, j),
@@ -1836,14 +1838,15 @@ impl SoftSolver {
             // ahead only where `Pass::Bounds` found they touch nothing of each other's)
             match fused[p].0 {
                 Pass::Bounds => {
-                    // SAFETY: this thread's own row, and its own shares of the colours
-                    // (only read, while the other thread may write its own)
-                    let row = unsafe { ahead_blocks.range(t * colors..(t + 1) * colors) };
-                    let (least, most) = share_bodies[1 - t];
-                    for (c, k) in row.iter_mut().enumerate() {
-                        let items = color_share(cuts, n, c, t);
+                    // share j's row (phase 0's block of share j is j..j + 1), from its
+                    // own shares of the colours, only read while others write theirs
+                    let j = r.start;
+                    let (least, most) = share_bodies[1 - j];
+                    for c in 0..colors {
+                        let items = color_share(cuts, n, c, j);
                         let w = unsafe { wide.range(items) };
-                        *k = reach_touching(w, t == 0, least, most) as u32;
+                        let k = reach_touching(w, j == 0, least, most) as u32;
+                        ahead_blocks[j * colors + c].store(k, Ordering::Relaxed);
                     }
                 }
                 Pass::Increments => {
@@ -1869,10 +1872,9 @@ impl SoftSolver {
             let full = |p: usize| matches!(fused[p].0, Pass::Increments | Pass::Integrate);
             let run_ahead = |p: usize, t: usize| match fused[p] {
                 (Pass::Bounds, _) => (0, false),
-                // SAFETY: asked only by thread t, of its own row (written in phase 0)
+                // share t's row, written in phase 0 (which is done before this is asked)
                 (_, c) => {
-                    let at = t * colors + c as usize;
-                    let k = unsafe { ahead_blocks.range(at..at + 1) }[0];
+                    let k = ahead_blocks[t * colors + c as usize].load(Ordering::Relaxed);
                     (k as usize, t == 0)
                 }
             };
@@ -2268,6 +2270,22 @@ fn integrate_range(bodies: &mut [SoftBody], h: f32) {
     }
 }
 
+/// A step's scratch that a clone of the solver starts without.
+#[derive(Debug)]
+struct Scratch<T>(Vec<T>);
+
+impl<T> Default for Scratch<T> {
+    fn default() -> Self {
+        Scratch(Vec::new())
+    }
+}
+
+impl<T> Clone for Scratch<T> {
+    fn clone(&self) -> Self {
+        Scratch::default()
+    }
+}
+
 /// What a phase of [`SoftSolver::substeps_in_one_job`] does.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 enum Pass {
@@ -2571,6 +2589,88 @@ mod tests {
         let (one_layout, one_bits) = run(Some(&movers), None, false);
         assert_eq!(one_bits, serial.1);
         assert_eq!(one_layout.0, serial.0.0);
+    }
+
+    #[test]
+    fn a_stalled_worker_leaves_its_shares_to_the_caller_with_the_same_bits() {
+        // (a hang, the stalled thread waiting for ever, fails under the watchdog)
+        crate::parallel::tests::within_30s(|| {
+            // a pyramid of 465 boxes; the worker of a two-thread pool does nothing in a job
+            // until the caller has done every block of it (a test's stall): the colour
+            // passes and the substeps in one job still end, with the bits of one thread
+            let sc = crate::scene::load_str(
+                "name = \"pile\"\n[world]\ngravity = [0.0, -10.0]\n\
+                 [[body]]\nname = \"ground\"\ntype = \"static\"\nshape = { box = [200.0, 2.0] }\nposition = [0.0, -1.0]\n\
+                 [[pyramid]]\nbase = 30\n",
+                "pile.toml",
+            )
+            .unwrap();
+            let settings = SolverSettings::soft();
+            let mut w = crate::World::from_def(&sc.world, settings).unwrap();
+            for _ in 0..20 {
+                w.step().unwrap();
+            }
+            let substeps = settings.substeps as usize;
+            let h = settings.dt / substeps as f32;
+            let pool = Pool::new(2);
+            let bits = |s: &SoftSolver, r: f32| {
+                let mut lam = Vec::new();
+                s.lambdas(&mut lam);
+                s.bodies[..w.bodies.len()]
+                    .iter()
+                    .flat_map(|b| [b.v.x, b.v.y, b.w, b.dp.x, b.dp.y, b.dtheta])
+                    .chain(lam)
+                    .chain([r])
+                    .map(f32::to_bits)
+                    .collect::<Vec<u32>>()
+            };
+            // the substeps one by one, each pass over the colours a job (or on one thread)
+            let by_passes = |pool: Option<&Pool>, stall: usize| {
+                let mut s = SoftSolver::default();
+                s.phases.stall = stall;
+                s.prepare(&w.bodies, w.contacts(), &settings, h, pool);
+                s.take_increments(&w.bodies, pool);
+                let mut r = 0.0;
+                for i in 0..substeps {
+                    if i > 0 {
+                        s.apply_increments(pool);
+                    }
+                    s.warm_start(pool);
+                    for _ in 0..settings.iterations {
+                        s.sweep::<true>(pool);
+                    }
+                    s.integrate_positions(h, pool);
+                    r = s.sweep::<false>(pool);
+                }
+                bits(&s, r)
+            };
+            let one = by_passes(None, 0);
+            assert_eq!(
+                one,
+                by_passes(Some(&pool), 2),
+                "colour passes, worker stalled"
+            );
+            assert_eq!(
+                one,
+                by_passes(Some(&pool), 1),
+                "colour passes, caller stalled"
+            );
+            // every substep in one job, the worker stalled, then the caller
+            for stall in [2, 1] {
+                let mut s = SoftSolver::default();
+                s.phases.stall = stall;
+                s.prepare(&w.bodies, w.contacts(), &settings, h, Some(&pool));
+                s.take_increments(&w.bodies, Some(&pool));
+                assert!(s.can_run_substeps_in_one_job(Some(&pool)));
+                let r = s.substeps_in_one_job(substeps, &settings, h, &pool);
+                assert_eq!(
+                    one,
+                    bits(&s, r),
+                    "substeps in one job, thread {} stalled",
+                    stall - 1
+                );
+            }
+        });
     }
 
     #[test]
