@@ -5,5 +5,4 @@ pub mod contact_cache;
 pub mod joint_rows;
 pub mod pgs;
 pub mod soft;
-pub mod soft_joints;
 pub mod xpbd;

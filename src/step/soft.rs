@@ -3,7 +3,7 @@
 //! biased sweeps (joints, then contacts: soft rows that pull errors out), integrate
 //! positions, one relax sweep (rigid rows, no bias). After the last substep:
 //! restitution, and the bodies take their new velocities and positions. See
-//! `solver::soft` (contacts) and `solver::soft_joints` (joints). With threads, no joints
+//! `solver::soft` (contacts) and `solver::soft::joints` (joints). With threads, no joints
 //! and the same force increment each substep, the substeps run as one job of the pool
 //! (`SoftSolver::substeps_in_one_job`; the stage clock then counts the later substeps'
 //! increments as solver time).
@@ -11,7 +11,7 @@
 use super::{Stage, StageClock, StepContext, Stepper};
 use crate::defs::SolverKind;
 use crate::solver::soft::SoftSolver;
-use crate::solver::soft_joints::SoftJoints;
+use crate::solver::soft::joints::SoftJoints;
 use crate::world::{Speculative, StepStats, World};
 
 /// The soft step and its scratch.

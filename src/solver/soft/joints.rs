@@ -19,7 +19,7 @@
 //! rigid equality on the angle (offset) error. Lambdas are impulses per substep; they
 //! carry from substep to substep and, through the joint, to the next step (warm start).
 
-use super::soft::{SoftBody, Softness};
+use super::{SoftBody, Softness};
 use crate::body::Body;
 use crate::defs::{JointKind, SolverSettings};
 use crate::joint::{Joint, MouseJoint, PulleyRopes, SLOTS, slot, wrap_angle};

@@ -1,0 +1,80 @@
+//! Greedy graph colouring of the step's constraints (Box2D's constraint_graph.c, as a
+//! pass): each takes the lowest colour neither of its moving bodies uses yet.
+
+#[allow(unused_imports)]
+use super::*;
+
+/// Colour of a constraint no colour was free for: it gets a wide constraint to itself.
+pub(super) const OVERFLOW: usize = 64;
+
+/// What [`color_contacts`] counted.
+pub(super) struct Colored {
+    /// Contacts per colour.
+    pub(super) counts: [u32; OVERFLOW + 1],
+    /// Contact points.
+    pub(super) points: usize,
+    /// Whether some contact is lopsided (looked for only where masses were given).
+    pub(super) lopsided: bool,
+}
+
+/// Greedy colouring, in contact order: each contact takes the lowest colour neither of
+/// its moving bodies (`moves`) uses yet, [`OVERFLOW`] where none is free; a body that
+/// does not move takes no colour. Writes each contact's colour to `colors`, and to
+/// `cut_counts` what each colour had counted at the start of each of the `threads` even
+/// runs of the contacts but the first (the layout cuts the colours there). With
+/// `inv_mass`, also looks for a lopsided contact (see `SoftSolver::find_direct`): each
+/// pass over the contacts reads them from far in the cache.
+pub(super) fn color_contacts(
+    contacts: &[Contact],
+    moves: &[bool],
+    inv_mass: Option<&[(f32, f32)]>,
+    threads: usize,
+    body_colors: &mut Vec<u64>,
+    colors: &mut Vec<u8>,
+    cut_counts: &mut Vec<[u32; OVERFLOW + 1]>,
+) -> Colored {
+    body_colors.clear();
+    body_colors.resize(moves.len(), 0);
+    colors.resize(contacts.len(), 0);
+    cut_counts.clear();
+    let mut counts = [0u32; OVERFLOW + 1];
+    let (mut points, mut lopsided) = (0usize, false);
+    // plain slices, so the loop keeps its pointers in registers
+    let body_colors = &mut body_colors[..];
+    for k in 0..threads {
+        if k > 0 {
+            cut_counts.push(counts);
+        }
+        let run = parallel::split(contacts.len(), threads, k);
+        for (c, out) in contacts[run.clone()].iter().zip(&mut colors[run]) {
+            let (a, b) = (c.a as usize, c.b as usize);
+            let (ma, mb) = (moves[a], moves[b]);
+            points += c.manifold.count;
+            if let Some(inv_mass) = inv_mass
+                && ma
+                && mb
+            {
+                lopsided |= is_lopsided(inv_mass[a].0, inv_mass[b].0);
+            }
+            let used =
+                (if ma { body_colors[a] } else { 0 }) | (if mb { body_colors[b] } else { 0 });
+            let color = (!used).trailing_zeros() as usize;
+            if color < OVERFLOW {
+                let bit = 1u64 << color;
+                if ma {
+                    body_colors[a] |= bit;
+                }
+                if mb {
+                    body_colors[b] |= bit;
+                }
+            }
+            counts[color] += 1;
+            *out = color as u8;
+        }
+    }
+    Colored {
+        counts,
+        points,
+        lopsided,
+    }
+}

@@ -1,0 +1,167 @@
+//! Lopsided contacts (masses `direct::MASS_RATIO` apart or more): finding them, and the
+//! small islands they join, which are solved exactly after each sweep (`direct`).
+
+#[allow(unused_imports)]
+use super::*;
+
+/// Whether a contact between two moving bodies of inverse masses `ia` and `ib` joins
+/// masses `direct::MASS_RATIO` apart or more.
+#[inline(always)]
+pub(super) fn is_lopsided(ia: f32, ib: f32) -> bool {
+    // max(ia / ib, ib / ia) is the larger over the smaller (division rounds monotonically)
+    ia > 0.0 && ib > 0.0 && ia.max(ib) / ia.min(ib) >= direct::MASS_RATIO
+}
+
+/// Whether contact `c` joins two moving bodies (`moves`) whose masses (`inv_mass`) are
+/// lopsided.
+pub(super) fn is_lopsided_contact(c: &Contact, moves: &[bool], inv_mass: &[(f32, f32)]) -> bool {
+    let (a, b) = (c.a as usize, c.b as usize);
+    moves[a] && moves[b] && is_lopsided(inv_mass[a].0, inv_mass[b].0)
+}
+
+/// The least and the largest positive 1/m of the moving bodies in one block of a pass
+/// over the bodies, as f32 bits (positive floats order as their bits).
+#[derive(Clone, Copy)]
+pub(super) struct MassRange {
+    pub(super) least: u32,
+    pub(super) most: u32,
+}
+
+impl Default for MassRange {
+    fn default() -> Self {
+        MassRange {
+            least: u32::MAX,
+            most: 0,
+        }
+    }
+}
+
+impl MassRange {
+    #[inline(always)]
+    pub(super) fn add(&mut self, moves: bool, inv_mass: f32) {
+        if moves && inv_mass > 0.0 {
+            let bits = inv_mass.to_bits();
+            self.least = self.least.min(bits);
+            self.most = self.most.max(bits);
+        }
+    }
+
+    /// Folds this block's range into the pass's, as thread `t` of the pass's job (the
+    /// blocks of one thread run one after another).
+    pub(super) fn publish(self, to: &SharedMassRange, t: usize) {
+        if self.least <= self.most {
+            let slot = &to.0[t];
+            let (least, most) = (
+                slot.0.load(Ordering::Relaxed),
+                slot.1.load(Ordering::Relaxed),
+            );
+            slot.0.store(least.min(self.least), Ordering::Relaxed);
+            slot.1.store(most.max(self.most), Ordering::Relaxed);
+        }
+    }
+}
+
+/// Whether some contact between moving bodies whose positive 1/m lie in `range` (as
+/// [`SharedMassRange::get`] gives it) may be lopsided: the larger over the smaller of two
+/// such masses is at most the largest over the least (division rounds monotonically).
+pub(super) fn may_be_lopsided((least, most): (u32, u32)) -> bool {
+    least <= most && f32::from_bits(most) / f32::from_bits(least) >= direct::MASS_RATIO
+}
+
+/// A pass's [`MassRange`], folded from its blocks: per thread of the pass's job, each on
+/// a cache line of its own that only that thread writes (one shared pair of counters,
+/// folded into with an atomic min and max per block, moved its line between the cores
+/// some twenty times a pass).
+pub(super) struct SharedMassRange(pub(super) [ThreadMassRange; MAX_THREADS]);
+
+/// One thread's least and largest 1/m bits.
+#[repr(align(64))]
+pub(super) struct ThreadMassRange(pub(super) AtomicU32, pub(super) AtomicU32);
+
+impl SharedMassRange {
+    pub(super) fn new() -> Self {
+        SharedMassRange(std::array::from_fn(|_| {
+            ThreadMassRange(AtomicU32::new(u32::MAX), AtomicU32::new(0))
+        }))
+    }
+
+    /// (least, most); least > most where no moving body has a positive 1/m.
+    pub(super) fn get(&self) -> (u32, u32) {
+        self.0.iter().fold((u32::MAX, 0), |(least, most), t| {
+            (
+                least.min(t.0.load(Ordering::Relaxed)),
+                most.max(t.1.load(Ordering::Relaxed)),
+            )
+        })
+    }
+}
+
+impl SoftSolver {
+    /// Marks the contacts of islands to solve exactly (`direct`): bodies joined by
+    /// contacts between moving bodies, with some contact joining masses
+    /// `direct::MASS_RATIO` apart or more, and at most `direct::MAX_POINTS` points.
+    /// `any_lopsided`: whether some contact is lopsided (found by the colouring pass).
+    pub(super) fn find_direct(&mut self, contacts: &[Contact], any_lopsided: bool) {
+        self.direct_contact.clear();
+        self.direct.clear();
+        if !any_lopsided {
+            return;
+        }
+        let (moves, inv_mass) = (&self.moves, &self.inv_mass);
+        let lopsided = |c: &Contact| is_lopsided_contact(c, moves, inv_mass);
+        let nb = self.moves.len();
+        self.parent.clear();
+        self.parent.extend(0..nb as u32);
+        for c in contacts {
+            if self.moves[c.a as usize] && self.moves[c.b as usize] {
+                uf_union(&mut self.parent, c.a, c.b);
+            }
+        }
+        // per island root: points, and whether some contact is lopsided
+        let (points, flagged) = (&mut self.root_points, &mut self.root_flagged);
+        points.clear();
+        points.resize(nb, 0);
+        flagged.clear();
+        flagged.resize(nb, false);
+        self.roots.clear();
+        for c in contacts {
+            let body = if self.moves[c.a as usize] { c.a } else { c.b };
+            let r = uf_root(&mut self.parent, body);
+            points[r as usize] += c.manifold.count as u32;
+            flagged[r as usize] |= lopsided(c);
+            self.roots.push(r);
+        }
+        self.direct_contact.extend(
+            self.roots
+                .iter()
+                .map(|&r| flagged[r as usize] && points[r as usize] as usize <= direct::MAX_POINTS),
+        );
+    }
+
+    /// Builds the exactly solved islands from the filled wide constraints.
+    pub(super) fn build_direct(&mut self, contacts: &[Contact]) {
+        if !self.direct_contact.iter().any(|&d| d) {
+            return;
+        }
+        // islands in order of their first contact; lanes in contact order
+        let island_of = &mut self.root_points;
+        island_of.fill(u32::MAX);
+        let mut lanes: Vec<Vec<(u32, u8, u8)>> = Vec::new();
+        for (i, c) in contacts.iter().enumerate() {
+            if !self.direct_contact[i] {
+                continue;
+            }
+            let r = self.roots[i] as usize;
+            let at = self.slot[i];
+            let lane = (at / 4, (at % 4) as u8, c.manifold.count as u8);
+            if island_of[r] == u32::MAX {
+                island_of[r] = lanes.len() as u32;
+                lanes.push(Vec::new());
+            }
+            lanes[island_of[r] as usize].push(lane);
+        }
+        for l in &lanes {
+            self.direct.add_island(l, &self.wide, &self.moves);
+        }
+    }
+}

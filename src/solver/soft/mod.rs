@@ -1,0 +1,1092 @@
+//! The soft step: a contact solver for tall stacks at a low sweep count (the scheme of
+//! Box2D v3's "soft step", written for this project).
+//!
+//! One collide per step; the step is cut into `substeps` substeps of h = dt / n that all
+//! reuse the step's manifolds. Each substep: integrate velocities, warm start,
+//! `iterations` biased sweeps of the normal rows (soft contacts), integrate positions, one
+//! relax sweep (rigid, no bias, normal and friction rows). After the last substep:
+//! restitution. A point's separation is brought up to date each sweep from the bodies'
+//! motion since collide: s = s0 + n . ((dp_b + q_b r_b - r_b) - (dp_a + q_a r_a - r_a)).
+//!
+//! A soft contact is a spring-damper of frequency `contact_hertz` and damping ratio
+//! `contact_damping_ratio` solved implicitly (Erin Catto, "Solver2D", 2024): with
+//! omega = 2 pi f, a1 = 2 zeta + h omega, a2 = h omega a1, a3 = 1 / (1 + a2), the row is
+//! lambda += -m_n a2 a3 (J v + (omega / a1) S) - a3 lambda, S = min(s + slop, 0), with the
+//! bias speed capped by `max_push_speed`. Contacts against a body the solver does not move
+//! (static, kinematic) use twice the frequency, as they carry no second body's compliance.
+//!
+//! Masses far apart: an island (bodies joined by contacts) of at most 24 points where
+//! some contact joins masses 10 or more apart is solved exactly after each sweep, and
+//! its soft rows leak no more of their load than keeps them within a slop past the slop
+//! (`direct`): a box of 1e4 times the mass of the two it stands on holds within 6 mm.
+//!
+//! Friction is left out of the biased sweeps: solved against the push-out speeds there,
+//! it let the flanks of the 100-row pyramid creep outwards (the top box went 3.9 m
+//! sideways in 500 steps at 60 Hz; 0.05 m without).
+//!
+//! Speed: the constraints are graph-coloured (greedy, at most 64 colours, the rest one to
+//! a wide constraint) and stored colour by colour, four to a `WideConstraint`. Four
+//! constraints of one colour share no moving body, so solving them in lock step in SIMD
+//! lanes gives what solving them one after another would. The order is a pure function of
+//! the contact list, so the step stays deterministic; the AVX2 build of the sweeps does
+//! the same arithmetic as the SSE one (no fused multiply-adds), so the same bits.
+
+use super::contact_cache::Contact;
+use crate::body::Body;
+use crate::body::HOT_BYTES;
+use crate::defs::{BodyModel, BodyType, SolverSettings};
+use crate::math::{BODY_AHEAD, Rot, Vec2, cross, cross_sv, prefetch, uf_root, uf_union};
+use crate::parallel::{self, Disjoint, MAX_THREADS, Pool};
+use glam::Vec4;
+use std::sync::Mutex;
+use std::sync::atomic::{AtomicU32, Ordering};
+
+mod build;
+mod color;
+mod direct;
+pub mod joints;
+mod kernels;
+mod lanes;
+mod lopsided;
+mod schedule;
+
+#[allow(unused_imports)]
+use self::{build::*, color::*, kernels::*, lopsided::*, schedule::*};
+
+#[cfg(target_arch = "x86_64")]
+use lanes::F8;
+use lanes::Lanes;
+
+/// Test hooks, per thread (tests running side by side do not see each other's): which
+/// build of the sweeps runs, and whether lanes are packed. Not for use outside tests.
+#[doc(hidden)]
+pub mod testing {
+    use std::cell::Cell;
+
+    thread_local! {
+        pub(super) static FORCE_SSE: Cell<bool> = const { Cell::new(false) };
+        pub(super) static ONE_LANE: Cell<bool> = const { Cell::new(false) };
+    }
+
+    /// `true`: the sweeps and the warm start run their SSE build even on a CPU with AVX2.
+    pub fn force_sse(on: bool) {
+        FORCE_SSE.with(|c| c.set(on));
+    }
+
+    /// `true`: every contact gets a wide constraint of its own (lane 0, the rest empty),
+    /// as the overflow colour does: a one-by-one solve, colour by colour, in the order
+    /// the packed lanes take.
+    pub fn one_lane(on: bool) {
+        ONE_LANE.with(|c| c.set(on));
+    }
+
+    /// Whether this CPU runs the AVX2 build by default.
+    pub fn avx2_detected() -> bool {
+        #[cfg(target_arch = "x86_64")]
+        {
+            std::arch::is_x86_feature_detected!("avx2")
+        }
+        #[cfg(not(target_arch = "x86_64"))]
+        {
+            false
+        }
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    pub(super) fn use_avx2() -> bool {
+        avx2_detected() && !FORCE_SSE.with(Cell::get)
+    }
+}
+
+/// A body's state during the soft step: velocities and the motion since collide.
+#[derive(Clone, Copy, Debug)]
+#[repr(C, align(32))]
+pub struct SoftBody {
+    pub v: Vec2,
+    pub w: f32,
+    /// Angle turned since collide (rad): the sum of h w.
+    pub dtheta: f32,
+    /// Displacement since collide (m).
+    pub dp: Vec2,
+    /// Rotation since collide, integrated as q += h w q_perp and normalised (for the
+    /// separations only; the body's angle takes `dtheta`).
+    pub dq: Rot,
+}
+
+impl Default for SoftBody {
+    fn default() -> Self {
+        Self {
+            v: Vec2::ZERO,
+            w: 0.0,
+            dtheta: 0.0,
+            dp: Vec2::ZERO,
+            dq: Rot::IDENTITY,
+        }
+    }
+}
+
+/// The implicit spring-damper coefficients of a soft row for substep h.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Softness {
+    /// omega / a1 (1/s): bias speed per metre of error.
+    pub bias_rate: f32,
+    /// a2 a3: the share of the rigid effective mass.
+    pub mass_scale: f32,
+    /// a3: the share of the accumulated impulse that leaks each sweep.
+    pub impulse_scale: f32,
+}
+
+impl Softness {
+    /// omega = 2 pi f, a1 = 2 zeta + h omega, a2 = h omega a1, a3 = 1 / (1 + a2).
+    pub fn new(hertz: f32, zeta: f32, h: f32) -> Softness {
+        Softness::from_omega(2.0 * std::f32::consts::PI * hertz, zeta, h)
+    }
+
+    /// The same from the angular frequency omega (rad/s).
+    pub fn from_omega(omega: f32, zeta: f32, h: f32) -> Softness {
+        if omega <= 0.0 {
+            return Softness {
+                bias_rate: 0.0,
+                mass_scale: 1.0,
+                impulse_scale: 0.0,
+            };
+        }
+        let a1 = 2.0 * zeta + h * omega;
+        let a2 = h * omega * a1;
+        let a3 = 1.0 / (1.0 + a2);
+        Softness {
+            bias_rate: omega / a1,
+            mass_scale: a2 * a3,
+            impulse_scale: a3,
+        }
+    }
+}
+
+/// Four lanes of a contact point, as the sweeps read them. A lane whose manifold has
+/// one point has zero masses here, so its row does nothing.
+#[derive(Clone, Copy, Debug, Default)]
+struct WidePoint {
+    rax: Vec4,
+    ray: Vec4,
+    rbx: Vec4,
+    rby: Vec4,
+    /// s0 - n . (rb - ra): the separation at collide, less the anchors' part.
+    base_separation: Vec4,
+    /// 1 / (J M^-1 J^T) of the normal row
+    normal_mass: Vec4,
+    /// 1 / (J M^-1 J^T) of the friction row
+    tangent_mass: Vec4,
+    normal_impulse: Vec4,
+    tangent_impulse: Vec4,
+    max_normal_impulse: Vec4,
+}
+
+/// Four constraints of one colour (no two share a moving body), solved in lock step:
+/// the result is the same as solving them one after another.
+#[derive(Clone, Copy, Debug)]
+struct WideConstraint {
+    /// Bodies read, per lane.
+    a: [u32; 4],
+    b: [u32; 4],
+    /// Bodies written, per lane: the body, or the sink for a body the solver does not move.
+    wa: [u32; 4],
+    wb: [u32; 4],
+    nx: Vec4,
+    ny: Vec4,
+    friction: Vec4,
+    m: InvMass4,
+    bias_rate: Vec4,
+    mass_scale: Vec4,
+    impulse_scale: Vec4,
+    points: [WidePoint; 2],
+}
+
+/// Inverse masses and inertias of four constraints' bodies.
+#[derive(Clone, Copy, Debug, Default)]
+struct InvMass4 {
+    ima: Vec4,
+    iia: Vec4,
+    imb: Vec4,
+    iib: Vec4,
+}
+
+/// A body takes the velocities `v`, `w` after the first substep's forces, and keeps the
+/// increment for the later substeps: dv = v_after - v_before (`take_increments` and
+/// `prepare_integrating` both, so the two paths agree to the bit).
+#[inline(always)]
+fn take_velocity(s: &mut SoftBody, inc: &mut (Vec2, f32), v: Vec2, w: f32) {
+    *inc = (v - s.v, w - s.w);
+    s.v = v;
+    s.w = w;
+}
+
+/// What restitution and the cache need, kept out of the sweeps' way.
+#[derive(Clone, Copy, Debug, Default)]
+struct WideCold {
+    restitution: Vec4,
+    /// relative normal velocity of each point before the step, for restitution
+    relative_velocity: [Vec4; 2],
+    /// points per lane (0 for an empty lane)
+    count: [u8; 4],
+}
+
+/// The soft bodies as one job's threads share them. Within a colour no two constraints
+/// share a moving body, so the threads of a job read and write disjoint bodies, apart
+/// from the rest slot (only read) and the sink (only written): each thread writes to a
+/// sink of its own.
+#[derive(Clone, Copy)]
+struct BodyPtr {
+    p: *mut SoftBody,
+    len: usize,
+    /// The index of the shared sink in the constraints, and this thread's own sink.
+    sink: u32,
+    my_sink: u32,
+}
+
+// SAFETY: see the type's docs: the threads of a job touch disjoint bodies.
+unsafe impl Send for BodyPtr {}
+unsafe impl Sync for BodyPtr {}
+
+impl BodyPtr {
+    fn new(bodies: &mut [SoftBody], sink: u32) -> BodyPtr {
+        BodyPtr {
+            p: bodies.as_mut_ptr(),
+            len: bodies.len(),
+            sink,
+            my_sink: sink,
+        }
+    }
+
+    /// The same bodies, as thread `t` of a job writes them.
+    fn for_thread(self, t: usize) -> BodyPtr {
+        BodyPtr {
+            my_sink: self.sink + t as u32,
+            ..self
+        }
+    }
+
+    /// Body i, to read.
+    ///
+    /// Every index a wide constraint holds was checked when `prepare` built it: a
+    /// contact's bodies index `inv_mass` (one entry per body, checked), and the rest slot
+    /// and the sinks follow the bodies in `bodies`. So the sweeps check only in debug
+    /// builds: the check was an eighth of a sweep's instructions.
+    #[inline(always)]
+    fn at(self, i: u32) -> *mut SoftBody {
+        debug_assert!((i as usize) < self.len);
+        // SAFETY: in bounds (see above).
+        unsafe { self.p.add(i as usize) }
+    }
+
+    /// Bodies `r`, to write.
+    ///
+    /// # Safety
+    /// In bounds, and no other thread touches them while the slice is in use.
+    #[allow(clippy::mut_from_ref)]
+    unsafe fn range<'a>(self, r: std::ops::Range<usize>) -> &'a mut [SoftBody] {
+        assert!(r.start <= r.end && r.end <= self.len, "bodies past the end");
+        // SAFETY: in bounds (checked); the caller keeps the threads apart.
+        unsafe { std::slice::from_raw_parts_mut(self.p.add(r.start), r.len()) }
+    }
+
+    /// Body i, to write: with `SHARED` (threads of a job write at once) the sink goes to
+    /// this thread's own; alone, to the shared sink.
+    #[inline(always)]
+    fn written<const SHARED: bool>(self, i: u32) -> *mut SoftBody {
+        if SHARED {
+            self.at(if i == self.sink { self.my_sink } else { i })
+        } else {
+            self.at(i)
+        }
+    }
+}
+
+/// What [`SoftSolver::for_colors`] runs on a slice of wide constraints: `(thread (None
+/// when alone), constraints, all of one colour)`, returning a figure to take the largest of.
+type ColorKernel<'a> = dyn Fn(Option<usize>, &mut [WideConstraint], bool) -> f32 + Sync + 'a;
+
+/// The soft-step contact solver and its reusable buffers.
+#[derive(Clone, Default, Debug)]
+pub struct SoftSolver {
+    /// Every body's state, by body index; then slots of the solver's own: a body at rest
+    /// that empty lanes read, and one sink per thread that writes of unmoved bodies go to.
+    pub bodies: Vec<SoftBody>,
+    /// The first sink's index.
+    sink: u32,
+    /// Each colour's wide constraints, [start, end), in order; the overflow group follows
+    /// the last.
+    color_ranges: Vec<(u32, u32)>,
+    /// With a pool of `cut_threads` threads: per colour range, where each thread's share
+    /// starts (`cut_threads` + 1 wide indices: the range's start, the inner cuts, its
+    /// end). The shares are cut where the contacts are (see `build`), so a thread solves
+    /// about the same bodies colour after colour.
+    color_cuts: Vec<u32>,
+    cut_threads: usize,
+    /// The counters of the jobs that run the colours one after another (`for_colors`,
+    /// `substeps_in_one_job`).
+    phases: parallel::Phases,
+    /// The phases of `substeps_in_one_job`, in order: what each does (scratch).
+    fused: Vec<(Pass, u8)>,
+    /// Per thread's share of the colours: the least and the largest body it writes
+    /// (least > largest for none), from the fill.
+    share_bodies: Vec<(u32, u32)>,
+    /// Per thread and colour (`thread * colours + colour`): the blocks of its share, in
+    /// the order it runs them, that may touch a body another thread's share writes
+    /// (worked out by each thread at the start of `substeps_in_one_job`).
+    ahead_blocks: Scratch<AtomicU32>,
+    /// Per inner cut, the lane each colour had reached there (scratch of `build`: the
+    /// colouring counts each colour there, the layout turns the counts into lanes).
+    cut_lanes: Vec<[u32; OVERFLOW + 1]>,
+    /// The blocks of wide constraints the build fills, thread by thread (as many per
+    /// thread, empty ones last): each thread's share of every colour, so that it fills
+    /// the constraints it will solve.
+    fill_blocks: Vec<(u32, u32)>,
+    /// Whether the solver moves body i (dynamic).
+    moves: Vec<bool>,
+    /// (1/m, 1/I) of body i.
+    pub(crate) inv_mass: Vec<(f32, f32)>,
+    /// The least and the largest positive 1/m of the moving bodies, as the bits of an
+    /// f32 (which order positive floats as the floats): where the largest is less than
+    /// `direct::MASS_RATIO` times the least, no contact can be lopsided, and the
+    /// colouring skips the test.
+    inv_mass_range: (u32, u32),
+    /// Velocity change per substep from forces, (dv, dw), when it is the same each substep.
+    increments: Vec<(Vec2, f32)>,
+    /// The constraints, four to a wide constraint, colour by colour.
+    wide: Vec<WideConstraint>,
+    cold: Vec<WideCold>,
+    /// Where contact i's constraint lies: wide index * 4 + lane.
+    slot: Vec<u32>,
+    /// The contact in each lane (wide index * 4 + lane), u32::MAX for an empty lane.
+    lane_contact: Vec<u32>,
+    /// Per body: the colours its constraints use.
+    body_colors: Vec<u64>,
+    colors: Vec<u8>,
+    colors_used: usize,
+    inv_h: f32,
+    slop: f32,
+    max_push: f32,
+    /// Whether some contact of the step has restitution.
+    restitution: bool,
+    /// Islands of widely differing masses, solved exactly after each sweep.
+    direct: direct::DirectIslands,
+    /// Per contact: whether its island is solved exactly.
+    direct_contact: Vec<bool>,
+    /// Union-find parents by body (finding those islands), and per root its points
+    /// and whether a lopsided contact joins it; per contact its island's root (scratch).
+    parent: Vec<u32>,
+    root_points: Vec<u32>,
+    root_flagged: Vec<bool>,
+    roots: Vec<u32>,
+    /// The contact points of the step's contacts.
+    points: usize,
+    /// Whether the last `prepare_integrating` coloured the contacts beside its load pass.
+    colored_beside_load: bool,
+}
+
+impl SoftSolver {
+    /// Builds this step's constraints from the contacts (collided at the step's start)
+    /// for substeps of `h`, and loads the bodies. Lambdas start from the cache if warm
+    /// starting.
+    pub fn prepare(
+        &mut self,
+        bodies: &[Body],
+        contacts: &[Contact],
+        s: &SolverSettings,
+        h: f32,
+        pool: Option<&Pool>,
+    ) {
+        self.size_bodies(bodies.len());
+        self.load_bodies(bodies, pool);
+        self.build(bodies.len(), contacts, s, h, pool);
+    }
+
+    /// [`SoftSolver::prepare`], with the first substep's forces integrated in the same
+    /// pass over the bodies: what `World::integrate_velocities(h)` and then
+    /// [`SoftSolver::take_increments`] do, to the same bits, for a world whose only
+    /// forces are gravity and each body's own force and torque (no drag, drives or point
+    /// forces: the caller checks). One pass over the bodies instead of three.
+    ///
+    /// `movers`, where the caller has it: whether each body is dynamic, as the solver's
+    /// own load pass finds it. With threads, one of them then colours the contacts while
+    /// the others run that pass (the colouring reads no body), instead of after it.
+    #[allow(clippy::too_many_arguments)]
+    pub fn prepare_integrating(
+        &mut self,
+        bodies: &mut [Body],
+        contacts: &[Contact],
+        movers: Option<&[bool]>,
+        s: &SolverSettings,
+        h: f32,
+        gravity: Option<Vec2>,
+        pool: Option<&Pool>,
+    ) {
+        let nb = bodies.len();
+        self.size_bodies(nb);
+        self.increments.resize(nb, (Vec2::ZERO, 0.0));
+        let (soft, moves) = (
+            Disjoint::new(&mut self.bodies[..nb]),
+            Disjoint::new(&mut self.moves),
+        );
+        let inv_mass = Disjoint::new(&mut self.inv_mass);
+        let increments = Disjoint::new(&mut self.increments);
+        let all = Disjoint::new(bodies);
+        let shared_range = SharedMassRange::new();
+        let load = |t: usize, r: std::ops::Range<usize>| {
+            // SAFETY: each block takes only its own range of each slice
+            let (soft, moves, inv_mass, increments, bodies) = unsafe {
+                (
+                    soft.range(r.clone()),
+                    moves.range(r.clone()),
+                    inv_mass.range(r.clone()),
+                    increments.range(r.clone()),
+                    all.range(r),
+                )
+            };
+            let mut range = MassRange::default();
+            for i in 0..bodies.len() {
+                prefetch(bodies, i + BODY_AHEAD, HOT_BYTES);
+                let b = &mut bodies[i];
+                let (v0, w0) = (b.velocity, b.angular_velocity);
+                if b.is_dynamic() && !b.asleep {
+                    (b.velocity, b.angular_velocity) = crate::world::free_velocity(b, h, gravity);
+                }
+                // the constraints are built from the velocities before the step (restitution
+                // keeps each point's approach speed): the new ones wait in `increments`
+                increments[i] = (b.velocity, b.angular_velocity);
+                soft[i] = SoftBody {
+                    v: v0,
+                    w: w0,
+                    ..SoftBody::default()
+                };
+                moves[i] = b.is_dynamic();
+                inv_mass[i] = (b.inv_mass, b.inv_inertia);
+                range.add(moves[i], b.inv_mass);
+            }
+            range.publish(&shared_range, t);
+            0.0
+        };
+        let threads = pool.map_or(1, Pool::threads);
+        let side_by_side = match (pool, movers) {
+            (Some(pool), Some(movers))
+                if threads > 1 && contacts.len() >= PARALLEL_COLORING && movers.len() == nb =>
+            {
+                Some((pool, movers))
+            }
+            _ => None,
+        };
+        self.colored_beside_load = side_by_side.is_some();
+        if let Some((pool, movers)) = side_by_side {
+            // block 0 colours the contacts (the caller claims it first); the others are
+            // the load pass's, which the other threads take meanwhile
+            let coloring = Mutex::new((
+                &mut self.body_colors,
+                &mut self.colors,
+                &mut self.cut_lanes,
+                None,
+            ));
+            parallel::blocks_max(pool, 1 + nb.div_ceil(BODY_PASS_BLOCK), &|t, b| {
+                if b > 0 {
+                    let at = (b - 1) * BODY_PASS_BLOCK;
+                    return load(t, at..(at + BODY_PASS_BLOCK).min(nb));
+                }
+                let mut c = coloring.lock().unwrap_or_else(|e| e.into_inner());
+                let (body_colors, colors, cut_lanes, found) = &mut *c;
+                *found = Some(color_contacts(
+                    contacts,
+                    movers,
+                    None,
+                    threads,
+                    body_colors,
+                    colors,
+                    cut_lanes,
+                ));
+                0.0
+            });
+            let found = coloring.into_inner().unwrap_or_else(|e| e.into_inner()).3;
+            let mut found = found.expect("the colouring block ran");
+            self.inv_mass_range = shared_range.get();
+            if may_be_lopsided(self.inv_mass_range) {
+                // (the masses were not loaded yet when the contacts were coloured)
+                let (moves, inv_mass) = (&self.moves, &self.inv_mass);
+                found.lopsided = contacts
+                    .iter()
+                    .any(|c| is_lopsided_contact(c, moves, inv_mass));
+            }
+            self.build_colored(nb, contacts, found, s, h, Some(pool));
+        } else {
+            parallel::ranges_max(pool, nb, BODY_PASS_BLOCK, &load);
+            self.inv_mass_range = shared_range.get();
+            self.build(nb, contacts, s, h, pool);
+        }
+        // then take the new velocities and keep their increments, as take_increments
+        // does (a pass over the solver's own small arrays)
+        let n = self.increments.len();
+        parallel::chunks_mut2(
+            pool,
+            &mut self.bodies[..n],
+            &mut self.increments,
+            BODY_BLOCK,
+            &|_, _, soft, increments| {
+                for (s, inc) in soft.iter_mut().zip(increments) {
+                    let (v, w) = *inc;
+                    take_velocity(s, inc, v, w);
+                }
+                0.0
+            },
+        );
+    }
+
+    /// Sizes the solver's body arrays for `nb` bodies, the rest slot and the sinks, and
+    /// resets the rest slot and the sinks (the bodies' entries, move flags and masses
+    /// are written whole by the load pass).
+    fn size_bodies(&mut self, nb: usize) {
+        self.bodies
+            .resize(nb + 1 + MAX_THREADS, SoftBody::default());
+        self.bodies[nb..].fill(SoftBody::default());
+        self.sink = nb as u32 + 1;
+        self.moves.resize(nb, false);
+        // inverse mass and inertia, packed, so the contact loop reads no `Body`
+        self.inv_mass.resize(nb, (0.0, 0.0));
+    }
+
+    /// Loads the bodies' velocities, move flags and masses.
+    fn load_bodies(&mut self, bodies: &[Body], pool: Option<&Pool>) {
+        let nb = bodies.len();
+        let shared_range = SharedMassRange::new();
+        // one pass over the bodies (large: each read is a cache miss on a big scene),
+        // split between the threads
+        parallel::chunks_mut3(
+            pool,
+            &mut self.bodies[..nb],
+            &mut self.moves[..],
+            &mut self.inv_mass[..],
+            BODY_PASS_BLOCK,
+            &|t, offset, soft, moves, inv_mass| {
+                let bodies = &bodies[offset..];
+                let mut range = MassRange::default();
+                for (i, ((s, m), im)) in soft.iter_mut().zip(moves).zip(inv_mass).enumerate() {
+                    prefetch(bodies, i + BODY_AHEAD, HOT_BYTES);
+                    let b = &bodies[i];
+                    *s = SoftBody {
+                        v: b.velocity,
+                        w: b.angular_velocity,
+                        ..SoftBody::default()
+                    };
+                    *m = b.is_dynamic();
+                    *im = (b.inv_mass, b.inv_inertia);
+                    range.add(*m, b.inv_mass);
+                }
+                range.publish(&shared_range, t);
+                0.0
+            },
+        );
+        self.inv_mass_range = shared_range.get();
+    }
+
+    /// The contact points `prepare` was given.
+    pub fn points(&self) -> usize {
+        self.points
+    }
+
+    /// Copies the bodies' velocities in (after the world integrated forces into them).
+    pub fn load_velocities(&mut self, bodies: &[Body]) {
+        for (s, b) in self.bodies.iter_mut().zip(bodies) {
+            s.v = b.velocity;
+            s.w = b.angular_velocity;
+        }
+    }
+
+    /// Takes the bodies' velocities after the world integrated one substep of forces into
+    /// them: the change since `prepare` is kept as each later substep's increment.
+    pub fn take_increments(&mut self, bodies: &[Body], pool: Option<&Pool>) {
+        let n = bodies.len().min(self.bodies.len());
+        self.increments.clear();
+        self.increments.resize(n, (Vec2::ZERO, 0.0));
+        parallel::chunks_mut2(
+            pool,
+            &mut self.bodies[..n],
+            &mut self.increments,
+            BODY_PASS_BLOCK,
+            &|_, offset, soft, increments| {
+                let bodies = &bodies[offset..];
+                for (i, (s, inc)) in soft.iter_mut().zip(increments).enumerate() {
+                    prefetch(bodies, i + BODY_AHEAD, HOT_BYTES);
+                    let b = &bodies[i];
+                    take_velocity(s, inc, b.velocity, b.angular_velocity);
+                }
+                0.0
+            },
+        );
+    }
+
+    /// Adds the force increments of one substep: v += dv, w += dw.
+    pub fn apply_increments(&mut self, pool: Option<&Pool>) {
+        let n = self.increments.len();
+        let increments = &self.increments[..];
+        parallel::chunks_mut(
+            pool,
+            &mut self.bodies[..n],
+            BODY_BLOCK,
+            &|_, offset, soft| {
+                add_increments(soft, &increments[offset..]);
+                0.0
+            },
+        );
+    }
+
+    /// The end of the step, in one pass over the bodies: the dynamic ones take their
+    /// solved velocities, and every body that is not static moves by its displacement
+    /// and turn since collide (x = x0 + sum h v, theta = theta0 + sum h w). The same
+    /// pass does the world's end of step (see `World::end_step`): every body's force and
+    /// torque are cleared, and the return says whether some body's state is not finite.
+    pub fn finish(&self, bodies: &mut [Body], pool: Option<&Pool>) -> bool {
+        let n = bodies.len().min(self.moves.len());
+        let bad = parallel::chunks_mut(
+            pool,
+            &mut bodies[..n],
+            BODY_PASS_BLOCK,
+            &|_, offset, bodies| {
+                let (soft, moves) = (&self.bodies[offset..], &self.moves[offset..]);
+                let mut bad = false;
+                for (i, (s, &m)) in soft.iter().zip(moves).take(bodies.len()).enumerate() {
+                    prefetch(bodies, i + BODY_AHEAD, HOT_BYTES);
+                    let b = &mut bodies[i];
+                    b.force = Vec2::ZERO;
+                    b.torque = 0.0;
+                    if m {
+                        b.velocity = s.v;
+                        b.angular_velocity = s.w;
+                    }
+                    if b.body_type != BodyType::Static {
+                        b.position += s.dp;
+                        if b.model == BodyModel::Rigid {
+                            b.angle += s.dtheta;
+                            b.rot = Rot::from_angle(b.angle);
+                        }
+                    }
+                    bad |= !crate::world::body_finite(b);
+                }
+                if bad { 1.0 } else { 0.0 }
+            },
+        );
+        // bodies past the solver's (none in a step) are checked and cleared too
+        let mut rest_bad = false;
+        for b in &mut bodies[n..] {
+            b.force = Vec2::ZERO;
+            b.torque = 0.0;
+            rest_bad |= !crate::world::body_finite(b);
+        }
+        bad > 0.0 || rest_bad
+    }
+
+    /// Copies the solved velocities out to the dynamic bodies.
+    pub fn store_velocities(&self, bodies: &mut [Body]) {
+        for ((s, b), &m) in self.bodies.iter().zip(bodies).zip(&self.moves) {
+            if m {
+                b.velocity = s.v;
+                b.angular_velocity = s.w;
+            }
+        }
+    }
+
+    /// Writes the lambdas back into the contacts, for next step's warm start.
+    pub fn store_impulses(&self, contacts: &mut [Contact], pool: Option<&Pool>) {
+        parallel::chunks_mut(pool, contacts, CONTACT_BLOCK, &|_, offset, contacts| {
+            let slots = &self.slot[offset..];
+            for (i, (c, &at)) in contacts.iter_mut().zip(slots).enumerate() {
+                // the constraints lie in colour order: ask for one a few contacts ahead
+                if let Some(&ahead) = slots.get(i + STORE_AHEAD) {
+                    prefetch_impulses(&self.wide, (ahead / 4) as usize);
+                }
+                let (w, k) = (&self.wide[(at / 4) as usize], (at % 4) as usize);
+                for (p, q) in c.manifold.points[..c.manifold.count]
+                    .iter_mut()
+                    .zip(&w.points)
+                {
+                    p.normal_impulse = q.normal_impulse[k];
+                    p.tangent_impulse = q.tangent_impulse[k];
+                }
+            }
+            0.0
+        });
+    }
+
+    /// The normal and friction lambdas of every row, contact by contact.
+    pub fn lambdas(&self, out: &mut Vec<f32>) {
+        out.clear();
+        for &at in &self.slot {
+            let (w, k) = (&self.wide[(at / 4) as usize], (at % 4) as usize);
+            let count = self.cold[(at / 4) as usize].count[k] as usize;
+            for p in &w.points[..count] {
+                out.push(p.normal_impulse[k]);
+                out.push(p.tangent_impulse[k]);
+            }
+        }
+    }
+
+    /// Checks the layout: every contact's slot holds its pair, and no moving body appears
+    /// in two lanes of one wide constraint (for tests).
+    pub fn lanes_are_independent(&self, contacts: &[Contact]) -> bool {
+        let sink = self.sink;
+        let pairs_ok = contacts.iter().zip(&self.slot).all(|(c, &at)| {
+            let (w, k) = (&self.wide[(at / 4) as usize], (at % 4) as usize);
+            w.a[k] == c.a && w.b[k] == c.b
+        });
+        let lanes_ok = self.wide.iter().all(|w| {
+            let mut written: Vec<u32> = w.wa.iter().chain(&w.wb).copied().collect();
+            written.retain(|&i| i != sink);
+            let n = written.len();
+            written.sort_unstable();
+            written.dedup();
+            written.len() == n
+        });
+        pairs_ok && lanes_ok
+    }
+
+    /// Colours in use (the overflow group counts as one), for tests and figures.
+    pub fn color_count(&self) -> usize {
+        self.colors_used
+    }
+
+    /// Wide (four-lane) constraints in this step's layout (for tests).
+    #[doc(hidden)]
+    pub fn wide_count(&self) -> usize {
+        self.wide.len()
+    }
+}
+
+impl WideConstraint {
+    /// Four empty lanes: they read the rest slot, write the sink, and weigh nothing.
+    fn empty(rest: u32, sink: u32) -> WideConstraint {
+        WideConstraint {
+            a: [rest; 4],
+            b: [rest; 4],
+            wa: [sink; 4],
+            wb: [sink; 4],
+            nx: Vec4::ZERO,
+            ny: Vec4::ZERO,
+            friction: Vec4::ZERO,
+            m: InvMass4::default(),
+            bias_rate: Vec4::ZERO,
+            mass_scale: Vec4::ZERO,
+            impulse_scale: Vec4::ZERO,
+            points: [WidePoint::default(); 2],
+        }
+    }
+}
+
+/// How many contacts ahead `store_impulses` asks for the lambdas it will copy.
+const STORE_AHEAD: usize = 8;
+
+/// Asks the cache for the lambdas of wide constraint `wi` (nothing past the end). A
+/// hint only: no result depends on it.
+#[inline(always)]
+fn prefetch_impulses(wide: &[WideConstraint], wi: usize) {
+    #[cfg(target_arch = "x86_64")]
+    if let Some(w) = wide.get(wi) {
+        use std::arch::x86_64::{_MM_HINT_T0, _mm_prefetch};
+        for p in &w.points {
+            // normal_impulse and tangent_impulse: 32 bytes, in at most two lines
+            let at = (&p.normal_impulse as *const Vec4).cast::<i8>();
+            // SAFETY: prefetching has no effect on memory and cannot fault (the second
+            // address is only computed, with wrapping arithmetic, never read).
+            unsafe {
+                _mm_prefetch::<_MM_HINT_T0>(at);
+                _mm_prefetch::<_MM_HINT_T0>(at.wrapping_add(31));
+            }
+        }
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    let _ = (wide, wi);
+}
+
+/// Wide constraints a thread fills at a time (about a microsecond of work).
+const WIDE_BLOCK: usize = 32;
+/// Wide constraints a thread claims at a time in a sweep over the colours (a few
+/// microseconds of work): each claim is a locked instruction, which waits on the
+/// block's stores, and a block taken by the other thread moves its constraints and
+/// bodies to that core and back. With 32, two threads took 1.04 of the time on the large
+/// pyramid.
+const PHASE_BLOCK: usize = 128;
+/// Bodies a thread claims at a time (integration).
+const BODY_BLOCK: usize = 1024;
+/// Bodies per block of a parallel pass over the world's bodies (`Body`, large).
+const BODY_PASS_BLOCK: usize = 256;
+/// Contacts from which one thread colours them while the others load the bodies.
+const PARALLEL_COLORING: usize = 1024;
+/// Contacts from which the layout of the constraints is split between the threads.
+const PARALLEL_LAYOUT: usize = 2048;
+/// Contacts a thread claims at a time (copying lambdas out).
+const CONTACT_BLOCK: usize = 512;
+
+/// What a sweep reads besides the constraints and bodies.
+struct SweepConsts {
+    inv_h: f32,
+    slop: f32,
+    max_push: f32,
+    /// Keep each point's largest normal impulse (for restitution).
+    max_impulse: bool,
+    avx2: bool,
+}
+
+/// A step's scratch that a clone of the solver starts without.
+#[derive(Debug)]
+struct Scratch<T>(Vec<T>);
+
+impl<T> Default for Scratch<T> {
+    fn default() -> Self {
+        Scratch(Vec::new())
+    }
+}
+
+impl<T> Clone for Scratch<T> {
+    fn clone(&self) -> Self {
+        Scratch::default()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::{
+        MassRange, PARALLEL_LAYOUT, SharedMassRange, SoftSolver, Softness, is_lopsided,
+        may_be_lopsided,
+    };
+    use crate::defs::SolverKind;
+    use crate::defs::SolverSettings;
+    use crate::parallel::Pool;
+    use crate::step::testing::{normal_sum, resting_box};
+
+    #[test]
+    fn coloring_beside_the_load_pass_gives_the_bits_of_coloring_after_it() {
+        // a pyramid of 1,830 boxes (enough contacts for one thread to colour them while
+        // the other loads the bodies, and for the layout to be split), a box 100 times
+        // heavier at its foot (lopsided contacts, looked for after the colouring on that
+        // path), and a heavy box on a light one, apart (an island solved exactly)
+        let sc = crate::scene::load_str(
+            "name = \"pile\"\n[world]\ngravity = [0.0, -10.0]\n\
+             [[body]]\nname = \"ground\"\ntype = \"static\"\nshape = { box = [400.0, 2.0] }\nposition = [0.0, -1.0]\n\
+             [[pyramid]]\nbase = 60\n\
+             [[body]]\nname = \"light\"\nshape = { box = [1.0, 1.0] }\nposition = [150.0, 0.5]\n\
+             [[body]]\nname = \"heavy\"\nshape = { box = [1.0, 1.0] }\nposition = [150.0, 1.5]\ndensity = 100.0\n",
+            "pile.toml",
+        )
+        .unwrap();
+        let settings = SolverSettings::soft();
+        let mut w = crate::World::from_def(&sc.world, settings).unwrap();
+        let foot = w.bodies.iter().position(|b| b.is_dynamic()).unwrap();
+        w.bodies[foot].inv_mass *= 0.01;
+        w.bodies[foot].inv_inertia *= 0.01;
+        for _ in 0..5 {
+            w.step().unwrap();
+        }
+        assert!(
+            w.contacts().len() > 2 * PARALLEL_LAYOUT,
+            "{}",
+            w.contacts().len()
+        );
+        let h = settings.dt / settings.substeps as f32;
+        let movers: Vec<bool> = w.bodies.iter().map(|b| b.is_dynamic()).collect();
+        let pool = Pool::new(2);
+        let run = |movers: Option<&[bool]>, pool: Option<&Pool>, beside: bool| {
+            let mut bodies = w.bodies.clone();
+            let mut s = SoftSolver::default();
+            s.prepare_integrating(
+                &mut bodies,
+                w.contacts(),
+                movers,
+                &settings,
+                h,
+                w.gravity,
+                pool,
+            );
+            assert_eq!(s.colored_beside_load, beside);
+            assert!(
+                s.direct_contact.iter().any(|&d| d),
+                "an island solved exactly"
+            );
+            let layout = (
+                s.colors.clone(),
+                s.slot.clone(),
+                s.lane_contact.clone(),
+                s.color_cuts.clone(),
+                s.direct_contact.clone(),
+            );
+            s.warm_start(pool);
+            let r = s.sweep::<true>(pool);
+            s.integrate_positions(h, pool);
+            let r = r.max(s.sweep::<false>(pool));
+            let mut lam = Vec::new();
+            s.lambdas(&mut lam);
+            let bits: Vec<u32> = s.bodies[..bodies.len()]
+                .iter()
+                .flat_map(|b| [b.v.x, b.v.y, b.w, b.dp.x, b.dp.y, b.dtheta])
+                .chain(bodies.iter().flat_map(|b| [b.velocity.x, b.velocity.y]))
+                .chain(lam)
+                .chain([r])
+                .map(f32::to_bits)
+                .collect();
+            (layout, bits)
+        };
+        let serial = run(Some(&movers), Some(&pool), true);
+        assert_eq!(serial, run(None, Some(&pool), false));
+        // (one thread lays out the contacts as one run: only the cuts differ)
+        let (one_layout, one_bits) = run(Some(&movers), None, false);
+        assert_eq!(one_bits, serial.1);
+        assert_eq!(one_layout.0, serial.0.0);
+    }
+
+    #[test]
+    fn a_stalled_worker_leaves_its_shares_to_the_caller_with_the_same_bits() {
+        // (a hang, the stalled thread waiting for ever, fails under the watchdog)
+        crate::parallel::tests::within_30s(|| {
+            // a pyramid of 465 boxes; the worker of a two-thread pool does nothing in a job
+            // until the caller has done every block of it (a test's stall): the colour
+            // passes and the substeps in one job still end, with the bits of one thread
+            let sc = crate::scene::load_str(
+                "name = \"pile\"\n[world]\ngravity = [0.0, -10.0]\n\
+                 [[body]]\nname = \"ground\"\ntype = \"static\"\nshape = { box = [200.0, 2.0] }\nposition = [0.0, -1.0]\n\
+                 [[pyramid]]\nbase = 30\n",
+                "pile.toml",
+            )
+            .unwrap();
+            let settings = SolverSettings::soft();
+            let mut w = crate::World::from_def(&sc.world, settings).unwrap();
+            for _ in 0..20 {
+                w.step().unwrap();
+            }
+            let substeps = settings.substeps as usize;
+            let h = settings.dt / substeps as f32;
+            let pool = Pool::new(2);
+            let bits = |s: &SoftSolver, r: f32| {
+                let mut lam = Vec::new();
+                s.lambdas(&mut lam);
+                s.bodies[..w.bodies.len()]
+                    .iter()
+                    .flat_map(|b| [b.v.x, b.v.y, b.w, b.dp.x, b.dp.y, b.dtheta])
+                    .chain(lam)
+                    .chain([r])
+                    .map(f32::to_bits)
+                    .collect::<Vec<u32>>()
+            };
+            // the substeps one by one, each pass over the colours a job (or on one thread)
+            let by_passes = |pool: Option<&Pool>, stall: usize| {
+                let mut s = SoftSolver::default();
+                s.phases.stall = stall;
+                s.prepare(&w.bodies, w.contacts(), &settings, h, pool);
+                s.take_increments(&w.bodies, pool);
+                let mut r = 0.0;
+                for i in 0..substeps {
+                    if i > 0 {
+                        s.apply_increments(pool);
+                    }
+                    s.warm_start(pool);
+                    for _ in 0..settings.iterations {
+                        s.sweep::<true>(pool);
+                    }
+                    s.integrate_positions(h, pool);
+                    r = s.sweep::<false>(pool);
+                }
+                bits(&s, r)
+            };
+            let one = by_passes(None, 0);
+            assert_eq!(
+                one,
+                by_passes(Some(&pool), 2),
+                "colour passes, worker stalled"
+            );
+            assert_eq!(
+                one,
+                by_passes(Some(&pool), 1),
+                "colour passes, caller stalled"
+            );
+            // every substep in one job, the worker stalled, then the caller
+            for stall in [2, 1] {
+                let mut s = SoftSolver::default();
+                s.phases.stall = stall;
+                s.prepare(&w.bodies, w.contacts(), &settings, h, Some(&pool));
+                s.take_increments(&w.bodies, Some(&pool));
+                assert!(s.can_run_substeps_in_one_job(Some(&pool)));
+                let r = s.substeps_in_one_job(substeps, &settings, h, &pool);
+                assert_eq!(
+                    one,
+                    bits(&s, r),
+                    "substeps in one job, thread {} stalled",
+                    stall - 1
+                );
+            }
+        });
+    }
+
+    #[test]
+    fn a_lopsided_pair_is_never_missed_by_the_mass_range() {
+        // blocks of bodies fold their ranges; any pair of them that is lopsided finds
+        // the range saying it may be, and a range of close masses rules every pair out
+        let masses = [0.5f32, 0.051, 0.0501, 5.0, 0.49, 0.0, 7.9, 1e-30, 1e30];
+        let shared = SharedMassRange::new();
+        // (blocks on three threads, some running more than one block)
+        for (i, block) in masses.chunks(2).enumerate() {
+            let mut r = MassRange::default();
+            for &m in block {
+                r.add(true, m);
+            }
+            r.add(false, 1e6); // a body that does not move does not count
+            r.publish(&shared, i % 3);
+        }
+        let range = shared.get();
+        assert_eq!(range, (1e-30f32.to_bits(), 1e30f32.to_bits()));
+        for &a in &masses {
+            for &b in &masses {
+                let mut r = MassRange::default();
+                r.add(true, a);
+                r.add(true, b);
+                if is_lopsided(a, b) {
+                    assert!(may_be_lopsided((r.least, r.most)), "{a} {b}");
+                    assert!(may_be_lopsided(range));
+                }
+            }
+        }
+        // masses within a factor 10: no pair is lopsided, and the range says so
+        let mut r = MassRange::default();
+        for m in [0.5f32, 0.051, 0.4999, 0.1] {
+            r.add(true, m);
+        }
+        assert!(!may_be_lopsided((r.least, r.most)));
+        assert!(may_be_lopsided((0.05f32.to_bits(), 0.5f32.to_bits())));
+        let none = MassRange::default();
+        assert!(!may_be_lopsided((none.least, none.most)));
+    }
+
+    #[test]
+    fn softness_has_the_closed_form_of_an_implicit_spring() {
+        // a2 a3 + a3 = 1 for every setting; omega / a1 the bias rate; hertz 0 is rigid
+        let h = 1.0 / 240.0;
+        let s = Softness::new(30.0, 10.0, h);
+        let omega = std::f32::consts::TAU * 30.0;
+        let a1 = 2.0 * 10.0 + h * omega;
+        assert!((s.bias_rate - omega / a1).abs() < 1e-4);
+        assert!((s.mass_scale + s.impulse_scale - 1.0).abs() < 1e-6);
+        let r = Softness::new(0.0, 10.0, h);
+        assert_eq!(
+            (r.mass_scale, r.impulse_scale, r.bias_rate),
+            (1.0, 0.0, 0.0)
+        );
+    }
+
+    #[test]
+    fn a_resting_box_is_held_by_its_weight_each_substep() {
+        // at rest the contact carries m g h per substep: 1 kg, g 10, h = dt / 8
+        let mut w = resting_box(SolverKind::Soft);
+        for _ in 0..120 {
+            w.step().unwrap();
+        }
+        let h = w.settings.dt / w.settings.substeps as f32;
+        let sum = normal_sum(&w);
+        assert!(
+            (sum - 10.0 * h).abs() < 0.01 * 10.0 * h,
+            "{sum} vs {}",
+            10.0 * h
+        );
+        assert!(w.bodies[1].velocity.length() < 1e-3);
+    }
+}
