@@ -183,7 +183,7 @@ impl SoftSolver {
 
     /// `substeps` substeps of the contacts alone (no joints), each but the first
     /// beginning with the force increments: warm start, `iterations` soft sweeps,
-    /// positions, one relax sweep, as [`SoftSolver::substep`] does, but all in one job
+    /// positions, one relax sweep, as the step runs them pass by pass, but all in one job
     /// of the pool whose phases are each pass's colours (and the passes over the
     /// bodies): the threads meet at each phase's end and no job is posted between them.
     /// The same bits as the substeps one by one. Returns the last relax sweep's
