@@ -1024,6 +1024,11 @@ impl<'a, T: Send> Disjoint<'a, T> {
         }
     }
 
+    /// The slice's length.
+    pub(crate) fn len(&self) -> usize {
+        self.len
+    }
+
     /// The items in `r` (panics past the end).
     ///
     /// # Safety

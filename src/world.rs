@@ -945,10 +945,13 @@ impl World {
 
     /// The bodies and this step's contacts, with whether each body is dynamic where
     /// this step's collide found it for every body (none was asleep).
-    pub(crate) fn bodies_with_movers(&mut self) -> (&mut [Body], &[Contact], Option<&[bool]>) {
+    #[allow(clippy::type_complexity)]
+    pub(crate) fn bodies_with_movers(
+        &mut self,
+    ) -> (&mut [Body], &[Contact], &[Joint], Option<&[bool]>) {
         let movers = (self.movers_found && self.dynamic.len() == self.bodies.len())
             .then_some(&self.dynamic[..]);
-        (&mut self.bodies, &self.contacts, movers)
+        (&mut self.bodies, &self.contacts, &self.joints, movers)
     }
 
     /// Whether some body is asleep: a pass over the bodies (large), split between the

@@ -39,17 +39,18 @@ fn soft_pyramid(n: usize) -> World {
     w
 }
 
-/// One soft solve of the world's current contacts, from scratch: prepare, warm start,
-/// four biased sweeps and a relax sweep; returns the solver (velocities, lambdas).
+/// One soft substep of the world's current contacts, from scratch: prepare, warm start,
+/// four biased sweeps, positions and a relax sweep; returns the solver (velocities,
+/// lambdas).
 fn soft_solve(w: &World) -> SoftSolver {
     let mut s = SoftSolver::default();
     let h = w.settings.dt / w.settings.substeps as f32;
-    s.prepare(&w.bodies, w.contacts(), &w.settings, h, None);
-    s.warm_start(None);
-    for _ in 0..4 {
-        s.sweep::<true>(None);
-    }
-    s.sweep::<false>(None);
+    let settings = SolverSettings {
+        iterations: 4,
+        ..w.settings
+    };
+    s.prepare(&w.bodies, w.contacts(), &[], None, &settings, h, None);
+    s.run(&[], 1, &settings, h, None);
     s
 }
 

@@ -1,9 +1,7 @@
 //! Both cores: a step split between threads gives the same bits as one thread, under
 //! every solver, with contacts, joints, restitution and sleeping.
 
-use sandbox2d::parallel::Pool;
 use sandbox2d::scene::load_str;
-use sandbox2d::solver::soft::SoftSolver;
 use sandbox2d::{SolverKind, SolverSettings, Threads, World};
 
 /// A pyramid of 435 boxes, a row of bouncing balls over it, and a 12 x 12 hinged grid
@@ -120,89 +118,6 @@ fn a_pile_falls_asleep_the_same_way_on_two_threads() {
     assert!(at1.is_some(), "the pile sleeps within 15 s");
     assert!(jobs > 0);
     assert_eq!((at1, h1), (at2, h2));
-}
-
-#[test]
-fn a_soft_solve_split_between_threads_gives_the_same_bits() {
-    let mut w = world(SolverKind::Soft, 1);
-    for _ in 0..30 {
-        w.step().unwrap();
-    }
-    let pool = Pool::new(2);
-    let solve = |pool: Option<&Pool>| {
-        let mut s = SoftSolver::default();
-        let h = w.settings.dt / w.settings.substeps as f32;
-        s.prepare(&w.bodies, w.contacts(), &w.settings, h, pool);
-        s.warm_start(pool);
-        let mut r = 0.0;
-        for _ in 0..3 {
-            r = s.sweep::<true>(pool);
-        }
-        s.integrate_positions(h, pool);
-        r = r.max(s.sweep::<false>(pool));
-        let mut lam = Vec::new();
-        s.lambdas(&mut lam);
-        let bits: Vec<u32> = s.bodies[..w.bodies.len()]
-            .iter()
-            .flat_map(|b| [b.v.x, b.v.y, b.w, b.dp.x, b.dp.y, b.dtheta])
-            .chain(lam)
-            .chain([r])
-            .map(f32::to_bits)
-            .collect();
-        bits
-    };
-    let jobs = pool.jobs();
-    assert_eq!(solve(None), solve(Some(&pool)));
-    assert!(pool.jobs() > jobs, "the pool ran the solve's jobs");
-}
-
-#[test]
-fn all_substeps_in_one_job_give_the_bits_of_the_substeps_one_by_one() {
-    let mut w = world(SolverKind::Soft, 1);
-    for _ in 0..30 {
-        w.step().unwrap();
-    }
-    let (s, substeps) = (w.settings, w.settings.substeps as usize);
-    let h = s.dt / substeps as f32;
-    let pool = Pool::new(2);
-    let bits = |solver: &SoftSolver, r: f32| {
-        let mut lam = Vec::new();
-        solver.lambdas(&mut lam);
-        solver.bodies[..w.bodies.len()]
-            .iter()
-            .flat_map(|b| [b.v.x, b.v.y, b.w, b.dp.x, b.dp.y, b.dtheta])
-            .chain(lam)
-            .chain([r])
-            .map(f32::to_bits)
-            .collect::<Vec<u32>>()
-    };
-    // one thread, substep after substep, as the step does without a pool
-    let mut one = SoftSolver::default();
-    one.prepare(&w.bodies, w.contacts(), &s, h, None);
-    one.take_increments(&w.bodies, None);
-    assert!(!one.can_run_substeps_in_one_job(None));
-    let mut r = 0.0;
-    for i in 0..substeps {
-        if i > 0 {
-            one.apply_increments(None);
-        }
-        one.warm_start(None);
-        for _ in 0..s.iterations {
-            one.sweep::<true>(None);
-        }
-        one.integrate_positions(h, None);
-        r = one.sweep::<false>(None);
-    }
-    // two threads, every substep in one job
-    let mut two = SoftSolver::default();
-    two.prepare(&w.bodies, w.contacts(), &s, h, Some(&pool));
-    two.take_increments(&w.bodies, Some(&pool));
-    assert!(two.can_run_substeps_in_one_job(Some(&pool)));
-    let jobs = pool.jobs();
-    let r2 = two.substeps_in_one_job(substeps, &s, h, &pool);
-    assert_eq!(pool.jobs(), jobs + 1, "one job for every substep");
-    assert!(r > 0.0, "the contacts did some work");
-    assert_eq!(bits(&one, r), bits(&two, r2));
 }
 
 #[test]

@@ -1,24 +1,23 @@
 //! The soft step (the default solver): one collide per step, then `substeps` substeps
 //! that reuse its manifolds. Per substep: integrate velocities, warm start, `iterations`
-//! biased sweeps (joints, then contacts: soft rows that pull errors out), integrate
-//! positions, one relax sweep (rigid rows, no bias). After the last substep:
-//! restitution, and the bodies take their new velocities and positions. See
-//! `solver::soft` (contacts) and `solver::soft::joints` (joints). With threads, no joints
-//! and the same force increment each substep, the substeps run as one job of the pool
-//! (`SoftSolver::substeps_in_one_job`; the stage clock then counts the later substeps'
-//! increments as solver time).
+//! biased sweeps (soft rows that pull errors out), integrate positions, one relax sweep
+//! (rigid rows, no bias), each sweep colour by colour, a colour's joints then its
+//! contacts. After the last substep: restitution, and the bodies take their new
+//! velocities and positions. The substeps are one plan of phases that the solver runs on
+//! one thread or, with threads, as one job of the pool (`SoftSolver::run`; the stage
+//! clock counts the later substeps' force increments as solver time). With drag the
+//! forces change from substep to substep: then each substep is a plan of its own, the
+//! velocities integrated before it.
 
 use super::{Stage, StageClock, StepContext, Stepper};
 use crate::defs::SolverKind;
 use crate::solver::soft::SoftSolver;
-use crate::solver::soft::joints::SoftJoints;
 use crate::world::{Speculative, StepStats, World};
 
 /// The soft step and its scratch.
 #[derive(Clone, Debug, Default)]
 pub struct SoftStepper {
     pub(crate) soft: SoftSolver,
-    joints: SoftJoints,
 }
 
 impl Stepper for SoftStepper {
@@ -42,93 +41,58 @@ impl Stepper for SoftStepper {
         let fused = world.plain_forces();
         if fused {
             let g = world.gravity;
+            let mouse = world.mouse;
             // (this step's flags of the bodies the solver moves, where the collide found
             // them: the colouring need not wait for the solver's own pass over the bodies)
-            let (bodies, contacts, movers) = world.bodies_with_movers();
-            self.soft
-                .prepare_integrating(bodies, contacts, movers, &s, h, g, pool);
+            let (bodies, contacts, joints, movers) = world.bodies_with_movers();
+            self.soft.prepare_integrating(
+                bodies,
+                contacts,
+                joints,
+                mouse.as_ref(),
+                movers,
+                &s,
+                h,
+                g,
+                pool,
+            );
         } else {
-            self.soft
-                .prepare(&world.bodies, &world.contacts, &s, h, pool);
-        }
-        let joints = !world.joints.is_empty() || world.mouse.is_some();
-        if joints {
-            self.joints
-                .prepare(&world.joints, world.mouse.as_ref(), &world.bodies, &s, h);
+            self.soft.prepare(
+                &world.bodies,
+                &world.contacts,
+                &world.joints,
+                world.mouse.as_ref(),
+                &s,
+                h,
+                pool,
+            );
         }
         clock.lap(Stage::Solve);
-        let (mut iterations, mut residual) = (0u32, 0.0f32);
-        // with threads, and only contacts, every substep in one job of the pool
-        let in_one_job = uniform && !joints && self.soft.can_run_substeps_in_one_job(pool);
-        if let (true, Some(pool)) = (in_one_job, pool) {
+        let residual;
+        if uniform {
             if !fused {
                 world.integrate_velocities(h);
-                self.soft.take_increments(&world.bodies, Some(pool));
+                self.soft.take_increments(&world.bodies, pool);
             }
             clock.lap(Stage::Forces);
-            residual = self
-                .soft
-                .substeps_in_one_job(n as usize, &s, h, pool)
-                .max(0.0);
-            iterations = n * (s.iterations + 1);
+            residual = self.soft.run(&world.joints, n as usize, &s, h, pool);
             clock.lap(Stage::Solve);
-        }
-        for i in 0..if in_one_job { 0 } else { n } {
-            if !uniform || (i == 0 && !fused) {
+        } else {
+            let mut last = 0.0;
+            for _ in 0..n {
                 world.integrate_velocities(h);
-            }
-            if !uniform {
                 self.soft.load_velocities(&world.bodies);
-            } else if i == 0 {
-                if !fused {
-                    self.soft.take_increments(&world.bodies, pool);
-                }
-            } else {
-                self.soft.apply_increments(pool);
+                clock.lap(Stage::Forces);
+                last = self.soft.run(&world.joints, 1, &s, h, pool);
+                self.soft.store_velocities(&mut world.bodies);
+                clock.lap(Stage::Solve);
             }
-            clock.lap(Stage::Forces);
-            let soft = &mut self.soft;
-            if s.warm_start {
-                if joints {
-                    self.joints
-                        .warm_start(&world.joints, &mut soft.bodies, &soft.inv_mass);
-                }
-                soft.warm_start(pool);
-            }
-            for _ in 0..s.iterations {
-                let rj = if joints {
-                    self.joints
-                        .sweep(&world.joints, &mut soft.bodies, &soft.inv_mass, true)
-                } else {
-                    0.0
-                };
-                let _ = soft.sweep::<true>(pool).max(rj);
-                iterations += 1;
-            }
-            if joints {
-                self.joints
-                    .damp(&world.joints, &mut soft.bodies, &soft.inv_mass);
-            }
-            soft.integrate_positions(h, pool);
-            let rj = if joints {
-                self.joints
-                    .sweep(&world.joints, &mut soft.bodies, &soft.inv_mass, false)
-            } else {
-                0.0
-            };
-            residual = soft.sweep::<false>(pool).max(rj);
-            iterations += 1;
-
-            if !uniform {
-                soft.store_velocities(&mut world.bodies);
-            }
-            clock.lap(Stage::Solve);
+            residual = last;
         }
+        let iterations = n * (s.iterations + 1);
         self.soft.apply_restitution(s.restitution_threshold);
         self.soft.store_impulses(&mut world.contacts, pool);
-        if joints {
-            self.joints.store(&mut world.joints);
-        }
+        self.soft.store_joints(&mut world.joints);
         clock.lap(Stage::Solve);
         // velocities, then x = x0 + sum h v, theta = theta0 + sum h w
         world.ended = Some(self.soft.finish(&mut world.bodies, pool));
@@ -194,19 +158,19 @@ mod tests {
         assert!(w.settings.sleep);
         let all = Some(&[false, true, true][..]);
         w.step().unwrap();
-        assert_eq!(w.bodies_with_movers().2, all);
+        assert_eq!(w.bodies_with_movers().3, all);
         let mut asleep = false;
         for _ in 0..120 {
             // (asleep at the step's start, as its collide finds it)
             asleep = w.bodies[1].asleep;
             w.step().unwrap();
-            assert_eq!(w.bodies_with_movers().2, if asleep { None } else { all });
+            assert_eq!(w.bodies_with_movers().3, if asleep { None } else { all });
         }
         assert!(asleep, "the box falls asleep within 2 s");
         assert!(!w.bodies[2].asleep, "the ball falls");
         // woken, the next collide finds every flag again
         w.wake(1);
         w.step().unwrap();
-        assert_eq!(w.bodies_with_movers().2, all);
+        assert_eq!(w.bodies_with_movers().3, all);
     }
 }

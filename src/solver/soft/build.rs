@@ -178,11 +178,13 @@ impl SoftSolver {
         let may_lopsided = may_be_lopsided(self.inv_mass_range);
         let found = color_contacts(
             contacts,
+            self.joints.ends(),
             &self.moves,
             may_lopsided.then_some(&self.inv_mass[..]),
             threads,
             &mut self.body_colors,
             &mut self.colors,
+            &mut self.joint_colors,
             &mut self.cut_lanes,
         );
         self.build_colored(nb, contacts, found, s, h, pool);
@@ -208,10 +210,16 @@ impl SoftSolver {
         let one_lane = testing::ONE_LANE.with(std::cell::Cell::get);
         let Colored {
             counts,
+            joint_counts,
             points,
             lopsided,
         } = found;
-        self.colors_used = counts.iter().filter(|&&n| n > 0).count();
+        // a colour is used by its contacts or its joints (the overflow counts as one)
+        let mut used = [0u32; OVERFLOW + 1];
+        for (u, (&c, &j)) in used.iter_mut().zip(counts.iter().zip(&joint_counts)) {
+            *u = c + j;
+        }
+        self.colors_used = used.iter().filter(|&&n| n > 0).count();
         // first lane of each colour; a colour starts on a fresh wide constraint, and an
         // overflow constraint has one to itself
         let step = |color: usize| if color == OVERFLOW || one_lane { 4 } else { 1 };
@@ -225,11 +233,12 @@ impl SoftSolver {
             } else {
                 n.div_ceil(4) * 4
             };
-            if color < OVERFLOW && n > 0 {
+            if color < OVERFLOW && used[color] > 0 {
                 self.color_ranges.push((*nx / 4, acc / 4));
             }
         }
         let n_wide = (acc / 4) as usize;
+
         // with threads, each takes an equal run of the contacts in contact order (which
         // follows the bodies' order: pairs are found and kept sorted) from every colour:
         // the lane each colour had reached at the contacts' quantiles (counted by the
@@ -277,7 +286,9 @@ impl SoftSolver {
                 }
             }
         }
-        self.cut_colors(threads, &counts, n_wide as u32);
+        self.cut_colors(threads, &used, n_wide as u32);
+        self.lay_out_joints(&used, h);
+        self.cut_joints(threads);
         self.points = points;
         self.find_direct(contacts, lopsided);
         // rigid contacts soften to a quarter of the substep rate at most; against a body
@@ -380,9 +391,102 @@ impl SoftSolver {
         self.build_direct(contacts);
     }
 
+    /// Lays the joints out colour by colour: each used colour's joints that the lanes
+    /// do not take (`joint_order`, in joint order, each colour's range in
+    /// `joint_ranges`), then the overflow joints (`joint_rest`); and the colour's hinges
+    /// four to a wide hinge (`hinges`, each colour's range in `hinge_ranges`). `used`:
+    /// constraints per colour; `h`: the substep.
+    fn lay_out_joints(&mut self, used: &[u32; OVERFLOW + 1], h: f32) {
+        let prepared = self.joints.prepared();
+        let lanes = |i: usize| prepared[i].lanes && (self.joint_colors[i] as usize) < OVERFLOW;
+        // per colour: joints one by one, and in lanes
+        let (mut scalar, mut laned) = ([0u32; OVERFLOW + 1], [0u32; OVERFLOW + 1]);
+        for (i, &c) in self.joint_colors.iter().enumerate() {
+            if lanes(i) {
+                laned[c as usize] += 1;
+            } else {
+                scalar[c as usize] += 1;
+            }
+        }
+        let (mut next, mut next_lane) = ([0u32; OVERFLOW + 1], [0u32; OVERFLOW + 1]);
+        let (mut acc, mut acc_lane) = (0u32, 0u32);
+        self.joint_ranges.clear();
+        self.hinge_ranges.clear();
+        for color in 0..=OVERFLOW {
+            next[color] = acc;
+            acc += scalar[color];
+            // each colour's hinges start on a fresh wide hinge
+            next_lane[color] = acc_lane;
+            acc_lane += laned[color].div_ceil(4) * 4;
+            if color < OVERFLOW && used[color] > 0 {
+                self.joint_ranges.push((next[color], acc));
+                self.hinge_ranges.push((next_lane[color] / 4, acc_lane / 4));
+            }
+        }
+        self.joint_rest = (next[OVERFLOW], acc);
+        self.joint_order.clear();
+        self.joint_order.resize(acc as usize, 0);
+        let (rest, sink) = (self.moves.len() as u32, self.sink);
+        self.hinges.clear();
+        self.hinges
+            .resize((acc_lane / 4) as usize, WideHinge::empty(rest, sink));
+        for (i, &color) in self.joint_colors.iter().enumerate() {
+            if lanes(i) {
+                let at = &mut next_lane[color as usize];
+                let (w, k) = ((*at / 4) as usize, (*at % 4) as usize);
+                self.hinges[w].set_lane(
+                    k,
+                    i as u32,
+                    &prepared[i],
+                    &self.moves,
+                    &self.inv_mass,
+                    sink,
+                    h,
+                );
+                *at += 1;
+            } else {
+                let at = &mut next[color as usize];
+                self.joint_order[*at as usize] = i as u32;
+                *at += 1;
+            }
+        }
+    }
+
+    /// Each used colour's items as its `threads` shares take them: share j's joints one
+    /// by one, its wide hinges (even parts of the colour's), then its wide constraints
+    /// (`virt`).
+    fn cut_joints(&mut self, threads: usize) {
+        self.virt.clear();
+        let n = threads.max(1);
+        for c in 0..self.joint_ranges.len() {
+            let mut at = 0u32;
+            for j in 0..n {
+                self.virt.push(at);
+                let (joints, hinges) = (self.joint_share(c, j), self.hinge_share(c, j));
+                at += (joints.len() + hinges.len() + self.contact_share(c, j).len()) as u32;
+            }
+            self.virt.push(at);
+        }
+    }
+
+    /// Thread j's share of used colour c's joints solved one by one (in `joint_order`).
+    pub(super) fn joint_share(&self, c: usize, j: usize) -> std::ops::Range<usize> {
+        let (a, b) = self.joint_ranges[c];
+        let r = parallel::split((b - a) as usize, self.cut_threads.max(1), j);
+        a as usize + r.start..a as usize + r.end
+    }
+
+    /// Thread j's share of used colour c's wide hinges.
+    pub(super) fn hinge_share(&self, c: usize, j: usize) -> std::ops::Range<usize> {
+        let (a, b) = self.hinge_ranges[c];
+        let r = parallel::split((b - a) as usize, self.cut_threads.max(1), j);
+        a as usize + r.start..a as usize + r.end
+    }
+
     /// Cuts each colour's wide constraints between `threads` threads where the contacts'
     /// quantiles fell (`cut_lanes`): the lane a colour had reached, rounded up to its
     /// wide constraint. Then lists the fill's blocks of the `n_wide` wide constraints.
+    /// `counts`: constraints per colour (a colour is used where some).
     pub(super) fn cut_colors(&mut self, threads: usize, counts: &[u32; OVERFLOW + 1], n_wide: u32) {
         self.color_cuts.clear();
         self.cut_threads = threads;

@@ -11,32 +11,42 @@ pub(super) const OVERFLOW: usize = 64;
 pub(super) struct Colored {
     /// Contacts per colour.
     pub(super) counts: [u32; OVERFLOW + 1],
+    /// Joints per colour.
+    pub(super) joint_counts: [u32; OVERFLOW + 1],
     /// Contact points.
     pub(super) points: usize,
     /// Whether some contact is lopsided (looked for only where masses were given).
     pub(super) lopsided: bool,
 }
 
-/// Greedy colouring, in contact order: each contact takes the lowest colour neither of
-/// its moving bodies (`moves`) uses yet, [`OVERFLOW`] where none is free; a body that
-/// does not move takes no colour. Writes each contact's colour to `colors`, and to
+/// Greedy colouring, the joints first (in joint order: `joints` holds each joint's two
+/// bodies; their colours go to `joint_colors`), then the contacts in contact order: each
+/// takes the lowest colour neither of its moving bodies (`moves`) uses yet, [`OVERFLOW`]
+/// where none is free; a body that does not move takes no colour. So a colour's joints
+/// and contacts share no moving body, and its joints can be solved beside its contacts
+/// (Box2D's constraint graph, where joints and contacts share the colours too). Writes
+/// each contact's colour to `colors`, and to
 /// `cut_counts` what each colour had counted at the start of each of the `threads` even
 /// runs of the contacts but the first (the layout cuts the colours there). With
 /// `inv_mass`, also looks for a lopsided contact (see `SoftSolver::find_direct`): each
 /// pass over the contacts reads them from far in the cache.
+#[allow(clippy::too_many_arguments)]
 pub(super) fn color_contacts(
     contacts: &[Contact],
+    joints: &[(u32, u32)],
     moves: &[bool],
     inv_mass: Option<&[(f32, f32)]>,
     threads: usize,
     body_colors: &mut Vec<u64>,
     colors: &mut Vec<u8>,
+    joint_colors: &mut Vec<u8>,
     cut_counts: &mut Vec<[u32; OVERFLOW + 1]>,
 ) -> Colored {
     body_colors.clear();
     body_colors.resize(moves.len(), 0);
     colors.resize(contacts.len(), 0);
     cut_counts.clear();
+    let joint_counts = color_joints(joints, moves, body_colors, joint_colors);
     let mut counts = [0u32; OVERFLOW + 1];
     let (mut points, mut lopsided) = (0usize, false);
     // plain slices, so the loop keeps its pointers in registers
@@ -74,7 +84,39 @@ pub(super) fn color_contacts(
     }
     Colored {
         counts,
+        joint_counts,
         points,
         lopsided,
     }
+}
+
+/// The joints' part of [`color_contacts`]: each joint, in order, takes the lowest colour
+/// neither of its moving bodies uses yet (a joint of no moving body takes colour 0: it
+/// does nothing, and touches no body that moves). Returns the joints per colour.
+fn color_joints(
+    joints: &[(u32, u32)],
+    moves: &[bool],
+    body_colors: &mut [u64],
+    joint_colors: &mut Vec<u8>,
+) -> [u32; OVERFLOW + 1] {
+    let mut counts = [0u32; OVERFLOW + 1];
+    joint_colors.clear();
+    joint_colors.extend(joints.iter().map(|&(a, b)| {
+        let (a, b) = (a as usize, b as usize);
+        let (ma, mb) = (moves[a], moves[b]);
+        let used = (if ma { body_colors[a] } else { 0 }) | (if mb { body_colors[b] } else { 0 });
+        let color = (!used).trailing_zeros() as usize;
+        if color < OVERFLOW {
+            let bit = 1u64 << color;
+            if ma {
+                body_colors[a] |= bit;
+            }
+            if mb {
+                body_colors[b] |= bit;
+            }
+        }
+        counts[color] += 1;
+        color as u8
+    }));
+    counts
 }

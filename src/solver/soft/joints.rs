@@ -19,7 +19,7 @@
 //! rigid equality on the angle (offset) error. Lambdas are impulses per substep; they
 //! carry from substep to substep and, through the joint, to the next step (warm start).
 
-use super::{SoftBody, Softness};
+use super::{BodyPtr, SoftBody, Softness};
 use crate::body::Body;
 use crate::defs::{JointKind, SolverSettings};
 use crate::joint::{Joint, MouseJoint, PulleyRopes, SLOTS, slot, wrap_angle};
@@ -27,30 +27,35 @@ use crate::math::{Vec2, cross, cross_sv};
 
 /// A joint's geometry at the step's start and its lambdas.
 #[derive(Clone, Copy, Debug, Default)]
-struct Prepared {
-    a: usize,
-    b: usize,
+pub(super) struct Prepared {
+    pub(super) a: usize,
+    pub(super) b: usize,
     /// Arms from the centres of mass to the anchors, world frame, at the step's start.
-    ra0: Vec2,
-    rb0: Vec2,
+    pub(super) ra0: Vec2,
+    pub(super) rb0: Vec2,
     /// Anchor gap p_b - p_a at the step's start.
-    d0: Vec2,
+    pub(super) d0: Vec2,
     /// World axis at the step's start (prismatic; it turns with a).
     axis0: Vec2,
     /// theta_b - theta_a - ref at the step's start.
-    angle0: f32,
+    pub(super) angle0: f32,
     /// Pulley: anchor less ground point, each side, at the step's start.
     ea0: Vec2,
     eb0: Vec2,
     /// Wheel: the suspension's softness (Box2D's soft constraint for its own hertz and
     /// damping ratio; the same in both sweeps).
     spring: Option<Softness>,
-    impulses: [f32; SLOTS],
+    pub(super) impulses: [f32; SLOTS],
+    /// A rigid hinge with at most a motor and limits: solved four at a time in lanes
+    /// (`hinge.rs`), with these.
+    pub(super) lanes: bool,
+    pub(super) limits: Option<[f32; 2]>,
+    pub(super) motor: Option<crate::defs::MotorDef>,
 }
 
 /// The mouse joint, prepared: a soft point between a body's point and the target.
 #[derive(Clone, Copy, Debug, Default)]
-struct PreparedMouse {
+pub(super) struct PreparedMouse {
     body: usize,
     rb0: Vec2,
     /// point - target at the step's start.
@@ -191,7 +196,7 @@ impl Pair {
 
 /// How a row is softened in this sweep.
 #[derive(Clone, Copy, Debug)]
-struct Sweep {
+pub(super) struct Sweep {
     /// The biased (soft) sweep, or the relax sweep.
     bias: bool,
     /// Rigid rows in the biased sweep.
@@ -329,8 +334,10 @@ impl Sweep {
 
 /// The soft step's joint rows and their lambdas.
 #[derive(Clone, Debug, Default)]
-pub struct SoftJoints {
+pub(crate) struct SoftJoints {
     prepared: Vec<Prepared>,
+    /// Each joint's two bodies (for the colouring).
+    ends: Vec<(u32, u32)>,
     mouse: Option<PreparedMouse>,
     soft: Softness,
     h: f32,
@@ -354,6 +361,9 @@ impl SoftJoints {
         let hertz = s.joint_hertz.min(0.25 / h);
         self.soft = Softness::new(hertz, s.joint_damping_ratio, h);
         self.prepared.clear();
+        self.ends.clear();
+        self.ends
+            .extend(joints.iter().map(|j| (j.a as u32, j.b as u32)));
         for j in joints {
             let f = j.frame(bodies);
             let (mut ea0, mut eb0) = (Vec2::ZERO, Vec2::ZERO);
@@ -380,6 +390,9 @@ impl SoftJoints {
                 } else {
                     [0.0; SLOTS]
                 },
+                lanes: super::hinge::takes_lanes(j),
+                limits: j.limits,
+                motor: j.motor,
             });
         }
         self.mouse = mouse.and_then(|m| {
@@ -405,16 +418,30 @@ impl SoftJoints {
         });
     }
 
-    /// Whether there is anything to solve.
-    pub fn is_empty(&self) -> bool {
-        self.prepared.is_empty() && self.mouse.is_none()
+    /// Each joint's two bodies, in joint order.
+    pub(super) fn ends(&self) -> &[(u32, u32)] {
+        &self.ends
     }
 
-    fn pair(p: &Prepared, bodies: &[SoftBody], inv_mass: &[(f32, f32)]) -> Pair {
+    /// Whether there is a mouse joint.
+    pub(super) fn has_mouse(&self) -> bool {
+        self.mouse.is_some()
+    }
+
+    /// The joint's two bodies as they are now.
+    ///
+    /// # Safety
+    /// No other thread writes either body meanwhile (joints and contacts of one colour
+    /// share no moving body; a body that does not move is never written).
+    #[inline]
+    unsafe fn pair(p: &Prepared, bodies: BodyPtr, inv_mass: &[(f32, f32)]) -> Pair {
         let ((ima, iia), (imb, iib)) = (inv_mass[p.a], inv_mass[p.b]);
+        // SAFETY: in bounds (the joint's bodies are the world's), and no one else writes
+        // them (above)
+        let (a, b) = unsafe { (*bodies.at(p.a as u32), *bodies.at(p.b as u32)) };
         Pair {
-            a: bodies[p.a],
-            b: bodies[p.b],
+            a,
+            b,
             ima,
             iia,
             imb,
@@ -422,14 +449,23 @@ impl SoftJoints {
         }
     }
 
-    fn store_pair(p: &Prepared, pair: &Pair, bodies: &mut [SoftBody], inv_mass: &[(f32, f32)]) {
+    /// Writes the pair's velocities back to the bodies that move.
+    ///
+    /// # Safety
+    /// As [`SoftJoints::pair`].
+    #[inline]
+    unsafe fn store_pair(p: &Prepared, pair: &Pair, bodies: BodyPtr, inv_mass: &[(f32, f32)]) {
         if inv_mass[p.a] != (0.0, 0.0) {
-            bodies[p.a].v = pair.a.v;
-            bodies[p.a].w = pair.a.w;
+            // SAFETY: as above
+            let a = unsafe { &mut *bodies.at(p.a as u32) };
+            a.v = pair.a.v;
+            a.w = pair.a.w;
         }
         if inv_mass[p.b] != (0.0, 0.0) {
-            bodies[p.b].v = pair.b.v;
-            bodies[p.b].w = pair.b.w;
+            // SAFETY: as above
+            let b = unsafe { &mut *bodies.at(p.b as u32) };
+            b.v = pair.b.v;
+            b.w = pair.b.w;
         }
     }
 
@@ -457,224 +493,38 @@ impl SoftJoints {
         PulleyRopes::new(g.ra, g.rb, ea, eb)
     }
 
-    /// Applies the lambdas (start of each substep).
-    pub fn warm_start(&self, joints: &[Joint], bodies: &mut [SoftBody], inv_mass: &[(f32, f32)]) {
-        for (p, j) in self.prepared.iter().zip(joints) {
-            let mut pair = Self::pair(p, bodies, inv_mass);
-            let g = Self::geometry(p, &pair);
-            let l = &p.impulses;
-            match j.kind {
-                JointKind::Hinge | JointKind::Weld => {
-                    pair.apply_point(g.ra, g.rb, Vec2::new(l[slot::POINT_X], l[slot::POINT_Y]));
-                    // every angular row has J v = w_b - w_a (upper limit: negated)
-                    let ang = l[slot::ANGLE] + l[slot::MOTOR] + l[slot::SERVO] + l[slot::LOWER]
-                        - l[slot::UPPER];
-                    pair.apply(&Jac::angle(), ang);
-                }
-                JointKind::Prismatic => {
-                    let ax = Jac::linear(g.ra + g.d, g.rb, g.axis);
-                    let along = l[slot::MOTOR] + l[slot::SERVO] + l[slot::LOWER] - l[slot::UPPER];
-                    pair.apply(&ax, along);
-                    let perp = Jac::linear(g.ra + g.d, g.rb, g.axis.perp());
-                    pair.apply(&perp, l[slot::AXIAL]);
-                    pair.apply(&Jac::angle(), l[slot::ANGLE]);
-                }
-                JointKind::Distance => {
-                    let u = g.d.normalize_or(Vec2::Y);
-                    let r = Jac::linear(g.ra, g.rb, u);
-                    pair.apply(&r, l[slot::AXIAL] + l[slot::LOWER] - l[slot::UPPER]);
-                }
-                JointKind::Wheel => {
-                    let ax = Jac::linear(g.ra + g.d, g.rb, g.axis);
-                    pair.apply(&ax, l[slot::SPRING] + l[slot::LOWER] - l[slot::UPPER]);
-                    let perp = Jac::linear(g.ra + g.d, g.rb, g.axis.perp());
-                    pair.apply(&perp, l[slot::AXIAL]);
-                    pair.apply(&Jac::angle(), l[slot::MOTOR]);
-                }
-                JointKind::Motor => {
-                    pair.apply_point(g.ra, g.rb, Vec2::new(l[slot::POINT_X], l[slot::POINT_Y]));
-                    pair.apply(&Jac::angle(), l[slot::ANGLE]);
-                }
-                JointKind::Pulley => {
-                    let ropes = Self::ropes(p, &pair, &g);
-                    pair.apply(&Jac::pulley(&ropes, j.ratio), l[slot::AXIAL]);
-                }
-            }
-            Self::store_pair(p, &pair, bodies, inv_mass);
-        }
-        if let Some(m) = &self.mouse {
-            let (im, ii) = inv_mass[m.body];
-            let b = &mut bodies[m.body];
-            let rb = b.dq.rotate(m.rb0);
-            b.v += im * m.impulse;
-            b.w += ii * cross(rb, m.impulse);
-        }
+    /// The rigid rows' softness in the biased sweeps.
+    pub(super) fn softness(&self) -> Softness {
+        self.soft
     }
 
-    /// One sweep over every joint row: with `bias`, rigid rows are soft springs that pull
-    /// the error out; without, rigid rows only remove relative speed (relax). Returns the
-    /// largest |delta lambda|.
-    pub fn sweep(
-        &mut self,
-        joints: &[Joint],
-        bodies: &mut [SoftBody],
-        inv_mass: &[(f32, f32)],
-        bias: bool,
-    ) -> f32 {
-        let sw = Sweep {
+    /// The joints' prepared rows.
+    pub(super) fn prepared(&self) -> &[Prepared] {
+        &self.prepared
+    }
+
+    /// The constants of a sweep: with `bias`, rigid rows are soft springs that pull the
+    /// error out; without, they only remove relative speed (relax).
+    pub(super) fn sweep_params(&self, bias: bool) -> Sweep {
+        Sweep {
             bias,
             soft: self.soft,
             h: self.h,
             inv_h: 1.0 / self.h,
             inv_dt: 1.0 / self.dt,
-        };
-        let mut residual = 0.0f32;
-        for (p, j) in self.prepared.iter_mut().zip(joints) {
-            let mut pair = Self::pair(p, bodies, inv_mass);
-            let g = Self::geometry(p, &pair);
-            let ropes = (j.kind == JointKind::Pulley).then(|| Self::ropes(p, &pair, &g));
-            let spring = p.spring;
-            let l = &mut p.impulses;
-            let alpha = j.compliance;
-            let r = match j.kind {
-                JointKind::Hinge | JointKind::Weld => {
-                    let ang = Jac::angle();
-                    let mut r = motor_row(&sw, &mut pair, j, &ang, l);
-                    if j.kind == JointKind::Hinge {
-                        r = r.max(range(&sw, &mut pair, j, &ang, g.angle, true, l));
-                    } else {
-                        r = r.max(sw.equality(
-                            &mut pair,
-                            &ang,
-                            g.angle,
-                            alpha,
-                            &mut l[slot::ANGLE],
-                        ));
-                    }
-                    // the point last: it matters most (positions do not move within a
-                    // sweep, so the geometry still holds)
-                    let mut lam = Vec2::new(l[slot::POINT_X], l[slot::POINT_Y]);
-                    r = r.max(sw.point(&mut pair, &g, alpha, &mut lam));
-                    (l[slot::POINT_X], l[slot::POINT_Y]) = (lam.x, lam.y);
-                    r
-                }
-                JointKind::Prismatic => {
-                    let ax = Jac::linear(g.ra + g.d, g.rb, g.axis);
-                    let mut r = motor_row(&sw, &mut pair, j, &ax, l);
-                    r = r.max(range(&sw, &mut pair, j, &ax, g.axis.dot(g.d), false, l));
-                    let perp = g.axis.perp();
-                    let pr = Jac::linear(g.ra + g.d, g.rb, perp);
-                    r = r.max(sw.equality(
-                        &mut pair,
-                        &pr,
-                        perp.dot(g.d),
-                        alpha,
-                        &mut l[slot::AXIAL],
-                    ));
-                    r.max(sw.equality(
-                        &mut pair,
-                        &Jac::angle(),
-                        g.angle,
-                        alpha,
-                        &mut l[slot::ANGLE],
-                    ))
-                }
-                JointKind::Wheel => {
-                    let mut r = motor_row(&sw, &mut pair, j, &Jac::angle(), l);
-                    let ax = Jac::linear(g.ra + g.d, g.rb, g.axis);
-                    let t = g.axis.dot(g.d);
-                    if let Some(soft) = &spring {
-                        r = r.max(sw.spring(&mut pair, &ax, t, soft, &mut l[slot::SPRING]));
-                    }
-                    r = r.max(range(&sw, &mut pair, j, &ax, t, false, l));
-                    let perp = g.axis.perp();
-                    let pr = Jac::linear(g.ra + g.d, g.rb, perp);
-                    r.max(sw.equality(&mut pair, &pr, perp.dot(g.d), alpha, &mut l[slot::AXIAL]))
-                }
-                JointKind::Motor => sw.motor_joint(&mut pair, j, &g, l),
-                JointKind::Pulley => match ropes {
-                    Some(ropes) => {
-                        let c = j.length - ropes.len_a - j.ratio * ropes.len_b;
-                        sw.inequality(
-                            &mut pair,
-                            &Jac::pulley(&ropes, j.ratio),
-                            c,
-                            &mut l[slot::AXIAL],
-                        )
-                    }
-                    None => 0.0,
-                },
-                JointKind::Distance => {
-                    let len = g.d.length();
-                    let u = if len > 1e-9 { g.d / len } else { Vec2::Y };
-                    let row = Jac::linear(g.ra, g.rb, u);
-                    match j.limits {
-                        Some([lo, hi]) => {
-                            let r1 = sw.inequality(&mut pair, &row, len - lo, &mut l[slot::LOWER]);
-                            let r2 = sw.inequality(
-                                &mut pair,
-                                &row.negated(),
-                                hi - len,
-                                &mut l[slot::UPPER],
-                            );
-                            r1.max(r2)
-                        }
-                        None => {
-                            sw.equality(&mut pair, &row, len - j.length, alpha, &mut l[slot::AXIAL])
-                        }
-                    }
-                }
-            };
-            residual = residual.max(r);
-            Self::store_pair(p, &pair, bodies, inv_mass);
         }
-        if let Some(m) = &mut self.mouse {
-            residual = residual.max(solve_mouse(m, bodies, inv_mass));
-        }
-        residual
     }
 
-    /// Joint damping: removes the fraction min(h c, 1) of the relative velocity along
-    /// each damped row, once per substep (the seed's DampLinear / DampAngular).
-    pub fn damp(&self, joints: &[Joint], bodies: &mut [SoftBody], inv_mass: &[(f32, f32)]) {
-        let h = self.h;
-        for (p, j) in self.prepared.iter().zip(joints) {
-            if j.damping.linear <= 0.0 && j.damping.angular <= 0.0 {
-                continue;
-            }
-            let mut pair = Self::pair(p, bodies, inv_mass);
-            let g = Self::geometry(p, &pair);
-            let damp = |pair: &mut Pair, row: Jac, c: f32| {
-                let k = pair.k(&row);
-                if k > 0.0 {
-                    let d = -(pair.jv(&row) / k) * (h * c).min(1.0);
-                    pair.apply(&row, d);
-                }
-            };
-            if j.damping.linear > 0.0 {
-                match j.kind {
-                    JointKind::Prismatic | JointKind::Wheel => damp(
-                        &mut pair,
-                        Jac::linear(g.ra + g.d, g.rb, g.axis),
-                        j.damping.linear,
-                    ),
-                    JointKind::Distance => damp(
-                        &mut pair,
-                        Jac::linear(g.ra, g.rb, g.d.normalize_or(Vec2::Y)),
-                        j.damping.linear,
-                    ),
-                    _ => {}
-                }
-            }
-            let turns = matches!(
-                j.kind,
-                JointKind::Hinge | JointKind::Prismatic | JointKind::Weld
-            );
-            if j.damping.angular > 0.0 && turns {
-                damp(&mut pair, Jac::angle(), j.damping.angular);
-            }
-            Self::store_pair(p, &pair, bodies, inv_mass);
-        }
+    /// Whether some joint is damped (the step then runs a damping pass).
+    pub(super) fn any_damped(joints: &[Joint]) -> bool {
+        joints
+            .iter()
+            .any(|j| j.damping.linear > 0.0 || j.damping.angular > 0.0)
+    }
+
+    /// The joints' prepared rows (by joint), and the mouse joint's.
+    pub(super) fn parts(&mut self) -> (&mut [Prepared], &mut Option<PreparedMouse>) {
+        (&mut self.prepared, &mut self.mouse)
     }
 
     /// Writes the lambdas back into the joints, for the next step's warm start.
@@ -683,6 +533,224 @@ impl SoftJoints {
             j.impulses = p.impulses;
         }
     }
+}
+
+/// Applies a joint's lambdas (`p`, its prepared rows) (start of each substep).
+///
+/// # Safety
+/// As [`SoftJoints::pair`].
+pub(super) unsafe fn warm_start_joint(
+    p: &Prepared,
+    j: &Joint,
+    bodies: BodyPtr,
+    inv_mass: &[(f32, f32)],
+) {
+    // SAFETY: the caller's
+    let mut pair = unsafe { SoftJoints::pair(p, bodies, inv_mass) };
+    let g = SoftJoints::geometry(p, &pair);
+    let l = &p.impulses;
+    match j.kind {
+        JointKind::Hinge | JointKind::Weld => {
+            pair.apply_point(g.ra, g.rb, Vec2::new(l[slot::POINT_X], l[slot::POINT_Y]));
+            // every angular row has J v = w_b - w_a (upper limit: negated)
+            let ang =
+                l[slot::ANGLE] + l[slot::MOTOR] + l[slot::SERVO] + l[slot::LOWER] - l[slot::UPPER];
+            pair.apply(&Jac::angle(), ang);
+        }
+        JointKind::Prismatic => {
+            let ax = Jac::linear(g.ra + g.d, g.rb, g.axis);
+            let along = l[slot::MOTOR] + l[slot::SERVO] + l[slot::LOWER] - l[slot::UPPER];
+            pair.apply(&ax, along);
+            let perp = Jac::linear(g.ra + g.d, g.rb, g.axis.perp());
+            pair.apply(&perp, l[slot::AXIAL]);
+            pair.apply(&Jac::angle(), l[slot::ANGLE]);
+        }
+        JointKind::Distance => {
+            let u = g.d.normalize_or(Vec2::Y);
+            let r = Jac::linear(g.ra, g.rb, u);
+            pair.apply(&r, l[slot::AXIAL] + l[slot::LOWER] - l[slot::UPPER]);
+        }
+        JointKind::Wheel => {
+            let ax = Jac::linear(g.ra + g.d, g.rb, g.axis);
+            pair.apply(&ax, l[slot::SPRING] + l[slot::LOWER] - l[slot::UPPER]);
+            let perp = Jac::linear(g.ra + g.d, g.rb, g.axis.perp());
+            pair.apply(&perp, l[slot::AXIAL]);
+            pair.apply(&Jac::angle(), l[slot::MOTOR]);
+        }
+        JointKind::Motor => {
+            pair.apply_point(g.ra, g.rb, Vec2::new(l[slot::POINT_X], l[slot::POINT_Y]));
+            pair.apply(&Jac::angle(), l[slot::ANGLE]);
+        }
+        JointKind::Pulley => {
+            let ropes = SoftJoints::ropes(p, &pair, &g);
+            pair.apply(&Jac::pulley(&ropes, j.ratio), l[slot::AXIAL]);
+        }
+    }
+    // SAFETY: the caller's
+    unsafe { SoftJoints::store_pair(p, &pair, bodies, inv_mass) };
+}
+
+/// Applies the mouse joint's lambda, if any (start of each substep).
+pub(super) fn warm_start_mouse(
+    m: &Option<PreparedMouse>,
+    bodies: &mut [SoftBody],
+    inv_mass: &[(f32, f32)],
+) {
+    if let Some(m) = m {
+        let (im, ii) = inv_mass[m.body];
+        let b = &mut bodies[m.body];
+        let rb = b.dq.rotate(m.rb0);
+        b.v += im * m.impulse;
+        b.w += ii * cross(rb, m.impulse);
+    }
+}
+
+/// A joint's rows in a sweep (`sw`, from [`SoftJoints::sweep_params`]); returns the
+/// largest |delta lambda|.
+///
+/// # Safety
+/// As [`SoftJoints::pair`]; and no other thread works on the joint meanwhile (its
+/// entry is `p`).
+pub(super) unsafe fn solve_joint(
+    sw: &Sweep,
+    p: &mut Prepared,
+    j: &Joint,
+    bodies: BodyPtr,
+    inv_mass: &[(f32, f32)],
+) -> f32 {
+    // SAFETY: the caller's
+    let mut pair = unsafe { SoftJoints::pair(p, bodies, inv_mass) };
+    let g = SoftJoints::geometry(p, &pair);
+    let ropes = (j.kind == JointKind::Pulley).then(|| SoftJoints::ropes(p, &pair, &g));
+    let spring = p.spring;
+    let l = &mut p.impulses;
+    let alpha = j.compliance;
+    let r = match j.kind {
+        JointKind::Hinge | JointKind::Weld => {
+            let ang = Jac::angle();
+            let mut r = motor_row(sw, &mut pair, j, &ang, l);
+            if j.kind == JointKind::Hinge {
+                r = r.max(range(sw, &mut pair, j, &ang, g.angle, true, l));
+            } else {
+                r = r.max(sw.equality(&mut pair, &ang, g.angle, alpha, &mut l[slot::ANGLE]));
+            }
+            // the point last: it matters most (positions do not move within a
+            // sweep, so the geometry still holds)
+            let mut lam = Vec2::new(l[slot::POINT_X], l[slot::POINT_Y]);
+            r = r.max(sw.point(&mut pair, &g, alpha, &mut lam));
+            (l[slot::POINT_X], l[slot::POINT_Y]) = (lam.x, lam.y);
+            r
+        }
+        JointKind::Prismatic => {
+            let ax = Jac::linear(g.ra + g.d, g.rb, g.axis);
+            let mut r = motor_row(sw, &mut pair, j, &ax, l);
+            r = r.max(range(sw, &mut pair, j, &ax, g.axis.dot(g.d), false, l));
+            let perp = g.axis.perp();
+            let pr = Jac::linear(g.ra + g.d, g.rb, perp);
+            r = r.max(sw.equality(&mut pair, &pr, perp.dot(g.d), alpha, &mut l[slot::AXIAL]));
+            r.max(sw.equality(
+                &mut pair,
+                &Jac::angle(),
+                g.angle,
+                alpha,
+                &mut l[slot::ANGLE],
+            ))
+        }
+        JointKind::Wheel => {
+            let mut r = motor_row(sw, &mut pair, j, &Jac::angle(), l);
+            let ax = Jac::linear(g.ra + g.d, g.rb, g.axis);
+            let t = g.axis.dot(g.d);
+            if let Some(soft) = &spring {
+                r = r.max(sw.spring(&mut pair, &ax, t, soft, &mut l[slot::SPRING]));
+            }
+            r = r.max(range(sw, &mut pair, j, &ax, t, false, l));
+            let perp = g.axis.perp();
+            let pr = Jac::linear(g.ra + g.d, g.rb, perp);
+            r.max(sw.equality(&mut pair, &pr, perp.dot(g.d), alpha, &mut l[slot::AXIAL]))
+        }
+        JointKind::Motor => sw.motor_joint(&mut pair, j, &g, l),
+        JointKind::Pulley => match ropes {
+            Some(ropes) => {
+                let c = j.length - ropes.len_a - j.ratio * ropes.len_b;
+                sw.inequality(
+                    &mut pair,
+                    &Jac::pulley(&ropes, j.ratio),
+                    c,
+                    &mut l[slot::AXIAL],
+                )
+            }
+            None => 0.0,
+        },
+        JointKind::Distance => {
+            let len = g.d.length();
+            let u = if len > 1e-9 { g.d / len } else { Vec2::Y };
+            let row = Jac::linear(g.ra, g.rb, u);
+            match j.limits {
+                Some([lo, hi]) => {
+                    let r1 = sw.inequality(&mut pair, &row, len - lo, &mut l[slot::LOWER]);
+                    let r2 =
+                        sw.inequality(&mut pair, &row.negated(), hi - len, &mut l[slot::UPPER]);
+                    r1.max(r2)
+                }
+                None => sw.equality(&mut pair, &row, len - j.length, alpha, &mut l[slot::AXIAL]),
+            }
+        }
+    };
+    // SAFETY: the caller's
+    unsafe { SoftJoints::store_pair(p, &pair, bodies, inv_mass) };
+    r
+}
+
+/// Joint damping of one joint (`p`, its prepared rows, over substeps of `h`): removes the fraction min(h c, 1) of the relative
+/// velocity along each damped row, once per substep (the seed's DampLinear /
+/// DampAngular).
+///
+/// # Safety
+/// As [`SoftJoints::pair`].
+pub(super) unsafe fn damp_joint(
+    h: f32,
+    p: &Prepared,
+    j: &Joint,
+    bodies: BodyPtr,
+    inv_mass: &[(f32, f32)],
+) {
+    if j.damping.linear <= 0.0 && j.damping.angular <= 0.0 {
+        return;
+    }
+    // SAFETY: the caller's
+    let mut pair = unsafe { SoftJoints::pair(p, bodies, inv_mass) };
+    let g = SoftJoints::geometry(p, &pair);
+    let damp = |pair: &mut Pair, row: Jac, c: f32| {
+        let k = pair.k(&row);
+        if k > 0.0 {
+            let d = -(pair.jv(&row) / k) * (h * c).min(1.0);
+            pair.apply(&row, d);
+        }
+    };
+    if j.damping.linear > 0.0 {
+        match j.kind {
+            JointKind::Prismatic | JointKind::Wheel => damp(
+                &mut pair,
+                Jac::linear(g.ra + g.d, g.rb, g.axis),
+                j.damping.linear,
+            ),
+            JointKind::Distance => damp(
+                &mut pair,
+                Jac::linear(g.ra, g.rb, g.d.normalize_or(Vec2::Y)),
+                j.damping.linear,
+            ),
+            _ => {}
+        }
+    }
+    let turns = matches!(
+        j.kind,
+        JointKind::Hinge | JointKind::Prismatic | JointKind::Weld
+    );
+    if j.damping.angular > 0.0 && turns {
+        damp(&mut pair, Jac::angle(), j.damping.angular);
+    }
+    // SAFETY: the caller's
+    unsafe { SoftJoints::store_pair(p, &pair, bodies, inv_mass) };
 }
 
 /// The joint's motor row along `row`, if it has a motor; returns |delta lambda|.
@@ -721,7 +789,14 @@ fn range(
 
 /// The mouse: a soft point between the body's point and the target, the same in both
 /// sweeps, its lambda bounded by max force times h.
-fn solve_mouse(m: &mut PreparedMouse, bodies: &mut [SoftBody], inv_mass: &[(f32, f32)]) -> f32 {
+pub(super) fn solve_mouse(
+    m: &mut Option<PreparedMouse>,
+    bodies: &mut [SoftBody],
+    inv_mass: &[(f32, f32)],
+) -> f32 {
+    let Some(m) = m else {
+        return 0.0;
+    };
     let (im, ii) = inv_mass[m.body];
     let b = &mut bodies[m.body];
     let rb = b.dq.rotate(m.rb0);

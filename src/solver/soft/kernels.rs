@@ -6,22 +6,22 @@ use super::*;
 
 /// Bodies' states, transposed: lane k holds body k.
 pub(super) struct WideBody<L = Vec4> {
-    vx: L,
-    vy: L,
-    w: L,
+    pub(super) vx: L,
+    pub(super) vy: L,
+    pub(super) w: L,
     /// kept only to be written back unchanged with the velocities
-    dtheta: L,
-    dpx: L,
-    dpy: L,
-    qc: L,
-    qs: L,
+    pub(super) dtheta: L,
+    pub(super) dpx: L,
+    pub(super) dpy: L,
+    pub(super) qc: L,
+    pub(super) qs: L,
 }
 
 impl WideBody {
     /// Loads four bodies (two 16-byte loads each) and transposes them.
     #[cfg(target_arch = "x86_64")]
     #[inline(always)]
-    fn gather(bodies: BodyPtr, idx: &[u32; 4]) -> WideBody {
+    pub(super) fn gather(bodies: BodyPtr, idx: &[u32; 4]) -> WideBody {
         use std::arch::x86_64::*;
         let rows = idx.map(|i| {
             let p = bodies.at(i) as *const f32;
@@ -50,7 +50,7 @@ impl WideBody {
     /// Writes v, w and the unchanged dtheta of four bodies (one 16-byte store each).
     #[cfg(target_arch = "x86_64")]
     #[inline(always)]
-    fn scatter_velocities<const SHARED: bool>(
+    pub(super) fn scatter_velocities<const SHARED: bool>(
         vx: Vec4,
         vy: Vec4,
         w: Vec4,
@@ -69,7 +69,7 @@ impl WideBody {
 
     #[cfg(not(target_arch = "x86_64"))]
     #[inline(always)]
-    fn gather(bodies: BodyPtr, idx: &[u32; 4]) -> WideBody {
+    pub(super) fn gather(bodies: BodyPtr, idx: &[u32; 4]) -> WideBody {
         // SAFETY: as in the x86_64 build.
         let [s0, s1, s2, s3] = idx.map(|i| unsafe { *bodies.at(i) });
         WideBody {
@@ -86,7 +86,7 @@ impl WideBody {
 
     #[cfg(not(target_arch = "x86_64"))]
     #[inline(always)]
-    fn scatter_velocities<const SHARED: bool>(
+    pub(super) fn scatter_velocities<const SHARED: bool>(
         vx: Vec4,
         vy: Vec4,
         w: Vec4,

@@ -35,6 +35,7 @@ use super::contact_cache::Contact;
 use crate::body::Body;
 use crate::body::HOT_BYTES;
 use crate::defs::{BodyModel, BodyType, SolverSettings};
+use crate::joint::{Joint, MouseJoint};
 use crate::math::{BODY_AHEAD, Rot, Vec2, cross, cross_sv, prefetch, uf_root, uf_union};
 use crate::parallel::{self, Disjoint, MAX_THREADS, Pool};
 use glam::Vec4;
@@ -44,6 +45,7 @@ use std::sync::atomic::{AtomicU32, Ordering};
 mod build;
 mod color;
 mod direct;
+mod hinge;
 pub mod joints;
 mod kernels;
 mod lanes;
@@ -51,7 +53,7 @@ mod lopsided;
 mod schedule;
 
 #[allow(unused_imports)]
-use self::{build::*, color::*, kernels::*, lopsided::*, schedule::*};
+use self::{build::*, color::*, hinge::*, kernels::*, lopsided::*, schedule::*};
 
 #[cfg(target_arch = "x86_64")]
 use lanes::F8;
@@ -66,6 +68,13 @@ pub mod testing {
     thread_local! {
         pub(super) static FORCE_SSE: Cell<bool> = const { Cell::new(false) };
         pub(super) static ONE_LANE: Cell<bool> = const { Cell::new(false) };
+        pub(super) static NO_HINGE_LANES: Cell<bool> = const { Cell::new(false) };
+    }
+
+    /// `true`: every hinge is solved by the scalar joint rows, none in a wide hinge's
+    /// lanes (the lanes give the same bits: a test compares them).
+    pub fn no_hinge_lanes(on: bool) {
+        NO_HINGE_LANES.with(|c| c.set(on));
     }
 
     /// `true`: the sweeps and the warm start run their SSE build even on a CPU with AVX2.
@@ -301,10 +310,6 @@ impl BodyPtr {
     }
 }
 
-/// What [`SoftSolver::for_colors`] runs on a slice of wide constraints: `(thread (None
-/// when alone), constraints, all of one colour)`, returning a figure to take the largest of.
-type ColorKernel<'a> = dyn Fn(Option<usize>, &mut [WideConstraint], bool) -> f32 + Sync + 'a;
-
 /// The soft-step contact solver and its reusable buffers.
 #[derive(Clone, Default, Debug)]
 pub struct SoftSolver {
@@ -325,8 +330,23 @@ pub struct SoftSolver {
     /// The counters of the jobs that run the colours one after another (`for_colors`,
     /// `substeps_in_one_job`).
     phases: parallel::Phases,
-    /// The phases of `substeps_in_one_job`, in order: what each does (scratch).
-    fused: Vec<(Pass, u8)>,
+    /// The plan of the substeps `run` runs: what each phase does, in order (scratch).
+    plan: Vec<(Pass, u8)>,
+    /// The joints' rows, and each joint's colour; the joints laid out colour by colour
+    /// (indices into the joints), each used colour's range of them (beside
+    /// `color_ranges`), and the range of those no colour was free for (solved one by
+    /// one after the colours, with the overflow contacts).
+    joints: joints::SoftJoints,
+    joint_colors: Vec<u8>,
+    joint_order: Vec<u32>,
+    joint_ranges: Vec<(u32, u32)>,
+    joint_rest: (u32, u32),
+    /// Each used colour's hinges, four to a wide hinge, and each colour's range of them.
+    hinges: Vec<WideHinge>,
+    hinge_ranges: Vec<(u32, u32)>,
+    /// Per used colour, where each thread's share starts in the colour's items: the
+    /// share's joints, then its wide constraints (`cut_threads` + 1 entries a colour).
+    virt: Vec<u32>,
     /// Per thread's share of the colours: the least and the largest body it writes
     /// (least > largest for none), from the fill.
     share_bodies: Vec<(u32, u32)>,
@@ -386,16 +406,20 @@ pub struct SoftSolver {
 
 impl SoftSolver {
     /// Builds this step's constraints from the contacts (collided at the step's start)
-    /// for substeps of `h`, and loads the bodies. Lambdas start from the cache if warm
-    /// starting.
+    /// and the joints (and the mouse joint) for substeps of `h`, and loads the bodies.
+    /// Lambdas start from the cache and the joints' own if warm starting.
+    #[allow(clippy::too_many_arguments)]
     pub fn prepare(
         &mut self,
         bodies: &[Body],
         contacts: &[Contact],
+        joints: &[Joint],
+        mouse: Option<&MouseJoint>,
         s: &SolverSettings,
         h: f32,
         pool: Option<&Pool>,
     ) {
+        self.joints.prepare(joints, mouse, bodies, s, h);
         self.size_bodies(bodies.len());
         self.load_bodies(bodies, pool);
         self.build(bodies.len(), contacts, s, h, pool);
@@ -415,12 +439,16 @@ impl SoftSolver {
         &mut self,
         bodies: &mut [Body],
         contacts: &[Contact],
+        joints: &[Joint],
+        mouse: Option<&MouseJoint>,
         movers: Option<&[bool]>,
         s: &SolverSettings,
         h: f32,
         gravity: Option<Vec2>,
         pool: Option<&Pool>,
     ) {
+        // (the joints' frames are taken from the positions, which the load leaves)
+        self.joints.prepare(joints, mouse, bodies, s, h);
         let nb = bodies.len();
         self.size_bodies(nb);
         self.increments.resize(nb, (Vec2::ZERO, 0.0));
@@ -482,28 +510,32 @@ impl SoftSolver {
             let coloring = Mutex::new((
                 &mut self.body_colors,
                 &mut self.colors,
+                &mut self.joint_colors,
                 &mut self.cut_lanes,
                 None,
             ));
+            let ends = self.joints.ends();
             parallel::blocks_max(pool, 1 + nb.div_ceil(BODY_PASS_BLOCK), &|t, b| {
                 if b > 0 {
                     let at = (b - 1) * BODY_PASS_BLOCK;
                     return load(t, at..(at + BODY_PASS_BLOCK).min(nb));
                 }
                 let mut c = coloring.lock().unwrap_or_else(|e| e.into_inner());
-                let (body_colors, colors, cut_lanes, found) = &mut *c;
+                let (body_colors, colors, joint_colors, cut_lanes, found) = &mut *c;
                 *found = Some(color_contacts(
                     contacts,
+                    ends,
                     movers,
                     None,
                     threads,
                     body_colors,
                     colors,
+                    joint_colors,
                     cut_lanes,
                 ));
                 0.0
             });
-            let found = coloring.into_inner().unwrap_or_else(|e| e.into_inner()).3;
+            let found = coloring.into_inner().unwrap_or_else(|e| e.into_inner()).4;
             let mut found = found.expect("the colouring block ran");
             self.inv_mass_range = shared_range.get();
             if may_be_lopsided(self.inv_mass_range) {
@@ -620,21 +652,6 @@ impl SoftSolver {
         );
     }
 
-    /// Adds the force increments of one substep: v += dv, w += dw.
-    pub fn apply_increments(&mut self, pool: Option<&Pool>) {
-        let n = self.increments.len();
-        let increments = &self.increments[..];
-        parallel::chunks_mut(
-            pool,
-            &mut self.bodies[..n],
-            BODY_BLOCK,
-            &|_, offset, soft| {
-                add_increments(soft, &increments[offset..]);
-                0.0
-            },
-        );
-    }
-
     /// The end of the step, in one pass over the bodies: the dynamic ones take their
     /// solved velocities, and every body that is not static moves by its displacement
     /// and turn since collide (x = x0 + sum h v, theta = theta0 + sum h w). The same
@@ -688,6 +705,19 @@ impl SoftSolver {
                 b.angular_velocity = s.w;
             }
         }
+    }
+
+    /// Writes the joints' lambdas back into them, for the next step's warm start.
+    pub fn store_joints(&mut self, joints: &mut [Joint]) {
+        let (prepared, _) = self.joints.parts();
+        for w in &self.hinges {
+            for (k, &i) in w.joint.iter().enumerate() {
+                if i != u32::MAX {
+                    w.impulses(k, &mut prepared[i as usize].impulses);
+                }
+            }
+        }
+        self.joints.store(joints);
     }
 
     /// Writes the lambdas back into the contacts, for next step's warm start.
@@ -894,6 +924,8 @@ mod tests {
             s.prepare_integrating(
                 &mut bodies,
                 w.contacts(),
+                &[],
+                None,
                 movers,
                 &settings,
                 h,
@@ -912,10 +944,8 @@ mod tests {
                 s.color_cuts.clone(),
                 s.direct_contact.clone(),
             );
-            s.warm_start(pool);
-            let r = s.sweep::<true>(pool);
-            s.integrate_positions(h, pool);
-            let r = r.max(s.sweep::<false>(pool));
+            // one substep: warm start, a soft sweep, positions, a relax sweep
+            let r = s.run(&[], 1, &settings, h, pool);
             let mut lam = Vec::new();
             s.lambdas(&mut lam);
             let bits: Vec<u32> = s.bodies[..bodies.len()]
@@ -969,53 +999,114 @@ mod tests {
                     .map(f32::to_bits)
                     .collect::<Vec<u32>>()
             };
-            // the substeps one by one, each pass over the colours a job (or on one thread)
-            let by_passes = |pool: Option<&Pool>, stall: usize| {
+            // every substep on one thread, and as one job of the pool with the worker
+            // stalled, then the caller
+            let run = |pool: Option<&Pool>, stall: usize| {
                 let mut s = SoftSolver::default();
                 s.phases.stall = stall;
-                s.prepare(&w.bodies, w.contacts(), &settings, h, pool);
+                s.prepare(&w.bodies, w.contacts(), &[], None, &settings, h, pool);
                 s.take_increments(&w.bodies, pool);
-                let mut r = 0.0;
-                for i in 0..substeps {
-                    if i > 0 {
-                        s.apply_increments(pool);
-                    }
-                    s.warm_start(pool);
-                    for _ in 0..settings.iterations {
-                        s.sweep::<true>(pool);
-                    }
-                    s.integrate_positions(h, pool);
-                    r = s.sweep::<false>(pool);
-                }
+                let r = s.run(&[], substeps, &settings, h, pool);
                 bits(&s, r)
             };
-            let one = by_passes(None, 0);
-            assert_eq!(
-                one,
-                by_passes(Some(&pool), 2),
-                "colour passes, worker stalled"
-            );
-            assert_eq!(
-                one,
-                by_passes(Some(&pool), 1),
-                "colour passes, caller stalled"
-            );
-            // every substep in one job, the worker stalled, then the caller
-            for stall in [2, 1] {
-                let mut s = SoftSolver::default();
-                s.phases.stall = stall;
-                s.prepare(&w.bodies, w.contacts(), &settings, h, Some(&pool));
-                s.take_increments(&w.bodies, Some(&pool));
-                assert!(s.can_run_substeps_in_one_job(Some(&pool)));
-                let r = s.substeps_in_one_job(substeps, &settings, h, &pool);
-                assert_eq!(
-                    one,
-                    bits(&s, r),
-                    "substeps in one job, thread {} stalled",
-                    stall - 1
-                );
-            }
+            let one = run(None, 0);
+            assert_eq!(one, run(Some(&pool), 2), "the worker stalled");
+            assert_eq!(one, run(Some(&pool), 1), "the caller stalled");
         });
+    }
+
+    #[test]
+    fn the_substeps_as_one_job_of_a_pool_give_the_bits_of_one_thread() {
+        // a pyramid of 435 boxes, bouncing balls (restitution) and a 12 x 12 hinged grid
+        // hanging from two static cells: contacts in many colours, joints among them
+        // (one by one and in lanes), the overflow-free plan and its increments
+        let sc = crate::scene::load_str(
+            "name = \"threads\"\n[world]\ngravity = [0.0, -10.0]\n\
+             [[body]]\nname = \"ground\"\ntype = \"static\"\nshape = { box = [200.0, 2.0] }\nposition = [0.0, -1.0]\n\
+             [[pyramid]]\nbase = 29\n\
+             [[grid]]\nrows = 1\ncolumns = 20\nspacing = [1.5, 1.0]\norigin = [-14.0, 34.0]\nshape = { circle = 0.4 }\nrestitution = 0.8\n\
+             [[grid]]\nrows = 12\ncolumns = 12\nspacing = [1.0, 1.0]\norigin = [40.0, 5.0]\nshape = { box = [0.6, 0.6] }\njoints = \"hinge\"\nstatic_cells = [[11, 0], [11, 11]]\n",
+            "threads.toml",
+        )
+        .unwrap();
+        let settings = SolverSettings::soft();
+        let mut w = crate::World::from_def(&sc.world, settings).unwrap();
+        for _ in 0..30 {
+            w.step().unwrap();
+        }
+        let substeps = settings.substeps as usize;
+        let h = settings.dt / substeps as f32;
+        let pool = Pool::new(2);
+        let run = |pool: Option<&Pool>| {
+            let mut s = SoftSolver::default();
+            s.prepare(
+                &w.bodies,
+                w.contacts(),
+                w.joints(),
+                None,
+                &settings,
+                h,
+                pool,
+            );
+            s.take_increments(&w.bodies, pool);
+            assert!(!s.hinges.is_empty() && !s.joint_ranges.is_empty());
+            let jobs = pool.map_or(0, Pool::jobs);
+            let r = s.run(w.joints(), substeps, &settings, h, pool);
+            if let Some(pool) = pool {
+                assert_eq!(pool.jobs(), jobs + 1, "one job for every substep");
+            }
+            let mut lam = Vec::new();
+            s.lambdas(&mut lam);
+            let mut joints = w.joints().to_vec();
+            s.store_joints(&mut joints);
+            s.bodies[..w.bodies.len()]
+                .iter()
+                .flat_map(|b| [b.v.x, b.v.y, b.w, b.dp.x, b.dp.y, b.dtheta])
+                .chain(lam)
+                .chain(joints.iter().flat_map(|j| j.impulses))
+                .chain([r])
+                .map(f32::to_bits)
+                .collect::<Vec<u32>>()
+        };
+        let one = run(None);
+        let two = run(Some(&pool));
+        let first = one.iter().zip(&two).position(|(a, b)| a != b);
+        assert_eq!(first, None, "the first value that differs");
+    }
+
+    #[test]
+    fn hinges_in_lanes_give_the_bits_of_hinges_one_by_one() {
+        // the ragdoll (hinges with limits), the joints scene (a motor, limits, a servo,
+        // a prismatic and a weld beside them), a chain and the joint grid: the same state
+        // after every step whether the hinges take lanes or the scalar rows
+        for name in ["ragdoll", "joints", "chain", "joint_grid", "car", "bridge"] {
+            // (the car's joints are wheels, the joints scene's hinges have servos or
+            // motors beside other kinds: some of them take lanes, some not)
+            let sc = crate::scene::load(name).unwrap();
+            let run = |lanes: bool| {
+                super::testing::no_hinge_lanes(!lanes);
+                let mut w = crate::World::from_def(&sc.world, sc.world.solver.resolve()).unwrap();
+                let steps = if name == "joint_grid" { 10 } else { 90 };
+                let hashes: Vec<u64> = (0..steps)
+                    .map(|_| {
+                        w.step().unwrap();
+                        w.state_hash()
+                    })
+                    .collect();
+                super::testing::no_hinge_lanes(false);
+                let st = w.stepper_as::<crate::step::soft::SoftStepper>().unwrap();
+                (hashes, st.soft.hinges.len())
+            };
+            let (one_by_one, none) = run(false);
+            let (laned, wide) = run(true);
+            assert_eq!(none, 0, "{name}: no lanes when told");
+            if name != "car" {
+                assert!(wide > 0, "{name}: hinges in lanes");
+            }
+            // (compared step by step; the first step that differs is named)
+            let first = one_by_one.iter().zip(&laned).position(|(a, b)| a != b);
+            assert_eq!(first, None, "{name}: the first step that differs");
+        }
     }
 
     #[test]

@@ -1,5 +1,11 @@
-//! The passes of a step (warm start, sweeps, positions, relax, colour after colour) and
-//! how they run: on one thread, as one job a pass, or every substep in one job.
+//! The passes of a step and how they run. A step's substeps are one list of phases (the
+//! plan, [`SoftSolver::run`]): per substep the force increments, the warm start colour
+//! by colour, `iterations` soft sweeps colour by colour, positions, one relax sweep
+//! colour by colour; a colour's phase solves its joints, then its contacts. After each
+//! pass's colours come the constraints no colour was free for and the mouse joint (one
+//! by one), and after each sweep the islands solved exactly. One thread runs the phases
+//! in order; with threads, the whole list is one job of the pool (Box2D's stage list for
+//! 1 to N workers): the same list, so the same bits.
 
 #[allow(unused_imports)]
 use super::*;
@@ -52,35 +58,53 @@ pub(super) fn integrate_range(bodies: &mut [SoftBody], h: f32) {
     }
 }
 
-/// What a phase of [`SoftSolver::substeps_in_one_job`] does.
+/// What a phase of a step's plan does.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub(super) enum Pass {
-    /// Each thread works out which of its blocks of each colour the other may wait for.
+    /// Each thread works out which of its blocks of each colour the other may wait for
+    /// (two threads, contacts alone).
     Bounds,
     /// The substep's force increments (every substep after the first).
     Increments,
-    /// One colour's warm start, soft sweep or relax sweep.
+    /// One colour's warm start, soft sweep or relax sweep: its joints, then its contacts.
     WarmStart,
     Sweep,
     Relax,
+    /// The same for the rest: the joints and contacts no colour was free for, and the
+    /// mouse joint, one by one (one thread).
+    RestWarmStart,
+    RestSweep,
+    RestRelax,
+    /// The islands solved exactly, after a soft sweep or a relax sweep (one thread).
+    DirectSweep,
+    DirectRelax,
+    /// Joint damping (one thread).
+    Damp,
     /// Positions.
     Integrate,
 }
 
-impl SoftSolver {
-    /// Applies the accumulated lambdas (the last substep's impulses).
-    pub fn warm_start(&mut self, pool: Option<&Pool>) {
-        let avx2 = use_avx2();
-        let bodies = BodyPtr::new(&mut self.bodies, self.sink);
-        self.for_colors(pool, &|t, chunk, pairs| {
-            match t {
-                Some(t) => warm_start_range::<true>(chunk, bodies.for_thread(t), avx2, pairs),
-                None => warm_start_range::<false>(chunk, bodies, avx2, pairs),
-            }
-            0.0
-        });
+impl Pass {
+    /// A phase one thread runs while the others wait.
+    fn serial(self) -> bool {
+        matches!(
+            self,
+            Pass::RestWarmStart
+                | Pass::RestSweep
+                | Pass::RestRelax
+                | Pass::DirectSweep
+                | Pass::DirectRelax
+                | Pass::Damp
+        )
     }
 
+    /// A phase that touches what any share of the phases beside it may touch.
+    fn full(self) -> bool {
+        self.serial() || matches!(self, Pass::Increments | Pass::Integrate)
+    }
+}
+
+impl SoftSolver {
     /// The sweeps' constants for this step.
     pub(super) fn sweep_consts(&self) -> SweepConsts {
         SweepConsts {
@@ -94,167 +118,155 @@ impl SoftSolver {
         }
     }
 
-    /// One sweep over every row: with `BIAS`, soft rows that push overlap out; without,
-    /// rigid rows that only remove approach speed (relax). Returns max |delta lambda|.
-    pub fn sweep<const BIAS: bool>(&mut self, pool: Option<&Pool>) -> f32 {
-        let k = self.sweep_consts();
-        let bodies = BodyPtr::new(&mut self.bodies, self.sink);
-        let r = self.for_colors(pool, &|t, chunk, pairs| match t {
-            Some(t) => sweep_range::<BIAS, true>(chunk, bodies.for_thread(t), &k, pairs),
-            None => sweep_range::<BIAS, false>(chunk, bodies, &k, pairs),
-        });
-        if self.direct.is_empty() {
-            return r;
+    /// Thread j's share of used colour c's wide constraints (the whole colour where the
+    /// colours were cut for one thread).
+    pub(super) fn contact_share(&self, c: usize, j: usize) -> std::ops::Range<usize> {
+        if self.cut_threads > 1 {
+            color_share(&self.color_cuts, self.cut_threads, c, j)
+        } else {
+            let (a, b) = self.color_ranges[c];
+            a as usize..b as usize
         }
-        let d = self.direct.solve::<BIAS>(
-            &mut self.wide,
-            &mut self.bodies,
-            self.inv_h,
-            self.slop,
-            self.max_push,
-            self.restitution,
-        );
-        r.max(d)
     }
 
-    /// Runs `f(thread, constraints, one_colour)` over every wide constraint, colour after
-    /// colour: the constraints of one colour split between the pool's threads (they share
-    /// no moving body; `Some(thread)`) or on the caller alone (`None`, with one thread),
-    /// then the overflow group on the caller alone (`one_colour` false: they may share
-    /// bodies, so one by one). Returns the largest value `f` returned.
-    pub(super) fn for_colors(&mut self, pool: Option<&Pool>, f: &ColorKernel<'_>) -> f32 {
-        let pool = pool.filter(|p| p.threads() > 1);
-        let done = self.color_ranges.last().map_or(0, |r| r.1 as usize);
-        let r = match pool {
-            // the colours one after another in one job, each thread solving its share
-            // of each colour first
-            Some(pool) if pool.threads() == self.cut_threads => {
-                let (n, cuts) = (self.cut_threads, &self.color_cuts);
-                let wide = Disjoint::new(&mut self.wide[..done]);
-                parallel::phases_max(
-                    pool,
-                    &mut self.phases,
-                    self.color_ranges.len(),
-                    &|c, j| color_share(cuts, n, c, j),
-                    &|_| PHASE_BLOCK,
-                    // SAFETY: the blocks of one phase tile its colour's shares, which
-                    // tile the colour, and the phases run one after another
-                    &|t, _, r| f(Some(t), unsafe { wide.range(r) }, true),
-                )
-            }
-            _ => {
-                let mut r = f32::NEG_INFINITY;
-                for &(start, end) in &self.color_ranges {
-                    let wide = &mut self.wide[start as usize..end as usize];
-                    r = r.max(match pool {
-                        Some(pool) => {
-                            parallel::chunks_mut(Some(pool), wide, WIDE_BLOCK, &|t, _, c| {
-                                f(Some(t), c, true)
-                            })
-                        }
-                        None => f(None, wide, true),
-                    });
-                }
-                r
-            }
-        };
-        r.max(f(None, &mut self.wide[done..], false))
-    }
-
-    /// Moves every body by its velocity for one substep: dp += h v, dtheta += h w,
-    /// q += h w q_perp (normalised).
-    pub fn integrate_positions(&mut self, h: f32, pool: Option<&Pool>) {
-        parallel::chunks_mut(pool, &mut self.bodies, BODY_BLOCK, &|_, _, bodies| {
-            integrate_range(bodies, h);
-            0.0
-        });
-    }
-
-    /// Whether [`SoftSolver::substeps_in_one_job`] can run this step's substeps: with a
-    /// pool of threads the colours were cut for, and every constraint in a colour (no
-    /// overflow group, no lopsided contact solved apart).
-    pub fn can_run_substeps_in_one_job(&self, pool: Option<&Pool>) -> bool {
+    /// Whether anything is left for the rest phases: constraints no colour was free for,
+    /// or the mouse joint.
+    fn has_rest(&self) -> bool {
         let colored = self.color_ranges.last().map_or(0, |r| r.1 as usize);
-        pool.is_some_and(|p| p.threads() > 1 && p.threads() == self.cut_threads)
-            && colored == self.wide.len()
-            && colored > 0
-            && self.direct.is_empty()
+        colored < self.wide.len()
+            || self.joint_rest.0 < self.joint_rest.1
+            || self.joints.has_mouse()
     }
 
-    /// `substeps` substeps of the contacts alone (no joints), each but the first
-    /// beginning with the force increments: warm start, `iterations` soft sweeps,
-    /// positions, one relax sweep, as the step runs them pass by pass, but all in one job
-    /// of the pool whose phases are each pass's colours (and the passes over the
-    /// bodies): the threads meet at each phase's end and no job is posted between them.
-    /// The same bits as the substeps one by one. Returns the last relax sweep's
-    /// residual. Call only when [`SoftSolver::can_run_substeps_in_one_job`] says so.
-    pub fn substeps_in_one_job(
+    /// Runs `substeps` substeps of the step's constraints, each but the first beginning
+    /// with the force increments (`take_increments` or `prepare_integrating` left them):
+    /// the plan (see the module docs), on the caller alone or, with a pool of the threads
+    /// the colours were cut for, as one job of the pool. `joints` are the ones `prepare`
+    /// was given. Returns the last relax sweep's largest |delta lambda|.
+    pub fn run(
         &mut self,
+        joints: &[Joint],
         substeps: usize,
         s: &SolverSettings,
         h: f32,
-        pool: &Pool,
+        pool: Option<&Pool>,
     ) -> f32 {
-        assert!(self.can_run_substeps_in_one_job(Some(pool)), "cannot fuse");
+        let pool = pool.filter(|p| p.threads() > 1 && p.threads() == self.cut_threads);
+        let n = pool.map_or(1, Pool::threads);
         let colors = self.color_ranges.len();
-        self.fused.clear();
+        let (rest, direct) = (self.has_rest(), !self.direct.is_empty());
+        let damped = joints::SoftJoints::any_damped(joints);
+        // the plan
+        let plan = &mut self.plan;
+        plan.clear();
+        let mut last_relax = 0;
         for i in 0..substeps {
             if i > 0 {
-                self.fused.push((Pass::Increments, 0));
+                plan.push((Pass::Increments, 0));
             }
-            let passes = [
-                (Pass::WarmStart, usize::from(s.warm_start)),
-                (Pass::Sweep, s.iterations as usize),
-            ];
-            for (pass, times) in passes {
-                for _ in 0..times {
-                    self.fused.extend((0..colors).map(|c| (pass, c as u8)));
+            let pass = |plan: &mut Vec<(Pass, u8)>, colored, rest_pass, direct_pass| {
+                plan.extend((0..colors).map(|c| (colored, c as u8)));
+                if rest {
+                    plan.push((rest_pass, 0));
                 }
+                if let (true, Some(d)) = (direct, direct_pass) {
+                    plan.push((d, 0));
+                }
+            };
+            if s.warm_start {
+                pass(plan, Pass::WarmStart, Pass::RestWarmStart, None);
             }
-            self.fused.push((Pass::Integrate, 0));
-            self.fused
-                .extend((0..colors).map(|c| (Pass::Relax, c as u8)));
+            for _ in 0..s.iterations {
+                pass(plan, Pass::Sweep, Pass::RestSweep, Some(Pass::DirectSweep));
+            }
+            if damped {
+                plan.push((Pass::Damp, 0));
+            }
+            plan.push((Pass::Integrate, 0));
+            last_relax = plan.len();
+            pass(plan, Pass::Relax, Pass::RestRelax, Some(Pass::DirectRelax));
         }
-        // with two threads, each may run ahead into the next colour once the other has
-        // done the blocks of its share that touch bodies of the first's share (see
-        // `phases_ahead`): each works out which those are in a first phase
-        let n = self.cut_threads;
-        let ahead = n == 2 && self.share_bodies.len() == n;
+        // with two threads and contacts alone, each may run ahead into the next colour
+        // once the other has done the blocks of its share that touch bodies of the
+        // first's share (see `phases_ahead`): each works out which those are first
+        let ahead = n == 2
+            && self.share_bodies.len() == n
+            && self.joint_order.is_empty()
+            && self.hinges.is_empty();
         if ahead {
-            self.fused.insert(0, (Pass::Bounds, 0));
+            self.plan.insert(0, (Pass::Bounds, 0));
+            last_relax += 1;
             self.ahead_blocks.0.clear();
             self.ahead_blocks
                 .0
                 .resize_with(n * colors, || AtomicU32::new(0));
         }
-        // the last relax sweep's colours
-        let last_relax = self.fused.len() - colors;
         let k = self.sweep_consts();
         let nb = self.bodies.len();
-        let (cuts, fused, increments) = (&self.color_cuts, &self.fused, &self.increments);
+        let (plan, increments, virt) = (&self.plan, &self.increments, &self.virt);
+        let joint_order = &self.joint_order;
+        let joint_rest = self.joint_rest.0 as usize..self.joint_rest.1 as usize;
+        let colored = self.color_ranges.last().map_or(0, |r| r.1 as usize);
+        let shares = Shares {
+            cuts: &self.color_cuts,
+            ranges: &self.color_ranges,
+            joint_ranges: &self.joint_ranges,
+            hinge_ranges: &self.hinge_ranges,
+            threads: self.cut_threads,
+        };
+        let soft = self.joints.softness();
+        let hinges = Disjoint::new(&mut self.hinges);
         let share_bodies = &self.share_bodies;
+        let cuts = &self.color_cuts;
+        let inv_mass = &self.inv_mass[..];
+        let (sw_bias, sw_relax) = (
+            self.joints.sweep_params(true),
+            self.joints.sweep_params(false),
+        );
+        let (prepared, mouse) = self.joints.parts();
+        let prepared = Disjoint::new(prepared);
+        let mouse = Disjoint::new(std::slice::from_mut(mouse));
+        let direct_islands = Disjoint::new(std::slice::from_mut(&mut self.direct));
+        let (inv_h, slop, max_push, restitution) =
+            (self.inv_h, self.slop, self.max_push, self.restitution);
         let bodies = BodyPtr::new(&mut self.bodies, self.sink);
         let wide = Disjoint::new(&mut self.wide);
         let ahead_blocks = &self.ahead_blocks.0;
-        // each thread's share of a colour, or of the bodies a pass goes over
-        let share = |p: usize, j: usize| match fused[p] {
-            (Pass::Increments, _) => parallel::split(increments.len(), n, j),
-            (Pass::Integrate, _) => parallel::split(nb, n, j),
-            (Pass::Bounds, _) => j..j + 1,
-            (_, c) => color_share(cuts, n, c as usize, j),
+        // each share's part of a phase
+        let share = |p: usize, j: usize| -> std::ops::Range<usize> {
+            match plan[p] {
+                (Pass::Increments, _) => parallel::split(increments.len(), n, j),
+                (Pass::Integrate, _) => parallel::split(nb, n, j),
+                (Pass::Bounds, _) => j..j + 1,
+                (pass, _) if pass.serial() => {
+                    if j == 0 {
+                        0..1
+                    } else {
+                        0..0
+                    }
+                }
+                (_, c) => {
+                    let at = c as usize * (n + 1) + j;
+                    virt[at] as usize..virt[at + 1] as usize
+                }
+            }
         };
-        let block = |p: usize| match fused[p].0 {
+        let block = |p: usize| match plan[p].0 {
             Pass::Increments | Pass::Integrate => BODY_BLOCK,
-            Pass::Bounds => 1,
-            _ => PHASE_BLOCK,
+            Pass::WarmStart | Pass::Sweep | Pass::Relax => PHASE_BLOCK,
+            _ => 1,
         };
-        let (avx2, pairs) = (k.avx2, true);
-        let kernel = |t: usize, p: usize, r: std::ops::Range<usize>| {
+        let (avx2, shared) = (k.avx2, n > 1);
+        let kernel = |t: usize, p: usize, r: std::ops::Range<usize>| -> f32 {
             let mine = bodies.for_thread(t);
-            // SAFETY (each arm): the blocks of a phase tile the shares of its colour or
-            // of the bodies, which tile them, and the phases run one after another (or
-            // ahead only where `Pass::Bounds` found they touch nothing of each other's)
-            match fused[p].0 {
+            let (pass, c) = (plan[p].0, plan[p].1 as usize);
+            let tracked = p >= last_relax;
+            let keep = |d: f32| if tracked { d } else { f32::NEG_INFINITY };
+            // SAFETY (each arm): the blocks of a phase tile its shares, which tile what
+            // the phase covers; within a colour no two constraints share a moving body;
+            // a serial phase runs alone; and the phases run one after another (or ahead
+            // only where `Pass::Bounds` found they touch nothing of each other's)
+            match pass {
                 Pass::Bounds => {
                     // share j's row (phase 0's block of share j is j..j + 1), from its
                     // own shares of the colours, only read while others write theirs
@@ -266,48 +278,213 @@ impl SoftSolver {
                         let k = reach_touching(w, j == 0, least, most) as u32;
                         ahead_blocks[j * colors + c].store(k, Ordering::Relaxed);
                     }
+                    f32::NEG_INFINITY
                 }
                 Pass::Increments => {
                     add_increments(unsafe { bodies.range(r.clone()) }, &increments[r]);
+                    f32::NEG_INFINITY
                 }
-                Pass::Integrate => integrate_range(unsafe { bodies.range(r) }, h),
-                Pass::WarmStart => {
-                    warm_start_range::<true>(unsafe { wide.range(r) }, mine, avx2, pairs);
+                Pass::Integrate => {
+                    integrate_range(unsafe { bodies.range(r) }, h);
+                    f32::NEG_INFINITY
                 }
-                Pass::Sweep => {
-                    sweep_range::<true, true>(unsafe { wide.range(r) }, mine, &k, pairs);
-                }
-                Pass::Relax => {
-                    let d = sweep_range::<false, true>(unsafe { wide.range(r) }, mine, &k, pairs);
-                    if p >= last_relax {
-                        return d;
+                Pass::WarmStart | Pass::Sweep | Pass::Relax => {
+                    // which share the block is of, and its joints and contacts
+                    let base = &virt[c * (n + 1)..(c + 1) * (n + 1)];
+                    let j = (0..n)
+                        .find(|&j| r.start < base[j + 1] as usize)
+                        .unwrap_or(n - 1);
+                    let (lo, hi) = (r.start - base[j] as usize, r.end - base[j] as usize);
+                    let js = shares.joints(c, j);
+                    let nj = js.len();
+                    let mut d = f32::NEG_INFINITY;
+                    for &i in &joint_order[js.start + lo.min(nj)..js.start + hi.min(nj)] {
+                        let i = i as usize;
+                        let p = unsafe { &mut prepared.range(i..i + 1)[0] };
+                        let jt = &joints[i];
+                        d = d.max(match pass {
+                            Pass::WarmStart => {
+                                unsafe { joints::warm_start_joint(p, jt, mine, inv_mass) };
+                                f32::NEG_INFINITY
+                            }
+                            Pass::Sweep => unsafe {
+                                joints::solve_joint(&sw_bias, p, jt, mine, inv_mass)
+                            },
+                            _ => unsafe { joints::solve_joint(&sw_relax, p, jt, mine, inv_mass) },
+                        });
                     }
+                    // then the wide hinges, then the contacts
+                    let (lo, hi) = (lo.max(nj) - nj, hi.max(nj) - nj);
+                    let hs = shares.hinges(c, j);
+                    let nh = hs.len();
+                    let hw = hs.start + lo.min(nh)..hs.start + hi.min(nh);
+                    if !hw.is_empty() {
+                        let hw = unsafe { hinges.range(hw) };
+                        d = d.max(match (pass, shared) {
+                            (Pass::WarmStart, true) => {
+                                warm_start_hinges::<true>(hw, mine);
+                                f32::NEG_INFINITY
+                            }
+                            (Pass::WarmStart, false) => {
+                                warm_start_hinges::<false>(hw, mine);
+                                f32::NEG_INFINITY
+                            }
+                            (Pass::Sweep, true) => {
+                                solve_hinges::<true, true>(hw, mine, &soft, inv_h)
+                            }
+                            (Pass::Sweep, false) => {
+                                solve_hinges::<true, false>(hw, mine, &soft, inv_h)
+                            }
+                            (_, true) => solve_hinges::<false, true>(hw, mine, &soft, inv_h),
+                            (_, false) => solve_hinges::<false, false>(hw, mine, &soft, inv_h),
+                        });
+                    }
+                    let (lo, hi) = (lo.max(nh) - nh, hi.max(nh) - nh);
+                    let cs = shares.contacts(c, j);
+                    let w = cs.start + lo..cs.start + hi;
+                    if !w.is_empty() {
+                        let w = unsafe { wide.range(w) };
+                        d = d.max(match (pass, shared) {
+                            (Pass::WarmStart, true) => {
+                                warm_start_range::<true>(w, mine, avx2, true);
+                                f32::NEG_INFINITY
+                            }
+                            (Pass::WarmStart, false) => {
+                                warm_start_range::<false>(w, mine, avx2, true);
+                                f32::NEG_INFINITY
+                            }
+                            (Pass::Sweep, true) => sweep_range::<true, true>(w, mine, &k, true),
+                            (Pass::Sweep, false) => sweep_range::<true, false>(w, mine, &k, true),
+                            (_, true) => sweep_range::<false, true>(w, mine, &k, true),
+                            (_, false) => sweep_range::<false, false>(w, mine, &k, true),
+                        });
+                    }
+                    keep(d)
+                }
+                Pass::RestWarmStart | Pass::RestSweep | Pass::RestRelax => {
+                    // alone: the overflow joints, the mouse, the overflow contacts, one
+                    // by one (the sink shared: no other thread runs)
+                    let all = bodies;
+                    let mut d = f32::NEG_INFINITY;
+                    for &i in &joint_order[joint_rest.clone()] {
+                        let i = i as usize;
+                        let p = unsafe { &mut prepared.range(i..i + 1)[0] };
+                        let jt = &joints[i];
+                        d = d.max(match pass {
+                            Pass::RestWarmStart => {
+                                unsafe { joints::warm_start_joint(p, jt, all, inv_mass) };
+                                f32::NEG_INFINITY
+                            }
+                            Pass::RestSweep => unsafe {
+                                joints::solve_joint(&sw_bias, p, jt, all, inv_mass)
+                            },
+                            _ => unsafe { joints::solve_joint(&sw_relax, p, jt, all, inv_mass) },
+                        });
+                    }
+                    let m = unsafe { &mut mouse.range(0..1)[0] };
+                    let everyone = unsafe { all.range(0..nb) };
+                    d = d.max(match pass {
+                        Pass::RestWarmStart => {
+                            joints::warm_start_mouse(m, everyone, inv_mass);
+                            f32::NEG_INFINITY
+                        }
+                        _ => joints::solve_mouse(m, everyone, inv_mass),
+                    });
+                    let w = unsafe { wide.range(colored..wide.len()) };
+                    d = d.max(match pass {
+                        Pass::RestWarmStart => {
+                            warm_start_range::<false>(w, all, avx2, false);
+                            f32::NEG_INFINITY
+                        }
+                        Pass::RestSweep => sweep_range::<true, false>(w, all, &k, false),
+                        _ => sweep_range::<false, false>(w, all, &k, false),
+                    });
+                    keep(d)
+                }
+                Pass::DirectSweep | Pass::DirectRelax => {
+                    let islands = unsafe { &mut direct_islands.range(0..1)[0] };
+                    let (w, everyone) = unsafe { (wide.range(0..wide.len()), bodies.range(0..nb)) };
+                    let d = if pass == Pass::DirectSweep {
+                        islands.solve::<true>(w, everyone, inv_h, slop, max_push, restitution)
+                    } else {
+                        islands.solve::<false>(w, everyone, inv_h, slop, max_push, restitution)
+                    };
+                    keep(d)
+                }
+                Pass::Damp => {
+                    for (i, jt) in joints.iter().enumerate() {
+                        let p = unsafe { &prepared.range(i..i + 1)[0] };
+                        unsafe { joints::damp_joint(h, p, jt, bodies, inv_mass) };
+                    }
+                    f32::NEG_INFINITY
                 }
             }
-            f32::NEG_INFINITY
         };
-        if ahead {
-            let full = |p: usize| matches!(fused[p].0, Pass::Increments | Pass::Integrate);
-            let run_ahead = |p: usize, t: usize| match fused[p] {
-                (Pass::Bounds, _) => (0, false),
-                // share t's row, written in phase 0 (which is done before this is asked)
-                (_, c) => {
-                    let k = ahead_blocks[t * colors + c as usize].load(Ordering::Relaxed);
-                    (k as usize, t == 0)
-                }
-            };
-            parallel::phases_ahead(
-                pool,
-                &mut self.phases,
-                fused.len(),
-                &share,
-                &block,
-                &full,
-                &run_ahead,
-                &kernel,
-            )
+        let r = match pool {
+            Some(pool) if ahead => {
+                let full = |p: usize| plan[p].0.full();
+                let run_ahead = |p: usize, t: usize| match plan[p] {
+                    (Pass::Bounds, _) => (0, false),
+                    // share t's row, written in phase 0 (which is done before this is asked)
+                    (_, c) => {
+                        let k = ahead_blocks[t * colors + c as usize].load(Ordering::Relaxed);
+                        (k as usize, t == 0)
+                    }
+                };
+                parallel::phases_ahead(
+                    pool,
+                    &mut self.phases,
+                    plan.len(),
+                    &share,
+                    &block,
+                    &full,
+                    &run_ahead,
+                    &kernel,
+                )
+            }
+            // every phase begins once the one before is done
+            Some(pool) => {
+                parallel::phases_max(pool, &mut self.phases, plan.len(), &share, &block, &kernel)
+            }
+            None => (0..plan.len())
+                .map(|p| kernel(0, p, share(p, 0)))
+                .fold(f32::NEG_INFINITY, f32::max),
+        };
+        r.max(0.0)
+    }
+}
+
+/// Where each thread's share of a used colour lies: its joints solved one by one, its
+/// wide hinges, its wide constraints (as `SoftSolver::joint_share`, `hinge_share` and
+/// `contact_share` give them, for the job's closures).
+struct Shares<'a> {
+    cuts: &'a [u32],
+    ranges: &'a [(u32, u32)],
+    joint_ranges: &'a [(u32, u32)],
+    hinge_ranges: &'a [(u32, u32)],
+    threads: usize,
+}
+
+impl Shares<'_> {
+    fn even(&self, (a, b): (u32, u32), j: usize) -> std::ops::Range<usize> {
+        let r = parallel::split((b - a) as usize, self.threads.max(1), j);
+        a as usize + r.start..a as usize + r.end
+    }
+
+    fn joints(&self, c: usize, j: usize) -> std::ops::Range<usize> {
+        self.even(self.joint_ranges[c], j)
+    }
+
+    fn hinges(&self, c: usize, j: usize) -> std::ops::Range<usize> {
+        self.even(self.hinge_ranges[c], j)
+    }
+
+    fn contacts(&self, c: usize, j: usize) -> std::ops::Range<usize> {
+        if self.threads > 1 {
+            color_share(self.cuts, self.threads, c, j)
         } else {
-            parallel::phases_max(pool, &mut self.phases, fused.len(), &share, &block, &kernel)
+            let (a, b) = self.ranges[c];
+            a as usize..b as usize
         }
     }
 }
