@@ -92,7 +92,7 @@ impl Stepper for SoftStepper {
         let iterations = n * (s.iterations + 1);
         self.soft.apply_restitution(s.restitution_threshold);
         self.soft.store_impulses(&mut world.contacts, pool);
-        self.soft.store_joints(&mut world.joints);
+        self.soft.store_joints(&mut world.joints, pool);
         clock.lap(Stage::Solve);
         // velocities, then x = x0 + sum h v, theta = theta0 + sum h w
         world.ended = Some(self.soft.finish(&mut world.bodies, pool));

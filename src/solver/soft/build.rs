@@ -168,8 +168,9 @@ impl SoftSolver {
     /// contacts and builds the wide constraints.
     pub(super) fn build(
         &mut self,
-        nb: usize,
+        bodies: &[Body],
         contacts: &[Contact],
+        joints: &[Joint],
         s: &SolverSettings,
         h: f32,
         pool: Option<&Pool>,
@@ -187,21 +188,24 @@ impl SoftSolver {
             &mut self.joint_colors,
             &mut self.cut_lanes,
         );
-        self.build_colored(nb, contacts, found, s, h, pool);
+        self.build_colored(bodies, contacts, joints, found, s, h, pool);
     }
 
     /// The rest of [`SoftSolver::build`], once the contacts are coloured (`found`, and
     /// `colors`, `cut_lanes` as [`color_contacts`] leaves them): lays the constraints out
     /// colour by colour and fills them.
+    #[allow(clippy::too_many_arguments)]
     pub(super) fn build_colored(
         &mut self,
-        nb: usize,
+        bodies: &[Body],
         contacts: &[Contact],
+        joints: &[Joint],
         found: Colored,
         s: &SolverSettings,
         h: f32,
         pool: Option<&Pool>,
     ) {
+        let nb = bodies.len();
         self.inv_h = 1.0 / h;
         self.slop = s.slop;
         self.max_push = s.max_push_speed;
@@ -287,7 +291,7 @@ impl SoftSolver {
             }
         }
         self.cut_colors(threads, &used, n_wide as u32);
-        self.lay_out_joints(&used, h);
+        self.lay_out_joints(joints, bodies, &used, h, s.warm_start, pool);
         self.cut_joints(threads);
         self.points = points;
         self.find_direct(contacts, lopsided);
@@ -394,16 +398,26 @@ impl SoftSolver {
     /// Lays the joints out colour by colour: each used colour's joints that the lanes
     /// do not take (`joint_order`, in joint order, each colour's range in
     /// `joint_ranges`), then the overflow joints (`joint_rest`); and the colour's hinges
-    /// four to a wide hinge (`hinges`, each colour's range in `hinge_ranges`). `used`:
-    /// constraints per colour; `h`: the substep.
-    fn lay_out_joints(&mut self, used: &[u32; OVERFLOW + 1], h: f32) {
-        let prepared = self.joints.prepared();
-        let lanes = |i: usize| prepared[i].lanes && (self.joint_colors[i] as usize) < OVERFLOW;
+    /// four to a wide hinge (`hinges` and `hinge_rows`, the joint in each lane in
+    /// `hinge_joints`, each colour's range in `hinge_ranges`). `used`: constraints per
+    /// colour; `h`: the substep.
+    #[allow(clippy::too_many_arguments)]
+    fn lay_out_joints(
+        &mut self,
+        joints: &[Joint],
+        bodies: &[Body],
+        used: &[u32; OVERFLOW + 1],
+        h: f32,
+        warm: bool,
+        pool: Option<&Pool>,
+    ) {
+        let laned = self.joints.lanes();
+        let lanes = |i: usize| laned[i] && (self.joint_colors[i] as usize) < OVERFLOW;
         // per colour: joints one by one, and in lanes
-        let (mut scalar, mut laned) = ([0u32; OVERFLOW + 1], [0u32; OVERFLOW + 1]);
+        let (mut scalar, mut in_lanes) = ([0u32; OVERFLOW + 1], [0u32; OVERFLOW + 1]);
         for (i, &c) in self.joint_colors.iter().enumerate() {
             if lanes(i) {
-                laned[c as usize] += 1;
+                in_lanes[c as usize] += 1;
             } else {
                 scalar[c as usize] += 1;
             }
@@ -417,7 +431,7 @@ impl SoftSolver {
             acc += scalar[color];
             // each colour's hinges start on a fresh wide hinge
             next_lane[color] = acc_lane;
-            acc_lane += laned[color].div_ceil(4) * 4;
+            acc_lane += in_lanes[color].div_ceil(4) * 4;
             if color < OVERFLOW && used[color] > 0 {
                 self.joint_ranges.push((next[color], acc));
                 self.hinge_ranges.push((next_lane[color] / 4, acc_lane / 4));
@@ -426,30 +440,49 @@ impl SoftSolver {
         self.joint_rest = (next[OVERFLOW], acc);
         self.joint_order.clear();
         self.joint_order.resize(acc as usize, 0);
-        let (rest, sink) = (self.moves.len() as u32, self.sink);
-        self.hinges.clear();
-        self.hinges
-            .resize((acc_lane / 4) as usize, WideHinge::empty(rest, sink));
+        let n_hinges = (acc_lane / 4) as usize;
+        self.hinge_joints.clear();
+        self.hinge_joints.resize(n_hinges, [u32::MAX; 4]);
         for (i, &color) in self.joint_colors.iter().enumerate() {
-            if lanes(i) {
+            let at = if lanes(i) {
                 let at = &mut next_lane[color as usize];
-                let (w, k) = ((*at / 4) as usize, (*at % 4) as usize);
-                self.hinges[w].set_lane(
-                    k,
-                    i as u32,
-                    &prepared[i],
-                    &self.moves,
-                    &self.inv_mass,
-                    sink,
-                    h,
-                );
-                *at += 1;
+                self.hinge_joints[(*at / 4) as usize][(*at % 4) as usize] = i as u32;
+                at
             } else {
                 let at = &mut next[color as usize];
                 self.joint_order[*at as usize] = i as u32;
-                *at += 1;
-            }
+                at
+            };
+            *at += 1;
         }
+        // the wide hinges, filled from the joints' prepared rows, split between threads
+        let (rest, sink) = (self.moves.len() as u32, self.sink);
+        let empty = WideHinge::empty(rest, sink);
+        self.hinges.resize(n_hinges, empty);
+        self.hinge_rows.resize(n_hinges, HingeRows::default());
+        let (moves, inv_mass) = (&self.moves, &self.inv_mass);
+        let joints_of = &self.hinge_joints;
+        parallel::chunks_mut2(
+            pool,
+            &mut self.hinges,
+            &mut self.hinge_rows,
+            WIDE_BLOCK,
+            &|_, offset, hinges, rows| {
+                for (k, (c, r)) in hinges.iter_mut().zip(rows).enumerate() {
+                    (*c, *r) = WideHinge::fill(
+                        &joints_of[offset + k],
+                        joints,
+                        bodies,
+                        moves,
+                        inv_mass,
+                        (rest, sink),
+                        h,
+                        warm,
+                    );
+                }
+                0.0
+            },
+        );
     }
 
     /// Each used colour's items as its `threads` shares take them: share j's joints one

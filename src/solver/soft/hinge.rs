@@ -11,14 +11,15 @@
 //! (r_b - r_b0) - (r_a - r_a0). A hinge with a servo, compliance, or anything else the
 //! lanes do not hold is solved by the scalar rows in its colour instead.
 
-use super::joints::Prepared;
 #[allow(unused_imports)]
 use super::*;
+use crate::body::Body;
 use crate::defs::JointKind;
 use crate::joint::{SLOTS, slot};
 use glam::BVec4A;
 
-/// Four hinges of one colour.
+/// Four hinges of one colour: what every sweep reads (the rows of limits and motors, which
+/// few hinges have, lie apart in [`HingeRows`], read only where `rows` says so).
 #[derive(Clone, Copy, Debug)]
 pub(super) struct WideHinge {
     /// Bodies read, per lane (the rest slot for an empty lane).
@@ -28,24 +29,32 @@ pub(super) struct WideHinge {
     /// move.
     wa: [u32; 4],
     wb: [u32; 4],
-    /// The joint in each lane (`u32::MAX`: empty).
-    pub(super) joint: [u32; 4],
     ima: Vec4,
     iia: Vec4,
     imb: Vec4,
     iib: Vec4,
-    /// 1/I_a + 1/I_b: the angular rows' K (0 where neither turns: no angular row).
-    axial_k: Vec4,
     /// Arms from the centres of mass to the anchors, and the anchor gap, at the step's
-    /// start; the relative angle less the reference then.
+    /// start.
     ra0x: Vec4,
     ra0y: Vec4,
     rb0x: Vec4,
     rb0y: Vec4,
     d0x: Vec4,
     d0y: Vec4,
+    /// The point's lambda.
+    px: Vec4,
+    py: Vec4,
+    /// Whether some lane has a limit or a motor (its [`HingeRows`] then count).
+    rows: bool,
+}
+
+/// The angular rows of four hinges: the limits and the motor.
+#[derive(Clone, Copy, Debug)]
+pub(super) struct HingeRows {
+    /// 1/I_a + 1/I_b: the angular rows' K (0 where neither turns: no angular row).
+    axial_k: Vec4,
+    /// The relative angle less the reference at the step's start.
     angle0: Vec4,
-    /// Limits (lanes without: none solved), and the motor (lanes without: none).
     has_limits: BVec4A,
     lower: Vec4,
     upper: Vec4,
@@ -53,12 +62,27 @@ pub(super) struct WideHinge {
     motor_speed: Vec4,
     /// max torque h
     motor_max: Vec4,
-    /// Lambdas: the point's, the limits', the motor's.
-    px: Vec4,
-    py: Vec4,
     lower_impulse: Vec4,
     upper_impulse: Vec4,
     motor_impulse: Vec4,
+}
+
+impl Default for HingeRows {
+    fn default() -> Self {
+        HingeRows {
+            axial_k: Vec4::ZERO,
+            angle0: Vec4::ZERO,
+            has_limits: BVec4A::FALSE,
+            lower: Vec4::ZERO,
+            upper: Vec4::ZERO,
+            has_motor: BVec4A::FALSE,
+            motor_speed: Vec4::ZERO,
+            motor_max: Vec4::ZERO,
+            lower_impulse: Vec4::ZERO,
+            upper_impulse: Vec4::ZERO,
+            motor_impulse: Vec4::ZERO,
+        }
+    }
 }
 
 impl WideHinge {
@@ -69,101 +93,103 @@ impl WideHinge {
             b: [rest; 4],
             wa: [sink; 4],
             wb: [sink; 4],
-            joint: [u32::MAX; 4],
             ima: Vec4::ZERO,
             iia: Vec4::ZERO,
             imb: Vec4::ZERO,
             iib: Vec4::ZERO,
-            axial_k: Vec4::ZERO,
             ra0x: Vec4::ZERO,
             ra0y: Vec4::ZERO,
             rb0x: Vec4::ZERO,
             rb0y: Vec4::ZERO,
             d0x: Vec4::ZERO,
             d0y: Vec4::ZERO,
-            angle0: Vec4::ZERO,
-            has_limits: BVec4A::FALSE,
-            lower: Vec4::ZERO,
-            upper: Vec4::ZERO,
-            has_motor: BVec4A::FALSE,
-            motor_speed: Vec4::ZERO,
-            motor_max: Vec4::ZERO,
             px: Vec4::ZERO,
             py: Vec4::ZERO,
-            lower_impulse: Vec4::ZERO,
-            upper_impulse: Vec4::ZERO,
-            motor_impulse: Vec4::ZERO,
+            rows: false,
         }
     }
 
-    /// Puts joint `i` (its prepared rows `p`) in lane k. `moves`, `inv_mass`: the
-    /// solver's; `sink`: where a body that does not move is written; `h`: the substep.
+    /// The four lanes of the joints `idx` of `joints` (`u32::MAX`: an empty lane), their
+    /// geometry taken from the bodies now (the step's start) and their lambdas from the
+    /// joints if `warm`. `moves`, `inv_mass`: the solver's; `rest`, `sink`: where an
+    /// empty lane reads and a body that does not move is written; `h`: the substep.
     #[allow(clippy::too_many_arguments)]
-    pub(super) fn set_lane(
-        &mut self,
-        k: usize,
-        i: u32,
-        p: &Prepared,
+    pub(super) fn fill(
+        idx: &[u32; 4],
+        joints: &[Joint],
+        bodies: &[Body],
         moves: &[bool],
         inv_mass: &[(f32, f32)],
-        sink: u32,
+        (rest, sink): (u32, u32),
         h: f32,
-    ) {
-        let (a, b) = (p.a, p.b);
-        self.a[k] = a as u32;
-        self.b[k] = b as u32;
-        self.wa[k] = if moves[a] { a as u32 } else { sink };
-        self.wb[k] = if moves[b] { b as u32 } else { sink };
-        self.joint[k] = i;
-        let ((ima, iia), (imb, iib)) = (inv_mass[a], inv_mass[b]);
-        self.ima[k] = ima;
-        self.iia[k] = iia;
-        self.imb[k] = imb;
-        self.iib[k] = iib;
-        // (as the scalar rows' J M^-1 J^T of the angle row: 0 + 1/I_a + 0 + 1/I_b)
-        self.axial_k[k] = ima * 0.0 + iia + imb * 0.0 + iib;
-        self.ra0x[k] = p.ra0.x;
-        self.ra0y[k] = p.ra0.y;
-        self.rb0x[k] = p.rb0.x;
-        self.rb0y[k] = p.rb0.y;
-        self.d0x[k] = p.d0.x;
-        self.d0y[k] = p.d0.y;
-        self.angle0[k] = p.angle0;
-        if let Some([lo, hi]) = p.limits {
-            self.has_limits.set(k, true);
-            self.lower[k] = lo;
-            self.upper[k] = hi;
+        warm: bool,
+    ) -> (WideHinge, HingeRows) {
+        let (mut c, mut r) = (WideHinge::empty(rest, sink), HingeRows::default());
+        for (k, &i) in idx.iter().enumerate() {
+            if i == u32::MAX {
+                continue;
+            }
+            let j = &joints[i as usize];
+            let f = j.frame(bodies);
+            let (a, b) = (j.a, j.b);
+            c.a[k] = a as u32;
+            c.b[k] = b as u32;
+            c.wa[k] = if moves[a] { a as u32 } else { sink };
+            c.wb[k] = if moves[b] { b as u32 } else { sink };
+            let ((ima, iia), (imb, iib)) = (inv_mass[a], inv_mass[b]);
+            c.ima[k] = ima;
+            c.iia[k] = iia;
+            c.imb[k] = imb;
+            c.iib[k] = iib;
+            c.ra0x[k] = f.ra.x;
+            c.ra0y[k] = f.ra.y;
+            c.rb0x[k] = f.rb.x;
+            c.rb0y[k] = f.rb.y;
+            c.d0x[k] = f.d.x;
+            c.d0y[k] = f.d.y;
+            let l = if warm { j.impulses } else { [0.0; SLOTS] };
+            c.px[k] = l[slot::POINT_X];
+            c.py[k] = l[slot::POINT_Y];
+            // (as the scalar rows' J M^-1 J^T of the angle row: 0 + 1/I_a + 0 + 1/I_b)
+            r.axial_k[k] = ima * 0.0 + iia + imb * 0.0 + iib;
+            r.angle0[k] = f.angle;
+            if let Some([lo, hi]) = j.limits {
+                r.has_limits.set(k, true);
+                r.lower[k] = lo;
+                r.upper[k] = hi;
+                c.rows = true;
+            }
+            if let Some(m) = j.motor {
+                r.has_motor.set(k, true);
+                r.motor_speed[k] = m.speed;
+                r.motor_max[k] = m.max_force.max(0.0) * h;
+                c.rows = true;
+            }
+            r.lower_impulse[k] = l[slot::LOWER];
+            r.upper_impulse[k] = l[slot::UPPER];
+            r.motor_impulse[k] = l[slot::MOTOR];
         }
-        if let Some(m) = p.motor {
-            self.has_motor.set(k, true);
-            self.motor_speed[k] = m.speed;
-            self.motor_max[k] = m.max_force.max(0.0) * h;
-        }
-        let l = &p.impulses;
-        self.px[k] = l[slot::POINT_X];
-        self.py[k] = l[slot::POINT_Y];
-        self.lower_impulse[k] = l[slot::LOWER];
-        self.upper_impulse[k] = l[slot::UPPER];
-        self.motor_impulse[k] = l[slot::MOTOR];
+        (c, r)
     }
 
     /// Lane k's lambdas, as the joint keeps them.
-    pub(super) fn impulses(&self, k: usize, into: &mut [f32; SLOTS]) {
+    pub(super) fn impulses(&self, rows: &HingeRows, k: usize, into: &mut [f32; SLOTS]) {
         into[slot::POINT_X] = self.px[k];
         into[slot::POINT_Y] = self.py[k];
-        into[slot::LOWER] = self.lower_impulse[k];
-        into[slot::UPPER] = self.upper_impulse[k];
-        into[slot::MOTOR] = self.motor_impulse[k];
+        into[slot::LOWER] = rows.lower_impulse[k];
+        into[slot::UPPER] = rows.upper_impulse[k];
+        into[slot::MOTOR] = rows.motor_impulse[k];
     }
 }
 
 /// Whether a joint takes a hinge's lanes: a rigid hinge with at most a motor and limits
-/// (and not while a test has the lanes off: `testing::no_hinge_lanes`).
+/// (no servo, compliance or damping).
 pub(super) fn takes_lanes(j: &Joint) -> bool {
     j.kind == JointKind::Hinge
         && j.compliance == 0.0
         && j.servo.is_none()
-        && !testing::NO_HINGE_LANES.with(std::cell::Cell::get)
+        && j.damping.linear <= 0.0
+        && j.damping.angular <= 0.0
 }
 
 /// The bodies of four lanes, their velocities to be written back.
@@ -174,6 +200,19 @@ struct Lanes4 {
     vbx: Vec4,
     vby: Vec4,
     wb: Vec4,
+}
+
+impl Lanes4 {
+    fn of(a: &WideBody, b: &WideBody) -> Lanes4 {
+        Lanes4 {
+            vax: a.vx,
+            vay: a.vy,
+            wa: a.w,
+            vbx: b.vx,
+            vby: b.vy,
+            wb: b.w,
+        }
+    }
 }
 
 /// The arms now: r = q r0, with q the rotation since the step's start.
@@ -211,111 +250,142 @@ fn apply_angular(c: &WideHinge, v: &mut Lanes4, d: Vec4) {
     v.wb += c.iib * d;
 }
 
-/// Applies four hinges' lambdas (the start of each substep).
-pub(super) fn warm_start_hinges<const SHARED: bool>(hinges: &[WideHinge], bodies: BodyPtr) {
-    for c in hinges {
+/// Applies four hinges' lambdas at a time (the start of each substep); `rows` lie beside
+/// `hinges`.
+pub(super) fn warm_start_hinges<const SHARED: bool>(
+    hinges: &[WideHinge],
+    rows: &[HingeRows],
+    bodies: BodyPtr,
+) {
+    for (c, r) in hinges.iter().zip(rows) {
         let (a, b) = (
             WideBody::gather(bodies, &c.a),
             WideBody::gather(bodies, &c.b),
         );
         let (rax, ray) = arms(a.qc, a.qs, c.ra0x, c.ra0y);
         let (rbx, rby) = arms(b.qc, b.qs, c.rb0x, c.rb0y);
-        let mut v = Lanes4 {
-            vax: a.vx,
-            vay: a.vy,
-            wa: a.w,
-            vbx: b.vx,
-            vby: b.vy,
-            wb: b.w,
-        };
+        let mut v = Lanes4::of(&a, &b);
         apply_point(c, &mut v, rax, ray, rbx, rby, c.px, c.py);
-        // every angular row has J v = w_b - w_a (the upper limit's negated)
-        apply_angular(
-            c,
-            &mut v,
-            c.motor_impulse + c.lower_impulse - c.upper_impulse,
-        );
+        if c.rows {
+            // every angular row has J v = w_b - w_a (the upper limit's negated)
+            apply_angular(
+                c,
+                &mut v,
+                r.motor_impulse + r.lower_impulse - r.upper_impulse,
+            );
+        }
         WideBody::scatter_velocities::<SHARED>(v.vax, v.vay, v.wa, a.dtheta, bodies, &c.wa);
         WideBody::scatter_velocities::<SHARED>(v.vbx, v.vby, v.wb, b.dtheta, bodies, &c.wb);
     }
 }
 
-/// One sweep over four hinges' rows at a time: with `BIAS` the soft rows (`soft`, the
-/// step's joint softness), without the rigid relax rows. Returns the largest |delta
-/// lambda|.
+/// The constants of a hinge sweep.
+struct HingeConsts {
+    inv_h: Vec4,
+    bias_rate: Vec4,
+    mass_scale: Vec4,
+    impulse_scale: Vec4,
+}
+
+impl HingeConsts {
+    /// With `bias` the soft rows' (`soft`), without the rigid relax rows'.
+    fn new(bias: bool, soft: &Softness, inv_h: f32) -> HingeConsts {
+        let (bias_rate, mass_scale, impulse_scale) = if bias {
+            (
+                Vec4::splat(soft.bias_rate),
+                Vec4::splat(soft.mass_scale),
+                Vec4::splat(soft.impulse_scale),
+            )
+        } else {
+            (Vec4::ZERO, Vec4::ONE, Vec4::ZERO)
+        };
+        HingeConsts {
+            inv_h: Vec4::splat(inv_h),
+            bias_rate,
+            mass_scale,
+            impulse_scale,
+        }
+    }
+}
+
+/// Four hinges' motor and limit rows; returns the largest |delta lambda| per lane.
+#[inline(always)]
+fn angular_rows(
+    c: &WideHinge,
+    r: &mut HingeRows,
+    v: &mut Lanes4,
+    angle: Vec4,
+    k: &HingeConsts,
+) -> Vec4 {
+    let zero = Vec4::ZERO;
+    let mut residual = zero;
+    // (no angular row where neither body turns)
+    let turns = r.axial_k.cmpgt(zero);
+    // the motor: w_b - w_a = speed, |lambda| <= max torque h
+    if r.has_motor.any() {
+        let old = r.motor_impulse;
+        let new =
+            (old - (v.wb - v.wa - r.motor_speed) / r.axial_k).clamp(-r.motor_max, r.motor_max);
+        let live = r.has_motor & turns;
+        r.motor_impulse = Vec4::select(live, new, old);
+        let d = Vec4::select(live, new - old, zero);
+        apply_angular(c, v, d);
+        residual = residual.max(d.abs());
+    }
+    // the limits: angle - lower >= 0 and upper - angle >= 0
+    if r.has_limits.any() {
+        for upper in [false, true] {
+            let (cval, old) = if upper {
+                (r.upper - angle, r.upper_impulse)
+            } else {
+                (angle - r.lower, r.lower_impulse)
+            };
+            // (the upper row's Jacobian is the lower's negated)
+            let jv = if upper { v.wa - v.wb } else { v.wb - v.wa };
+            // speculative while open (C / h), soft once reached (rigid in relax)
+            let open = cval.cmpgt(zero);
+            let bias = Vec4::select(open, cval * k.inv_h, k.bias_rate * cval);
+            let ms = Vec4::select(open, Vec4::ONE, k.mass_scale);
+            let is = Vec4::select(open, zero, k.impulse_scale);
+            let d = -(ms / r.axial_k) * (jv + bias) - is * old;
+            let new = (old + d).max(zero);
+            let live = r.has_limits & turns;
+            let new = Vec4::select(live, new, old);
+            let d = Vec4::select(live, new - old, zero);
+            apply_angular(c, v, if upper { -d } else { d });
+            if upper {
+                r.upper_impulse = new;
+            } else {
+                r.lower_impulse = new;
+            }
+            residual = residual.max(d.abs());
+        }
+    }
+    residual
+}
+
+/// One sweep over four hinges' rows at a time (`rows` lie beside `hinges`): with `BIAS`
+/// the soft rows (`soft`, the step's joint softness), without the rigid relax rows.
+/// Returns the largest |delta lambda|.
 pub(super) fn solve_hinges<const BIAS: bool, const SHARED: bool>(
     hinges: &mut [WideHinge],
+    rows: &mut [HingeRows],
     bodies: BodyPtr,
     soft: &Softness,
     inv_h: f32,
 ) -> f32 {
+    let k = HingeConsts::new(BIAS, soft, inv_h);
     let zero = Vec4::ZERO;
-    let inv_h = Vec4::splat(inv_h);
-    let (bias_rate, mass_scale, impulse_scale) = if BIAS {
-        (
-            Vec4::splat(soft.bias_rate),
-            Vec4::splat(soft.mass_scale),
-            Vec4::splat(soft.impulse_scale),
-        )
-    } else {
-        (zero, Vec4::ONE, zero)
-    };
     let mut residual = zero;
-    for c in hinges {
+    for (c, r) in hinges.iter_mut().zip(rows) {
         let (a, b) = (
             WideBody::gather(bodies, &c.a),
             WideBody::gather(bodies, &c.b),
         );
-        let mut v = Lanes4 {
-            vax: a.vx,
-            vay: a.vy,
-            wa: a.w,
-            vbx: b.vx,
-            vby: b.vy,
-            wb: b.w,
-        };
-        // (no angular row where neither body turns)
-        let turns = c.axial_k.cmpgt(zero);
-        // the motor: w_b - w_a = speed, |lambda| <= max torque h
-        if c.has_motor.any() {
-            let old = c.motor_impulse;
-            let new =
-                (old - (v.wb - v.wa - c.motor_speed) / c.axial_k).clamp(-c.motor_max, c.motor_max);
-            let live = c.has_motor & turns;
-            c.motor_impulse = Vec4::select(live, new, old);
-            let d = Vec4::select(live, new - old, zero);
-            apply_angular(c, &mut v, d);
-            residual = residual.max(d.abs());
-        }
-        // the limits: angle - lower >= 0 and upper - angle >= 0
-        if c.has_limits.any() {
-            let angle = c.angle0 + b.dtheta - a.dtheta;
-            for upper in [false, true] {
-                let (cval, old) = if upper {
-                    (c.upper - angle, c.upper_impulse)
-                } else {
-                    (angle - c.lower, c.lower_impulse)
-                };
-                // (the upper row's Jacobian is the lower's negated)
-                let jv = if upper { v.wa - v.wb } else { v.wb - v.wa };
-                // speculative while open (C / h), soft once reached (rigid in relax)
-                let open = cval.cmpgt(zero);
-                let bias = Vec4::select(open, cval * inv_h, bias_rate * cval);
-                let ms = Vec4::select(open, Vec4::ONE, mass_scale);
-                let is = Vec4::select(open, zero, impulse_scale);
-                let d = -(ms / c.axial_k) * (jv + bias) - is * old;
-                let new = (old + d).max(zero);
-                let live = c.has_limits & turns;
-                let new = Vec4::select(live, new, old);
-                let d = Vec4::select(live, new - old, zero);
-                apply_angular(c, &mut v, if upper { -d } else { d });
-                if upper {
-                    c.upper_impulse = new;
-                } else {
-                    c.lower_impulse = new;
-                }
-                residual = residual.max(d.abs());
-            }
+        let mut v = Lanes4::of(&a, &b);
+        if c.rows {
+            let angle = r.angle0 + b.dtheta - a.dtheta;
+            residual = residual.max(angular_rows(c, r, &mut v, angle, &k));
         }
         // the point: K d = -(C' + bias C), a 2x2 block
         let (rax, ray) = arms(a.qc, a.qs, c.ra0x, c.ra0y);
@@ -326,7 +396,7 @@ pub(super) fn solve_hinges<const BIAS: bool, const SHARED: bool>(
             // d = d0 + (dp_b - dp_a) + (r_b - r_b0) - (r_a - r_a0)
             let dx = c.d0x + (b.dpx - a.dpx) + (rbx - c.rb0x) - (rax - c.ra0x);
             let dy = c.d0y + (b.dpy - a.dpy) + (rby - c.rb0y) - (ray - c.ra0y);
-            (cdx + bias_rate * dx, cdy + bias_rate * dy)
+            (cdx + k.bias_rate * dx, cdy + k.bias_rate * dy)
         } else {
             (cdx, cdy)
         };
@@ -343,8 +413,8 @@ pub(super) fn solve_hinges<const BIAS: bool, const SHARED: bool>(
         );
         let sx = inv * (k22 * rhsx - k12 * rhsy);
         let sy = inv * (k11 * rhsy - k12 * rhsx);
-        let dx = -mass_scale * sx - impulse_scale * c.px;
-        let dy = -mass_scale * sy - impulse_scale * c.py;
+        let dx = -k.mass_scale * sx - k.impulse_scale * c.px;
+        let dy = -k.mass_scale * sy - k.impulse_scale * c.py;
         c.px += dx;
         c.py += dy;
         apply_point(c, &mut v, rax, ray, rbx, rby, dx, dy);

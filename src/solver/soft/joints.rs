@@ -20,6 +20,10 @@
 //! carry from substep to substep and, through the joint, to the next step (warm start).
 
 use super::{BodyPtr, SoftBody, Softness};
+use crate::parallel::{self, Pool};
+
+/// Joints per block of a parallel pass over the joints.
+const JOINT_BLOCK: usize = 512;
 use crate::body::Body;
 use crate::defs::{JointKind, SolverSettings};
 use crate::joint::{Joint, MouseJoint, PulleyRopes, SLOTS, slot, wrap_angle};
@@ -46,11 +50,6 @@ pub(super) struct Prepared {
     /// damping ratio; the same in both sweeps).
     spring: Option<Softness>,
     pub(super) impulses: [f32; SLOTS],
-    /// A rigid hinge with at most a motor and limits: solved four at a time in lanes
-    /// (`hinge.rs`), with these.
-    pub(super) lanes: bool,
-    pub(super) limits: Option<[f32; 2]>,
-    pub(super) motor: Option<crate::defs::MotorDef>,
 }
 
 /// The mouse joint, prepared: a soft point between a body's point and the target.
@@ -336,8 +335,10 @@ impl Sweep {
 #[derive(Clone, Debug, Default)]
 pub(crate) struct SoftJoints {
     prepared: Vec<Prepared>,
-    /// Each joint's two bodies (for the colouring).
+    /// Each joint's two bodies (for the colouring), and whether it takes a wide hinge's
+    /// lanes.
     ends: Vec<(u32, u32)>,
+    lanes: Vec<bool>,
     mouse: Option<PreparedMouse>,
     soft: Softness,
     h: f32,
@@ -354,47 +355,63 @@ impl SoftJoints {
         bodies: &[Body],
         s: &SolverSettings,
         h: f32,
+        pool: Option<&Pool>,
     ) {
         self.h = h;
         self.dt = s.dt;
         // a rigid row's spring: at most a quarter of the substep rate
         let hertz = s.joint_hertz.min(0.25 / h);
         self.soft = Softness::new(hertz, s.joint_damping_ratio, h);
-        self.prepared.clear();
-        self.ends.clear();
-        self.ends
-            .extend(joints.iter().map(|j| (j.a as u32, j.b as u32)));
-        for j in joints {
-            let f = j.frame(bodies);
-            let (mut ea0, mut eb0) = (Vec2::ZERO, Vec2::ZERO);
-            if j.kind == JointKind::Pulley {
-                let (pa, pb) = j.world_anchors(bodies);
-                (ea0, eb0) = (pa - j.ground[0], pb - j.ground[1]);
-            }
-            self.prepared.push(Prepared {
-                a: j.a,
-                b: j.b,
-                ra0: f.ra,
-                rb0: f.rb,
-                d0: f.d,
-                axis0: f.axis,
-                angle0: f.angle,
-                ea0,
-                eb0,
-                spring: j
-                    .spring
-                    .filter(|sp| j.kind == JointKind::Wheel && sp.hertz > 0.0)
-                    .map(|sp| Softness::new(sp.hertz, sp.damping_ratio.max(0.0), h)),
-                impulses: if s.warm_start {
-                    j.impulses
-                } else {
-                    [0.0; SLOTS]
-                },
-                lanes: super::hinge::takes_lanes(j),
-                limits: j.limits,
-                motor: j.motor,
-            });
-        }
+        // every joint's frames, split between the threads (a pass over the joints and
+        // their bodies: a cache miss each on a large scene)
+        self.prepared.resize(joints.len(), Prepared::default());
+        self.ends.resize(joints.len(), (0, 0));
+        self.lanes.resize(joints.len(), false);
+        let warm = s.warm_start;
+        // (a test may turn the lanes off, on the thread that prepares)
+        let lanes_on = !super::testing::NO_HINGE_LANES.with(std::cell::Cell::get);
+        parallel::chunks_mut3(
+            pool,
+            &mut self.prepared,
+            &mut self.ends,
+            &mut self.lanes,
+            JOINT_BLOCK,
+            &|_, offset, prepared, ends, lanes| {
+                for (k, ((out, end), lane)) in prepared.iter_mut().zip(ends).zip(lanes).enumerate()
+                {
+                    let j = &joints[offset + k];
+                    *end = (j.a as u32, j.b as u32);
+                    *lane = lanes_on && super::hinge::takes_lanes(j);
+                    if *lane {
+                        // (a hinge in lanes takes its rows from the joint itself)
+                        continue;
+                    }
+                    let f = j.frame(bodies);
+                    let (mut ea0, mut eb0) = (Vec2::ZERO, Vec2::ZERO);
+                    if j.kind == JointKind::Pulley {
+                        let (pa, pb) = j.world_anchors(bodies);
+                        (ea0, eb0) = (pa - j.ground[0], pb - j.ground[1]);
+                    }
+                    *out = Prepared {
+                        a: j.a,
+                        b: j.b,
+                        ra0: f.ra,
+                        rb0: f.rb,
+                        d0: f.d,
+                        axis0: f.axis,
+                        angle0: f.angle,
+                        ea0,
+                        eb0,
+                        spring: j
+                            .spring
+                            .filter(|sp| j.kind == JointKind::Wheel && sp.hertz > 0.0)
+                            .map(|sp| Softness::new(sp.hertz, sp.damping_ratio.max(0.0), h)),
+                        impulses: if warm { j.impulses } else { [0.0; SLOTS] },
+                    };
+                }
+                0.0
+            },
+        );
         self.mouse = mouse.and_then(|m| {
             let b = bodies.get(m.body).filter(|b| b.is_dynamic())?;
             let rb0 = b.rot.rotate(m.local);
@@ -421,6 +438,11 @@ impl SoftJoints {
     /// Each joint's two bodies, in joint order.
     pub(super) fn ends(&self) -> &[(u32, u32)] {
         &self.ends
+    }
+
+    /// Whether each joint takes a wide hinge's lanes, in joint order.
+    pub(super) fn lanes(&self) -> &[bool] {
+        &self.lanes
     }
 
     /// Whether there is a mouse joint.
@@ -498,11 +520,6 @@ impl SoftJoints {
         self.soft
     }
 
-    /// The joints' prepared rows.
-    pub(super) fn prepared(&self) -> &[Prepared] {
-        &self.prepared
-    }
-
     /// The constants of a sweep: with `bias`, rigid rows are soft springs that pull the
     /// error out; without, they only remove relative speed (relax).
     pub(super) fn sweep_params(&self, bias: bool) -> Sweep {
@@ -528,10 +545,21 @@ impl SoftJoints {
     }
 
     /// Writes the lambdas back into the joints, for the next step's warm start.
-    pub fn store(&self, joints: &mut [Joint]) {
-        for (p, j) in self.prepared.iter().zip(joints) {
-            j.impulses = p.impulses;
-        }
+    pub fn store(&self, joints: &mut [Joint], pool: Option<&Pool>) {
+        let (prepared, lanes) = (&self.prepared, &self.lanes);
+        parallel::chunks_mut(pool, joints, JOINT_BLOCK, &|_, offset, joints| {
+            for ((j, p), &lane) in joints
+                .iter_mut()
+                .zip(&prepared[offset..])
+                .zip(&lanes[offset..])
+            {
+                // (a hinge in lanes is stored from its lanes)
+                if !lane {
+                    j.impulses = p.impulses;
+                }
+            }
+            0.0
+        });
     }
 }
 

@@ -341,8 +341,11 @@ pub struct SoftSolver {
     joint_order: Vec<u32>,
     joint_ranges: Vec<(u32, u32)>,
     joint_rest: (u32, u32),
-    /// Each used colour's hinges, four to a wide hinge, and each colour's range of them.
+    /// Each used colour's hinges, four to a wide hinge (their limits and motors beside
+    /// them, and the joint in each lane), and each colour's range of them.
     hinges: Vec<WideHinge>,
+    hinge_rows: Vec<HingeRows>,
+    hinge_joints: Vec<[u32; 4]>,
     hinge_ranges: Vec<(u32, u32)>,
     /// Per used colour, where each thread's share starts in the colour's items: the
     /// share's joints, then its wide constraints (`cut_threads` + 1 entries a colour).
@@ -419,10 +422,10 @@ impl SoftSolver {
         h: f32,
         pool: Option<&Pool>,
     ) {
-        self.joints.prepare(joints, mouse, bodies, s, h);
+        self.joints.prepare(joints, mouse, bodies, s, h, pool);
         self.size_bodies(bodies.len());
         self.load_bodies(bodies, pool);
-        self.build(bodies.len(), contacts, s, h, pool);
+        self.build(bodies, contacts, joints, s, h, pool);
     }
 
     /// [`SoftSolver::prepare`], with the first substep's forces integrated in the same
@@ -448,7 +451,7 @@ impl SoftSolver {
         pool: Option<&Pool>,
     ) {
         // (the joints' frames are taken from the positions, which the load leaves)
-        self.joints.prepare(joints, mouse, bodies, s, h);
+        self.joints.prepare(joints, mouse, bodies, s, h, pool);
         let nb = bodies.len();
         self.size_bodies(nb);
         self.increments.resize(nb, (Vec2::ZERO, 0.0));
@@ -545,11 +548,11 @@ impl SoftSolver {
                     .iter()
                     .any(|c| is_lopsided_contact(c, moves, inv_mass));
             }
-            self.build_colored(nb, contacts, found, s, h, Some(pool));
+            self.build_colored(bodies, contacts, joints, found, s, h, Some(pool));
         } else {
             parallel::ranges_max(pool, nb, BODY_PASS_BLOCK, &load);
             self.inv_mass_range = shared_range.get();
-            self.build(nb, contacts, s, h, pool);
+            self.build(bodies, contacts, joints, s, h, pool);
         }
         // then take the new velocities and keep their increments, as take_increments
         // does (a pass over the solver's own small arrays)
@@ -708,16 +711,25 @@ impl SoftSolver {
     }
 
     /// Writes the joints' lambdas back into them, for the next step's warm start.
-    pub fn store_joints(&mut self, joints: &mut [Joint]) {
-        let (prepared, _) = self.joints.parts();
-        for w in &self.hinges {
-            for (k, &i) in w.joint.iter().enumerate() {
-                if i != u32::MAX {
-                    w.impulses(k, &mut prepared[i as usize].impulses);
+    pub fn store_joints(&mut self, joints: &mut [Joint], pool: Option<&Pool>) {
+        // the joints solved one by one, from their rows
+        self.joints.store(joints, pool);
+        // the lanes' lambdas into their joints (a joint has one lane)
+        let joints = Disjoint::new(joints);
+        let (hinges, rows, of) = (&self.hinges, &self.hinge_rows, &self.hinge_joints);
+        parallel::ranges_max(pool, hinges.len(), WIDE_BLOCK, &|_, r| {
+            for w in r {
+                for (k, &i) in of[w].iter().enumerate() {
+                    if i != u32::MAX {
+                        let i = i as usize;
+                        // SAFETY: each joint is in one lane of one wide hinge
+                        let j = unsafe { &mut joints.range(i..i + 1)[0] };
+                        hinges[w].impulses(&rows[w], k, &mut j.impulses);
+                    }
                 }
             }
-        }
-        self.joints.store(joints);
+            0.0
+        });
     }
 
     /// Writes the lambdas back into the contacts, for next step's warm start.
@@ -1058,7 +1070,7 @@ mod tests {
             let mut lam = Vec::new();
             s.lambdas(&mut lam);
             let mut joints = w.joints().to_vec();
-            s.store_joints(&mut joints);
+            s.store_joints(&mut joints, pool);
             s.bodies[..w.bodies.len()]
                 .iter()
                 .flat_map(|b| [b.v.x, b.v.y, b.w, b.dp.x, b.dp.y, b.dtheta])

@@ -216,6 +216,7 @@ impl SoftSolver {
         };
         let soft = self.joints.softness();
         let hinges = Disjoint::new(&mut self.hinges);
+        let hinge_rows = Disjoint::new(&mut self.hinge_rows);
         let share_bodies = &self.share_bodies;
         let cuts = &self.color_cuts;
         let inv_mass = &self.inv_mass[..];
@@ -319,24 +320,24 @@ impl SoftSolver {
                     let nh = hs.len();
                     let hw = hs.start + lo.min(nh)..hs.start + hi.min(nh);
                     if !hw.is_empty() {
-                        let hw = unsafe { hinges.range(hw) };
+                        let (hr, hw) = unsafe { (hinge_rows.range(hw.clone()), hinges.range(hw)) };
                         d = d.max(match (pass, shared) {
                             (Pass::WarmStart, true) => {
-                                warm_start_hinges::<true>(hw, mine);
+                                warm_start_hinges::<true>(hw, hr, mine);
                                 f32::NEG_INFINITY
                             }
                             (Pass::WarmStart, false) => {
-                                warm_start_hinges::<false>(hw, mine);
+                                warm_start_hinges::<false>(hw, hr, mine);
                                 f32::NEG_INFINITY
                             }
                             (Pass::Sweep, true) => {
-                                solve_hinges::<true, true>(hw, mine, &soft, inv_h)
+                                solve_hinges::<true, true>(hw, hr, mine, &soft, inv_h)
                             }
                             (Pass::Sweep, false) => {
-                                solve_hinges::<true, false>(hw, mine, &soft, inv_h)
+                                solve_hinges::<true, false>(hw, hr, mine, &soft, inv_h)
                             }
-                            (_, true) => solve_hinges::<false, true>(hw, mine, &soft, inv_h),
-                            (_, false) => solve_hinges::<false, false>(hw, mine, &soft, inv_h),
+                            (_, true) => solve_hinges::<false, true>(hw, hr, mine, &soft, inv_h),
+                            (_, false) => solve_hinges::<false, false>(hw, hr, mine, &soft, inv_h),
                         });
                     }
                     let (lo, hi) = (lo.max(nh) - nh, hi.max(nh) - nh);
