@@ -152,6 +152,30 @@ pub(crate) struct JointFrame {
     pub angle: f32,
 }
 
+impl JointFrame {
+    /// The geometry of anchors `local_a` on `ba` and `local_b` on `bb` (in their frames),
+    /// with reference angle `ref_angle` and axis `local_axis` (in a's frame).
+    #[inline]
+    pub(crate) fn of(
+        ba: &Body,
+        bb: &Body,
+        local_a: Vec2,
+        local_b: Vec2,
+        ref_angle: f32,
+        local_axis: Vec2,
+    ) -> JointFrame {
+        let ra = ba.rot.rotate(local_a);
+        let rb = bb.rot.rotate(local_b);
+        JointFrame {
+            ra,
+            rb,
+            d: (bb.position + rb) - (ba.position + ra),
+            axis: ba.rot.rotate(local_axis),
+            angle: bb.angle - ba.angle - ref_angle,
+        }
+    }
+}
+
 impl Joint {
     /// Builds a joint from its description and the bodies as they are now.
     /// `def.bodies` must be valid, distinct indices (the world checks).
@@ -241,15 +265,14 @@ impl Joint {
     #[inline]
     pub(crate) fn frame(&self, bodies: &[Body]) -> JointFrame {
         let (ba, bb) = (&bodies[self.a], &bodies[self.b]);
-        let ra = ba.rot.rotate(self.local_a);
-        let rb = bb.rot.rotate(self.local_b);
-        JointFrame {
-            ra,
-            rb,
-            d: (bb.position + rb) - (ba.position + ra),
-            axis: ba.rot.rotate(self.local_axis),
-            angle: bb.angle - ba.angle - self.ref_angle,
-        }
+        JointFrame::of(
+            ba,
+            bb,
+            self.local_a,
+            self.local_b,
+            self.ref_angle,
+            self.local_axis,
+        )
     }
 
     /// World positions of the two anchors (for drawing).

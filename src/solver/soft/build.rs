@@ -177,6 +177,7 @@ impl SoftSolver {
     ) {
         let threads = pool.map_or(1, Pool::threads);
         let may_lopsided = may_be_lopsided(self.inv_mass_range);
+        self.joints_kept = self.kept_joints.hold(&self.joints, &self.moves);
         let found = color_contacts(
             contacts,
             self.joints.ends(),
@@ -186,6 +187,7 @@ impl SoftSolver {
             &mut self.body_colors,
             &mut self.colors,
             &mut self.joint_colors,
+            !self.joints_kept,
             &mut self.cut_lanes,
         );
         self.build_colored(bodies, contacts, joints, found, s, h, pool);
@@ -399,8 +401,10 @@ impl SoftSolver {
     /// do not take (`joint_order`, in joint order, each colour's range in
     /// `joint_ranges`), then the overflow joints (`joint_rest`); and the colour's hinges
     /// four to a wide hinge (`hinges` and `hinge_rows`, the joint in each lane in
-    /// `hinge_joints`, each colour's range in `hinge_ranges`). `used`: constraints per
-    /// colour; `h`: the substep.
+    /// `hinge_joints`, each colour's range in `hinge_ranges`). While the joints and which
+    /// bodies move are as at the last step (`joints_kept`), the order is kept and the
+    /// wide hinges only take the bodies' new geometry. `used`: constraints per colour;
+    /// `h`: the substep.
     #[allow(clippy::too_many_arguments)]
     fn lay_out_joints(
         &mut self,
@@ -411,9 +415,70 @@ impl SoftSolver {
         warm: bool,
         pool: Option<&Pool>,
     ) {
+        let kept = self.joints_kept;
+        if !kept {
+            self.order_joints();
+        }
+        // the used colours' ranges
+        self.joint_ranges.clear();
+        self.hinge_ranges.clear();
+        for color in (0..OVERFLOW).filter(|&c| used[c] > 0) {
+            self.joint_ranges.push(self.joint_spans[color]);
+            let (a, b) = self.hinge_spans[color];
+            self.hinge_ranges.push((a / 4, b / 4));
+        }
+        self.joint_rest = self.joint_spans[OVERFLOW];
+        // the wide hinges: filled from the joints after a new layout, else their
+        // geometry and masses taken anew (their lambdas are the last step's), split
+        // between the threads
+        let (rest, sink) = (self.moves.len() as u32, self.sink);
+        let n_hinges = self.hinge_joints.len();
+        if !kept {
+            let empty = WideHinge::empty(rest, sink);
+            self.hinges.resize(n_hinges, empty);
+            self.hinge_rows.resize(n_hinges, HingeRows::default());
+            self.hinge_frames.resize(n_hinges, HingeFrames::default());
+        }
+        let (moves, inv_mass) = (&self.moves, &self.inv_mass);
+        let joints_of = &self.hinge_joints;
+        let frames = Disjoint::new(&mut self.hinge_frames);
+        parallel::chunks_mut2(
+            pool,
+            &mut self.hinges,
+            &mut self.hinge_rows,
+            WIDE_BLOCK,
+            &|_, offset, hinges, rows| {
+                // SAFETY: each block takes its own range of the frames
+                let frames = unsafe { frames.range(offset..offset + hinges.len()) };
+                for (k, ((c, r), f)) in hinges.iter_mut().zip(rows).zip(frames).enumerate() {
+                    if kept {
+                        c.refresh(r, f, bodies, inv_mass, warm);
+                    } else {
+                        (*c, *r, *f) = WideHinge::fill(
+                            &joints_of[offset + k],
+                            joints,
+                            bodies,
+                            moves,
+                            inv_mass,
+                            (rest, sink),
+                            h,
+                            warm,
+                        );
+                    }
+                }
+                0.0
+            },
+        );
+    }
+
+    /// Orders the joints colour by colour (a new layout): each colour's joints solved
+    /// one by one (`joint_order`, in joint order, each colour's span in `joint_spans`,
+    /// the overflow's last), and its hinges four to a wide hinge (the joint in each lane
+    /// in `hinge_joints`, each colour's span of lanes in `hinge_spans`; each colour's
+    /// start on a fresh wide hinge).
+    fn order_joints(&mut self) {
         let laned = self.joints.lanes();
         let lanes = |i: usize| laned[i] && (self.joint_colors[i] as usize) < OVERFLOW;
-        // per colour: joints one by one, and in lanes
         let (mut scalar, mut in_lanes) = ([0u32; OVERFLOW + 1], [0u32; OVERFLOW + 1]);
         for (i, &c) in self.joint_colors.iter().enumerate() {
             if lanes(i) {
@@ -424,25 +489,21 @@ impl SoftSolver {
         }
         let (mut next, mut next_lane) = ([0u32; OVERFLOW + 1], [0u32; OVERFLOW + 1]);
         let (mut acc, mut acc_lane) = (0u32, 0u32);
-        self.joint_ranges.clear();
-        self.hinge_ranges.clear();
+        self.joint_spans.clear();
+        self.hinge_spans.clear();
         for color in 0..=OVERFLOW {
             next[color] = acc;
             acc += scalar[color];
-            // each colour's hinges start on a fresh wide hinge
+            self.joint_spans.push((next[color], acc));
             next_lane[color] = acc_lane;
             acc_lane += in_lanes[color].div_ceil(4) * 4;
-            if color < OVERFLOW && used[color] > 0 {
-                self.joint_ranges.push((next[color], acc));
-                self.hinge_ranges.push((next_lane[color] / 4, acc_lane / 4));
-            }
+            self.hinge_spans.push((next_lane[color], acc_lane));
         }
-        self.joint_rest = (next[OVERFLOW], acc);
         self.joint_order.clear();
         self.joint_order.resize(acc as usize, 0);
-        let n_hinges = (acc_lane / 4) as usize;
         self.hinge_joints.clear();
-        self.hinge_joints.resize(n_hinges, [u32::MAX; 4]);
+        self.hinge_joints
+            .resize((acc_lane / 4) as usize, [u32::MAX; 4]);
         for (i, &color) in self.joint_colors.iter().enumerate() {
             let at = if lanes(i) {
                 let at = &mut next_lane[color as usize];
@@ -455,34 +516,6 @@ impl SoftSolver {
             };
             *at += 1;
         }
-        // the wide hinges, filled from the joints' prepared rows, split between threads
-        let (rest, sink) = (self.moves.len() as u32, self.sink);
-        let empty = WideHinge::empty(rest, sink);
-        self.hinges.resize(n_hinges, empty);
-        self.hinge_rows.resize(n_hinges, HingeRows::default());
-        let (moves, inv_mass) = (&self.moves, &self.inv_mass);
-        let joints_of = &self.hinge_joints;
-        parallel::chunks_mut2(
-            pool,
-            &mut self.hinges,
-            &mut self.hinge_rows,
-            WIDE_BLOCK,
-            &|_, offset, hinges, rows| {
-                for (k, (c, r)) in hinges.iter_mut().zip(rows).enumerate() {
-                    (*c, *r) = WideHinge::fill(
-                        &joints_of[offset + k],
-                        joints,
-                        bodies,
-                        moves,
-                        inv_mass,
-                        (rest, sink),
-                        h,
-                        warm,
-                    );
-                }
-                0.0
-            },
-        );
     }
 
     /// Each used colour's items as its `threads` shares take them: share j's joints one

@@ -40,13 +40,18 @@ pub(super) fn color_contacts(
     body_colors: &mut Vec<u64>,
     colors: &mut Vec<u8>,
     joint_colors: &mut Vec<u8>,
+    recolor_joints: bool,
     cut_counts: &mut Vec<[u32; OVERFLOW + 1]>,
 ) -> Colored {
     body_colors.clear();
     body_colors.resize(moves.len(), 0);
     colors.resize(contacts.len(), 0);
     cut_counts.clear();
-    let joint_counts = color_joints(joints, moves, body_colors, joint_colors);
+    let joint_counts = if recolor_joints {
+        color_joints(joints, moves, body_colors, joint_colors)
+    } else {
+        keep_joint_colors(joints, moves, body_colors, joint_colors)
+    };
     let mut counts = [0u32; OVERFLOW + 1];
     let (mut points, mut lopsided) = (0usize, false);
     // plain slices, so the loop keeps its pointers in registers
@@ -88,6 +93,33 @@ pub(super) fn color_contacts(
         points,
         lopsided,
     }
+}
+
+/// The joints' part of [`color_contacts`] while the joints and which bodies move are as
+/// when they were last coloured: their colours kept (`joint_colors`), their bodies'
+/// colours marked. Returns the joints per colour.
+fn keep_joint_colors(
+    joints: &[(u32, u32)],
+    moves: &[bool],
+    body_colors: &mut [u64],
+    joint_colors: &[u8],
+) -> [u32; OVERFLOW + 1] {
+    let mut counts = [0u32; OVERFLOW + 1];
+    for (&(a, b), &color) in joints.iter().zip(joint_colors) {
+        let color = color as usize;
+        if color < OVERFLOW {
+            let bit = 1u64 << color;
+            let (a, b) = (a as usize, b as usize);
+            if moves[a] {
+                body_colors[a] |= bit;
+            }
+            if moves[b] {
+                body_colors[b] |= bit;
+            }
+        }
+        counts[color] += 1;
+    }
+    counts
 }
 
 /// The joints' part of [`color_contacts`]: each joint, in order, takes the lowest colour

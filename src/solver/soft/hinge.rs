@@ -15,7 +15,7 @@
 use super::*;
 use crate::body::Body;
 use crate::defs::JointKind;
-use crate::joint::{SLOTS, slot};
+use crate::joint::{JointFrame, SLOTS, slot};
 use glam::BVec4A;
 
 /// Four hinges of one colour: what every sweep reads (the rows of limits and motors, which
@@ -65,6 +65,15 @@ pub(super) struct HingeRows {
     lower_impulse: Vec4,
     upper_impulse: Vec4,
     motor_impulse: Vec4,
+}
+
+/// Where four hinges' anchors sit on their bodies (for the geometry at each step's start,
+/// while the layout holds).
+#[derive(Clone, Copy, Debug, Default)]
+pub(super) struct HingeFrames {
+    local_a: [Vec2; 4],
+    local_b: [Vec2; 4],
+    ref_angle: [f32; 4],
 }
 
 impl Default for HingeRows {
@@ -123,36 +132,22 @@ impl WideHinge {
         (rest, sink): (u32, u32),
         h: f32,
         warm: bool,
-    ) -> (WideHinge, HingeRows) {
-        let (mut c, mut r) = (WideHinge::empty(rest, sink), HingeRows::default());
+    ) -> (WideHinge, HingeRows, HingeFrames) {
+        let mut c = WideHinge::empty(rest, sink);
+        let (mut r, mut f) = (HingeRows::default(), HingeFrames::default());
         for (k, &i) in idx.iter().enumerate() {
             if i == u32::MAX {
                 continue;
             }
             let j = &joints[i as usize];
-            let f = j.frame(bodies);
             let (a, b) = (j.a, j.b);
             c.a[k] = a as u32;
             c.b[k] = b as u32;
             c.wa[k] = if moves[a] { a as u32 } else { sink };
             c.wb[k] = if moves[b] { b as u32 } else { sink };
-            let ((ima, iia), (imb, iib)) = (inv_mass[a], inv_mass[b]);
-            c.ima[k] = ima;
-            c.iia[k] = iia;
-            c.imb[k] = imb;
-            c.iib[k] = iib;
-            c.ra0x[k] = f.ra.x;
-            c.ra0y[k] = f.ra.y;
-            c.rb0x[k] = f.rb.x;
-            c.rb0y[k] = f.rb.y;
-            c.d0x[k] = f.d.x;
-            c.d0y[k] = f.d.y;
-            let l = if warm { j.impulses } else { [0.0; SLOTS] };
-            c.px[k] = l[slot::POINT_X];
-            c.py[k] = l[slot::POINT_Y];
-            // (as the scalar rows' J M^-1 J^T of the angle row: 0 + 1/I_a + 0 + 1/I_b)
-            r.axial_k[k] = ima * 0.0 + iia + imb * 0.0 + iib;
-            r.angle0[k] = f.angle;
+            f.local_a[k] = j.local_a;
+            f.local_b[k] = j.local_b;
+            f.ref_angle[k] = j.ref_angle;
             if let Some([lo, hi]) = j.limits {
                 r.has_limits.set(k, true);
                 r.lower[k] = lo;
@@ -165,11 +160,65 @@ impl WideHinge {
                 r.motor_max[k] = m.max_force.max(0.0) * h;
                 c.rows = true;
             }
+            let l = if warm { j.impulses } else { [0.0; SLOTS] };
+            c.px[k] = l[slot::POINT_X];
+            c.py[k] = l[slot::POINT_Y];
             r.lower_impulse[k] = l[slot::LOWER];
             r.upper_impulse[k] = l[slot::UPPER];
             r.motor_impulse[k] = l[slot::MOTOR];
         }
-        (c, r)
+        c.refresh(&mut r, &f, bodies, inv_mass, true);
+        (c, r, f)
+    }
+
+    /// Takes the four lanes' geometry and masses from the bodies as they are now (the
+    /// step's start), their anchors from `f`; keeps their lambdas if `warm`, else zeroes
+    /// them. What [`WideHinge::fill`] gives from the joints, to the bit, while the joints
+    /// and which bodies move stay as they were.
+    pub(super) fn refresh(
+        &mut self,
+        r: &mut HingeRows,
+        f: &HingeFrames,
+        bodies: &[Body],
+        inv_mass: &[(f32, f32)],
+        warm: bool,
+    ) {
+        for k in 0..4 {
+            let (a, b) = (self.a[k] as usize, self.b[k] as usize);
+            if a >= bodies.len() {
+                // (an empty lane reads the rest slot)
+                continue;
+            }
+            let g = JointFrame::of(
+                &bodies[a],
+                &bodies[b],
+                f.local_a[k],
+                f.local_b[k],
+                f.ref_angle[k],
+                Vec2::X,
+            );
+            let ((ima, iia), (imb, iib)) = (inv_mass[a], inv_mass[b]);
+            self.ima[k] = ima;
+            self.iia[k] = iia;
+            self.imb[k] = imb;
+            self.iib[k] = iib;
+            self.ra0x[k] = g.ra.x;
+            self.ra0y[k] = g.ra.y;
+            self.rb0x[k] = g.rb.x;
+            self.rb0y[k] = g.rb.y;
+            self.d0x[k] = g.d.x;
+            self.d0y[k] = g.d.y;
+            // (as the scalar rows' J M^-1 J^T of the angle row: 0 + 1/I_a + 0 + 1/I_b)
+            r.axial_k[k] = ima * 0.0 + iia + imb * 0.0 + iib;
+            r.angle0[k] = g.angle;
+        }
+        if !warm {
+            self.px = Vec4::ZERO;
+            self.py = Vec4::ZERO;
+            r.lower_impulse = Vec4::ZERO;
+            r.upper_impulse = Vec4::ZERO;
+            r.motor_impulse = Vec4::ZERO;
+        }
     }
 
     /// Lane k's lambdas, as the joint keeps them.

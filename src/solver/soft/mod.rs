@@ -69,6 +69,13 @@ pub mod testing {
         pub(super) static FORCE_SSE: Cell<bool> = const { Cell::new(false) };
         pub(super) static ONE_LANE: Cell<bool> = const { Cell::new(false) };
         pub(super) static NO_HINGE_LANES: Cell<bool> = const { Cell::new(false) };
+        pub(super) static FRESH_JOINT_LAYOUT: Cell<bool> = const { Cell::new(false) };
+    }
+
+    /// `true`: the joints are coloured and laid out anew every step, never kept from
+    /// the step before (which gives the same bits: a test compares them).
+    pub fn fresh_joint_layout(on: bool) {
+        FRESH_JOINT_LAYOUT.with(|c| c.set(on));
     }
 
     /// `true`: every hinge is solved by the scalar joint rows, none in a wide hinge's
@@ -345,8 +352,17 @@ pub struct SoftSolver {
     /// them, and the joint in each lane), and each colour's range of them.
     hinges: Vec<WideHinge>,
     hinge_rows: Vec<HingeRows>,
+    hinge_frames: Vec<HingeFrames>,
     hinge_joints: Vec<[u32; 4]>,
     hinge_ranges: Vec<(u32, u32)>,
+    /// Per colour (the overflow last), its span of `joint_order` and its span of hinge
+    /// lanes, as the joints were last laid out.
+    joint_spans: Vec<(u32, u32)>,
+    hinge_spans: Vec<(u32, u32)>,
+    /// The joints as they were last coloured and laid out, and whether this step's are
+    /// the same (then their colours and layout are kept).
+    kept_joints: KeptJoints,
+    joints_kept: bool,
     /// Per used colour, where each thread's share starts in the colour's items: the
     /// share's joints, then its wide constraints (`cut_threads` + 1 entries a colour).
     virt: Vec<u32>,
@@ -510,6 +526,10 @@ impl SoftSolver {
         if let Some((pool, movers)) = side_by_side {
             // block 0 colours the contacts (the caller claims it first); the others are
             // the load pass's, which the other threads take meanwhile
+            // (the colouring's thread reads the flags the collide found, which are what
+            // the load pass finds)
+            self.joints_kept = self.kept_joints.hold(&self.joints, movers);
+            let recolor = !self.joints_kept;
             let coloring = Mutex::new((
                 &mut self.body_colors,
                 &mut self.colors,
@@ -534,6 +554,7 @@ impl SoftSolver {
                     body_colors,
                     colors,
                     joint_colors,
+                    recolor,
                     cut_lanes,
                 ));
                 0.0
@@ -872,6 +893,52 @@ struct SweepConsts {
     avx2: bool,
 }
 
+/// The joints as the solver last coloured and laid them out: each one's bodies, whether
+/// it takes lanes, and whether each of its bodies moved.
+#[derive(Clone, Debug, Default)]
+struct KeptJoints {
+    ends: Vec<(u32, u32)>,
+    lanes: Vec<bool>,
+    moves: Vec<(bool, bool)>,
+    /// The bodies then (empty lanes read the slot after them, and bodies that do not
+    /// move are written to the sinks after that).
+    bodies: usize,
+    /// Whether a layout was made for them.
+    laid_out: bool,
+}
+
+impl KeptJoints {
+    /// Whether this step's joints (and which of their bodies move, `moves`) are those
+    /// last laid out (and not while a test asks for a new layout every step); if not,
+    /// they become the ones kept, for the layout this step makes.
+    fn hold(&mut self, joints: &joints::SoftJoints, moves: &[bool]) -> bool {
+        let (ends, lanes) = (joints.ends(), joints.lanes());
+        let same = self.laid_out
+            && !testing::FRESH_JOINT_LAYOUT.with(std::cell::Cell::get)
+            && self.bodies == moves.len()
+            && self.ends == ends
+            && self.lanes == lanes
+            && ends
+                .iter()
+                .zip(&self.moves)
+                .all(|(&(a, b), &m)| (moves[a as usize], moves[b as usize]) == m);
+        if !same {
+            self.ends.clear();
+            self.ends.extend_from_slice(ends);
+            self.lanes.clear();
+            self.lanes.extend_from_slice(lanes);
+            self.moves.clear();
+            self.moves.extend(
+                ends.iter()
+                    .map(|&(a, b)| (moves[a as usize], moves[b as usize])),
+            );
+            self.bodies = moves.len();
+            self.laid_out = true;
+        }
+        same
+    }
+}
+
 /// A step's scratch that a clone of the solver starts without.
 #[derive(Debug)]
 struct Scratch<T>(Vec<T>);
@@ -1084,6 +1151,42 @@ mod tests {
         let two = run(Some(&pool));
         let first = one.iter().zip(&two).position(|(a, b)| a != b);
         assert_eq!(first, None, "the first value that differs");
+    }
+
+    #[test]
+    fn a_kept_joint_layout_gives_the_bits_of_a_new_one_every_step() {
+        // the joints' colours and wide hinges kept from step to step (the bodies' new
+        // geometry taken each step) against a layout made anew every step; the ragdoll
+        // falls asleep and wakes on the way (its joints leave the step and come back),
+        // the chain's grabbed link has a mouse joint
+        for name in ["ragdoll", "chain", "joint_grid", "bridge", "joints"] {
+            let sc = crate::scene::load(name).unwrap();
+            let run = |fresh: bool| {
+                super::testing::fresh_joint_layout(fresh);
+                let mut w = crate::World::from_def(&sc.world, sc.world.solver.resolve()).unwrap();
+                let steps = if name == "joint_grid" { 10 } else { 200 };
+                let hashes: Vec<u64> = (0..steps)
+                    .map(|i| {
+                        if i == 30 {
+                            let body = w.bodies.iter().position(|b| b.is_dynamic()).unwrap();
+                            let at = w.bodies[body].position + glam::Vec2::new(0.1, 0.0);
+                            let m = w.grab(body, at);
+                            w.set_mouse(m);
+                        }
+                        if i == 60 {
+                            w.set_mouse(None);
+                        }
+                        w.step().unwrap();
+                        w.state_hash()
+                    })
+                    .collect();
+                super::testing::fresh_joint_layout(false);
+                hashes
+            };
+            let (fresh, kept) = (run(true), run(false));
+            let first = fresh.iter().zip(&kept).position(|(a, b)| a != b);
+            assert_eq!(first, None, "{name}: the first step that differs");
+        }
     }
 
     #[test]
