@@ -518,35 +518,30 @@ impl SoftSolver {
         }
     }
 
-    /// Each used colour's items as its `threads` shares take them: share j's joints one
-    /// by one, its wide hinges (even parts of the colour's), then its wide constraints
-    /// (`virt`).
+    /// Each used colour's items as its `threads` shares take them (`shares`): share j's
+    /// joints one by one and its wide hinges (even parts of the colour's), then its wide
+    /// constraints (where `cut_colors` cut them).
     fn cut_joints(&mut self, threads: usize) {
-        self.virt.clear();
+        self.shares.clear();
         let n = threads.max(1);
         for c in 0..self.joint_ranges.len() {
-            let mut at = 0u32;
+            let even = |(a, b): (u32, u32), j: usize| {
+                let r = parallel::split((b - a) as usize, n, j);
+                (a + r.start as u32, a + r.end as u32)
+            };
+            let mut first = 0u32;
             for j in 0..n {
-                self.virt.push(at);
-                let (joints, hinges) = (self.joint_share(c, j), self.hinge_share(c, j));
-                at += (joints.len() + hinges.len() + self.contact_share(c, j).len()) as u32;
+                let contacts = self.contact_share(c, j);
+                let share = ColorShare {
+                    joints: even(self.joint_ranges[c], j),
+                    hinges: even(self.hinge_ranges[c], j),
+                    contacts: (contacts.start as u32, contacts.end as u32),
+                    first,
+                };
+                first += share.len();
+                self.shares.push(share);
             }
-            self.virt.push(at);
         }
-    }
-
-    /// Thread j's share of used colour c's joints solved one by one (in `joint_order`).
-    pub(super) fn joint_share(&self, c: usize, j: usize) -> std::ops::Range<usize> {
-        let (a, b) = self.joint_ranges[c];
-        let r = parallel::split((b - a) as usize, self.cut_threads.max(1), j);
-        a as usize + r.start..a as usize + r.end
-    }
-
-    /// Thread j's share of used colour c's wide hinges.
-    pub(super) fn hinge_share(&self, c: usize, j: usize) -> std::ops::Range<usize> {
-        let (a, b) = self.hinge_ranges[c];
-        let r = parallel::split((b - a) as usize, self.cut_threads.max(1), j);
-        a as usize + r.start..a as usize + r.end
     }
 
     /// Cuts each colour's wide constraints between `threads` threads where the contacts'

@@ -363,9 +363,9 @@ pub struct SoftSolver {
     /// the same (then their colours and layout are kept).
     kept_joints: KeptJoints,
     joints_kept: bool,
-    /// Per used colour, where each thread's share starts in the colour's items: the
-    /// share's joints, then its wide constraints (`cut_threads` + 1 entries a colour).
-    virt: Vec<u32>,
+    /// Per used colour and thread (`colour * cut_threads + thread`), that thread's share
+    /// of the colour.
+    shares: Vec<ColorShare>,
     /// Per thread's share of the colours: the least and the largest body it writes
     /// (least > largest for none), from the fill.
     share_bodies: Vec<(u32, u32)>,
@@ -936,6 +936,26 @@ impl KeptJoints {
             self.laid_out = true;
         }
         same
+    }
+}
+
+/// A thread's share of a colour: its joints solved one by one (a range of `joint_order`),
+/// its wide hinges, its wide constraints, and where it starts among the colour's items
+/// (the shares one after another, each its joints, then its hinges, then its contacts).
+#[derive(Clone, Copy, Debug, Default)]
+struct ColorShare {
+    joints: (u32, u32),
+    hinges: (u32, u32),
+    contacts: (u32, u32),
+    first: u32,
+}
+
+impl ColorShare {
+    /// Its items.
+    fn len(&self) -> u32 {
+        (self.joints.1 - self.joints.0)
+            + (self.hinges.1 - self.hinges.0)
+            + (self.contacts.1 - self.contacts.0)
     }
 }
 

@@ -203,17 +203,10 @@ impl SoftSolver {
         }
         let k = self.sweep_consts();
         let nb = self.bodies.len();
-        let (plan, increments, virt) = (&self.plan, &self.increments, &self.virt);
+        let (plan, increments, color_shares) = (&self.plan, &self.increments, &self.shares);
         let joint_order = &self.joint_order;
         let joint_rest = self.joint_rest.0 as usize..self.joint_rest.1 as usize;
         let colored = self.color_ranges.last().map_or(0, |r| r.1 as usize);
-        let shares = Shares {
-            cuts: &self.color_cuts,
-            ranges: &self.color_ranges,
-            joint_ranges: &self.joint_ranges,
-            hinge_ranges: &self.hinge_ranges,
-            threads: self.cut_threads,
-        };
         let soft = self.joints.softness();
         let hinges = Disjoint::new(&mut self.hinges);
         let hinge_rows = Disjoint::new(&mut self.hinge_rows);
@@ -247,8 +240,8 @@ impl SoftSolver {
                     }
                 }
                 (_, c) => {
-                    let at = c as usize * (n + 1) + j;
-                    virt[at] as usize..virt[at + 1] as usize
+                    let sh = &color_shares[c as usize * n + j];
+                    sh.first as usize..(sh.first + sh.len()) as usize
                 }
             }
         };
@@ -290,13 +283,15 @@ impl SoftSolver {
                     f32::NEG_INFINITY
                 }
                 Pass::WarmStart | Pass::Sweep | Pass::Relax => {
-                    // which share the block is of, and its joints and contacts
-                    let base = &virt[c * (n + 1)..(c + 1) * (n + 1)];
-                    let j = (0..n)
-                        .find(|&j| r.start < base[j + 1] as usize)
-                        .unwrap_or(n - 1);
-                    let (lo, hi) = (r.start - base[j] as usize, r.end - base[j] as usize);
-                    let js = shares.joints(c, j);
+                    // which share the block is of (a block lies in one share), and its
+                    // joints, hinges and contacts
+                    let of_color = &color_shares[c * n..(c + 1) * n];
+                    let sh = of_color
+                        .iter()
+                        .find(|sh| r.start < (sh.first + sh.len()) as usize)
+                        .unwrap_or(&of_color[n - 1]);
+                    let (lo, hi) = (r.start - sh.first as usize, r.end - sh.first as usize);
+                    let js = sh.joints.0 as usize..sh.joints.1 as usize;
                     let nj = js.len();
                     let mut d = f32::NEG_INFINITY;
                     for &i in &joint_order[js.start + lo.min(nj)..js.start + hi.min(nj)] {
@@ -316,7 +311,7 @@ impl SoftSolver {
                     }
                     // then the wide hinges, then the contacts
                     let (lo, hi) = (lo.max(nj) - nj, hi.max(nj) - nj);
-                    let hs = shares.hinges(c, j);
+                    let hs = sh.hinges.0 as usize..sh.hinges.1 as usize;
                     let nh = hs.len();
                     let hw = hs.start + lo.min(nh)..hs.start + hi.min(nh);
                     if !hw.is_empty() {
@@ -341,8 +336,7 @@ impl SoftSolver {
                         });
                     }
                     let (lo, hi) = (lo.max(nh) - nh, hi.max(nh) - nh);
-                    let cs = shares.contacts(c, j);
-                    let w = cs.start + lo..cs.start + hi;
+                    let w = sh.contacts.0 as usize + lo..sh.contacts.0 as usize + hi;
                     if !w.is_empty() {
                         let w = unsafe { wide.range(w) };
                         d = d.max(match (pass, shared) {
@@ -452,40 +446,5 @@ impl SoftSolver {
                 .fold(f32::NEG_INFINITY, f32::max),
         };
         r.max(0.0)
-    }
-}
-
-/// Where each thread's share of a used colour lies: its joints solved one by one, its
-/// wide hinges, its wide constraints (as `SoftSolver::joint_share`, `hinge_share` and
-/// `contact_share` give them, for the job's closures).
-struct Shares<'a> {
-    cuts: &'a [u32],
-    ranges: &'a [(u32, u32)],
-    joint_ranges: &'a [(u32, u32)],
-    hinge_ranges: &'a [(u32, u32)],
-    threads: usize,
-}
-
-impl Shares<'_> {
-    fn even(&self, (a, b): (u32, u32), j: usize) -> std::ops::Range<usize> {
-        let r = parallel::split((b - a) as usize, self.threads.max(1), j);
-        a as usize + r.start..a as usize + r.end
-    }
-
-    fn joints(&self, c: usize, j: usize) -> std::ops::Range<usize> {
-        self.even(self.joint_ranges[c], j)
-    }
-
-    fn hinges(&self, c: usize, j: usize) -> std::ops::Range<usize> {
-        self.even(self.hinge_ranges[c], j)
-    }
-
-    fn contacts(&self, c: usize, j: usize) -> std::ops::Range<usize> {
-        if self.threads > 1 {
-            color_share(self.cuts, self.threads, c, j)
-        } else {
-            let (a, b) = self.ranges[c];
-            a as usize..b as usize
-        }
     }
 }
