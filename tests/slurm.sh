@@ -244,8 +244,12 @@ mt=$(submit --dependency=afterok:"$t" --output="$work/runs/slurm-%j.out" "$merge
 say "submitted: extremes array $a + merge $ma, quick array $q + merge $mq, tune array $t + merge $mt"
 echo "  squeue:"
 squeue -o '%.10i %.9P %.16j %.8u %.2t %.8M %.5D %R' | sed 's/^/    /'
-sleep 4
-echo "  squeue, a few seconds in:"
+# the first tasks to run (a task of this size takes a second or two)
+for _ in $(seq 100); do
+  squeue -h -t RUNNING | grep -q . && break
+  sleep 0.2
+done
+echo "  squeue, once tasks run:"
 squeue -o '%.10i %.9P %.16j %.8u %.2t %.8M %.5D %R' | sed 's/^/    /'
 wait_jobs "$a" "$ma" "$q" "$mq" "$t" "$mt"
 for j in "$ma" "$mq" "$mt"; do
@@ -260,7 +264,8 @@ show_sacct "${a}_0" "${a}_1" "${a}_2" "${a}_3" "$ma"
 
 cmp "$work/runs/$a/stability.md" "$work/whole-extremes/stability.md" \
   || fail "the merged stability.md differs from the unsharded run's"
-say "stability.md: the array's merge and the unsharded run are byte-identical ($(wc -c <"$work/runs/$a/stability.md") bytes, $(grep -c '^| ' "$work/runs/$a/stability.md") table lines, sha256 $(sha256sum <"$work/runs/$a/stability.md" | cut -c1-16))"
+say "stability.md: cmp finds the array's merge and the unsharded run byte-identical ($(wc -c <"$work/runs/$a/stability.md") bytes, $(grep -c '^| ' "$work/runs/$a/stability.md") table lines)"
+sha256sum "$work/runs/$a/stability.md" "$work/whole-extremes/stability.md" | sed "s|$work/|    |"
 # results.csv: every column but the timings (ms_*), which no two runs share
 no_timings() {
   awk -F, 'NR == 1 { for (i = 1; i <= NF; i++) keep[i] = ($i !~ /^ms_/) }
