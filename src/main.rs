@@ -212,13 +212,19 @@ struct BenchArgs {
     /// suite's full case list (scene by scene, each scene's settings in order; for
     /// extremes: sweep, setting, value) is I-1 modulo N. Writes
     /// results.shard-I-of-N.json into --out instead of the reports; --merge builds
-    /// them from all N shards. Not for --suite scaling.
-    #[arg(long, value_name = "I/N", allow_hyphen_values = true)]
+    /// them from all N shards. `auto`: this Slurm array task's shard (task MIN runs
+    /// 1/N, ..., task MAX N/N, from SLURM_ARRAY_TASK_ID, _MIN, _MAX, _COUNT, _STEP).
+    /// Not for --suite scaling.
+    #[arg(long, value_name = "I/N|auto", allow_hyphen_values = true)]
     shard: Option<String>,
+    /// The run a shard belongs to, written into its file (default: SLURM_ARRAY_JOB_ID
+    /// in a Slurm array); with --merge, every shard must be of this run.
+    #[arg(long, value_name = "ID")]
+    run_id: Option<String>,
     /// Merge shard files (results.shard-I-of-N.json, or folders holding them) into the
     /// results.csv, results.md and plots (or stability.md) that one unsharded run would
-    /// write into --out. Every shard of the run is needed, once; the suite, filter and
-    /// steps come from the shards.
+    /// write into --out. Every shard of the run is needed, once, all of one run; the
+    /// suite, filter and steps come from the shards.
     #[arg(
         long,
         value_name = "FILE_OR_DIR",
@@ -249,10 +255,11 @@ enum MetricArg {
 #[derive(Args)]
 struct TuneArgs {
     /// A scene file, or the name of a built-in scene (see `sandbox2d scenes`).
-    scene: String,
+    #[arg(required_unless_present = "merge")]
+    scene: Option<String>,
     /// The most a step may cost: median milliseconds per step on this machine.
-    #[arg(long)]
-    budget_ms: f64,
+    #[arg(long, required_unless_present = "merge")]
+    budget_ms: Option<f64>,
     /// The error to minimise.
     #[arg(long, value_enum, default_value = "worst")]
     metric: MetricArg,
@@ -277,6 +284,26 @@ struct TuneArgs {
     /// Put the pick into the scene file's [solver] table (comments and order kept).
     #[arg(long)]
     write: bool,
+    /// Run only shard I of N of the grid's settings (their accuracy runs and timing
+    /// rounds), or `auto` for this Slurm array task's shard (as bench --shard); writes
+    /// tune.shard-I-of-N.json into --out. `tune --merge` then runs the fine pass and
+    /// picks.
+    #[arg(long, value_name = "I/N|auto", allow_hyphen_values = true)]
+    shard: Option<String>,
+    /// The run a shard belongs to, written into its file (default: SLURM_ARRAY_JOB_ID
+    /// in a Slurm array); with --merge, every shard must be of this run.
+    #[arg(long, value_name = "ID")]
+    run_id: Option<String>,
+    /// Merge tune shard files (tune.shard-I-of-N.json, or folders holding them): the
+    /// scene, budget, metric, steps, rounds and jobs come from the shards; runs the fine
+    /// pass and the rounds near the budget here, then reports as an unsharded tune.
+    #[arg(
+        long,
+        value_name = "FILE_OR_DIR",
+        num_args = 1..,
+        conflicts_with_all = ["scene", "budget_ms", "metric", "steps", "rounds", "jobs", "shard"]
+    )]
+    merge: Vec<PathBuf>,
 }
 
 #[derive(Clone, Copy, ValueEnum)]
@@ -576,6 +603,11 @@ fn check_distinct(outputs: &[(&str, &Path)], inputs: &[(&str, &Path)]) -> Result
         }
     }
     Ok(())
+}
+
+/// An environment variable, when it is set (and valid Unicode).
+fn env_var(name: &str) -> Option<String> {
+    std::env::var(name).ok()
 }
 
 /// The scene file a name loads, when it is a file and not a built-in scene.
@@ -1463,9 +1495,12 @@ fn writable_dir(dir: &Path) -> Result<(), Failure> {
 }
 
 fn bench(a: &BenchArgs) -> Result<(), Failure> {
-    use sandbox2d::bench::{self, Shard, Suite, extremes, shard};
+    use sandbox2d::bench::{self, Suite, extremes, shard};
     if !a.merge.is_empty() {
-        return bench_merge(&a.merge, &a.out);
+        if let Some(id) = &a.run_id {
+            bench::slurm::check_run_id(id).map_err(|e| Failure::input(format!("--run-id: {e}")))?;
+        }
+        return bench_merge(&a.merge, &a.out, a.run_id.as_deref());
     }
     if a.steps == Some(0) {
         return Err(Failure::input("--steps must be at least 1"));
@@ -1479,9 +1514,18 @@ fn bench(a: &BenchArgs) -> Result<(), Failure> {
     let part = a
         .shard
         .as_deref()
-        .map(Shard::parse)
+        .map(|s| bench::slurm::resolve(s, env_var))
         .transpose()
         .map_err(Failure::input)?;
+    if a.run_id.is_some() && part.is_none() {
+        return Err(Failure::input(
+            "--run-id names the run of a shard: give it with --shard or --merge",
+        ));
+    }
+    let run = match part {
+        Some(_) => bench::slurm::run_id(a.run_id.as_deref(), env_var).map_err(Failure::input)?,
+        None => None,
+    };
     let suite = match a.suite {
         SuiteArg::Quick => Suite::Quick,
         SuiteArg::Standard => Suite::Standard,
@@ -1495,6 +1539,7 @@ fn bench(a: &BenchArgs) -> Result<(), Failure> {
         filter: filter.clone(),
         steps: a.steps,
         repeats: a.repeats,
+        run,
     };
     if suite == Suite::Extremes {
         let sweeps = extremes::sweeps(filter.as_deref());
@@ -1872,10 +1917,10 @@ fn write_reports(
     Ok(())
 }
 
-/// `bench --merge`: the shard files (or the shard files in the folders) given, merged
-/// into the reports of one unsharded run.
-fn bench_merge(inputs: &[PathBuf], out: &Path) -> Result<(), Failure> {
-    use sandbox2d::bench::shard::{self, Merged};
+/// The shard files given to `--merge`, `(name, text)` each: the files, and in each
+/// folder the files `PREFIX.shard-*.json` (sorted by name).
+fn read_shard_files(inputs: &[PathBuf], prefix: &str) -> Result<Vec<(String, String)>, Failure> {
+    let start = format!("{prefix}.shard-");
     let mut paths = Vec::new();
     for p in inputs {
         if p.is_dir() {
@@ -1884,16 +1929,14 @@ fn bench_merge(inputs: &[PathBuf], out: &Path) -> Result<(), Failure> {
             let mut found: Vec<PathBuf> = entries
                 .filter_map(|e| e.ok().map(|e| e.path()))
                 .filter(|f| {
-                    f.file_name().and_then(|n| n.to_str()).is_some_and(|n| {
-                        n.starts_with("results.shard-")
-                            && n.ends_with(".json")
-                            && !n.ends_with(".partial.json")
-                    })
+                    f.file_name()
+                        .and_then(|n| n.to_str())
+                        .is_some_and(|n| n.starts_with(&start) && n.ends_with(".json"))
                 })
                 .collect();
             if found.is_empty() {
                 return Err(Failure::input(format!(
-                    "{}: no shard files (results.shard-I-of-N.json) in this folder",
+                    "{}: no shard files ({prefix}.shard-I-of-N.json) in this folder",
                     p.display()
                 )));
             }
@@ -1909,7 +1952,15 @@ fn bench_merge(inputs: &[PathBuf], out: &Path) -> Result<(), Failure> {
             .map_err(|e| Failure::input(format!("{}: cannot read: {e}", p.display())))?;
         files.push((p.display().to_string(), text));
     }
-    let merged = shard::merge(&files).map_err(Failure::input)?;
+    Ok(files)
+}
+
+/// `bench --merge`: the shard files (or the shard files in the folders) given, merged
+/// into the reports of one unsharded run.
+fn bench_merge(inputs: &[PathBuf], out: &Path, run: Option<&str>) -> Result<(), Failure> {
+    use sandbox2d::bench::shard::{self, Merged};
+    let files = read_shard_files(inputs, "results")?;
+    let merged = shard::merge(&files, run).map_err(Failure::input)?;
     writable_dir(out)?;
     match merged {
         Merged::Extremes { results } => write_stability(out, &results),
@@ -1926,11 +1977,16 @@ fn bench_merge(inputs: &[PathBuf], out: &Path) -> Result<(), Failure> {
 const MAX_TUNE_STEPS: u64 = 1_000_000;
 
 fn tune(a: &TuneArgs) -> Result<(), Failure> {
-    use sandbox2d::bench::tune::{self, TuneError, TuneMetric, TuneOptions};
-    if !(a.budget_ms.is_finite() && a.budget_ms > 0.0) {
+    use sandbox2d::bench::{shard, slurm, tune};
+    if !a.merge.is_empty() {
+        return tune_merge(a);
+    }
+    let (Some(scene_name), Some(budget_ms)) = (a.scene.as_deref(), a.budget_ms) else {
+        return Err(Failure::input("give a scene and --budget-ms (or --merge)"));
+    };
+    if !(budget_ms.is_finite() && budget_ms > 0.0) {
         return Err(Failure::input(format!(
-            "--budget-ms must be a positive number of milliseconds, got {}",
-            a.budget_ms
+            "--budget-ms must be a positive number of milliseconds, got {budget_ms}"
         )));
     }
     if !(1..=MAX_TUNE_STEPS).contains(&a.steps) {
@@ -1948,27 +2004,53 @@ fn tune(a: &TuneArgs) -> Result<(), Failure> {
     if a.jobs == 0 {
         return Err(Failure::input("--jobs must be at least 1"));
     }
-    let file = scene_file(&a.scene);
+    let part = a
+        .shard
+        .as_deref()
+        .map(|s| slurm::resolve(s, env_var))
+        .transpose()
+        .map_err(Failure::input)?;
+    let run = match part {
+        Some(_) => {
+            if a.json || a.write {
+                return Err(Failure::input(
+                    "--shard writes a shard file for --merge: --json and --write go with the merge",
+                ));
+            }
+            if a.out.is_none() {
+                return Err(Failure::input(
+                    "--shard needs --out, the folder for tune.shard-I-of-N.json",
+                ));
+            }
+            slurm::run_id(a.run_id.as_deref(), env_var).map_err(Failure::input)?
+        }
+        None if a.run_id.is_some() => {
+            return Err(Failure::input(
+                "--run-id names the run of a shard: give it with --shard or --merge",
+            ));
+        }
+        None => None,
+    };
+    let file = scene_file(scene_name);
     if a.write && file.is_none() {
         return Err(Failure::input(format!(
-            "--write: \"{}\" is a built-in scene, not a file; copy assets/scenes/{}.toml and tune the copy",
-            a.scene, a.scene
+            "--write: \"{scene_name}\" is a built-in scene, not a file; copy assets/scenes/{scene_name}.toml and tune the copy"
         )));
     }
     let metric = match a.metric {
-        MetricArg::Worst => TuneMetric::Worst,
-        MetricArg::Penetration => TuneMetric::Penetration,
-        MetricArg::Drift => TuneMetric::Drift,
-        MetricArg::JointError => TuneMetric::JointError,
-        MetricArg::EnergyDrift => TuneMetric::EnergyDrift,
-        MetricArg::Residual => TuneMetric::Residual,
+        MetricArg::Worst => tune::TuneMetric::Worst,
+        MetricArg::Penetration => tune::TuneMetric::Penetration,
+        MetricArg::Drift => tune::TuneMetric::Drift,
+        MetricArg::JointError => tune::TuneMetric::JointError,
+        MetricArg::EnergyDrift => tune::TuneMetric::EnergyDrift,
+        MetricArg::Residual => tune::TuneMetric::Residual,
     };
-    let sc = scene::load(&a.scene).map_err(Failure::input)?;
+    let sc = scene::load(scene_name).map_err(Failure::input)?;
     if let Some(out) = &a.out {
         writable_dir(out)?;
     }
-    let options = TuneOptions {
-        budget_ms: a.budget_ms,
+    let options = tune::TuneOptions {
+        budget_ms,
         metric,
         steps: a.steps,
         rounds: a.rounds,
@@ -1979,47 +2061,131 @@ fn tune(a: &TuneArgs) -> Result<(), Failure> {
         "{bar:40} {pos}/{len} runs {elapsed} {msg}",
     );
     GRACEFUL.store(true, Ordering::Relaxed);
-    let result = tune::tune(&a.scene, &sc.world, &options, |done, total, what| {
+    let on_run = |done: usize, total: usize, what: &str| {
         bar.set_length(total as u64);
         bar.set_position(done as u64);
         bar.set_message(what.to_string());
-    });
-    bar.finish_and_clear();
-    let report = match result {
-        Ok(r) => r,
-        Err(TuneError::Interrupted) => {
-            return Err(Failure::interrupted(format!(
-                "{}: interrupted; nothing was written",
-                sc.source
-            )));
-        }
-        Err(e @ TuneError::OverBudget { .. }) => {
-            return Err(Failure::input(format!(
-                "{}: {e} (budget {} ms/step)",
-                sc.source, a.budget_ms
-            )));
-        }
-        Err(e) => return Err(Failure::run(format!("{}: {e}", sc.source))),
     };
+    if let (Some(p), Some(out)) = (part, &a.out) {
+        let rows = tune::tune_shard(scene_name, &sc.world, &options, p, on_run);
+        bar.finish_and_clear();
+        let rows = rows.map_err(|e| tune_failure(&sc, budget_ms, e))?;
+        let key = shard::TuneKey {
+            scene: scene_name.to_string(),
+            digest: tune::scene_digest(&sc.world),
+            options,
+            run,
+        };
+        let cases = sandbox2d::bench::settings_grid().len();
+        let path = out.join(shard::tune_file_name(p));
+        write_file(&path, &shard::tune_json(&key, p, cases, &rows))?;
+        println!(
+            "wrote {} (shard {p}: {} of {cases} settings)",
+            path.display(),
+            rows.len()
+        );
+        return Ok(());
+    }
+    let result = tune::tune(scene_name, &sc.world, &options, on_run);
+    bar.finish_and_clear();
+    let report = result.map_err(|e| tune_failure(&sc, budget_ms, e))?;
+    tune_output(a, &sc, file.as_deref(), &report)
+}
+
+/// A search that ended without a pick, as the command reports it.
+fn tune_failure(sc: &Scene, budget_ms: f64, e: sandbox2d::bench::tune::TuneError) -> Failure {
+    use sandbox2d::bench::tune::TuneError;
+    match e {
+        TuneError::Interrupted => {
+            Failure::interrupted(format!("{}: interrupted; nothing was written", sc.source))
+        }
+        e @ TuneError::OverBudget { .. } => {
+            Failure::input(format!("{}: {e} (budget {budget_ms} ms/step)", sc.source))
+        }
+        e => Failure::run(format!("{}: {e}", sc.source)),
+    }
+}
+
+/// `tune --merge`: the shards of one search's coarse pass (files, or folders of
+/// `tune.shard-I-of-N.json`), then the fine pass and the pick here.
+fn tune_merge(a: &TuneArgs) -> Result<(), Failure> {
+    use sandbox2d::bench::{shard, slurm, tune};
+    if let Some(id) = &a.run_id {
+        slurm::check_run_id(id).map_err(|e| Failure::input(format!("--run-id: {e}")))?;
+    }
+    let files = read_shard_files(&a.merge, "tune")?;
+    let merged = shard::merge_tune(&files, a.run_id.as_deref()).map_err(Failure::input)?;
+    let key = &merged.key;
+    let sc = scene::load(&key.scene).map_err(|e| {
+        Failure::input(format!(
+            "the shards' scene {:?} does not load here: {e}",
+            key.scene
+        ))
+    })?;
+    let digest = tune::scene_digest(&sc.world);
+    if digest != key.digest {
+        return Err(Failure::input(format!(
+            "{}: not the scene the shards ran (it changed since: digest {digest}, the shards' {})",
+            sc.source, key.digest
+        )));
+    }
+    let file = scene_file(&key.scene);
+    if a.write && file.is_none() {
+        return Err(Failure::input(format!(
+            "--write: \"{}\" is a built-in scene, not a file; copy assets/scenes/{}.toml and tune the copy",
+            key.scene, key.scene
+        )));
+    }
+    if let Some(out) = &a.out {
+        writable_dir(out)?;
+    }
+    let bar = progress(None, "{bar:40} {pos}/{len} runs {elapsed} {msg}");
+    GRACEFUL.store(true, Ordering::Relaxed);
+    let result = tune::tune_merged(
+        &key.scene,
+        &sc.world,
+        &key.options,
+        merged.coarse,
+        merged.shards,
+        |done, total, what| {
+            bar.set_length(total as u64);
+            bar.set_position(done as u64);
+            bar.set_message(what.to_string());
+        },
+    );
+    bar.finish_and_clear();
+    let report = result.map_err(|e| tune_failure(&sc, key.options.budget_ms, e))?;
+    tune_output(a, &sc, file.as_deref(), &report)
+}
+
+/// Prints a search's report (or its JSON), writes its files into --out, and with
+/// --write the pick into the scene file.
+fn tune_output(
+    a: &TuneArgs,
+    sc: &Scene,
+    file: Option<&Path>,
+    report: &sandbox2d::bench::tune::TuneReport,
+) -> Result<(), Failure> {
+    use sandbox2d::bench::tune;
     let pick = report.pick.map(|p| report.tried[p].setting);
     if let Some(out) = &a.out {
-        write_file(&out.join("tune.md"), &tune::markdown(&report))?;
+        write_file(&out.join("tune.md"), &tune::markdown(report))?;
         write_file(
             &out.join("tune.json"),
-            &format!("{:#}\n", tune::json(&report)),
+            &format!("{:#}\n", tune::json(report)),
         )?;
         write_file(
             &out.join("pareto.svg"),
-            &tune::svg(&report).map_err(Failure::run)?,
+            &tune::svg(report).map_err(Failure::run)?,
         )?;
         if let Some(p) = &pick {
             write_file(&out.join("solver.toml"), &tune::solver_table(p))?;
         }
     }
     if a.json {
-        println!("{}", tune::json(&report));
+        println!("{}", tune::json(report));
     } else {
-        print!("{}", tune::markdown(&report));
+        print!("{}", tune::markdown(report));
         if let Some(out) = &a.out {
             println!(
                 "\nwrote {}: tune.md, tune.json, pareto.svg, solver.toml",
@@ -2027,7 +2193,7 @@ fn tune(a: &TuneArgs) -> Result<(), Failure> {
             );
         }
     }
-    if let (true, Some(path), Some(p)) = (a.write, &file, &pick) {
+    if let (true, Some(path), Some(p)) = (a.write, file, &pick) {
         let text = std::fs::read_to_string(path)
             .map_err(|e| Failure::run(format!("{}: cannot read: {e}", path.display())))?;
         let new = tune::write_setting(&text, p)

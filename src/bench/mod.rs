@@ -20,6 +20,7 @@ pub mod report;
 pub mod scaling;
 pub mod scenes;
 pub mod shard;
+pub mod slurm;
 pub mod tune;
 
 use std::time::Instant;

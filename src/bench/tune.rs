@@ -18,11 +18,16 @@
 //! Which measures apply is read from the scene and the runs (see [`Applies`]). A
 //! setting that goes unstable anywhere in the run is never picked; the report lists it
 //! with the reason.
+//!
+//! The search can be split over machines (a Slurm job array): [`tune_shard`] runs one
+//! shard of the grid (accuracy runs and timing rounds), and [`tune_merged`] takes every
+//! shard's settings and runs the rest (the fine pass, its rounds, the rounds near the
+//! budget) as [`tune`] would; `bench::shard` writes and reads the shards' files.
 
 use crate::defs::{BodyType, SolverKind, WorldDef};
 use crate::math::Vec2;
 
-use super::{BenchScene, Budget, Measured, Metric, Outcome, Setting, Track, run_case};
+use super::{BenchScene, Budget, Measured, Metric, Outcome, Setting, Shard, Track, run_case};
 
 /// What `tune` minimises.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -211,6 +216,18 @@ pub struct TuneReport {
     pub cheapest_close: Option<usize>,
     /// The settings no other beats on both cost and error, cheapest first.
     pub pareto: Vec<usize>,
+    /// When the grid's settings ran in shards (`tune --shard`, then `--merge`): how
+    /// many, and their run.
+    pub shards: Option<CoarseShards>,
+}
+
+/// The shards a search's coarse pass ran in.
+#[derive(Clone, Debug, PartialEq)]
+pub struct CoarseShards {
+    /// How many shards (N of `--shard I/N`).
+    pub count: usize,
+    /// Their run id, when they had one (the Slurm array's job id, or `--run-id`).
+    pub run: Option<String>,
 }
 
 /// Why `tune` has no answer.
@@ -371,6 +388,217 @@ fn median(v: &[f64]) -> f64 {
     }
 }
 
+/// The runs of one search: the scene, the budgets of its accuracy and timing runs, how
+/// many go at once, and the progress count.
+struct Search<P> {
+    scene: BenchScene,
+    accuracy: Budget,
+    timing: Budget,
+    jobs: usize,
+    rounds: usize,
+    done: usize,
+    total: usize,
+    progress: P,
+}
+
+impl<P: FnMut(usize, usize, &str)> Search<P> {
+    fn new(name: &str, def: &WorldDef, options: &TuneOptions, progress: P) -> Search<P> {
+        let scene = bench_scene(name, def, options.steps);
+        let accuracy = Budget {
+            residual_samples: if options.metric == TuneMetric::Residual {
+                4.min((options.steps / 2) as u32)
+            } else {
+                0
+            },
+            ..scene.budget
+        };
+        let timing = Budget {
+            residual_samples: 0,
+            ..scene.budget
+        };
+        Search {
+            scene,
+            accuracy,
+            timing,
+            jobs: options.jobs.max(1),
+            rounds: options.rounds.max(1) as usize,
+            done: 0,
+            total: 0,
+            progress,
+        }
+    }
+
+    /// The accuracy runs of `settings` (the first timing of each), in order.
+    fn measure(&mut self, settings: &[Setting], pass: Pass) -> Result<Vec<Tried>, TuneError> {
+        let outcomes = run_all(
+            &self.scene,
+            settings,
+            &self.accuracy,
+            self.jobs,
+            (&mut self.done, self.total),
+            &mut self.progress,
+        )?;
+        Ok(settings
+            .iter()
+            .zip(outcomes)
+            .map(|(s, outcome)| {
+                let ms = match &outcome {
+                    Outcome::Ran(m) => m.ms_per_step,
+                    Outcome::Failed(_) => f64::NAN,
+                };
+                Tried {
+                    setting: *s,
+                    pass,
+                    outcome,
+                    samples: vec![ms],
+                    ms_per_step: ms,
+                    score: None,
+                    dropped: None,
+                }
+            })
+            .collect())
+    }
+
+    /// `n` more timing rounds over `list`, turn about (each round's runs `jobs` at
+    /// once); each setting's cost is then the median of its samples.
+    fn time_rounds(
+        &mut self,
+        tried: &mut [Tried],
+        list: &[usize],
+        n: usize,
+    ) -> Result<(), TuneError> {
+        let settings: Vec<Setting> = list.iter().map(|&i| tried[i].setting).collect();
+        for _ in 0..n {
+            let outcomes = run_all(
+                &self.scene,
+                &settings,
+                &self.timing,
+                self.jobs,
+                (&mut self.done, self.total),
+                &mut self.progress,
+            )?;
+            for (&i, outcome) in list.iter().zip(outcomes) {
+                if let Outcome::Ran(m) = outcome {
+                    tried[i].samples.push(m.ms_per_step);
+                }
+            }
+        }
+        for t in tried.iter_mut() {
+            t.ms_per_step = median(&t.samples);
+        }
+        Ok(())
+    }
+
+    /// The fine pass's settings and their accuracy runs, appended to `tried`: around
+    /// each solver kind's most accurate setting that fits (by its cost so far), so that
+    /// a kind just behind on the grid can still win between its grid points. Settings
+    /// of equal score (they ran alike, such as PGS with and without split impulse on a
+    /// scene where it never acts) are parted by grid order, not by cost: which
+    /// neighbours are tried does not hang on timing noise, or on which machine timed a
+    /// shard.
+    fn fine_pass(
+        &mut self,
+        tried: &mut Vec<Tried>,
+        options: &TuneOptions,
+        flags: SceneFlags,
+    ) -> Result<(), TuneError> {
+        score_all(tried, options, flags);
+        let mut fine: Vec<Setting> = Vec::new();
+        for kind in SolverKind::ALL {
+            let of_kind: Vec<Tried> = tried
+                .iter()
+                .filter(|t| t.setting.kind == kind)
+                .cloned()
+                .collect();
+            if let Some(best) = seed_within(&of_kind, options.budget_ms) {
+                for s in fine_candidates(&of_kind[best].setting) {
+                    if !tried.iter().any(|t| t.setting == s) && !fine.contains(&s) {
+                        fine.push(s);
+                    }
+                }
+            }
+        }
+        self.total += fine.len() * self.rounds;
+        let measured = self.measure(&fine, Pass::Fine)?;
+        tried.extend(measured);
+        Ok(())
+    }
+
+    /// The timing rounds the pick depends on, then the pick: the settings whose cost
+    /// is within [`EDGE`] of the budget get as many rounds again; then the scores, the
+    /// pick, the cheapest close one and the front.
+    fn conclude(
+        &mut self,
+        name: &str,
+        options: &TuneOptions,
+        flags: SceneFlags,
+        mut tried: Vec<Tried>,
+        shards: Option<CoarseShards>,
+    ) -> Result<TuneReport, TuneError> {
+        // the settings whose cost is within EDGE of the budget decide the pick by a
+        // noisy margin: they get as many rounds again
+        let edge: Vec<usize> = contenders(&tried, options.budget_ms, 0..tried.len())
+            .into_iter()
+            .filter(|&i| (tried[i].ms_per_step / options.budget_ms - 1.0).abs() <= EDGE)
+            .collect();
+        self.total += edge.len() * self.rounds;
+        self.time_rounds(&mut tried, &edge, self.rounds)?;
+        let (applies, normalisers) = score_all(&mut tried, options, flags);
+        let stable: Vec<usize> = (0..tried.len())
+            .filter(|&i| tried[i].score.is_some())
+            .collect();
+        if stable.is_empty() {
+            return Err(TuneError::NothingStable);
+        }
+        let pick = best_within(&tried, options.budget_ms);
+        let Some(pick) = pick else {
+            let cheapest = stable
+                .iter()
+                .copied()
+                .min_by(|&a, &b| tried[a].ms_per_step.total_cmp(&tried[b].ms_per_step))
+                .expect("not empty");
+            return Err(TuneError::OverBudget {
+                cheapest: tried[cheapest].setting.label(),
+                ms: tried[cheapest].ms_per_step,
+            });
+        };
+        let limit = tried[pick].score.unwrap_or(0.0) * 1.1;
+        let cheapest_close = stable
+            .iter()
+            .copied()
+            .filter(|&i| tried[i].score.is_some_and(|s| s <= limit))
+            .min_by(|&a, &b| {
+                tried[a]
+                    .ms_per_step
+                    .total_cmp(&tried[b].ms_per_step)
+                    .then(a.cmp(&b))
+            });
+        let pareto = pareto_front(&tried);
+        Ok(TuneReport {
+            scene: name.to_string(),
+            options: *options,
+            tried,
+            applies,
+            normalisers,
+            pick: Some(pick),
+            cheapest_close,
+            pareto,
+            shards,
+        })
+    }
+}
+
+/// The settings among `range` still in contention for timing rounds: stable, and whose
+/// first timing is within twice the budget.
+fn contenders(tried: &[Tried], budget_ms: f64, range: std::ops::Range<usize>) -> Vec<usize> {
+    range
+        .filter(|&i| {
+            tried[i].measured().is_some_and(|m| m.verdict.is_stable())
+                && tried[i].samples[0] <= 2.0 * budget_ms
+        })
+        .collect()
+}
+
 /// Runs the search. `progress(done, total, what)` after each run (the total grows when
 /// the fine pass and the timing rounds are known). Stops between runs when
 /// [`crate::output::interrupted`] says so.
@@ -378,163 +606,85 @@ pub fn tune(
     name: &str,
     def: &WorldDef,
     options: &TuneOptions,
-    mut progress: impl FnMut(usize, usize, &str),
+    progress: impl FnMut(usize, usize, &str),
 ) -> Result<TuneReport, TuneError> {
-    let scene = bench_scene(name, def, options.steps);
     let flags = SceneFlags::of(def);
-    let accuracy_budget = Budget {
-        residual_samples: if options.metric == TuneMetric::Residual {
-            4.min((options.steps / 2) as u32)
-        } else {
-            0
-        },
-        ..scene.budget
-    };
+    let mut s = Search::new(name, def, options, progress);
     let coarse = super::settings_grid();
-    let rounds = options.rounds.max(1) as usize;
-    let mut total = coarse.len() * rounds;
-    let mut done = 0usize;
-    let mut tried: Vec<Tried> = Vec::new();
-    let jobs = options.jobs.max(1);
-    // the accuracy runs of `settings`, `jobs` at once, pushed to `tried` in order
-    let mut measure = |settings: &[Setting], pass: Pass, tried: &mut Vec<Tried>, total: usize| {
-        let outcomes = run_all(
-            &scene,
-            settings,
-            &accuracy_budget,
-            jobs,
-            (&mut done, total),
-            &mut progress,
-        )?;
-        for (s, outcome) in settings.iter().zip(outcomes) {
-            let ms = match &outcome {
-                Outcome::Ran(m) => m.ms_per_step,
-                Outcome::Failed(_) => f64::NAN,
-            };
-            tried.push(Tried {
-                setting: *s,
-                pass,
-                outcome,
-                samples: vec![ms],
-                ms_per_step: ms,
-                score: None,
-                dropped: None,
-            });
-        }
-        Ok(())
-    };
-    measure(&coarse, Pass::Coarse, &mut tried, total)?;
-    // the fine pass: around each solver kind's best coarse setting that fits (on its
-    // first timing), so that a kind just behind on the grid can still win between its
-    // grid points
-    score_all(&mut tried, options, flags);
-    let mut fine: Vec<Setting> = Vec::new();
-    for kind in SolverKind::ALL {
-        let of_kind: Vec<Tried> = tried
-            .iter()
-            .filter(|t| t.setting.kind == kind)
-            .cloned()
-            .collect();
-        if let Some(best) = best_within(&of_kind, options.budget_ms) {
-            for s in fine_candidates(&of_kind[best].setting) {
-                if !tried.iter().any(|t| t.setting == s) && !fine.contains(&s) {
-                    fine.push(s);
-                }
-            }
-        }
-    }
-    total += fine.len() * rounds;
-    measure(&fine, Pass::Fine, &mut tried, total)?;
+    s.total = coarse.len() * s.rounds;
+    let mut tried = s.measure(&coarse, Pass::Coarse)?;
+    s.fine_pass(&mut tried, options, flags)?;
     // timing rounds, turn about, over every stable setting that could still fit
-    let contenders: Vec<usize> = (0..tried.len())
-        .filter(|&i| {
-            tried[i].measured().is_some_and(|m| m.verdict.is_stable())
-                && tried[i].samples[0] <= 2.0 * options.budget_ms
-        })
-        .collect();
-    let timing = Budget {
-        residual_samples: 0,
-        ..scene.budget
-    };
-    // `n` more rounds over `list`, turn about (each round's runs `jobs` at once)
-    let mut time_rounds =
-        |list: &[usize], n: usize, tried: &mut Vec<Tried>, done: &mut usize, total: usize| {
-            let settings: Vec<Setting> = list.iter().map(|&i| tried[i].setting).collect();
-            for _ in 0..n {
-                let outcomes = run_all(
-                    &scene,
-                    &settings,
-                    &timing,
-                    jobs,
-                    (done, total),
-                    &mut progress,
-                )?;
-                for (&i, outcome) in list.iter().zip(outcomes) {
-                    if let Outcome::Ran(m) = outcome {
-                        tried[i].samples.push(m.ms_per_step);
-                    }
-                }
+    let all = contenders(&tried, options.budget_ms, 0..tried.len());
+    s.total = s.done + all.len() * (s.rounds - 1);
+    s.time_rounds(&mut tried, &all, s.rounds - 1)?;
+    s.conclude(name, options, flags, tried, None)
+}
+
+/// One shard of the search's coarse pass (`tune --shard`): the grid's settings whose
+/// index is `shard.index - 1` modulo `shard.count`, each's accuracy run, then the
+/// timing rounds, turn about, over those still in contention (as [`tune`] times them).
+/// Gives (index in the grid, setting as measured), in grid order.
+pub fn tune_shard(
+    name: &str,
+    def: &WorldDef,
+    options: &TuneOptions,
+    shard: Shard,
+    progress: impl FnMut(usize, usize, &str),
+) -> Result<Vec<(usize, Tried)>, TuneError> {
+    let mut s = Search::new(name, def, options, progress);
+    let grid = super::settings_grid();
+    let picked = shard.indices(grid.len());
+    let settings: Vec<Setting> = picked.iter().map(|&i| grid[i]).collect();
+    s.total = settings.len() * s.rounds;
+    let mut tried = s.measure(&settings, Pass::Coarse)?;
+    let list = contenders(&tried, options.budget_ms, 0..tried.len());
+    s.total = s.done + list.len() * (s.rounds - 1);
+    s.time_rounds(&mut tried, &list, s.rounds - 1)?;
+    Ok(picked.into_iter().zip(tried).collect())
+}
+
+/// The rest of the search once the shards of its coarse pass are merged (`tune
+/// --merge`): `coarse` is every grid setting, in grid order, as its shard measured and
+/// timed it. Runs the fine pass and its timing rounds, then the rounds the pick depends
+/// on (within [`EDGE`] of the budget), here, and picks as [`tune`] does.
+pub fn tune_merged(
+    name: &str,
+    def: &WorldDef,
+    options: &TuneOptions,
+    coarse: Vec<Tried>,
+    shards: CoarseShards,
+    progress: impl FnMut(usize, usize, &str),
+) -> Result<TuneReport, TuneError> {
+    let flags = SceneFlags::of(def);
+    let mut s = Search::new(name, def, options, progress);
+    let mut tried = coarse;
+    for t in &mut tried {
+        t.ms_per_step = median(&t.samples);
+    }
+    let first_fine = tried.len();
+    s.fine_pass(&mut tried, options, flags)?;
+    let fine = contenders(&tried, options.budget_ms, first_fine..tried.len());
+    s.total = s.done + fine.len() * (s.rounds - 1);
+    s.time_rounds(&mut tried, &fine, s.rounds - 1)?;
+    s.conclude(name, options, flags, tried, Some(shards))
+}
+
+/// A digest of the scene as `tune` runs it (every value of its description, bit for
+/// bit): the shards of one search and its merge must run the same scene.
+pub fn scene_digest(def: &WorldDef) -> String {
+    struct Fnv(u64);
+    impl std::fmt::Write for Fnv {
+        fn write_str(&mut self, s: &str) -> std::fmt::Result {
+            for b in s.bytes() {
+                self.0 = (self.0 ^ u64::from(b)).wrapping_mul(0x100_0000_01b3);
             }
             Ok(())
-        };
-    total = done + contenders.len() * (rounds - 1);
-    time_rounds(&contenders, rounds - 1, &mut tried, &mut done, total)?;
-    for t in &mut tried {
-        t.ms_per_step = median(&t.samples);
+        }
     }
-    // the settings whose cost is within EDGE of the budget decide the pick by a noisy
-    // margin: they get as many rounds again
-    let edge: Vec<usize> = contenders
-        .iter()
-        .copied()
-        .filter(|&i| (tried[i].ms_per_step / options.budget_ms - 1.0).abs() <= EDGE)
-        .collect();
-    total += edge.len() * rounds;
-    time_rounds(&edge, rounds, &mut tried, &mut done, total)?;
-    for t in &mut tried {
-        t.ms_per_step = median(&t.samples);
-    }
-    let (applies, normalisers) = score_all(&mut tried, options, flags);
-    let stable: Vec<usize> = (0..tried.len())
-        .filter(|&i| tried[i].score.is_some())
-        .collect();
-    if stable.is_empty() {
-        return Err(TuneError::NothingStable);
-    }
-    let pick = best_within(&tried, options.budget_ms);
-    let Some(pick) = pick else {
-        let cheapest = stable
-            .iter()
-            .copied()
-            .min_by(|&a, &b| tried[a].ms_per_step.total_cmp(&tried[b].ms_per_step))
-            .expect("not empty");
-        return Err(TuneError::OverBudget {
-            cheapest: tried[cheapest].setting.label(),
-            ms: tried[cheapest].ms_per_step,
-        });
-    };
-    let limit = tried[pick].score.unwrap_or(0.0) * 1.1;
-    let cheapest_close = stable
-        .iter()
-        .copied()
-        .filter(|&i| tried[i].score.is_some_and(|s| s <= limit))
-        .min_by(|&a, &b| {
-            tried[a]
-                .ms_per_step
-                .total_cmp(&tried[b].ms_per_step)
-                .then(a.cmp(&b))
-        });
-    let pareto = pareto_front(&tried);
-    Ok(TuneReport {
-        scene: name.to_string(),
-        options: *options,
-        tried,
-        applies,
-        normalisers,
-        pick: Some(pick),
-        cheapest_close,
-        pareto,
-    })
+    let mut h = Fnv(0xcbf2_9ce4_8422_2325);
+    let _ = std::fmt::Write::write_fmt(&mut h, format_args!("{def:?}"));
+    format!("{:016x}", h.0)
 }
 
 /// Runs every setting of `settings` on `scene`, `jobs` at once, counting each into
@@ -563,6 +713,17 @@ fn run_all(
         return Err(TuneError::Interrupted);
     }
     Ok(outcomes.into_iter().map(|o| o.expect("complete")).collect())
+}
+
+/// The most accurate stable setting whose cost fits (ties: the earlier), for the fine
+/// pass to search around.
+fn seed_within(tried: &[Tried], budget_ms: f64) -> Option<usize> {
+    (0..tried.len())
+        .filter(|&i| tried[i].score.is_some() && tried[i].ms_per_step <= budget_ms)
+        .min_by(|&a, &b| {
+            let (sa, sb) = (tried[a].score.unwrap_or(0.0), tried[b].score.unwrap_or(0.0));
+            sa.total_cmp(&sb).then(a.cmp(&b))
+        })
 }
 
 /// The most accurate stable setting whose cost fits (ties: the cheaper, then the
@@ -844,6 +1005,17 @@ pub fn markdown(report: &TuneReport) -> String {
             o.jobs, o.jobs
         ));
     }
+    if let Some(sh) = &report.shards {
+        s.push_str(&format!(
+            "The grid's settings ran in {} shards (`--shard`{}) and were timed there; the \
+             fine pass, and the rounds of the settings near the budget, ran in the merge. \
+             Costs taken on different machines compare only as far as the machines are alike.\n\n",
+            sh.count,
+            sh.run
+                .as_ref()
+                .map_or(String::new(), |r| format!(", run {r}"))
+        ));
+    }
     if let Some(p) = report.pick {
         s.push_str(&format!(
             "- most accurate within the budget: {}\n",
@@ -981,6 +1153,8 @@ pub fn json(report: &TuneReport) -> serde_json::Value {
         "pick": at(report.pick),
         "cheapest_within_10_percent": at(report.cheapest_close),
         "solver_table": report.pick.map(|p| solver_table(&report.tried[p].setting)),
+        "shards": report.shards.as_ref().map(|s| s.count),
+        "run": report.shards.as_ref().and_then(|s| s.run.clone()),
         "tried": tried,
     })
 }
