@@ -184,6 +184,7 @@ enum SuiteArg {
     Extremes,
     Scaling,
     Contention,
+    Convergence,
 }
 
 #[derive(Args)]
@@ -195,7 +196,9 @@ struct BenchArgs {
     /// (--threads does not apply) and refuses --jobs and --shard), contention (the large
     /// pyramid and many pyramids on 1 and 2 threads, idle and beside a busy process the
     /// suite starts and stops: contention.csv, contention.md; a few minutes; as scaling,
-    /// it sets its own threads and refuses --jobs and --shard).
+    /// it sets its own threads and refuses --jobs and --shard), convergence (each
+    /// solver's order of accuracy on the closed-form scenes: convergence.csv,
+    /// convergence.md and convergence.svg; seconds; refuses --jobs and --shard).
     #[arg(long, value_enum, default_value = "quick")]
     suite: SuiteArg,
     /// Directory for the results (created if missing).
@@ -1654,6 +1657,7 @@ fn bench(a: &BenchArgs) -> Result<(), Failure> {
         SuiteArg::Extremes => Suite::Extremes,
         SuiteArg::Scaling => return bench_scaling(a, part.is_some()),
         SuiteArg::Contention => return bench_contention(a, part.is_some()),
+        SuiteArg::Convergence => return bench_convergence(a, part.is_some()),
     };
     let filter = a.filter.clone();
     let key = shard::RunKey {
@@ -1995,6 +1999,66 @@ fn busy_loop() -> Result<(), Failure> {
             return Ok(());
         }
     }
+}
+
+/// `bench --suite convergence`: every solver at halving steps on the closed-form
+/// scenes, then convergence.csv, convergence.md and convergence.svg.
+fn bench_convergence(a: &BenchArgs, sharded: bool) -> Result<(), Failure> {
+    use sandbox2d::bench::convergence;
+    if sharded || a.jobs != 1 {
+        return Err(Failure::input(
+            "--suite convergence runs in seconds on one thread: --jobs and --shard do not apply",
+        ));
+    }
+    let scenes = convergence::scenes(a.filter.as_deref());
+    if scenes.is_empty() {
+        return Err(Failure::input(format!(
+            "--filter {:?} matches no scene of the convergence suite (projectile_drag, pendulum, spring, rolling_disk, sliding_box)",
+            a.filter.clone().unwrap_or_default()
+        )));
+    }
+    writable_dir(&a.out)?;
+    GRACEFUL.store(true, Ordering::Relaxed);
+    let bar = bench_progress(scenes.len() * SolverKind::ALL.len());
+    let series = convergence::run_all(&scenes, |done, _, what| {
+        bar.set_position(done as u64);
+        bar.set_message(what.to_string());
+    });
+    bar.finish_and_clear();
+    let series = match series {
+        Ok(s) => s,
+        Err(_) if output::interrupted() => {
+            return Err(Failure::interrupted("interrupted: nothing was written"));
+        }
+        Err(e) => return Err(Failure::run(e)),
+    };
+    let mut command = String::from("sandbox2d bench --suite convergence");
+    if let Some(f) = &a.filter {
+        command.push_str(&format!(" --filter {f}"));
+    }
+    command.push_str(&format!(" --out {}", a.out.display()));
+    write_file(
+        &a.out.join("convergence.svg"),
+        &convergence::svg(&series).map_err(Failure::run)?,
+    )?;
+    write_file(&a.out.join("convergence.csv"), &convergence::csv(&series))?;
+    write_file(
+        &a.out.join("convergence.md"),
+        &convergence::markdown(&series, &command),
+    )?;
+    println!(
+        "wrote {}: convergence.csv, convergence.md and convergence.svg",
+        a.out.display()
+    );
+    for x in &series {
+        println!(
+            "{:<16} {:<10} order {}",
+            x.scene,
+            x.kind.name(),
+            x.fit.map_or("-".to_string(), |f| format!("{:.2}", f.order))
+        );
+    }
+    Ok(())
 }
 
 /// Writes stability.md (the extremes suite's report) into `out`.

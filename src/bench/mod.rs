@@ -14,12 +14,14 @@
 //! [`scaling`] times the benchmark pyramid from 1k to 80k boxes on 1 and 2 threads.
 
 pub mod contention;
+pub mod convergence;
 pub mod extremes;
 pub mod plot;
 pub mod report;
 pub mod scaling;
 pub mod scenes;
 pub mod shard;
+pub mod truth;
 pub mod tune;
 
 use std::time::Instant;
