@@ -235,9 +235,24 @@ struct BenchArgs {
         long,
         value_name = "FILE_OR_DIR",
         num_args = 1..,
-        conflicts_with_all = ["suite", "filter", "steps", "repeats", "jobs", "shard"]
+        conflicts_with_all = ["suite", "filter", "steps", "repeats", "jobs", "shard", "metric"]
     )]
     merge: Vec<PathBuf>,
+    /// Also measure this error, made each scene's plotted measure: trajectory, the RMS
+    /// and worst distance (and angle) of the bodies from their true motion over the run,
+    /// against the scene's closed form or a reference run at a 16th of its step with
+    /// converged solves (each scene's reference is named in results.md; scenes whose
+    /// motion is chaotic over the run are not measured, and say so). Quick and standard
+    /// suites only, not sharded.
+    #[arg(long, value_enum, value_name = "ERROR")]
+    metric: Option<BenchMetricArg>,
+}
+
+/// The errors `bench --metric` adds.
+#[derive(Clone, Copy, ValueEnum)]
+enum BenchMetricArg {
+    /// Distance from the true motion, body by body, over the run.
+    Trajectory,
 }
 
 #[derive(Clone, Copy, ValueEnum)]
@@ -256,6 +271,10 @@ enum MetricArg {
     EnergyDrift,
     /// Distance from the converged MLCP of the same step (classic PGS only).
     Residual,
+    /// RMS distance of the bodies from their true places over the run: the scene's
+    /// closed form, else a reference run at a 16th of the step with converged solves
+    /// (refused where the motion is chaotic over the run; docs/accuracy.md).
+    Trajectory,
 }
 
 #[derive(Args)]
@@ -1651,6 +1670,16 @@ fn bench(a: &BenchArgs) -> Result<(), Failure> {
         .map(Shard::parse)
         .transpose()
         .map_err(Failure::input)?;
+    if a.metric.is_some() && !matches!(a.suite, SuiteArg::Quick | SuiteArg::Standard) {
+        return Err(Failure::input(
+            "--metric trajectory: for the quick and standard suites (the convergence suite measures against the closed forms itself)",
+        ));
+    }
+    if a.metric.is_some() && part.is_some() {
+        return Err(Failure::input(
+            "--metric trajectory does not shard: each scene's reference is worked out once, in one run",
+        ));
+    }
     let suite = match a.suite {
         SuiteArg::Quick => Suite::Quick,
         SuiteArg::Standard => Suite::Standard,
@@ -1723,7 +1752,7 @@ fn bench(a: &BenchArgs) -> Result<(), Failure> {
         steps: a.steps,
         repeats: a.repeats,
     };
-    let scenes = opts.scenes(suite);
+    let mut scenes = opts.scenes(suite);
     if scenes.is_empty() {
         return Err(Failure::input(format!(
             "--filter {:?} matches no scene of the {} suite",
@@ -1732,6 +1761,23 @@ fn bench(a: &BenchArgs) -> Result<(), Failure> {
         )));
     }
     writable_dir(&a.out)?;
+    if a.metric.is_some() {
+        GRACEFUL.store(true, Ordering::Relaxed);
+        let bar = bench_progress(scenes.len());
+        bar.set_message("the true motions (references)");
+        bench::truth::attach(
+            &mut scenes,
+            |sc| opts.budget(sc).steps,
+            |done, _, name| {
+                bar.set_position(done as u64);
+                bar.set_message(format!("truth of {name}"));
+            },
+        );
+        bar.finish_and_clear();
+        if output::interrupted() {
+            return Err(Failure::interrupted("interrupted: nothing was written"));
+        }
+    }
     let all = bench::cases(&scenes);
     let picked: Vec<usize> = match part {
         Some(p) => p.indices(all.len()),
@@ -2192,6 +2238,7 @@ fn tune(a: &TuneArgs) -> Result<(), Failure> {
         MetricArg::JointError => TuneMetric::JointError,
         MetricArg::EnergyDrift => TuneMetric::EnergyDrift,
         MetricArg::Residual => TuneMetric::Residual,
+        MetricArg::Trajectory => TuneMetric::Trajectory,
     };
     let sc = scene::load(&a.scene).map_err(Failure::input)?;
     if let Some(out) = &a.out {
@@ -2222,6 +2269,9 @@ fn tune(a: &TuneArgs) -> Result<(), Failure> {
                 "{}: interrupted; nothing was written",
                 sc.source
             )));
+        }
+        Err(e @ TuneError::NoTruth(_)) => {
+            return Err(Failure::input(format!("{}: {e}", sc.source)));
         }
         Err(e @ TuneError::OverBudget { .. }) => {
             return Err(Failure::input(format!(

@@ -42,17 +42,23 @@ pub enum TuneMetric {
     /// Relative distance of the contact impulses from the same step's MLCP solved to
     /// convergence (classic PGS with one substep only).
     Residual,
+    /// The RMS distance of the bodies from their true places over the run: the scene's
+    /// closed form when it has one, else a reference run at a 16th of its step with
+    /// converged solves ([`super::truth`]); refused for a scene whose motion is chaotic
+    /// over the run.
+    Trajectory,
 }
 
 impl TuneMetric {
     /// Every metric, in the order the command line lists them.
-    pub const ALL: [TuneMetric; 6] = [
+    pub const ALL: [TuneMetric; 7] = [
         TuneMetric::Worst,
         TuneMetric::Penetration,
         TuneMetric::Drift,
         TuneMetric::JointError,
         TuneMetric::EnergyDrift,
         TuneMetric::Residual,
+        TuneMetric::Trajectory,
     ];
 
     /// The name on the command line and in reports.
@@ -64,6 +70,7 @@ impl TuneMetric {
             TuneMetric::JointError => "joint_error",
             TuneMetric::EnergyDrift => "energy_drift",
             TuneMetric::Residual => "residual",
+            TuneMetric::Trajectory => "trajectory",
         }
     }
 
@@ -76,6 +83,7 @@ impl TuneMetric {
             TuneMetric::JointError => Some(Metric::JointError),
             TuneMetric::EnergyDrift => Some(Metric::EnergyDrift),
             TuneMetric::Residual => Some(Metric::Residual),
+            TuneMetric::Trajectory => Some(Metric::Trajectory),
         }
     }
 }
@@ -99,6 +107,7 @@ pub fn floor(m: Metric) -> f64 {
         Metric::JointError => 1e-4,
         Metric::EnergyDrift => 1e-4,
         Metric::Residual => 1e-3,
+        Metric::Trajectory => 1e-4,
     }
 }
 
@@ -211,6 +220,8 @@ pub struct TuneReport {
     pub cheapest_close: Option<usize>,
     /// The settings no other beats on both cost and error, cheapest first.
     pub pareto: Vec<usize>,
+    /// With `--metric trajectory`: the true motion the runs were compared with.
+    pub truth: Option<String>,
 }
 
 /// Why `tune` has no answer.
@@ -222,6 +233,9 @@ pub enum TuneError {
     OverBudget { cheapest: String, ms: f64 },
     /// Stopped by an interrupt before the search finished.
     Interrupted,
+    /// `--metric trajectory` on a scene with no true motion to compare with (chaotic
+    /// over the run, or a reference that could not run), and why.
+    NoTruth(String),
 }
 
 impl std::fmt::Display for TuneError {
@@ -233,6 +247,10 @@ impl std::fmt::Display for TuneError {
                 "no setting fits the budget: the cheapest stable one, {cheapest}, takes {ms:.4} ms/step"
             ),
             TuneError::Interrupted => write!(f, "interrupted before the search finished"),
+            TuneError::NoTruth(why) => write!(
+                f,
+                "--metric trajectory: no true motion to compare with: {why}"
+            ),
         }
     }
 }
@@ -258,6 +276,7 @@ pub fn bench_scene(name: &str, def: &WorldDef, steps: u64) -> BenchScene {
             residual_samples: 0,
             reference_iterations: 1000,
         },
+        truth: None,
     }
 }
 
@@ -380,7 +399,23 @@ pub fn tune(
     options: &TuneOptions,
     mut progress: impl FnMut(usize, usize, &str),
 ) -> Result<TuneReport, TuneError> {
-    let scene = bench_scene(name, def, options.steps);
+    let mut scene = bench_scene(name, def, options.steps);
+    if options.metric == TuneMetric::Trajectory {
+        progress(0, 0, "the true motion (a reference run)");
+        let truth = super::truth::Truth::for_scene(
+            def,
+            options.steps,
+            Ok(super::truth::RefSpec::CONVERGED_PGS),
+        );
+        if crate::output::interrupted() {
+            return Err(TuneError::Interrupted);
+        }
+        match truth {
+            super::truth::Truth::Unmeasured(why) => return Err(TuneError::NoTruth(why)),
+            t => scene.truth = Some(std::sync::Arc::new(t)),
+        }
+    }
+    let scene = scene;
     let flags = SceneFlags::of(def);
     let accuracy_budget = Budget {
         residual_samples: if options.metric == TuneMetric::Residual {
@@ -534,6 +569,7 @@ pub fn tune(
         pick: Some(pick),
         cheapest_close,
         pareto,
+        truth: scene.truth.as_ref().map(|t| t.describe()),
     })
 }
 
@@ -687,7 +723,10 @@ fn cell(m: &Measured, metric: Metric) -> String {
         return "-".into();
     }
     match metric {
-        Metric::PenetrationMax | Metric::PenetrationMean | Metric::JointError => {
+        Metric::PenetrationMax
+        | Metric::PenetrationMean
+        | Metric::JointError
+        | Metric::Trajectory => {
             format!("{:.2} mm", v * 1e3)
         }
         Metric::Drift => format!("{v:.3} m"),
@@ -800,6 +839,15 @@ pub fn metric_line(report: &TuneReport) -> String {
                 .collect::<Vec<_>>()
                 .join(", ")
         ),
+        TuneMetric::Trajectory => format!(
+            "score = trajectory: the RMS distance of the bodies from their true places over the run (smaller is better), against the {}",
+            report
+                .truth
+                .as_deref()
+                .unwrap_or("true motion")
+                .trim_start_matches("closed form: ")
+                .trim_start_matches("reference run: ")
+        ),
         m => format!("score = {} (smaller is better)", m.name()),
     }
 }
@@ -810,6 +858,7 @@ fn short_value(m: Metric, v: f64) -> String {
             format!("{:.2} mm", v * 1e3)
         }
         Metric::Drift => format!("{v:.3} m"),
+        Metric::Trajectory => format!("{:.2} mm", v * 1e3),
         _ => format!("{v:.1e}"),
     }
 }
@@ -977,6 +1026,7 @@ pub fn json(report: &TuneReport) -> serde_json::Value {
         "rounds": report.options.rounds,
         "jobs": report.options.jobs,
         "metric": report.options.metric.name(),
+        "truth": report.truth,
         "normalisers": report.normalisers.iter().map(|(m, n)| serde_json::json!({"measure": m.name(), "value": n})).collect::<Vec<_>>(),
         "pick": at(report.pick),
         "cheapest_within_10_percent": at(report.cheapest_close),
@@ -1134,6 +1184,7 @@ mod tests {
             joint_error: f64::NAN,
             energy_drift: f64::NAN,
             residual: f64::NAN,
+            trajectory: None,
             verdict: if stable {
                 Verdict::Stable
             } else {
