@@ -220,16 +220,17 @@ impl<I: Clone> Timeline<I> {
     }
 
     fn push(&mut self, world: &World, pinned: bool) {
-        // the size first, so that a world too large is never copied
+        // the size first, so that a world too large is never copied; two keyframes must
+        // fit, or going back would mean stepping again from ever further back
         let bytes = world.state_bytes();
-        if bytes > self.budget {
+        if bytes > self.budget / 2 {
             self.keyframes.clear();
             self.inputs.clear();
             self.bytes = 0;
             self.newest = 0;
             self.at = None;
             self.off = Some(format!(
-                "one state takes {}, over the bound of {}",
+                "one state takes {}, over half the bound of {} (two must fit)",
                 mib(bytes),
                 mib(self.budget)
             ));
@@ -249,8 +250,9 @@ impl<I: Clone> Timeline<I> {
     }
 
     /// Keeps the horizon and the memory bound: old keyframes go once a later one
-    /// covers the horizon; over the bound, the stride doubles and the keyframes off it
-    /// go; pinned ones alone over it, the oldest go.
+    /// covers the horizon; over the bound, the stride doubles (up to the horizon: going
+    /// back never steps more than that again) and the keyframes off it go; when that
+    /// cannot help (pinned keyframes, or the stride at the horizon), the oldest go.
     fn trim(&mut self) {
         let cutoff = self.newest.saturating_sub(self.horizon);
         while self.keyframes.len() > 1 && self.keyframes[1].step <= cutoff {
@@ -258,6 +260,11 @@ impl<I: Clone> Timeline<I> {
             self.bytes -= k.bytes;
         }
         while self.bytes > self.budget && self.keyframes.len() > 1 {
+            if self.stride * 2 > self.horizon {
+                let k = self.keyframes.pop_front().expect("more than one");
+                self.bytes -= k.bytes;
+                continue;
+            }
             let stride = self.stride * 2;
             let before = self.keyframes.len();
             // the newest keyframe stays whatever its step (it is where the run goes on)
@@ -624,6 +631,30 @@ mod tests {
     }
 
     #[test]
+    fn a_bound_of_few_states_keeps_going_back_within_the_horizon() {
+        // room for 3 states: the stride stops doubling at the horizon (40 steps), and
+        // then the oldest keyframe goes; what is reachable stays near the newest
+        let mut w = pyramid(SolverKind::Soft);
+        let one = w.state_bytes();
+        let mut t: Timeline<f32> = Timeline::new(40, 3 * one + one / 2);
+        let mut hashes = std::collections::HashMap::new();
+        for s in 1..=200u64 {
+            t.before_step(&w);
+            push(&mut w, &input_at(s)).unwrap();
+            t.after_step(&w, input_at(s));
+            hashes.insert(s, w.state_hash());
+            assert!(t.memory().0 <= t.memory().1 + 64 * 1024);
+        }
+        assert!(t.stride() <= 40, "stride {}", t.stride());
+        let oldest = t.oldest().unwrap();
+        assert!((120..=160).contains(&oldest), "oldest {oldest}");
+        for k in [oldest, 199, 170] {
+            t.seek(&mut w, k, push).unwrap();
+            assert_eq!(w.state_hash(), hashes[&k], "step {k}");
+        }
+    }
+
+    #[test]
     fn the_horizon_drops_old_steps_and_an_edit_pins_a_keyframe() {
         let mut w = pyramid(SolverKind::Xpbd);
         let mut t: Timeline<f32> = Timeline::new(20, usize::MAX);
@@ -666,7 +697,11 @@ mod tests {
         let mut t: Timeline<()> = Timeline::new(100, 1000);
         t.before_step(&w);
         assert_eq!(t.keyframes(), 0);
-        assert!(t.off().unwrap().contains("over the bound"), "{:?}", t.off());
+        assert!(
+            t.off().unwrap().contains("over half the bound"),
+            "{:?}",
+            t.off()
+        );
     }
 
     #[test]

@@ -3,10 +3,10 @@
 //! Every scene here has a closed form ([`super::truth::Exact`]): a projectile with
 //! linear drag, the pendulum at 90 degrees, a mass on a spring, and two contact scenes,
 //! a disk rolling down a ramp and a box sliding to rest. Each solver runs each scene
-//! for [`HORIZON`] seconds at dt = 1/30 s, then halved [`LEVELS`] - 1 times (its
+//! for [`HORIZON`] seconds at dt = [`DT0`] (1/15 s), then halved [`LEVELS`] - 1 times (its
 //! substeps and sweeps per step kept, so each halving doubles the work), and the error
 //! is the worst distance of a body from its exact place at the times every level
-//! shares (every 1/30 s). If the error behaves as C dt^p, ln error against ln dt is a
+//! shares (every DT0). If the error behaves as C dt^p, ln error against ln dt is a
 //! line of slope p: [`fit`] takes the least-squares slope over the levels whose error
 //! is well above what f32's rounding of the positions alone can add up to
 //! ([`Level::rounding`]: below it, the rounding is what is measured, not the method).
@@ -322,8 +322,10 @@ fn order_text(f: Option<Fit>) -> String {
 /// convergence.md: the orders by scene and solver, then each series' levels.
 pub fn markdown(series: &[Series], command: &str) -> String {
     let mut s = format!(
-        "# Order of accuracy\n\nEach solver at its own defaults (substeps and sweeps per step kept), dt = 1/30 s halved {} times, {HORIZON} s per run; the error is the worst distance of a body from its exact place at the times every level shares (every 1/30 s). The order is the least-squares slope of ln error against ln dt over the levels whose error is above {ROUNDING_MARGIN} times what f32's rounding alone can add up to there (each position update half an ulp of the largest coordinate, each velocity update half an ulp of the largest speed times half the horizon; the levels left out are in brackets). Produced by `{command}`; `docs/accuracy.md` says what the orders mean.\n\n",
-        LEVELS - 1
+        "# Order of accuracy\n\nEach solver at its own defaults (substeps and sweeps per step kept), dt = 1/{:.0} s halved {} times, {HORIZON} s per run; the error is the worst distance of a body from its exact place at the times every level shares (every 1/{:.0} s). The order is the least-squares slope of ln error against ln dt over the levels whose error is above what f32's rounding alone can add up to there (each position update half an ulp of the largest coordinate, each velocity update half an ulp of the largest speed times half the horizon; the levels left out are in brackets). Produced by `{command}`; `docs/accuracy.md` says what the orders mean.\n\n",
+        1.0 / DT0,
+        LEVELS - 1,
+        1.0 / DT0
     );
     let mut names: Vec<&str> = series.iter().map(|x| x.scene.as_str()).collect();
     names.dedup();
@@ -351,8 +353,9 @@ pub fn markdown(series: &[Series], command: &str) -> String {
     for name in &names {
         let first = series.iter().find(|x| x.scene == *name);
         s.push_str(&format!(
-            "\n## {name}\n\n{}.\n\n| solver | settings | order | fitted levels | scatter | errors (m) from dt = 1/30 down | slopes between levels |\n|---|---|---|---|---|---|---|\n",
-            first.map_or("", |x| x.exact.as_str())
+            "\n## {name}\n\n{}.\n\n| solver | settings | order | fitted levels | scatter | errors (m) from dt = 1/{:.0} s down | slopes between levels |\n|---|---|---|---|---|---|---|\n",
+            first.map_or("", |x| x.exact.as_str()),
+            1.0 / DT0
         ));
         for x in series.iter().filter(|x| x.scene == *name) {
             let errs: Vec<String> = x
