@@ -33,6 +33,7 @@ pub mod shape;
 pub mod sim;
 pub mod solver;
 pub mod step;
+pub mod timeline;
 pub mod world;
 
 #[cfg(feature = "render")]

@@ -121,6 +121,15 @@ struct RenderArgs {
     /// "--solver soft"; the panes share --size's width.
     #[arg(long, value_name = "SETTINGS", allow_hyphen_values = true)]
     compare: Vec<String>,
+    /// Start at step K: of the run saved in --run (stepped again under the run's own
+    /// settings), or of the scene run K steps under this command line's solver flags.
+    /// With --compare every pane starts from that same world and goes on with its own
+    /// settings (a branch at step K); frame 0 is step K.
+    #[arg(long, value_name = "K")]
+    from_step: Option<u64>,
+    /// A run saved by `simulate --save-run`, to start from its step --from-step.
+    #[arg(long, value_name = "FILE", requires = "from_step")]
+    run: Option<PathBuf>,
     #[command(flatten)]
     solver: SolverFlags,
 }
@@ -175,6 +184,7 @@ enum SuiteArg {
     Extremes,
     Scaling,
     Contention,
+    Convergence,
 }
 
 #[derive(Args)]
@@ -186,7 +196,9 @@ struct BenchArgs {
     /// (--threads does not apply) and refuses --jobs and --shard), contention (the large
     /// pyramid and many pyramids on 1 and 2 threads, idle and beside a busy process the
     /// suite starts and stops: contention.csv, contention.md; a few minutes; as scaling,
-    /// it sets its own threads and refuses --jobs and --shard).
+    /// it sets its own threads and refuses --jobs and --shard), convergence (each
+    /// solver's order of accuracy on the closed-form scenes: convergence.csv,
+    /// convergence.md and convergence.svg; seconds; refuses --jobs and --shard).
     #[arg(long, value_enum, default_value = "quick")]
     suite: SuiteArg,
     /// Directory for the results (created if missing).
@@ -229,9 +241,24 @@ struct BenchArgs {
         long,
         value_name = "FILE_OR_DIR",
         num_args = 1..,
-        conflicts_with_all = ["suite", "filter", "steps", "repeats", "jobs", "shard"]
+        conflicts_with_all = ["suite", "filter", "steps", "repeats", "jobs", "shard", "metric"]
     )]
     merge: Vec<PathBuf>,
+    /// Also measure this error, made each scene's plotted measure: trajectory, the RMS
+    /// and worst distance (and angle) of the bodies from their true motion over the run,
+    /// against the scene's closed form or a reference run at a 16th of its step with
+    /// converged solves (each scene's reference is named in results.md; scenes whose
+    /// motion is chaotic over the run are not measured, and say so). Quick and standard
+    /// suites only, not sharded.
+    #[arg(long, value_enum, value_name = "ERROR")]
+    metric: Option<BenchMetricArg>,
+}
+
+/// The errors `bench --metric` adds.
+#[derive(Clone, Copy, ValueEnum)]
+enum BenchMetricArg {
+    /// Distance from the true motion, body by body, over the run.
+    Trajectory,
 }
 
 #[derive(Clone, Copy, ValueEnum)]
@@ -250,6 +277,10 @@ enum MetricArg {
     EnergyDrift,
     /// Distance from the converged MLCP of the same step (classic PGS only).
     Residual,
+    /// RMS distance of the bodies from their true places over the run: the scene's
+    /// closed form, else a reference run at a 16th of the step with converged solves
+    /// (refused where the motion is chaotic over the run; docs/accuracy.md).
+    Trajectory,
 }
 
 #[derive(Args)]
@@ -505,8 +536,26 @@ struct SimulateArgs {
     save_state: Option<PathBuf>,
     /// Start from a state written by --save-state from the same scene, and run --steps
     /// more steps; the run continues bit-identically when the solver flags are the same.
-    #[arg(long, value_name = "FILE")]
+    #[arg(long, value_name = "FILE", conflicts_with = "run")]
     load_state: Option<PathBuf>,
+    /// Save the run to this file (JSON, written whole or not at all): its first state,
+    /// a keyframe every --keyframes-every steps and the state hash after the last step,
+    /// so that --run FILE --from-step K can start at any of its steps (docs/timeline.md).
+    #[arg(long, value_name = "FILE")]
+    save_run: Option<PathBuf>,
+    /// With --save-run: steps between keyframes (going to a step re-steps at most this
+    /// many; each keyframe is a whole state).
+    #[arg(long, value_name = "N", default_value_t = 60)]
+    keyframes_every: u64,
+    /// A run saved by --save-run from the same scene, to start from its step --from-step.
+    #[arg(long, value_name = "FILE", requires = "from_step")]
+    run: Option<PathBuf>,
+    /// With --run: start at this step of the saved run (stepped again from its last
+    /// keyframe before it under the run's own settings, bit for bit), then run --steps
+    /// more steps under this command line's settings: the same as the saved run when
+    /// they are the run's, a branch at step K when they are not.
+    #[arg(long, value_name = "K", requires = "run")]
+    from_step: Option<u64>,
     #[command(flatten)]
     solver: SolverFlags,
 }
@@ -694,6 +743,10 @@ fn default_command() -> Result<(), Failure> {
         events: None,
         save_state: None,
         load_state: None,
+        save_run: None,
+        keyframes_every: 60,
+        run: None,
+        from_step: None,
         solver: SolverFlags::default(),
     })
 }
@@ -786,6 +839,9 @@ fn simulate(a: &SimulateArgs) -> Result<(), Failure> {
     if a.trace_every == 0 {
         return Err(Failure::input("--trace-every must be at least 1"));
     }
+    if a.keyframes_every == 0 {
+        return Err(Failure::input("--keyframes-every must be at least 1"));
+    }
     {
         let file = scene_file(&a.scene);
         let mut inputs: Vec<(&str, &Path)> =
@@ -799,6 +855,18 @@ fn simulate(a: &SimulateArgs) -> Result<(), Failure> {
         }
         if let Some(p) = &a.save_state {
             outputs.push(("--save-state", p));
+        }
+        if let Some(p) = &a.save_run {
+            outputs.push(("--save-run", p));
+        }
+        // the run is read before this one starts, so --save-run may name it
+        if let Some(p) = &a.run
+            && !a
+                .save_run
+                .as_deref()
+                .is_some_and(|q| output::same_file(p, q))
+        {
+            inputs.push(("--run", p));
         }
         // the state is read before the run, so --save-state may name the same file
         if let Some(p) = &a.load_state
@@ -814,6 +882,18 @@ fn simulate(a: &SimulateArgs) -> Result<(), Failure> {
     let (sc, mut world, settings) = build(&a.scene, &a.solver)?;
     if let Some(p) = &a.load_state {
         load_state(p, &sc, &mut world, &settings)?;
+    }
+    if let (Some(p), Some(k)) = (&a.run, a.from_step) {
+        let at = load_run(p, &sc, &world)?
+            .1
+            .world_at(k)
+            .map_err(|e| run_file_failure(p, e))?;
+        let state = at.snapshot();
+        world
+            .restore(&state)
+            .map_err(|e| Failure::run(format!("{}: {e}", p.display())))?;
+        settings_note(&p.display().to_string(), &state.settings, &settings);
+        world.settings = settings;
     }
     if a.events.is_some() {
         world.record_events = true;
@@ -847,6 +927,14 @@ fn simulate(a: &SimulateArgs) -> Result<(), Failure> {
         Some(p) => Some(AtomicFile::create(p).map_err(Failure::input)?),
         None => None,
     };
+    let mut run_file = match &a.save_run {
+        Some(p) => Some(AtomicFile::create(p).map_err(Failure::input)?),
+        None => None,
+    };
+    let mut saved_run = a
+        .save_run
+        .as_ref()
+        .map(|_| sandbox2d::timeline::SavedRun::start(&sc.source, &world, a.keyframes_every));
     let mut event_counts = [0u64; 4];
     let mut events_error: Option<std::io::Error> = None;
     let trace = trace_file.as_mut().map(|f| Trace {
@@ -856,6 +944,9 @@ fn simulate(a: &SimulateArgs) -> Result<(), Failure> {
     let result = sim::run(&mut world, a.steps, trace, |k, w| {
         if k % 16 == 0 {
             bar.set_position(k);
+        }
+        if let Some(r) = saved_run.as_mut() {
+            r.record(w);
         }
         for e in w.events() {
             event_counts[e.kind as usize] += 1;
@@ -903,6 +994,13 @@ fn simulate(a: &SimulateArgs) -> Result<(), Failure> {
     if let Some(mut f) = state_file.take() {
         let bytes = world
             .snapshot()
+            .to_json()
+            .map_err(|e| Failure::run(format!("{}: {e}", f.path().display())))?;
+        f.write_all(&bytes).map_err(|e| Failure::run(f.error(e)))?;
+        f.commit().map_err(Failure::run)?;
+    }
+    if let (Some(mut f), Some(r)) = (run_file.take(), saved_run.as_ref()) {
+        let bytes = r
             .to_json()
             .map_err(|e| Failure::run(format!("{}: {e}", f.path().display())))?;
         f.write_all(&bytes).map_err(|e| Failure::run(f.error(e)))?;
@@ -1082,24 +1180,90 @@ fn load_state(
         )))
     })?;
     world.restore(&state).map_err(bad)?;
-    if state.settings != *settings {
-        let brief = |s: &SolverSettings| {
-            format!(
-                "{} dt={} substeps={} iterations={}",
-                s.kind.name(),
-                s.dt,
-                s.substeps,
-                s.iterations
-            )
-        };
-        eprintln!(
-            "note: {name} was saved with other solver settings ({}) than this run's ({}): the run goes on with this run's and will not continue bit-identically",
-            brief(&state.settings),
-            brief(settings)
-        );
-    }
+    settings_note(&name, &state.settings, settings);
     world.settings = *settings;
     Ok(())
+}
+
+/// Says on stderr when a saved state or run had other solver settings than the run
+/// that goes on from it (it then does not continue bit-identically).
+fn settings_note(name: &str, saved: &SolverSettings, now: &SolverSettings) {
+    if saved == now {
+        return;
+    }
+    let brief = |s: &SolverSettings| {
+        format!(
+            "{} dt={} substeps={} iterations={}",
+            s.kind.name(),
+            s.dt,
+            s.substeps,
+            s.iterations
+        )
+    };
+    eprintln!(
+        "note: {} was saved with other solver settings ({}) than this run's ({}): the run goes on with this run's and will not continue bit-identically",
+        one_line(name),
+        brief(saved),
+        brief(now)
+    );
+}
+
+/// `--run`: reads a saved run and checks that it was saved from this scene (`world`,
+/// built from it). Returns the file's name as messages show it and the run.
+fn load_run(
+    path: &Path,
+    sc: &Scene,
+    world: &World,
+) -> Result<(String, sandbox2d::timeline::SavedRun), Failure> {
+    let name = one_line(&path.display().to_string());
+    let bytes = std::fs::read(path)
+        .map_err(|e| Failure::input(format!("{name}: cannot read the run: {e}")))?;
+    let run = sandbox2d::timeline::SavedRun::from_json(&bytes)
+        .map_err(|e| Failure::input(one_line(&format!("{name}: {e}"))))?;
+    run.keyframes[0]
+        .state
+        .check_scene(world, false)
+        .map_err(|e| {
+            Failure::input(one_line(&format!(
+                "{name}: {e} (the scene is {})",
+                sc.source
+            )))
+        })?;
+    Ok((name, run))
+}
+
+/// A saved run that could not give a step: a step outside it is the input's fault (2),
+/// a failed step the run's (1).
+fn run_file_failure(path: &Path, e: sandbox2d::timeline::RunFileError) -> Failure {
+    let m = one_line(&format!("{}: {e}", path.display()));
+    match e {
+        sandbox2d::timeline::RunFileError::Step(_) => Failure::run(m),
+        _ => Failure::input(m),
+    }
+}
+
+/// `--from-step K`: the world at step K, of the saved run `run` (stepped again under
+/// its own settings) or of the scene run K steps under `flags` (the trunk every pane
+/// branches from).
+#[cfg(feature = "render")]
+fn start_state(
+    scene: &str,
+    run: Option<&Path>,
+    k: u64,
+    flags: &SolverFlags,
+) -> Result<WorldState, Failure> {
+    let (sc, mut world, _) = build(scene, flags)?;
+    if let Some(p) = run {
+        let (_, saved) = load_run(p, &sc, &world)?;
+        let at = saved.world_at(k).map_err(|e| run_file_failure(p, e))?;
+        return Ok(at.snapshot());
+    }
+    for _ in 0..k {
+        world
+            .step()
+            .map_err(|e| Failure::run(format!("{}: {e}", sc.source)))?;
+    }
+    Ok(world.snapshot())
 }
 
 /// The exit code a frame-rendering failure gets: 2 when the input (a size, a path) is
@@ -1193,6 +1357,9 @@ fn render(a: &RenderArgs) -> Result<(), Failure> {
         if let Some(file) = scene_file(&a.scene) {
             inputs.push(("scene file", file));
         }
+        if let Some(run) = &a.run {
+            inputs.push(("--run file", run.clone()));
+        }
         // a frame of this run: frame_NNNN.png in --out, for NNNN < --frames
         if let Some(name) = gif.file_name().and_then(|n| n.to_str())
             && let Some(k) = name
@@ -1221,10 +1388,23 @@ fn render(a: &RenderArgs) -> Result<(), Failure> {
             )));
         }
     }
-    if !a.compare.is_empty() {
-        return render_compare(a);
+    let start = match a.from_step {
+        Some(k) => Some(start_state(&a.scene, a.run.as_deref(), k, &a.solver)?),
+        None => None,
+    };
+    if let Some(st) = &start {
+        println!("from step {} (t = {:.3} s)", st.step_count, st.time);
     }
-    let (sc, mut world, _) = build(&a.scene, &a.solver)?;
+    if !a.compare.is_empty() {
+        return render_compare(a, start.as_ref());
+    }
+    let (sc, mut world, settings) = build(&a.scene, &a.solver)?;
+    if let Some(st) = &start {
+        world
+            .restore(st)
+            .map_err(|e| Failure::run(format!("{}: {e}", sc.source)))?;
+        world.settings = settings;
+    }
     let job = frame_job(a)?;
     let written = render_job(&sc, &mut world, a.size.unwrap_or(sc.camera.size), &job)?;
     print_written(&written, &a.out);
@@ -1267,12 +1447,20 @@ fn compare_panes(
     scene: &str,
     values: &[String],
     base: &SolverFlags,
+    start: Option<&WorldState>,
 ) -> Result<(Scene, Vec<sandbox2d::compare::Pane>), Failure> {
     let flags = parse_compare(values)?;
     let mut panes = Vec::with_capacity(flags.len());
     let mut first = None;
     for (v, f) in values.iter().zip(&flags) {
-        let (sc, world, _) = build(scene, &f.over(base))?;
+        let (sc, mut world, settings) = build(scene, &f.over(base))?;
+        if let Some(st) = start {
+            // the pane goes on from the start's world with its own settings
+            world
+                .restore(st)
+                .map_err(|e| Failure::run(format!("{}: {e}", sc.source)))?;
+            world.settings = settings;
+        }
         let label = sandbox2d::compare::split_words(v).join(" ");
         let label = if label.is_empty() {
             "(the scene's settings)".to_owned()
@@ -1288,8 +1476,8 @@ fn compare_panes(
 
 /// `render --compare`: the panes side by side, each `--size`'s width / panes wide.
 #[cfg(feature = "render")]
-fn render_compare(a: &RenderArgs) -> Result<(), Failure> {
-    let (sc, mut panes) = compare_panes(&a.scene, &a.compare, &a.solver)?;
+fn render_compare(a: &RenderArgs, start: Option<&WorldState>) -> Result<(), Failure> {
+    let (sc, mut panes) = compare_panes(&a.scene, &a.compare, &a.solver, start)?;
     let job = frame_job(a)?;
     let size = a.size.unwrap_or(sc.camera.size);
     let pane_w = sandbox2d::render::compare::pane_width(size[0], panes.len());
@@ -1517,6 +1705,16 @@ fn bench(a: &BenchArgs) -> Result<(), Failure> {
         .map(|s| bench::slurm::resolve(s, env_var))
         .transpose()
         .map_err(Failure::input)?;
+    if a.metric.is_some() && !matches!(a.suite, SuiteArg::Quick | SuiteArg::Standard) {
+        return Err(Failure::input(
+            "--metric trajectory: for the quick and standard suites (the convergence suite measures against the closed forms itself)",
+        ));
+    }
+    if a.metric.is_some() && part.is_some() {
+        return Err(Failure::input(
+            "--metric trajectory does not shard: each scene's reference is worked out once, in one run",
+        ));
+    }
     if a.run_id.is_some() && part.is_none() {
         return Err(Failure::input(
             "--run-id names the run of a shard: give it with --shard or --merge",
@@ -1532,6 +1730,7 @@ fn bench(a: &BenchArgs) -> Result<(), Failure> {
         SuiteArg::Extremes => Suite::Extremes,
         SuiteArg::Scaling => return bench_scaling(a, part.is_some()),
         SuiteArg::Contention => return bench_contention(a, part.is_some()),
+        SuiteArg::Convergence => return bench_convergence(a, part.is_some()),
     };
     let filter = a.filter.clone();
     let key = shard::RunKey {
@@ -1598,7 +1797,7 @@ fn bench(a: &BenchArgs) -> Result<(), Failure> {
         steps: a.steps,
         repeats: a.repeats,
     };
-    let scenes = opts.scenes(suite);
+    let mut scenes = opts.scenes(suite);
     if scenes.is_empty() {
         return Err(Failure::input(format!(
             "--filter {:?} matches no scene of the {} suite",
@@ -1607,6 +1806,23 @@ fn bench(a: &BenchArgs) -> Result<(), Failure> {
         )));
     }
     writable_dir(&a.out)?;
+    if a.metric.is_some() {
+        GRACEFUL.store(true, Ordering::Relaxed);
+        let bar = bench_progress(scenes.len());
+        bar.set_message("the true motions (references)");
+        bench::truth::attach(
+            &mut scenes,
+            |sc| opts.budget(sc).steps,
+            |done, _, name| {
+                bar.set_position(done as u64);
+                bar.set_message(format!("truth of {name}"));
+            },
+        );
+        bar.finish_and_clear();
+        if output::interrupted() {
+            return Err(Failure::interrupted("interrupted: nothing was written"));
+        }
+    }
     let all = bench::cases(&scenes);
     let picked: Vec<usize> = match part {
         Some(p) => p.indices(all.len()),
@@ -1876,6 +2092,66 @@ fn busy_loop() -> Result<(), Failure> {
     }
 }
 
+/// `bench --suite convergence`: every solver at halving steps on the closed-form
+/// scenes, then convergence.csv, convergence.md and convergence.svg.
+fn bench_convergence(a: &BenchArgs, sharded: bool) -> Result<(), Failure> {
+    use sandbox2d::bench::convergence;
+    if sharded || a.jobs != 1 {
+        return Err(Failure::input(
+            "--suite convergence runs in seconds on one thread: --jobs and --shard do not apply",
+        ));
+    }
+    let scenes = convergence::scenes(a.filter.as_deref());
+    if scenes.is_empty() {
+        return Err(Failure::input(format!(
+            "--filter {:?} matches no scene of the convergence suite (projectile_drag, pendulum, spring, rolling_disk, sliding_box)",
+            a.filter.clone().unwrap_or_default()
+        )));
+    }
+    writable_dir(&a.out)?;
+    GRACEFUL.store(true, Ordering::Relaxed);
+    let bar = bench_progress(scenes.len() * SolverKind::ALL.len());
+    let series = convergence::run_all(&scenes, |done, _, what| {
+        bar.set_position(done as u64);
+        bar.set_message(what.to_string());
+    });
+    bar.finish_and_clear();
+    let series = match series {
+        Ok(s) => s,
+        Err(_) if output::interrupted() => {
+            return Err(Failure::interrupted("interrupted: nothing was written"));
+        }
+        Err(e) => return Err(Failure::run(e)),
+    };
+    let mut command = String::from("sandbox2d bench --suite convergence");
+    if let Some(f) = &a.filter {
+        command.push_str(&format!(" --filter {f}"));
+    }
+    command.push_str(&format!(" --out {}", a.out.display()));
+    write_file(
+        &a.out.join("convergence.svg"),
+        &convergence::svg(&series).map_err(Failure::run)?,
+    )?;
+    write_file(&a.out.join("convergence.csv"), &convergence::csv(&series))?;
+    write_file(
+        &a.out.join("convergence.md"),
+        &convergence::markdown(&series, &command),
+    )?;
+    println!(
+        "wrote {}: convergence.csv, convergence.md and convergence.svg",
+        a.out.display()
+    );
+    for x in &series {
+        println!(
+            "{:<16} {:<10} order {}",
+            x.scene,
+            x.kind.name(),
+            x.fit.map_or("-".to_string(), |f| format!("{:.2}", f.order))
+        );
+    }
+    Ok(())
+}
+
 /// Writes stability.md (the extremes suite's report) into `out`.
 fn write_stability(
     out: &Path,
@@ -2044,6 +2320,7 @@ fn tune(a: &TuneArgs) -> Result<(), Failure> {
         MetricArg::JointError => tune::TuneMetric::JointError,
         MetricArg::EnergyDrift => tune::TuneMetric::EnergyDrift,
         MetricArg::Residual => tune::TuneMetric::Residual,
+        MetricArg::Trajectory => tune::TuneMetric::Trajectory,
     };
     let sc = scene::load(scene_name).map_err(Failure::input)?;
     if let Some(out) = &a.out {
@@ -2102,6 +2379,7 @@ fn tune_failure(sc: &Scene, budget_ms: f64, e: sandbox2d::bench::tune::TuneError
         e @ TuneError::OverBudget { .. } => {
             Failure::input(format!("{}: {e} (budget {budget_ms} ms/step)", sc.source))
         }
+        e @ TuneError::NoTruth(_) => Failure::input(format!("{}: {e}", sc.source)),
         e => Failure::run(format!("{}: {e}", sc.source)),
     }
 }

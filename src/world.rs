@@ -785,6 +785,11 @@ impl World {
         Ok(())
     }
 
+    /// How many constant point forces the world has ([`World::add_force`]).
+    pub fn force_count(&self) -> usize {
+        self.forces.len()
+    }
+
     /// Applies a force (N) at a world point for the next step only (the mouse's force emitter).
     pub fn apply_force(&mut self, body: BodyId, force: Vec2, world_point: Vec2) {
         if let Some(b) = self.bodies.get_mut(body)

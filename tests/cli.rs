@@ -1430,3 +1430,135 @@ fn threads_give_the_same_bits_and_bad_counts_are_refused() {
         assert!(String::from_utf8_lossy(&out.stderr).contains("--threads"));
     }
 }
+
+/// `render --from-step K`: frame 0 is step K, whether the world there comes from a run
+/// saved by `simulate --save-run` or from running the scene K steps; with `--compare`
+/// every pane starts from that world (a branch at K) and goes on its own way.
+#[cfg(feature = "render")]
+#[test]
+fn render_from_a_step_starts_every_pane_at_that_step() {
+    let dir = fresh_dir("render-from-step");
+    let run = dir.join("run.json");
+    let saved = sandbox2d()
+        .args(["simulate", "ball_and_chain", "--steps", "90", "--save-run"])
+        .arg(&run)
+        .output()
+        .unwrap();
+    assert!(
+        saved.status.success(),
+        "{}",
+        String::from_utf8_lossy(&saved.stderr)
+    );
+    let render = |name: &str, extra: &[&str]| {
+        let out_dir = dir.join(name);
+        let out = sandbox2d()
+            .args(["render", "ball_and_chain", "--size", "200x120", "--out"])
+            .arg(&out_dir)
+            .args(extra)
+            .output()
+            .unwrap();
+        (out, out_dir)
+    };
+    let (out, from_run) = render(
+        "from-run",
+        &[
+            "--frames",
+            "1",
+            "--from-step",
+            "75",
+            "--run",
+            run.to_str().unwrap(),
+        ],
+    );
+    if skipped_for_no_adapter(&out) {
+        return;
+    }
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(String::from_utf8_lossy(&out.stdout).contains("from step 75"));
+    let (out, trunk) = render("trunk", &["--frames", "1", "--from-step", "75"]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let (out, start) = render("start", &["--frames", "1"]);
+    assert!(out.status.success());
+    let png = |d: &std::path::Path, k: u32| {
+        image::open(d.join(format!("frame_{k:04}.png")))
+            .unwrap()
+            .to_rgba8()
+    };
+    assert_eq!(
+        png(&from_run, 0),
+        png(&trunk, 0),
+        "the saved run's step 75 is the scene's"
+    );
+    assert_ne!(
+        png(&from_run, 0),
+        png(&start, 0),
+        "the chain swung in 75 steps"
+    );
+    // two panes from step 75: alike at frame 0, apart once they go their own ways
+    let (out, panes) = render(
+        "panes",
+        &[
+            "--frames",
+            "3",
+            "--every",
+            "15",
+            "--from-step",
+            "75",
+            "--compare",
+            "",
+            "--compare",
+            "--solver xpbd --substeps 1",
+        ],
+    );
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    // the pixels that differ between the two panes, below the labels (which name each
+    // pane's settings) and away from the divider
+    let apart = |img: &image::RgbaImage| {
+        let (w, h) = (img.width() / 2, img.height());
+        let mut n = 0;
+        for y in h / 3..h {
+            for x in 3..w - 3 {
+                let (a, b) = (img.get_pixel(x, y).0, img.get_pixel(x + w, y).0);
+                if a.iter().zip(b).any(|(p, q)| p.abs_diff(q) > 16) {
+                    n += 1;
+                }
+            }
+        }
+        n
+    };
+    assert_eq!(
+        apart(&png(&panes, 0)),
+        0,
+        "both panes start from the same world"
+    );
+    assert!(
+        apart(&png(&panes, 2)) > 20,
+        "30 steps later the panes differ"
+    );
+    // a step outside the saved run: exit 2, naming the file
+    let (out, _) = render(
+        "past",
+        &[
+            "--frames",
+            "1",
+            "--from-step",
+            "91",
+            "--run",
+            run.to_str().unwrap(),
+        ],
+    );
+    assert_eq!(out.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("run.json"));
+}

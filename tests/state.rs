@@ -244,6 +244,70 @@ fn bad_states_are_refused() {
     }
 }
 
+/// Runs `scene` under `kind` for `n` steps keeping a timeline (keyframes every few
+/// steps within a small bound), goes back to several steps and checks each one's state
+/// hash, then from the earliest of them steps on to `n` again: the run ends with the
+/// hash of the unbroken one.
+fn check_rewind(scene: &str, kind: SolverKind, n: u64, threads: usize) {
+    use sandbox2d::timeline::Timeline;
+    let mut w = build(scene, kind);
+    w.set_threads(threads);
+    let one = w.state_bytes();
+    // a bound of about 12 states: the stride grows as the run goes on
+    let mut t: Timeline<()> = Timeline::new(10_000, 12 * one.max(1));
+    let mut hashes = vec![w.state_hash()];
+    for _ in 0..n {
+        t.before_step(&w);
+        w.step().unwrap();
+        t.after_step(&w, ());
+        hashes.push(w.state_hash());
+    }
+    let unbroken = w.state_hash();
+    let step = |w: &mut World, _: &()| w.step();
+    let oldest = t.oldest().unwrap();
+    for k in [n - 1, oldest, n / 2, n / 3 + 1, n] {
+        t.seek(&mut w, k, step).unwrap();
+        assert_eq!(w.step_count(), k);
+        assert_eq!(
+            w.state_hash(),
+            hashes[k as usize],
+            "{scene} {kind:?} on {threads} thread(s): step {k} gone back to"
+        );
+    }
+    t.seek(&mut w, n / 3 + 1, step).unwrap();
+    while w.step_count() < n {
+        t.before_step(&w);
+        w.step().unwrap();
+        t.after_step(&w, ());
+    }
+    assert_eq!(
+        w.state_hash(),
+        unbroken,
+        "{scene} {kind:?} on {threads} thread(s): rewound and stepped on to {n}"
+    );
+}
+
+#[test]
+fn a_rewound_and_restepped_run_ends_as_the_unbroken_one_under_every_solver() {
+    // stacking and sleep (pyramid), joints with motors and limits (car, ragdoll),
+    // restitution (newtons_cradle), drag (vacuum_vs_fluid)
+    for scene in [
+        "pyramid",
+        "car",
+        "ragdoll",
+        "newtons_cradle",
+        "vacuum_vs_fluid",
+    ] {
+        for kind in KINDS {
+            check_rewind(scene, kind, 120, 1);
+        }
+    }
+    // and with the steps split between threads
+    for kind in KINDS {
+        check_rewind("pyramid", kind, 90, 2);
+    }
+}
+
 // ---- the command line ----
 
 mod common;
@@ -411,4 +475,120 @@ fn cli_refuses_bad_state_files() {
         nowhere.to_str().unwrap(),
     ]);
     assert_refused(&out, nowhere.to_str().unwrap(), "no folder");
+}
+
+#[test]
+fn cli_from_step_of_a_saved_run_goes_on_as_the_run_did() {
+    for solver in ["soft", "pgs", "xpbd"] {
+        let f = tmp(&format!("run-car-{solver}.json"));
+        let f = f.to_str().unwrap();
+        let saved = simulate(&[
+            "car",
+            "--solver",
+            solver,
+            "--steps",
+            "150",
+            "--save-run",
+            f,
+            "--keyframes-every",
+            "40",
+            "--json",
+        ]);
+        let whole = hash_of(&saved);
+        let run: serde_json::Value = serde_json::from_slice(&std::fs::read(f).unwrap()).unwrap();
+        assert_eq!(run["last_hash"].as_str(), Some(whole.as_str()));
+        assert_eq!(
+            run["keyframes"].as_array().unwrap().len(),
+            4,
+            "0, 40, 80, 120"
+        );
+        // from step 95 (re-stepped from the keyframe at 80) on for the other 55 steps
+        let on = simulate(&[
+            "car",
+            "--solver",
+            solver,
+            "--steps",
+            "55",
+            "--run",
+            f,
+            "--from-step",
+            "95",
+            "--json",
+        ]);
+        assert_eq!(hash_of(&on), whole, "{solver}");
+        assert!(
+            on.stderr.is_empty(),
+            "{}",
+            String::from_utf8_lossy(&on.stderr)
+        );
+        // from its first and from its last step
+        let all = simulate(&[
+            "car",
+            "--solver",
+            solver,
+            "--steps",
+            "150",
+            "--run",
+            f,
+            "--from-step",
+            "0",
+            "--json",
+        ]);
+        assert_eq!(hash_of(&all), whole);
+        // under other settings: a branch, said on stderr
+        let other = if solver == "pgs" { "xpbd" } else { "pgs" };
+        let branch = simulate(&[
+            "car",
+            "--solver",
+            other,
+            "--steps",
+            "55",
+            "--run",
+            f,
+            "--from-step",
+            "95",
+            "--json",
+        ]);
+        assert_ne!(hash_of(&branch), whole);
+        assert!(String::from_utf8_lossy(&branch.stderr).contains("other solver settings"));
+    }
+}
+
+#[test]
+fn cli_refuses_a_step_outside_the_run_and_a_bad_run_file() {
+    let good = tmp("run-ragdoll.json");
+    let good_s = good.to_str().unwrap();
+    let out = simulate(&["ragdoll", "--steps", "30", "--save-run", good_s]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let out = simulate(&["ragdoll", "--run", good_s, "--from-step", "31"]);
+    assert_refused(&out, good_s, "past the end");
+    assert!(String::from_utf8_lossy(&out.stderr).contains("steps 0 to 30"));
+    let out = simulate(&["car", "--run", good_s, "--from-step", "3"]);
+    assert_refused(&out, good_s, "another scene");
+    let text = std::fs::read_to_string(&good).unwrap();
+    let v: serde_json::Value = serde_json::from_str(&text).unwrap();
+    let hash = v["keyframes"][0]["hash"].as_str().unwrap().to_string();
+    for (what, content) in [
+        ("truncated", text[..text.len() / 2].to_string()),
+        (
+            "a state",
+            std::fs::read_to_string(&good)
+                .unwrap()
+                .replacen("sandbox2d-run", "sandbox2d-state", 1),
+        ),
+        // a keyframe whose state no longer gives its recorded hash
+        ("hash", text.replacen(&hash, "0123456789abcdef", 1)),
+    ] {
+        let f = tmp(&format!("bad-run-{}.json", what.replace(' ', "-")));
+        std::fs::write(&f, content).unwrap();
+        let out = simulate(&["ragdoll", "--run", f.to_str().unwrap(), "--from-step", "3"]);
+        assert_refused(&out, f.to_str().unwrap(), what);
+    }
+    // --from-step needs --run, and --run --from-step
+    let out = simulate(&["ragdoll", "--from-step", "3"]);
+    assert_eq!(out.status.code(), Some(2));
 }

@@ -6,7 +6,10 @@
 //! drag on empty space pans; the wheel zooms about the cursor; the right button held
 //! pushes bodies away from the cursor; middle click or ctrl+click spawns a box,
 //! shift+click a circle; Delete or Backspace removes the body under the cursor; space pauses, S steps, R resets, H hides or shows the panel; F
-//! fits the view to the bodies, C follows the body last grabbed, Esc and Q quit.
+//! fits the view to the bodies, C follows the body last grabbed, Esc and Q quit. Left
+//! and Right go a step back and on in the timeline of the last seconds (shift: a
+//! second; Home and End: the oldest and newest step kept), B branches there: a pane from
+//! that step with the panel's settings (`docs/timeline.md`).
 //!
 //! [`run`] returns [`AppError::NoDisplay`] when there is no display to open a window
 //! on; the command line then renders frames headless instead.

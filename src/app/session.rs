@@ -15,7 +15,8 @@ use crate::defs::{SolverKind, SolverOverrides, SolverSettings};
 use crate::draw::world::Overlays;
 use crate::output::AtomicFile;
 use crate::scene::{self, Scene};
-use crate::world::{RayHit, World, WorldState};
+use crate::timeline::Timeline;
+use crate::world::{RayHit, StepError, World, WorldState};
 
 /// At most this many steps per frame catch up with real time (the rest is dropped, so
 /// a slow frame slows the simulation rather than snowballing).
@@ -24,6 +25,47 @@ pub const MAX_STEPS_PER_FRAME: u32 = 4;
 pub const STATE_FILE: &str = "sandbox2d_state.json";
 /// Seconds of step figures kept for the panel's plot.
 pub const HISTORY_SECONDS: f64 = 5.0;
+/// Seconds of the past each pane's timeline keeps reachable (at the scene's dt).
+pub const TIMELINE_SECONDS: f64 = 10.0;
+/// The most bytes one pane's timeline keeps (4 panes at most: 4 times this in all).
+pub const TIMELINE_BYTES: usize = 48 << 20;
+
+/// What a step was given besides the world: the mouse's drag and the force emitter
+/// (what a timeline records to take the step again).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct StepInput {
+    pub drag: Option<Drag>,
+    pub emitter: Option<Emitter>,
+}
+
+/// Applies a step's input to the world: the drag's mouse joint (or none) and the
+/// emitter's push, for the next step.
+pub fn apply_input(world: &mut World, input: &StepInput) {
+    match input.drag {
+        Some(d) => input::drag_body(world, d.body, d.local_point, d.target),
+        None => input::release(world),
+    }
+    if let Some(e) = input.emitter {
+        input::push_radial(world, e.center, e.radius, EMITTER_ACCELERATION);
+    }
+}
+
+/// One step with its input: what [`Session::step_once`] does to the world, and what
+/// going back in the timeline does again.
+pub fn step_with(world: &mut World, input: &StepInput) -> Result<(), StepError> {
+    apply_input(world, input);
+    world.step()
+}
+
+/// A timeline for a world stepping at `dt`: [`TIMELINE_SECONDS`] within
+/// [`TIMELINE_BYTES`].
+fn new_timeline(dt: f32) -> Timeline<StepInput> {
+    Timeline::new(horizon_steps(dt), TIMELINE_BYTES)
+}
+
+fn horizon_steps(dt: f32) -> u64 {
+    (TIMELINE_SECONDS / f64::from(dt).max(1e-6)).ceil() as u64
+}
 
 /// One step's figures.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
@@ -143,6 +185,8 @@ pub struct Session {
     residual_at: f64,
     /// The converged reference's lambdas and this step's (scratch).
     lambdas: (Vec<f32>, Vec<f32>),
+    /// The last seconds of steps, to go back to any of them ([`Session::seek`]).
+    pub timeline: Timeline<StepInput>,
 }
 
 impl Session {
@@ -152,7 +196,9 @@ impl Session {
         let world = World::from_def(&scene.world, settings)
             .map_err(|e| format!("{}: {e}", scene.source))?;
         let energy_start = world.energy();
+        let timeline = new_timeline(settings.dt);
         Ok(Session {
+            timeline,
             scene,
             cli_overrides,
             world,
@@ -184,6 +230,7 @@ impl Session {
                 self.world = w;
                 self.energy_start = self.world.energy();
                 self.error = None;
+                self.timeline = new_timeline(self.world.settings.dt);
             }
             Err(e) => {
                 self.error = Some(format!("reset: {e}"));
@@ -206,6 +253,7 @@ impl Session {
         self.scene = sc;
         self.settings = settings;
         self.world = world;
+        self.timeline = new_timeline(settings.dt);
         self.energy_start = self.world.energy();
         self.error = None;
         self.drag = None;
@@ -259,7 +307,8 @@ impl Session {
                 self.energy_start = self.world.energy();
                 self.drag = None;
                 self.history.clear();
-                self.residual_at = f64::NEG_INFINITY;
+                // another run's state: the past kept belongs to the run before
+                self.timeline = new_timeline(self.world.settings.dt);
                 self.residual_at = f64::NEG_INFINITY;
                 self.accumulator = 0.0;
                 self.error = None;
@@ -288,14 +337,92 @@ impl Session {
 
     /// Copies the edited settings into the world when they are valid; otherwise shows
     /// why and keeps the world's. Clears a previous error when they are.
+    ///
+    /// While the world shows a step before the newest kept ([`Session::viewing_past`]),
+    /// the settings are held for a branch from there ("branch here", B) or for when
+    /// the run goes on from there; the world keeps the settings it ran with.
     pub fn apply_settings(&mut self) {
         match self.settings.check() {
+            Ok(()) if self.viewing_past() => {
+                self.error = None;
+                self.note = Some(if self.settings == self.world.settings {
+                    "the settings the run had here".into()
+                } else {
+                    "settings held: branch here (B) to run them beside this run, or run on from here with them".into()
+                });
+            }
             Ok(()) => {
-                self.world.settings = self.settings;
+                if self.world.settings != self.settings {
+                    self.world.settings = self.settings;
+                    // another dt: the same seconds are other steps
+                    self.timeline.set_horizon(horizon_steps(self.settings.dt));
+                    self.timeline.edited(&self.world);
+                }
                 self.error = None;
             }
             Err(e) => self.error = Some(e.to_string()),
         }
+    }
+
+    /// Whether the world shows a step before the newest the timeline keeps (the user
+    /// went back): stepping on from here drops the steps after it.
+    pub fn viewing_past(&self) -> bool {
+        self.timeline
+            .newest()
+            .is_some_and(|n| n > self.world.step_count())
+    }
+
+    /// The steps the timeline can go to, oldest and newest.
+    pub fn reachable(&self) -> Option<(u64, u64)> {
+        Some((self.timeline.oldest()?, self.timeline.newest()?))
+    }
+
+    /// Puts the world at step `step` of its timeline (restoring a keyframe and
+    /// stepping again with the recorded inputs: the same state, bit for bit, as when
+    /// it was first reached) and pauses. Settings held for a branch stay held; else the
+    /// panel shows the settings the run had there.
+    pub fn seek(&mut self, step: u64) {
+        let holding = self.settings != self.world.settings;
+        self.paused = true;
+        self.accumulator = 0.0;
+        match self.timeline.seek(&mut self.world, step, step_with) {
+            Ok(()) => {
+                if !holding {
+                    self.settings = self.world.settings;
+                }
+                self.error = None;
+            }
+            Err(e) => self.error = Some(format!("go to step {step}: {e}")),
+        }
+    }
+
+    /// Runs or pauses. Running on from a step before the newest drops the steps after
+    /// it, and settings held for a branch then apply.
+    pub fn set_paused(&mut self, paused: bool) {
+        self.paused = paused;
+        if !paused && self.viewing_past() && self.settings != self.world.settings {
+            // the run goes another way from here anyway: the held settings apply
+            let keep = self.settings;
+            self.timeline.before_step(&self.world);
+            self.settings = keep;
+            self.apply_settings();
+        }
+    }
+
+    /// The panel's line on the timeline: the step shown, what is kept and its memory.
+    pub fn timeline_text(&self) -> String {
+        let t = &self.timeline;
+        let (bytes, bound) = t.memory();
+        if let Some(why) = t.off() {
+            return format!("timeline off: {why}");
+        }
+        format!(
+            "{} keyframes every {} steps, {} of {}",
+            t.keyframes(),
+            t.stride(),
+            crate::timeline::mib(bytes),
+            crate::timeline::mib(bound)
+        )
     }
 
     /// Advances by `real_dt` seconds of wall time times the time scale, in whole steps
@@ -325,13 +452,20 @@ impl Session {
     /// One step with the mouse's forces applied; records its figures. A failed step
     /// pauses the session and shows the error; returns false then.
     pub fn step_once(&mut self) -> bool {
-        match self.drag {
-            Some(d) => input::drag_body(&mut self.world, d.body, d.local_point, d.target),
-            None => input::release(&mut self.world),
+        let step_input = StepInput {
+            drag: self.drag,
+            emitter: self.emitter,
+        };
+        if self.viewing_past() {
+            // the run goes on from an earlier step: the plots drop what came after
+            let t = self.world.time();
+            while self.history.back().is_some_and(|s| s.t > t + 1e-9) {
+                self.history.pop_back();
+            }
         }
-        if let Some(e) = self.emitter {
-            input::push_radial(&mut self.world, e.center, e.radius, EMITTER_ACCELERATION);
-        }
+        // kept before the step (a keyframe when due; the steps after this one dropped)
+        self.timeline.before_step(&self.world);
+        apply_input(&mut self.world, &step_input);
         // a few times a second: the same step solved to convergence, for the residual
         let w = &self.world;
         let sample = w.settings.kind == SolverKind::Pgs
@@ -353,6 +487,7 @@ impl Session {
         match self.world.step() {
             Ok(()) => {
                 let ms = t0.elapsed().as_secs_f32() * 1e3;
+                self.timeline.after_step(&self.world, step_input);
                 let mut mlcp_residual = None;
                 if reference_ok {
                     let (reference, now) = &mut self.lambdas;
@@ -459,6 +594,7 @@ impl Session {
         if self.drag.is_none() {
             self.world.set_mouse(None);
         }
+        self.timeline.edited(&self.world);
         true
     }
 
@@ -531,8 +667,9 @@ impl Session {
             // A box of half-diagonal r is r sqrt(2) wide.
             moving.iter().sum::<f32>() / moving.len() as f32 * std::f32::consts::SQRT_2
         };
-        if let Err(e) = input::spawn(&mut self.world, kind, at, size) {
-            self.error = Some(format!("spawn: {e}"));
+        match input::spawn(&mut self.world, kind, at, size) {
+            Ok(_) => self.timeline.edited(&self.world),
+            Err(e) => self.error = Some(format!("spawn: {e}")),
         }
     }
 
@@ -544,6 +681,17 @@ impl Session {
 
 /// The most panes side by side (`--compare` takes 2 to 4).
 pub const MAX_PANES: usize = 4;
+
+/// The steps every pane (`first` and `others`) can go to: the latest oldest and the
+/// earliest newest kept; `None` when some pane keeps none.
+pub fn reachable(first: &Session, others: &[Session]) -> Option<(u64, u64)> {
+    let mut r = first.reachable()?;
+    for o in others {
+        let (a, b) = o.reachable()?;
+        r = (r.0.max(a), r.1.min(b));
+    }
+    (r.0 <= r.1).then_some(r)
+}
 
 /// A pane's label for settings made in the panel: the flags that turn the scene's own
 /// settings (`base`) into them, or "the scene's settings".
@@ -713,20 +861,32 @@ impl Compare {
         }
     }
 
-    /// The panel's "add a pane": a pane with `first`'s current (panel) settings, going on
-    /// from `first`'s world as it is now, labelled by those settings. Refused beyond
+    /// The panel's "add a pane" (or, at an earlier step, "branch here"; B): a pane
+    /// with `first`'s current (panel) settings, going on from `first`'s world as it is
+    /// now, labelled by those settings (and, from an earlier step, the time it branched
+    /// at). The pane shares `first`'s timeline up to this step, so going back before it
+    /// shows the same past in both. From an earlier step, `first` keeps the settings it
+    /// ran with (settings held in the panel went to the branch). Refused beyond
     /// [`MAX_PANES`] panes.
-    pub fn add_pane(compare: &mut Option<Compare>, first: &Session) -> Result<(), String> {
+    pub fn add_pane(compare: &mut Option<Compare>, first: &mut Session) -> Result<(), String> {
         let panes = compare.as_ref().map_or(1, Compare::panes);
         if panes >= MAX_PANES {
             return Err(format!("{MAX_PANES} panes at most"));
         }
+        let branched = first.viewing_past().then(|| first.world.time());
         let mut pane = Session::new(first.scene.clone(), first.cli_overrides)?;
         pane.world = first.world.clone();
+        pane.timeline = first.timeline.branch(first.world.step_count());
         pane.settings = first.settings;
         pane.apply_settings();
         if let Some(e) = pane.error.take() {
             return Err(e);
+        }
+        if branched.is_some() {
+            first.settings = first.world.settings;
+            first.note = None;
+            pane.note = None;
+            pane.history = first.history.clone();
         }
         pane.energy_start = first.energy_start;
         pane.time_scale = first.time_scale;
@@ -743,9 +903,20 @@ impl Compare {
             labels: vec![settings_label(&first.world.settings, &base)],
             others: Vec::new(),
         });
-        c.labels.push(settings_label(&pane.settings, &base));
+        let label = settings_label(&pane.settings, &base);
+        c.labels.push(match branched {
+            Some(t) => format!("branch at {t:.2} s: {label}"),
+            None => label,
+        });
         c.others.push(pane);
         Ok(())
+    }
+
+    /// Puts every other pane at `step` of its own timeline (see [`Session::seek`]).
+    pub fn seek(&mut self, step: u64) {
+        for o in &mut self.others {
+            o.seek(step);
+        }
     }
 
     /// Resets each other pane.
@@ -770,6 +941,135 @@ mod tests {
             },
         )
         .unwrap()
+    }
+
+    /// The input of step k + 1 in the tests of going back: the top box dragged by its
+    /// centre sideways from step 20 to 40, the emitter pushing from 50 to 60.
+    fn input_at(s: &Session, k: u64) -> StepInput {
+        let top = s.world.bodies.len() - 1;
+        let p0 = s.scene.world.bodies[top].position;
+        StepInput {
+            drag: (20..40).contains(&k).then(|| Drag {
+                body: top,
+                local_point: Vec2::ZERO,
+                target: p0 + (k - 19) as f32 * Vec2::new(0.05, 0.02),
+            }),
+            emitter: (50..60).contains(&k).then(|| Emitter {
+                center: Vec2::new(0.5, 0.0),
+                radius: 6.0,
+            }),
+        }
+    }
+
+    /// Steps `s` on to step `n` with [`input_at`]'s inputs, pushing each step's state
+    /// hash to `hashes`.
+    fn drive(s: &mut Session, n: u64, hashes: &mut Vec<u64>) {
+        while s.world.step_count() < n {
+            let i = input_at(s, s.world.step_count());
+            (s.drag, s.emitter) = (i.drag, i.emitter);
+            assert!(s.step_once(), "{:?}", s.error);
+            hashes.push(s.world.state_hash());
+        }
+        (s.drag, s.emitter) = (None, None);
+    }
+
+    #[test]
+    fn going_back_gives_each_steps_state_and_running_on_ends_as_the_unbroken_run() {
+        for kind in SolverKind::ALL {
+            let o = SolverOverrides {
+                kind: Some(kind),
+                ..Default::default()
+            };
+            let mut s = Session::new(scene::load("pyramid").unwrap(), o).unwrap();
+            let mut hashes = vec![s.world.state_hash()];
+            drive(&mut s, 90, &mut hashes);
+            assert_eq!(s.reachable(), Some((0, 90)), "{kind:?}");
+            for k in [89u64, 10, 25, 55, 0, 41, 90] {
+                s.seek(k);
+                assert_eq!(s.error, None);
+                assert!(s.paused);
+                assert_eq!(s.world.step_count(), k);
+                assert_eq!(
+                    s.world.state_hash(),
+                    hashes[k as usize],
+                    "{kind:?} step {k}"
+                );
+            }
+            // back to step 30 (mid-drag), then on again with the same inputs: the run
+            // ends where the unbroken one did
+            s.seek(30);
+            assert!(s.viewing_past());
+            s.set_paused(false);
+            let mut again = hashes[..=30].to_vec();
+            drive(&mut s, 90, &mut again);
+            assert_eq!(again, hashes, "{kind:?}: the run from step 30 on");
+            assert!(!s.viewing_past());
+            assert_eq!(s.reachable(), Some((0, 90)));
+        }
+    }
+
+    #[test]
+    fn a_branch_goes_on_from_the_chosen_step_beside_the_original() {
+        let mut first = Session::new(scene::load("pyramid").unwrap(), Default::default()).unwrap();
+        let mut hashes = vec![first.world.state_hash()];
+        drive(&mut first, 80, &mut hashes);
+        first.seek(35);
+        // settings chosen while looking at step 35 are held for the branch
+        first.switch_solver(SolverKind::Pgs);
+        assert_eq!(first.world.settings.kind, SolverKind::Soft);
+        assert!(
+            first.note.as_deref().unwrap().contains("held"),
+            "{:?}",
+            first.note
+        );
+        let mut compare = None;
+        Compare::add_pane(&mut compare, &mut first).unwrap();
+        let c = compare.as_mut().unwrap();
+        assert_eq!(
+            first.settings.kind,
+            SolverKind::Soft,
+            "the original keeps its solver"
+        );
+        let branch = &c.others[0];
+        assert_eq!(branch.world.settings.kind, SolverKind::Pgs);
+        assert_eq!(branch.world.step_count(), 35);
+        assert!(
+            c.labels[1].starts_with("branch at 0.58 s: --solver pgs"),
+            "{:?}",
+            c.labels
+        );
+        assert_eq!(reachable(&first, &c.others), Some((0, 35)));
+        // both go on from 35 with the inputs the run had: the original as it first
+        // ran, the branch its own way
+        first.set_paused(false);
+        let mut hashes_again = hashes[..=35].to_vec();
+        let mut branch_hashes = Vec::new();
+        for k in 35..45 {
+            let i = input_at(&first, k);
+            (first.drag, first.emitter) = (i.drag, i.emitter);
+            if k == 35 {
+                c.grab(first.world.bodies[first.world.bodies.len() - 1].position);
+            }
+            assert!(first.step_once());
+            c.follow(&first, 1);
+            hashes_again.push(first.world.state_hash());
+            branch_hashes.push(c.others[0].world.state_hash());
+        }
+        assert_eq!(
+            hashes_again[..],
+            hashes[..=45],
+            "the original runs as it did"
+        );
+        assert!(branch_hashes.iter().zip(&hashes[36..]).all(|(a, b)| a != b));
+        // back before the branch: both panes show the same past (shared keyframes)
+        first.seek(20);
+        c.seek(20);
+        assert_eq!(first.world.state_hash(), hashes[20]);
+        assert_eq!(c.others[0].world.state_hash(), hashes[20]);
+        assert_eq!(c.others[0].world.settings.kind, SolverKind::Soft);
+        c.seek(40);
+        assert_eq!(c.others[0].world.settings.kind, SolverKind::Pgs);
+        assert_eq!(c.others[0].world.state_hash(), branch_hashes[4]);
     }
 
     #[test]
@@ -1142,7 +1442,7 @@ mod tests {
             first.step_once();
         }
         let mut compare = None;
-        Compare::add_pane(&mut compare, &first).unwrap();
+        Compare::add_pane(&mut compare, &mut first).unwrap();
         let c = compare.as_mut().unwrap();
         assert_eq!(c.panes(), 2);
         assert_eq!(c.labels.len(), 2);
@@ -1158,14 +1458,14 @@ mod tests {
         assert_eq!(c.others[0].world.state_hash(), first.world.state_hash());
         // then other settings in the panel: the next pane runs them, the others keep theirs
         first.switch_solver(SolverKind::Pgs);
-        Compare::add_pane(&mut compare, &first).unwrap();
+        Compare::add_pane(&mut compare, &mut first).unwrap();
         let c = compare.as_ref().unwrap();
         assert_eq!(c.panes(), 3);
         assert_eq!(c.others[1].world.settings.kind, SolverKind::Pgs);
         assert_eq!(c.others[0].world.settings.kind, SolverKind::Soft);
         assert!(c.labels[2].starts_with("--solver pgs"), "{:?}", c.labels);
-        Compare::add_pane(&mut compare, &first).unwrap();
-        let e = Compare::add_pane(&mut compare, &first).unwrap_err();
+        Compare::add_pane(&mut compare, &mut first).unwrap();
+        let e = Compare::add_pane(&mut compare, &mut first).unwrap_err();
         assert!(e.contains("4 panes at most"), "{e}");
         assert_eq!(compare.as_ref().unwrap().panes(), 4);
     }

@@ -3,7 +3,7 @@
 
 use egui::{Color32, Pos2, Rect, Sense, Stroke, Ui, Vec2 as EVec2};
 
-use super::session::{HISTORY_SECONDS, Sample, Session};
+use super::session::{HISTORY_SECONDS, Sample, Session, reachable};
 use crate::defs::SolverKind;
 use crate::scene;
 
@@ -12,8 +12,13 @@ use crate::scene;
 pub struct PanelActions {
     /// Reset the camera to the scene's (a new scene was loaded, or reset pressed).
     pub reset_camera: bool,
-    /// Add a pane with the panel's settings, from the world as it is.
+    /// Add a pane with the panel's settings, from the world as it is (at an earlier
+    /// step: branch there).
     pub add_pane: bool,
+    /// Step every pane once (paused).
+    pub step: bool,
+    /// Put every pane at this step of its timeline.
+    pub seek: Option<u64>,
 }
 
 /// Frame-rate figures the window measures, shown in the panel.
@@ -107,6 +112,10 @@ fn contents(
             ui.small("space: pause, S: step, R: reset, H: hide this panel");
             ui.small("F: fit the view, C: follow the grabbed body, Esc / Q: quit");
             ui.small("ctrl+S: save the state to sandbox2d_state.json, ctrl+L: reload it");
+            ui.small(
+                "Left / Right: a step back / on, shift: a second; Home / End: oldest / newest kept",
+            );
+            ui.small("B: branch here: a pane from this step with the settings above");
         });
 
     // Scene picker: the names `sandbox2d scenes` lists and the command line takes, each
@@ -140,11 +149,10 @@ fn contents(
     ui.horizontal(|ui| {
         let label = if s.paused { "Run" } else { "Pause" };
         if ui.button(label).on_hover_text("Space").clicked() {
-            s.paused = !s.paused;
+            s.set_paused(!s.paused);
         }
         if ui.button("Step").on_hover_text("S").clicked() {
-            s.paused = true;
-            s.step_once();
+            actions.step = true;
         }
         if ui.button("Reset").on_hover_text("R").clicked() {
             s.reset();
@@ -222,14 +230,15 @@ fn contents(
     if s.settings != before {
         s.apply_settings();
     }
-    if ui
-        .button("add a pane with these settings")
-        .on_hover_text(
-            "a pane beside the others, going on from this world as it is now with the \
-             settings above (4 panes at most); set other settings here afterwards to \
-             compare them",
-        )
-        .clicked()
+    if !s.viewing_past()
+        && ui
+            .button("add a pane with these settings")
+            .on_hover_text(
+                "a pane beside the others, going on from this world as it is now with the \
+                 settings above (4 panes at most); set other settings here afterwards to \
+                 compare them",
+            )
+            .clicked()
     {
         actions.add_pane = true;
     }
@@ -238,6 +247,8 @@ fn contents(
             .logarithmic(true)
             .text("time scale"),
     );
+
+    timeline(ui, s, others, actions);
 
     ui.separator();
     ui.label("overlays");
@@ -264,6 +275,80 @@ fn contents(
 
     ui.separator();
     stats(ui, s, others, frame);
+}
+
+/// The timeline: a scrubber over the steps every pane keeps, buttons to step back and
+/// on, "branch here", and what the keyframes take in memory.
+fn timeline(ui: &mut Ui, s: &Session, others: &[Session], actions: &mut PanelActions) {
+    ui.separator();
+    let now = s.world.step_count();
+    let dt = f64::from(s.world.settings.dt);
+    let t_now = s.world.time();
+    let time_of = move |k: u64| t_now + (k as f64 - now as f64) * dt;
+    match reachable(s, others) {
+        Some((lo, hi)) => {
+            ui.label(format!(
+                "timeline: step {now} ({:.2} s) of {lo}..{hi}",
+                t_now
+            ));
+            let mut k = now.clamp(lo, hi);
+            let span = format!("{:.2} .. {:.2} s", time_of(lo), time_of(hi));
+            let slider = ui.add_enabled(
+                hi > lo,
+                egui::Slider::new(&mut k, lo..=hi)
+                    .show_value(false)
+                    .text(span),
+            );
+            if slider.changed() && k != now {
+                actions.seek = Some(k);
+            }
+            ui.horizontal(|ui| {
+                let go = |ui: &mut Ui, text: &str, hover: &str, to: u64, on: bool| {
+                    ui.add_enabled(on, egui::Button::new(text))
+                        .on_hover_text(hover)
+                        .clicked()
+                        .then_some(to)
+                };
+                let back = now.saturating_sub(1).max(lo);
+                let picked = [
+                    go(ui, "|<", "Home: the oldest step kept", lo, now > lo),
+                    go(ui, "<", "Left: a step back", back, now > lo),
+                    go(ui, ">", "Right: a step on", now + 1, now < hi),
+                    go(ui, ">|", "End: the newest step", hi, now < hi),
+                ];
+                if let Some(to) = picked.into_iter().flatten().next() {
+                    actions.seek = Some(to);
+                }
+            });
+            if s.viewing_past()
+                && ui
+                    .button("branch here with these settings")
+                    .on_hover_text(
+                        "B: a pane beside this one, going on from this step with the \
+                         settings above; this pane keeps the settings it ran with",
+                    )
+                    .clicked()
+            {
+                actions.add_pane = true;
+            }
+        }
+        None => {
+            ui.label("timeline: nothing kept yet");
+        }
+    }
+    let mut bytes = s.timeline.memory().0;
+    for o in others {
+        bytes += o.timeline.memory().0;
+    }
+    ui.small(s.timeline_text());
+    if !others.is_empty() {
+        ui.small(format!(
+            "all {} panes: {} (each at most {})",
+            others.len() + 1,
+            crate::timeline::mib(bytes),
+            crate::timeline::mib(super::session::TIMELINE_BYTES)
+        ));
+    }
 }
 
 fn stats(ui: &mut Ui, s: &Session, others: &[Session], frame: FrameStats) {

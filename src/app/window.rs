@@ -732,19 +732,14 @@ impl App {
         }
         self.frames += 1;
 
+        if actions.step {
+            self.step_all();
+        }
+        if let Some(k) = actions.seek {
+            self.seek_all(k);
+        }
         if actions.add_pane {
-            match Compare::add_pane(&mut self.compare, &self.session) {
-                Ok(()) => {
-                    self.session.note = Some(format!("{} panes", self.panes()));
-                    // the panes share the width: frame the scene in the first again
-                    self.reset_camera();
-                    self.labels_next = None;
-                    if let Some(g) = &self.gpu {
-                        g.window.set_title(&self.title());
-                    }
-                }
-                Err(e) => self.session.error = Some(format!("add a pane: {e}")),
-            }
+            self.add_pane();
         }
         if let Some(c) = self.compare.as_mut() {
             let now = self.session.world.settings;
@@ -776,6 +771,71 @@ impl App {
         }
         if let Some(g) = &self.gpu {
             g.window.request_redraw();
+        }
+    }
+
+    /// The panel's "add a pane" or "branch here" (B): a pane from the first pane's
+    /// world as it is, with the panel's settings.
+    fn add_pane(&mut self) {
+        match Compare::add_pane(&mut self.compare, &mut self.session) {
+            Ok(()) => {
+                self.session.note = Some(format!("{} panes", self.panes()));
+                // the panes share the width: frame the scene in the first again
+                self.reset_camera();
+                self.labels_next = None;
+                self.first_settings = None;
+                if let Some(g) = &self.gpu {
+                    g.window.set_title(&self.title());
+                }
+            }
+            Err(e) => self.session.error = Some(format!("add a pane: {e}")),
+        }
+        self.panel_dirty = true;
+    }
+
+    /// S (and the panel's Step): every pane one step on, paused.
+    fn step_all(&mut self) {
+        self.session.paused = true;
+        let stepped = u32::from(self.session.step_once());
+        if let Some(c) = self.compare.as_mut() {
+            c.follow(&self.session, stepped);
+        }
+        self.panel_dirty = true;
+    }
+
+    /// Puts every pane at step `k` of its timeline (paused), within what they all keep.
+    fn seek_all(&mut self, k: u64) {
+        let others = self.compare.as_ref().map_or(&[][..], |c| &c.others[..]);
+        let Some((lo, hi)) = super::session::reachable(&self.session, others) else {
+            return;
+        };
+        let k = k.clamp(lo, hi);
+        self.session.seek(k);
+        if let Some(c) = self.compare.as_mut() {
+            c.seek(k);
+        }
+        self.labels_next = None;
+        self.panel_dirty = true;
+    }
+
+    /// Left / Right (shift: a second's steps) and Home / End: where the timeline goes.
+    fn scrub(&mut self, by: i64) {
+        let others = self.compare.as_ref().map_or(&[][..], |c| &c.others[..]);
+        let Some((lo, hi)) = super::session::reachable(&self.session, others) else {
+            if by > 0 {
+                self.step_all();
+            }
+            return;
+        };
+        let now = self.session.world.step_count();
+        if by > 0 && now >= hi {
+            // at the newest step kept: a step on is a new step
+            self.step_all();
+            return;
+        }
+        let to = now.saturating_add_signed(by).clamp(lo, hi);
+        if to != now || !self.session.paused {
+            self.seek_all(to);
         }
     }
 
@@ -1003,14 +1063,28 @@ impl App {
                     self.panel_dirty = true;
                 }
             }
-            Key::Named(NamedKey::Space) => self.session.paused = !self.session.paused,
-            Key::Character(c) if c.eq_ignore_ascii_case("s") => {
-                self.session.paused = true;
-                let stepped = u32::from(self.session.step_once());
-                if let Some(c) = self.compare.as_mut() {
-                    c.follow(&self.session, stepped);
+            Key::Named(NamedKey::Space) => {
+                self.session.set_paused(!self.session.paused);
+                self.panel_dirty = true;
+            }
+            Key::Character(c) if c.eq_ignore_ascii_case("s") => self.step_all(),
+            Key::Named(k @ (NamedKey::ArrowLeft | NamedKey::ArrowRight)) => {
+                let second = (1.0 / self.session.world.settings.dt).round().max(1.0) as i64;
+                let n = if self.mouse.modifiers.shift_key() {
+                    second
+                } else {
+                    1
+                };
+                self.scrub(if *k == NamedKey::ArrowLeft { -n } else { n });
+            }
+            Key::Named(NamedKey::Home) => self.scrub(i64::MIN / 2),
+            Key::Named(NamedKey::End) => {
+                let others = self.compare.as_ref().map_or(&[][..], |c| &c.others[..]);
+                if let Some((_, hi)) = super::session::reachable(&self.session, others) {
+                    self.seek_all(hi);
                 }
             }
+            Key::Character(c) if c.eq_ignore_ascii_case("b") => self.add_pane(),
             Key::Character(c) if c.eq_ignore_ascii_case("r") => {
                 self.session.reset();
                 if let Some(c) = self.compare.as_mut() {

@@ -14,6 +14,7 @@
 //! [`scaling`] times the benchmark pyramid from 1k to 80k boxes on 1 and 2 threads.
 
 pub mod contention;
+pub mod convergence;
 pub mod extremes;
 pub mod plot;
 pub mod report;
@@ -21,6 +22,7 @@ pub mod scaling;
 pub mod scenes;
 pub mod shard;
 pub mod slurm;
+pub mod truth;
 pub mod tune;
 
 use std::time::Instant;
@@ -291,6 +293,9 @@ pub struct Measured {
     /// step solved by PGS to convergence from the same state; NaN when not measured
     /// (no contacts, XPBD, substeps).
     pub residual: f64,
+    /// The error against the scene's true motion ([`BenchScene::truth`]), when it has
+    /// one (`--metric trajectory`).
+    pub trajectory: Option<truth::TrajError>,
     pub verdict: Verdict,
 }
 
@@ -304,6 +309,7 @@ impl Measured {
             Metric::JointError => self.joint_error,
             Metric::EnergyDrift => self.energy_drift.abs(),
             Metric::Residual => self.residual,
+            Metric::Trajectory => self.trajectory.map_or(f64::NAN, |t| t.pos_rms),
         }
     }
 }
@@ -426,6 +432,11 @@ pub fn run_case(scene: &BenchScene, setting: &Setting, budget: &Budget) -> Outco
         let mut step_ms = Vec::with_capacity((budget.steps as usize).min(1 << 16));
         let mut failure: Option<String> = None;
         let mut steps_done = 0u64;
+        let mut tracker = scene
+            .truth
+            .as_deref()
+            .filter(|_| accuracy)
+            .and_then(|t| truth::Tracker::new(t, &world));
         for k in 0..budget.steps {
             let sample = residual_on && k > 0 && k % sample_every == 0;
             if sample {
@@ -475,6 +486,9 @@ pub fn run_case(scene: &BenchScene, setting: &Setting, budget: &Budget) -> Outco
             }
             pen_max = pen_max.max(st.penetration as f64);
             pen_sum += st.penetration as f64;
+            if let Some(t) = tracker.as_mut() {
+                t.observe(k as usize + 1, &world);
+            }
             let e = energy_about(&world, scene.floor_y);
             e_max = e_max.max(e);
             if e - e_start > BLOW_UP * e_scale {
@@ -541,6 +555,11 @@ pub fn run_case(scene: &BenchScene, setting: &Setting, budget: &Budget) -> Outco
             } else {
                 f64::NAN
             },
+            // a run stopped early has no error over the whole horizon
+            trajectory: tracker
+                .as_ref()
+                .filter(|_| steps_done == budget.steps)
+                .map(truth::Tracker::error),
             verdict,
         });
         if !first.as_ref().is_some_and(|m| m.verdict.is_stable()) {

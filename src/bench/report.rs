@@ -28,6 +28,10 @@ pub const CSV_COLUMNS: &[&str] = &[
     "joint_error",
     "energy_drift",
     "residual",
+    "trajectory_rms",
+    "trajectory_max",
+    "angle_rms",
+    "angle_max",
     "stable",
     "note",
 ];
@@ -100,8 +104,17 @@ pub fn csv(rows: &[Row]) -> String {
                 ] {
                     f.push(num(x));
                 }
+                let t = m.trajectory;
+                for x in [
+                    t.map(|t| t.pos_rms),
+                    t.map(|t| t.pos_max),
+                    t.map(|t| t.angle_rms),
+                    t.map(|t| t.angle_max),
+                ] {
+                    f.push(num(x.unwrap_or(f64::NAN)));
+                }
             }
-            _ => f.extend(std::iter::repeat_n(String::new(), 12)),
+            _ => f.extend(std::iter::repeat_n(String::new(), 16)),
         }
         f.push(stable_text(&r.outcome).to_string());
         f.push(csv_field(&note(&r.outcome)));
@@ -217,15 +230,34 @@ pub fn markdown(suite: Suite, scenes: &[BenchScene], rows: &[Row], plots: &[Stri
     );
     for sc in scenes {
         let _ = writeln!(s, "## {}\n\n{}\n", sc.name, sc.about);
+        // `--metric trajectory`: what the runs were compared with
+        let traj = sc.truth.as_ref().is_some_and(|t| t.measures());
+        match sc.truth.as_deref() {
+            Some(super::truth::Truth::Unmeasured(why)) => {
+                let _ = writeln!(s, "Trajectory error: not measured: {why}.\n");
+            }
+            Some(t) => {
+                let _ = writeln!(s, "Trajectory error against the {}.\n", t.describe());
+            }
+            None => {}
+        }
         if let Some(p) = plots
             .iter()
             .find(|p| p.starts_with(&format!("{}.svg", sc.name)))
         {
             let _ = writeln!(s, "![{} error against cost]({p})\n", sc.name);
         }
+        let (head, rule) = if traj {
+            (
+                " traj. RMS (m) | traj. worst (m) | angle RMS (rad) |",
+                "---|---|---|",
+            )
+        } else {
+            ("", "")
+        };
         let _ = writeln!(
             s,
-            "| setting | ms/step | solve ms | pen. max | pen. mean | drift | joint err. | energy drift | residual | stable |\n|---|---|---|---|---|---|---|---|---|---|"
+            "| setting | ms/step | solve ms | pen. max | pen. mean | drift | joint err. | energy drift | residual |{head} stable |\n|---|---|---|---|---|---|---|---|---|{rule}---|"
         );
         for r in rows.iter().filter(|r| r.scene == sc.name) {
             match &r.outcome {
@@ -234,9 +266,18 @@ pub fn markdown(suite: Suite, scenes: &[BenchScene], rows: &[Row], plots: &[Stri
                         super::Verdict::Stable => "yes".to_string(),
                         super::Verdict::Unstable(w) => format!("no: {w}"),
                     };
+                    let t = if traj {
+                        let f = |v: Option<f64>| format!(" {} |", sig(v.unwrap_or(f64::NAN)));
+                        let e = m.trajectory;
+                        f(e.map(|e| e.pos_rms))
+                            + &f(e.map(|e| e.pos_max))
+                            + &f(e.map(|e| e.angle_rms))
+                    } else {
+                        String::new()
+                    };
                     let _ = writeln!(
                         s,
-                        "| {} | {} | {} | {} | {} | {} | {} | {} | {} | {} |",
+                        "| {} | {} | {} | {} | {} | {} | {} | {} | {} |{t} {} |",
                         r.setting.label(),
                         sig(m.ms_per_step),
                         sig(m.stage_ms[3]),
@@ -252,8 +293,9 @@ pub fn markdown(suite: Suite, scenes: &[BenchScene], rows: &[Row], plots: &[Stri
                 o => {
                     let _ = writeln!(
                         s,
-                        "| {} | | | | | | | | | {} |",
+                        "| {} | | | | | | | | |{} {} |",
                         r.setting.label(),
+                        if traj { " | | |" } else { "" },
                         stable_text(o)
                     );
                 }
@@ -355,6 +397,7 @@ mod tests {
             joint_error: f64::NAN,
             energy_drift: f64::NAN,
             residual: 0.5,
+            trajectory: None,
             verdict: if stable {
                 Verdict::Stable
             } else {

@@ -15,6 +15,9 @@ pub enum Metric {
     /// |energy drift|
     EnergyDrift,
     Residual,
+    /// The RMS distance of the bodies from their true places over the run
+    /// (`--metric trajectory`, against [`BenchScene::truth`]).
+    Trajectory,
 }
 
 impl Metric {
@@ -27,6 +30,7 @@ impl Metric {
             Metric::JointError => "joint_error",
             Metric::EnergyDrift => "energy_drift",
             Metric::Residual => "residual",
+            Metric::Trajectory => "trajectory_rms",
         }
     }
 
@@ -39,6 +43,7 @@ impl Metric {
             Metric::JointError => "max joint anchor separation (m)",
             Metric::EnergyDrift => "|energy drift| (relative)",
             Metric::Residual => "residual against converged PGS (relative)",
+            Metric::Trajectory => "RMS position error against the true motion (m)",
         }
     }
 }
@@ -77,6 +82,9 @@ pub struct BenchScene {
     /// Every setting of the grid, or only the solvers' defaults (model comparisons).
     pub full_grid: bool,
     pub budget: Budget,
+    /// The true motion runs are compared with (`--metric trajectory`; see
+    /// [`super::truth`]), when it was worked out; `None` otherwise.
+    pub truth: Option<std::sync::Arc<super::truth::Truth>>,
 }
 
 const PENDULUM: &str = include_str!("../../assets/bench/pendulum.toml");
@@ -178,6 +186,7 @@ fn scene(
         metrics: metrics.to_vec(),
         full_grid: true,
         budget,
+        truth: None,
     }
 }
 

@@ -244,6 +244,9 @@ fn outcome_of(failed: Option<String>, measured: Option<WireMeasured>) -> Result<
                 joint_error: number(&m.joint_error)?,
                 energy_drift: number(&m.energy_drift)?,
                 residual: number(&m.residual)?,
+                // not sharded: `--metric trajectory` runs whole (its references are
+                // worked out once per scene)
+                trajectory: None,
                 verdict: m.unstable.map_or(Verdict::Stable, Verdict::Unstable),
             }))
         }
@@ -840,6 +843,7 @@ mod tests {
                         joint_error: x(4),
                         energy_drift: x(5),
                         residual: x(0),
+                        trajectory: None,
                         verdict: if i % 4 == 1 {
                             Verdict::Unstable("fell, far".into())
                         } else {

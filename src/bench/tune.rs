@@ -47,17 +47,23 @@ pub enum TuneMetric {
     /// Relative distance of the contact impulses from the same step's MLCP solved to
     /// convergence (classic PGS with one substep only).
     Residual,
+    /// The RMS distance of the bodies from their true places over the run: the scene's
+    /// closed form when it has one, else a reference run at a 16th of its step with
+    /// converged solves ([`super::truth`]); refused for a scene whose motion is chaotic
+    /// over the run.
+    Trajectory,
 }
 
 impl TuneMetric {
     /// Every metric, in the order the command line lists them.
-    pub const ALL: [TuneMetric; 6] = [
+    pub const ALL: [TuneMetric; 7] = [
         TuneMetric::Worst,
         TuneMetric::Penetration,
         TuneMetric::Drift,
         TuneMetric::JointError,
         TuneMetric::EnergyDrift,
         TuneMetric::Residual,
+        TuneMetric::Trajectory,
     ];
 
     /// The name on the command line and in reports.
@@ -69,6 +75,7 @@ impl TuneMetric {
             TuneMetric::JointError => "joint_error",
             TuneMetric::EnergyDrift => "energy_drift",
             TuneMetric::Residual => "residual",
+            TuneMetric::Trajectory => "trajectory",
         }
     }
 
@@ -81,6 +88,7 @@ impl TuneMetric {
             TuneMetric::JointError => Some(Metric::JointError),
             TuneMetric::EnergyDrift => Some(Metric::EnergyDrift),
             TuneMetric::Residual => Some(Metric::Residual),
+            TuneMetric::Trajectory => Some(Metric::Trajectory),
         }
     }
 }
@@ -104,6 +112,7 @@ pub fn floor(m: Metric) -> f64 {
         Metric::JointError => 1e-4,
         Metric::EnergyDrift => 1e-4,
         Metric::Residual => 1e-3,
+        Metric::Trajectory => 1e-4,
     }
 }
 
@@ -216,6 +225,8 @@ pub struct TuneReport {
     pub cheapest_close: Option<usize>,
     /// The settings no other beats on both cost and error, cheapest first.
     pub pareto: Vec<usize>,
+    /// With `--metric trajectory`: the true motion the runs were compared with.
+    pub truth: Option<String>,
     /// When the grid's settings ran in shards (`tune --shard`, then `--merge`): how
     /// many, and their run.
     pub shards: Option<CoarseShards>,
@@ -239,6 +250,9 @@ pub enum TuneError {
     OverBudget { cheapest: String, ms: f64 },
     /// Stopped by an interrupt before the search finished.
     Interrupted,
+    /// `--metric trajectory` on a scene with no true motion to compare with (chaotic
+    /// over the run, or a reference that could not run), and why.
+    NoTruth(String),
 }
 
 impl std::fmt::Display for TuneError {
@@ -250,6 +264,10 @@ impl std::fmt::Display for TuneError {
                 "no setting fits the budget: the cheapest stable one, {cheapest}, takes {ms:.4} ms/step"
             ),
             TuneError::Interrupted => write!(f, "interrupted before the search finished"),
+            TuneError::NoTruth(why) => write!(
+                f,
+                "--metric trajectory: no true motion to compare with: {why}"
+            ),
         }
     }
 }
@@ -275,6 +293,7 @@ pub fn bench_scene(name: &str, def: &WorldDef, steps: u64) -> BenchScene {
             residual_samples: 0,
             reference_iterations: 1000,
         },
+        truth: None,
     }
 }
 
@@ -402,8 +421,30 @@ struct Search<P> {
 }
 
 impl<P: FnMut(usize, usize, &str)> Search<P> {
-    fn new(name: &str, def: &WorldDef, options: &TuneOptions, progress: P) -> Search<P> {
-        let scene = bench_scene(name, def, options.steps);
+    /// With `--metric trajectory`, first the true motion (a reference run, or the
+    /// scene's closed form), which every run is then compared with.
+    fn new(
+        name: &str,
+        def: &WorldDef,
+        options: &TuneOptions,
+        mut progress: P,
+    ) -> Result<Search<P>, TuneError> {
+        let mut scene = bench_scene(name, def, options.steps);
+        if options.metric == TuneMetric::Trajectory {
+            progress(0, 0, "the true motion (a reference run)");
+            let truth = super::truth::Truth::for_scene(
+                def,
+                options.steps,
+                Ok(super::truth::RefSpec::CONVERGED_PGS),
+            );
+            if crate::output::interrupted() {
+                return Err(TuneError::Interrupted);
+            }
+            match truth {
+                super::truth::Truth::Unmeasured(why) => return Err(TuneError::NoTruth(why)),
+                t => scene.truth = Some(std::sync::Arc::new(t)),
+            }
+        }
         let accuracy = Budget {
             residual_samples: if options.metric == TuneMetric::Residual {
                 4.min((options.steps / 2) as u32)
@@ -416,7 +457,7 @@ impl<P: FnMut(usize, usize, &str)> Search<P> {
             residual_samples: 0,
             ..scene.budget
         };
-        Search {
+        Ok(Search {
             scene,
             accuracy,
             timing,
@@ -425,7 +466,7 @@ impl<P: FnMut(usize, usize, &str)> Search<P> {
             done: 0,
             total: 0,
             progress,
-        }
+        })
     }
 
     /// The accuracy runs of `settings` (the first timing of each), in order.
@@ -583,6 +624,7 @@ impl<P: FnMut(usize, usize, &str)> Search<P> {
             pick: Some(pick),
             cheapest_close,
             pareto,
+            truth: self.scene.truth.as_ref().map(|t| t.describe()),
             shards,
         })
     }
@@ -609,7 +651,7 @@ pub fn tune(
     progress: impl FnMut(usize, usize, &str),
 ) -> Result<TuneReport, TuneError> {
     let flags = SceneFlags::of(def);
-    let mut s = Search::new(name, def, options, progress);
+    let mut s = Search::new(name, def, options, progress)?;
     let coarse = super::settings_grid();
     s.total = coarse.len() * s.rounds;
     let mut tried = s.measure(&coarse, Pass::Coarse)?;
@@ -632,7 +674,7 @@ pub fn tune_shard(
     shard: Shard,
     progress: impl FnMut(usize, usize, &str),
 ) -> Result<Vec<(usize, Tried)>, TuneError> {
-    let mut s = Search::new(name, def, options, progress);
+    let mut s = Search::new(name, def, options, progress)?;
     let grid = super::settings_grid();
     let picked = shard.indices(grid.len());
     let settings: Vec<Setting> = picked.iter().map(|&i| grid[i]).collect();
@@ -657,7 +699,7 @@ pub fn tune_merged(
     progress: impl FnMut(usize, usize, &str),
 ) -> Result<TuneReport, TuneError> {
     let flags = SceneFlags::of(def);
-    let mut s = Search::new(name, def, options, progress);
+    let mut s = Search::new(name, def, options, progress)?;
     let mut tried = coarse;
     for t in &mut tried {
         t.ms_per_step = median(&t.samples);
@@ -848,7 +890,10 @@ fn cell(m: &Measured, metric: Metric) -> String {
         return "-".into();
     }
     match metric {
-        Metric::PenetrationMax | Metric::PenetrationMean | Metric::JointError => {
+        Metric::PenetrationMax
+        | Metric::PenetrationMean
+        | Metric::JointError
+        | Metric::Trajectory => {
             format!("{:.2} mm", v * 1e3)
         }
         Metric::Drift => format!("{v:.3} m"),
@@ -961,6 +1006,15 @@ pub fn metric_line(report: &TuneReport) -> String {
                 .collect::<Vec<_>>()
                 .join(", ")
         ),
+        TuneMetric::Trajectory => format!(
+            "score = trajectory: the RMS distance of the bodies from their true places over the run (smaller is better), against the {}",
+            report
+                .truth
+                .as_deref()
+                .unwrap_or("true motion")
+                .trim_start_matches("closed form: ")
+                .trim_start_matches("reference run: ")
+        ),
         m => format!("score = {} (smaller is better)", m.name()),
     }
 }
@@ -971,6 +1025,7 @@ fn short_value(m: Metric, v: f64) -> String {
             format!("{:.2} mm", v * 1e3)
         }
         Metric::Drift => format!("{v:.3} m"),
+        Metric::Trajectory => format!("{:.2} mm", v * 1e3),
         _ => format!("{v:.1e}"),
     }
 }
@@ -1149,6 +1204,7 @@ pub fn json(report: &TuneReport) -> serde_json::Value {
         "rounds": report.options.rounds,
         "jobs": report.options.jobs,
         "metric": report.options.metric.name(),
+        "truth": report.truth,
         "normalisers": report.normalisers.iter().map(|(m, n)| serde_json::json!({"measure": m.name(), "value": n})).collect::<Vec<_>>(),
         "pick": at(report.pick),
         "cheapest_within_10_percent": at(report.cheapest_close),
@@ -1308,6 +1364,7 @@ mod tests {
             joint_error: f64::NAN,
             energy_drift: f64::NAN,
             residual: f64::NAN,
+            trajectory: None,
             verdict: if stable {
                 Verdict::Stable
             } else {

@@ -104,6 +104,18 @@ struct Header {
 }
 
 impl WorldState {
+    /// About the bytes this state takes in memory (what a timeline counts against its
+    /// bound; see [`World::state_bytes`]).
+    pub fn heap_bytes(&self) -> usize {
+        state_size(
+            &self.bodies,
+            self.joints.len(),
+            self.contacts.len() + self.sleeping_contacts.len(),
+            self.forces.len(),
+            self.no_collide.len() + self.touching.len() + self.sensed.len(),
+        )
+    }
+
     /// The state as JSON bytes (one line). Refused when a body's state is not finite
     /// (JSON has no NaN; a world that blew up is not worth keeping).
     pub fn to_json(&self) -> Result<Vec<u8>, StateError> {
@@ -275,12 +287,46 @@ impl WorldState {
     }
 }
 
+/// The bytes a state of these parts takes in memory (the vectors' lengths, the bodies'
+/// names and parts; a little under what the allocator hands out).
+fn state_size(
+    bodies: &[Body],
+    joints: usize,
+    contacts: usize,
+    forces: usize,
+    pairs: usize,
+) -> usize {
+    use std::mem::size_of;
+    let named: usize = bodies
+        .iter()
+        .map(|b| b.name.len() + b.parts.len() * size_of::<crate::compound::Part>())
+        .sum();
+    size_of::<WorldState>()
+        + std::mem::size_of_val(bodies)
+        + named
+        + joints * size_of::<Joint>()
+        + contacts * size_of::<Contact>()
+        + forces * size_of::<PointForce>()
+        + pairs * size_of::<(u32, u32)>()
+}
+
 /// Control characters written as escapes: a message stays on one line.
 fn one_line(s: &str) -> String {
     s.chars().flat_map(|c| c.escape_debug()).collect()
 }
 
 impl World {
+    /// About the bytes [`World::snapshot`] would take in memory, without taking it.
+    pub fn state_bytes(&self) -> usize {
+        state_size(
+            &self.bodies,
+            self.joints.len(),
+            self.contacts.len() + self.sleeping_contacts.len(),
+            self.forces.len(),
+            self.no_collide.len() + self.touching.len() + self.sensed.len(),
+        )
+    }
+
     /// Everything the world carries from one step to the next; [`World::restore`] puts
     /// it back. Cheap enough to take every frame for small worlds (it copies the bodies,
     /// joints and contacts).
