@@ -37,7 +37,7 @@ use std::path::Path;
 pub use builtin::{builtin, builtin_description, builtin_names};
 pub use error::{SceneError, escape_controls};
 pub use generators::MAX_GENERATED;
-pub use validate::{MAX_ITERATIONS, MAX_POLYGON_POINTS, MAX_SUBSTEPS};
+pub use validate::{MAX_FRICTION, MAX_ITERATIONS, MAX_POLYGON_POINTS, MAX_SUBSTEPS};
 
 use crate::defs::{CameraDef, JointDef, WorldDef};
 use format::FileScene;
@@ -62,11 +62,44 @@ pub struct Scene {
 /// Reads, parses and validates the scene file at `path`. Messages name the file as
 /// `path` displays.
 pub fn load_file(path: &Path) -> Result<Scene, SceneError> {
+    use std::io::Read;
     let source = path.display().to_string();
-    let text = std::fs::read_to_string(path)
-        .map_err(|e| SceneError::whole_file(&source, format!("cannot read: {e}")))?;
+    let cannot = |e: std::io::Error| SceneError::whole_file(&source, format!("cannot read: {e}"));
+    // at most one byte past the limit is read: a larger file (or an endless one, such
+    // as /dev/zero) is refused before it is held, let alone parsed
+    let file = std::fs::File::open(path).map_err(cannot)?;
+    let mut bytes = Vec::new();
+    file.take(MAX_FILE_BYTES + 1)
+        .read_to_end(&mut bytes)
+        .map_err(cannot)?;
+    if bytes.len() as u64 > MAX_FILE_BYTES {
+        // pointed at where the limit falls (in the text read so far)
+        let cut = String::from_utf8_lossy(&bytes[..MAX_FILE_BYTES as usize]);
+        let (line, column) = error::line_col(&cut, cut.len());
+        return Err(SceneError::at(
+            &source,
+            line,
+            column,
+            format!(
+                "the file goes on past {} MiB here, the most a scene file may hold (large scenes are made by generators: [[pyramid]], [[grid]], [[stack]], [[chain]])",
+                MAX_FILE_BYTES >> 20
+            ),
+        ));
+    }
+    let text = String::from_utf8(bytes).map_err(|e| {
+        let (line, column) = error::line_col(
+            &String::from_utf8_lossy(&e.as_bytes()[..e.utf8_error().valid_up_to()]),
+            usize::MAX,
+        );
+        SceneError::at(&source, line, column, "the file is not valid UTF-8 here")
+    })?;
     load_str(&text, &source)
 }
+
+/// The largest scene file [`load_file`] reads (16 MiB): parsing holds about 70 bytes
+/// of memory for each byte of a file of many small tables, so this bounds a load to
+/// about a gigabyte.
+pub const MAX_FILE_BYTES: u64 = 16 << 20;
 
 /// Loads a built-in scene by name (see [`builtin_names`]), else the file at that path.
 /// A built-in name wins over a file of the same name in the working directory; write
@@ -309,6 +342,22 @@ fn build(ctx: &Ctx, f: FileScene) -> R<Scene> {
         }
     }
 
+    // what the bodies' overlap would cost before anything is allocated for it
+    if let Err((_, b)) =
+        crate::world::count_start_pairs(&bodies.boxes, &bodies.dynamic, &bodies.filters)
+    {
+        let n = bodies.defs.len();
+        return Err(ctx.err(
+            bodies.spans[b].clone(),
+            format!(
+                "body {:?}: the bodies' boxes overlap in more than {} pairs at the start, the most a scene of {n} bodies may have ({} a body, at least {}; each pair costs about 1 KB of memory): spread the bodies apart, or filter apart those that never touch",
+                bodies.defs[b].name,
+                crate::world::max_start_pairs(n),
+                crate::world::START_PAIRS_PER_BODY,
+                crate::world::START_PAIRS_FLOOR,
+            ),
+        ));
+    }
     for t in &f.force {
         world
             .forces

@@ -1010,6 +1010,11 @@ pub(crate) struct Bodies {
     pub spans: Vec<Range<usize>>,
     /// The world's gravity (for the potential energy check).
     pub gravity: Option<Vec2>,
+    /// Each body's box, whether it is dynamic, and its filter: for the count of the
+    /// pairs the world starts with ([`crate::world::count_start_pairs`]).
+    pub boxes: Vec<crate::math::Aabb>,
+    pub dynamic: Vec<bool>,
+    pub filters: Vec<Filter>,
 }
 
 impl Bodies {
@@ -1042,7 +1047,10 @@ impl Bodies {
                 ),
             ));
         }
-        check_body(ctx, &body, self.gravity, places)?;
+        let made = check_body(ctx, &body, self.gravity, places)?;
+        self.boxes.push(made.aabb());
+        self.dynamic.push(made.is_dynamic());
+        self.filters.push(made.filter);
         let i = self.defs.len();
         self.index.insert(body.name.clone(), i);
         self.defs.push(body);
@@ -1066,9 +1074,9 @@ pub(crate) fn check_body(
     body: &BodyDef,
     gravity: Option<Vec2>,
     places: &Places,
-) -> R<()> {
+) -> R<crate::body::Body> {
     match World::make_body(body, gravity) {
-        Ok(_) => Ok(()),
+        Ok(b) => Ok(b),
         Err(e) => {
             let span = match &e {
                 BuildError::Derived { input, .. } => places.of(*input),
