@@ -18,6 +18,28 @@ use sandbox2d::{SolverKind, SolverOverrides, SolverSettings, World, WorldState};
 /// choose on purpose; EGL's report of a DRI2 driver it probes and then does without).
 const DEFAULT_LOG_FILTER: &str = "warn,egui_wgpu=error,wgpu_hal::gles::egl=off";
 
+/// `println!` that fails as a run does when stdout cannot be written (a full disk, a
+/// closed pipe): one line on stderr and exit 1, never a panic.
+macro_rules! say {
+    ($($arg:tt)*) => {{
+        use std::io::Write as _;
+        writeln!(std::io::stdout(), $($arg)*).map_err(stdout_failure)
+    }};
+}
+
+/// `print!`, as [`say!`].
+macro_rules! say_part {
+    ($($arg:tt)*) => {{
+        use std::io::Write as _;
+        write!(std::io::stdout(), $($arg)*).map_err(stdout_failure)
+    }};
+}
+
+/// A write to stdout that failed.
+fn stdout_failure(e: std::io::Error) -> Failure {
+    Failure::run(format!("stdout: cannot write: {e}"))
+}
+
 /// The scene the plain `sandbox2d` command shows.
 const DEFAULT_SCENE: &str = "pyramid";
 
@@ -509,10 +531,14 @@ static GRACEFUL: AtomicBool = AtomicBool::new(false);
 /// no graceful command runs, exits at once with 130.
 fn install_interrupt_handler() {
     let _ = ctrlc::set_handler(|| {
-        if GRACEFUL.load(Ordering::Relaxed) && !output::interrupted() {
+        if !GRACEFUL.load(Ordering::Relaxed) {
+            output::abandon(130, "interrupted");
+        } else if !output::interrupted() {
             output::interrupt();
         } else {
-            std::process::exit(130);
+            // the temporary files still being written are removed; a file of finished
+            // rows (the bench's partial results) is kept, cut to its last whole row
+            output::abandon(130, "interrupted again: stopped at once");
         }
     });
 }
@@ -575,6 +601,7 @@ fn main() -> ExitCode {
     env_logger::Builder::from_env(env_logger::Env::default().default_filter_or(DEFAULT_LOG_FILTER))
         .init();
     let cli = Cli::parse();
+    output::ignore_file_size_signal();
     install_interrupt_handler();
     let timing = matches!(cli.command, Some(Command::Bench(_) | Command::Tune(_)));
     match cli.threads {
@@ -612,7 +639,7 @@ fn main() -> ExitCode {
 fn list_scenes() -> Result<(), Failure> {
     for name in scene::builtin_names() {
         let d = scene::builtin_description(name).unwrap_or_default();
-        println!("{name:<16} {d}");
+        say!("{name:<16} {d}")?;
     }
     Ok(())
 }
@@ -635,9 +662,9 @@ fn default_command() -> Result<(), Failure> {
 /// and prints its figures.
 #[cfg(not(feature = "render"))]
 fn default_command() -> Result<(), Failure> {
-    println!(
+    say!(
         "sandbox2d: running the built-in scene \"{DEFAULT_SCENE}\" headless for 600 steps (see `sandbox2d --help`)"
-    );
+    )?;
     simulate(&SimulateArgs {
         scene: DEFAULT_SCENE.into(),
         steps: 600,
@@ -931,11 +958,11 @@ fn simulate(a: &SimulateArgs) -> Result<(), Failure> {
                 "sensor_begin": event_counts[2], "sensor_end": event_counts[3],
             })),
         });
-        println!("{v}");
+        say!("{v}")?;
     } else {
         // quoted with escapes: a name cannot put control characters on the terminal
-        println!("scene        {:?} ({})", sc.name, one_line(&sc.source));
-        println!(
+        say!("scene        {:?} ({})", sc.name, one_line(&sc.source))?;
+        say!(
             "solver       {} dt={} substeps={} iterations={} tolerance={} warm_start={} split_impulse={} baumgarte={} slop={}",
             settings.kind.name(),
             settings.dt,
@@ -946,56 +973,62 @@ fn simulate(a: &SimulateArgs) -> Result<(), Failure> {
             settings.split_impulse,
             settings.baumgarte,
             settings.slop
-        );
+        )?;
         if settings.kind == SolverKind::Soft {
-            println!(
+            say!(
                 "soft step    contact_hertz={} contact_damping_ratio={} max_push_speed={} joint_hertz={} joint_damping_ratio={}",
                 settings.contact_hertz,
                 settings.contact_damping_ratio,
                 settings.max_push_speed,
                 settings.joint_hertz,
                 settings.joint_damping_ratio
-            );
+            )?;
         }
-        println!(
+        say!(
             "steps        {} ({} bodies, {} thread{})",
             summary.steps,
             world.bodies.len(),
             world.threads(),
             if world.threads() == 1 { "" } else { "s" }
-        );
-        println!("ms/step      median {median:.3}  mean {mean:.3}  p95 {p95:.3}");
-        println!(
+        )?;
+        say!("ms/step      median {median:.3}  mean {mean:.3}  p95 {p95:.3}")?;
+        say!(
             "contacts     mean {:.1}  max {}",
-            summary.contacts_mean, summary.contacts_max
-        );
-        println!(
+            summary.contacts_mean,
+            summary.contacts_max
+        )?;
+        say!(
             "iterations   mean {:.2}  (position sweeps {:.2})",
-            summary.iterations_mean, summary.position_iterations_mean
-        );
-        println!(
+            summary.iterations_mean,
+            summary.position_iterations_mean
+        )?;
+        say!(
             "residual     mean {:.3e}  max {:.3e}",
-            summary.residual_mean, summary.residual_max
-        );
-        println!(
+            summary.residual_mean,
+            summary.residual_max
+        )?;
+        say!(
             "penetration  max {:.5} m  final {:.5} m",
-            summary.penetration_max, summary.penetration_final
-        );
-        println!(
+            summary.penetration_max,
+            summary.penetration_final
+        )?;
+        say!(
             "energy       start {:.4} J  end {:.4} J",
-            summary.energy_start, summary.energy_end
-        );
-        println!(
+            summary.energy_start,
+            summary.energy_end
+        )?;
+        say!(
             "displacement max {:.4} m (the farthest a body ended from its start)",
             summary.displacement_max
-        );
+        )?;
         if !world_has_no_joints {
-            println!(
+            say!(
                 "joint error  max {:.6} m  final {:.6} m",
-                summary.joint_error_max, summary.joint_error_final
-            );
+                summary.joint_error_max,
+                summary.joint_error_final
+            )?;
         }
-        println!("state hash   {hash}");
+        say!("state hash   {hash}")?;
     }
     Ok(())
 }
@@ -1100,7 +1133,10 @@ fn render_job(
 
 /// Tells where the frames went: one line.
 #[cfg(feature = "render")]
-fn print_written(w: &sandbox2d::render::FramesWritten, out: &std::path::Path) {
+fn print_written(
+    w: &sandbox2d::render::FramesWritten,
+    out: &std::path::Path,
+) -> Result<(), Failure> {
     let name = |p: Option<&PathBuf>| {
         p.and_then(|p| p.file_name())
             .map(|n| n.to_string_lossy().into_owned())
@@ -1111,13 +1147,14 @@ fn print_written(w: &sandbox2d::render::FramesWritten, out: &std::path::Path) {
         .as_ref()
         .map(|g| format!(" and {}", g.display()))
         .unwrap_or_default();
-    println!(
+    say!(
         "wrote {} frames ({} .. {}) to {}{gif}",
         w.pngs.len(),
         name(w.pngs.first()),
         name(w.pngs.last()),
         out.display()
-    );
+    )?;
+    Ok(())
 }
 
 #[cfg(feature = "render")]
@@ -1167,7 +1204,7 @@ fn render(a: &RenderArgs) -> Result<(), Failure> {
     let (sc, mut world, _) = build(&a.scene, &a.solver)?;
     let job = frame_job(a)?;
     let written = render_job(&sc, &mut world, a.size.unwrap_or(sc.camera.size), &job)?;
-    print_written(&written, &a.out);
+    print_written(&written, &a.out)?;
     Ok(())
 }
 
@@ -1255,13 +1292,13 @@ fn render_compare(a: &RenderArgs) -> Result<(), Failure> {
         }
         e => frames_failure(e),
     })?;
-    print_written(&written, &a.out);
+    print_written(&written, &a.out)?;
     for p in &panes {
-        println!(
+        say!(
             "{:<32} mean {:.3} ms/step",
             p.label,
             p.mean_ms().unwrap_or(0.0)
-        );
+        )?;
     }
     Ok(())
 }
@@ -1302,7 +1339,7 @@ fn run(a: &RunArgs) -> Result<(), Failure> {
             show_panel: !a.no_panel,
         };
         for (i, (label, _)) in panes.iter().enumerate() {
-            println!("pane {}: {label}", i + 1);
+            say!("pane {}: {label}", i + 1)?;
         }
         let shown = if panes.is_empty() {
             sandbox2d::app::run(sc.clone(), a.solver.overrides(), opts)
@@ -1311,7 +1348,7 @@ fn run(a: &RunArgs) -> Result<(), Failure> {
         };
         match shown {
             Ok(report) => {
-                println!(
+                say!(
                     "sandbox2d: {} frames in {:.2} s: {:.1} fps (frame time median {:.1} ms, p95 {:.1} ms) on {}",
                     report.frames,
                     report.seconds,
@@ -1323,27 +1360,27 @@ fn run(a: &RunArgs) -> Result<(), Failure> {
                     } else {
                         &report.adapter
                     }
-                );
+                )?;
                 if let Some(p) = &report.screenshot {
-                    println!("screenshot: {}", p.display());
+                    say!("screenshot: {}", p.display())?;
                 }
                 return Ok(());
             }
             Err(AppError::NoDisplay(why)) => {
-                println!(
+                say!(
                     "sandbox2d: no display ({why}); rendering {:?} headless into ./out instead",
                     sc.name
-                );
+                )?;
             }
             Err(AppError::Build(e)) => return Err(Failure::input(e)),
             Err(e) => return Err(Failure::run(e)),
         }
     }
     #[cfg(not(feature = "app"))]
-    println!(
+    say!(
         "sandbox2d: built without the window (feature \"app\"); rendering {:?} headless into ./out instead",
         sc.name
-    );
+    )?;
     run_headless(a, &sc)
 }
 
@@ -1389,12 +1426,12 @@ fn run_headless(a: &RunArgs, sc: &Scene) -> Result<(), Failure> {
         overlays: sandbox2d::draw::Overlays::NONE,
     };
     let written = render_job(sc, &mut world, sc.camera.size, &job)?;
-    print_written(&written, &out);
+    print_written(&written, &out)?;
     if let (Some(shot), Some(last)) = (&a.screenshot, written.pngs.last()) {
         let bytes = std::fs::read(last)
             .map_err(|e| Failure::run(format!("{}: cannot read: {e}", last.display())))?;
         output::write_atomic(shot, &bytes).map_err(Failure::run)?;
-        println!("screenshot: {}", shot.display());
+        say!("screenshot: {}", shot.display())?;
     }
     Ok(())
 }
@@ -1509,12 +1546,12 @@ fn bench(a: &BenchArgs) -> Result<(), Failure> {
                 .collect();
             let path = a.out.join(p.file_name());
             write_file(&path, &shard::extremes_json(&key, p, all.len(), &rows))?;
-            println!(
+            say!(
                 "wrote {} (shard {p}: {} of {} cases)",
                 path.display(),
                 cases.len(),
                 all.len()
-            );
+            )?;
             return Ok(());
         }
         return write_stability(&a.out, &extremes::assemble(&cases, results));
@@ -1541,61 +1578,77 @@ fn bench(a: &BenchArgs) -> Result<(), Failure> {
     let cases: Vec<bench::Case> = picked.iter().map(|&i| all[i]).collect();
     let total = cases.len();
     let bar = bench_progress(total);
-    // Each finished case's row goes to results.partial.csv (a shard's to
-    // results.shard-I-of-N.partial.csv) at once, so an interrupted (or failed) suite
-    // keeps what it measured; the complete results replace it at the end.
+    // Each finished case's row goes at once to a temporary file kept as
+    // results.partial.csv (a shard's as results.shard-I-of-N.partial.csv) when the suite
+    // stops early: interrupted, failed (a full disk), or interrupted twice; it then
+    // holds whole rows only. A complete suite's reports replace it.
     GRACEFUL.store(true, Ordering::Relaxed);
     let partial_path = a.out.join(match part {
         Some(p) => format!("results.shard-{}-of-{}.partial.csv", p.index, p.count),
         None => "results.partial.csv".to_string(),
     });
-    let mut partial = std::fs::File::create(&partial_path)
-        .map_err(|e| Failure::input(format!("{}: cannot write: {e}", partial_path.display())))?;
-    let partial_err =
-        |e: std::io::Error| Failure::run(format!("{}: cannot write: {e}", partial_path.display()));
-    writeln!(partial, "{}", bench::report::CSV_COLUMNS.join(",")).map_err(partial_err)?;
-    let (rows, complete) =
-        bench::run_cases(&scenes, &opts, &cases, a.jobs, |done, _, what, row| {
-            bar.set_position(done as u64);
-            bar.set_message(what.to_string());
-            let csv = bench::report::csv(std::slice::from_ref(row));
-            let line = csv.split_once('\n').map_or("", |(_, rest)| rest);
-            partial
-                .write_all(line.as_bytes())
-                .and_then(|()| partial.flush())
-                .map_err(partial_err)
-        })?;
+    let mut partial = output::RowFile::create(&partial_path).map_err(Failure::input)?;
+    partial
+        .push(&format!("{}\n", bench::report::CSV_COLUMNS.join(",")))
+        .map_err(Failure::run)?;
+    let run = bench::run_cases(&scenes, &opts, &cases, a.jobs, |done, _, what, row| {
+        bar.set_position(done as u64);
+        bar.set_message(what.to_string());
+        let csv = bench::report::csv(std::slice::from_ref(row));
+        let line = csv.split_once('\n').map_or("", |(_, rest)| rest);
+        partial.push(line).map_err(Failure::run)
+    });
     bar.finish_and_clear();
+    // a run that stops early keeps the finished rows and says where
+    let kept = |partial: output::RowFile| {
+        let rows = partial.rows().saturating_sub(1);
+        match partial.keep() {
+            Ok(p) => format!(
+                "kept the {rows} finished case(s) of {total} in {}",
+                p.display()
+            ),
+            Err(e) => format!("the finished cases were not kept: {e}"),
+        }
+    };
+    let keep = |partial: output::RowFile, mut f: Failure| {
+        f.message += &format!("; {}", kept(partial));
+        f
+    };
+    let (rows, complete) = match run {
+        Ok(r) => r,
+        Err(f) => return Err(keep(partial, f)),
+    };
     if !complete {
+        let what = if part.is_some() {
+            "the shard file was"
+        } else {
+            "results.csv, results.md and the plots were"
+        };
         return Err(Failure::interrupted(format!(
-            "interrupted: kept the {} finished case(s) of {total} in {}; {} not written",
-            rows.iter().flatten().count(),
-            partial_path.display(),
-            if part.is_some() {
-                "the shard file was"
-            } else {
-                "results.csv, results.md and the plots were"
-            }
+            "interrupted: {}; {what} not written",
+            kept(partial)
         )));
     }
     let rows: Vec<bench::Row> = rows.into_iter().flatten().collect();
     if let Some(p) = part {
         let indexed: Vec<(usize, &bench::Row)> = picked.iter().copied().zip(&rows).collect();
         let path = a.out.join(p.file_name());
-        write_file(&path, &shard::scenes_json(&key, p, all.len(), &indexed))?;
+        if let Err(f) = write_file(&path, &shard::scenes_json(&key, p, all.len(), &indexed)) {
+            return Err(keep(partial, f));
+        }
         drop(partial);
-        let _ = std::fs::remove_file(&partial_path);
-        println!(
+        say!(
             "wrote {} (shard {p}: {} of {} cases)",
             path.display(),
             rows.len(),
             all.len()
-        );
+        )?;
         return Ok(());
     }
-    write_reports(&a.out, suite, &scenes, &rows)?;
+    if let Err(f) = write_reports(&a.out, suite, &scenes, &rows) {
+        return Err(keep(partial, f));
+    }
     drop(partial);
-    let _ = std::fs::remove_file(&partial_path);
     Ok(())
 }
 
@@ -1664,11 +1717,11 @@ fn bench_scaling(a: &BenchArgs, sharded: bool) -> Result<(), Failure> {
         &a.out.join("scaling.md"),
         &scaling::markdown(&rows, repeats, cores, &command),
     )?;
-    println!(
+    say!(
         "wrote {}: scaling.csv, scaling.md and scaling.svg ({} rows)",
         a.out.display(),
         rows.len()
-    );
+    )?;
     Ok(())
 }
 
@@ -1679,7 +1732,7 @@ fn write_stability(
 ) -> Result<(), Failure> {
     let path = out.join("stability.md");
     write_file(&path, &sandbox2d::bench::extremes::markdown(results))?;
-    println!("wrote {}", path.display());
+    say!("wrote {}", path.display())?;
     Ok(())
 }
 
@@ -1704,12 +1757,12 @@ fn write_reports(
         &out.join("results.md"),
         &bench::report::markdown(suite, scenes, rows, &plots),
     )?;
-    println!(
+    say!(
         "wrote {}: results.csv, results.md and {} plot(s) ({} rows)",
         out.display(),
         plots.len(),
         rows.len()
-    );
+    )?;
     Ok(())
 }
 
@@ -1858,14 +1911,14 @@ fn tune(a: &TuneArgs) -> Result<(), Failure> {
         }
     }
     if a.json {
-        println!("{}", tune::json(&report));
+        say!("{}", tune::json(&report))?;
     } else {
-        print!("{}", tune::markdown(&report));
+        say_part!("{}", tune::markdown(&report))?;
         if let Some(out) = &a.out {
-            println!(
+            say!(
                 "\nwrote {}: tune.md, tune.json, pareto.svg, solver.toml",
                 out.display()
-            );
+            )?;
         }
     }
     if let (true, Some(path), Some(p)) = (a.write, &file, &pick) {
@@ -1898,7 +1951,7 @@ fn tune(a: &TuneArgs) -> Result<(), Failure> {
         }
         write_file(path, &new)?;
         if !a.json {
-            println!("wrote the pick ({}) into {}", p.label(), path.display());
+            say!("wrote the pick ({}) into {}", p.label(), path.display())?;
         }
     }
     Ok(())
