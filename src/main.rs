@@ -592,6 +592,55 @@ fn check_distinct(outputs: &[(&str, &Path)], inputs: &[(&str, &Path)]) -> Result
     Ok(())
 }
 
+/// Refuses a run whose writes into the folder `dir` would replace one of its inputs:
+/// `writes(name)` says whether the run writes a file of that name there (`what`, the
+/// flag that names the folder, goes into the message).
+fn check_folder_outputs(
+    what: &str,
+    dir: &Path,
+    writes: impl Fn(&str) -> bool,
+    inputs: &[(&str, &Path)],
+) -> Result<(), Failure> {
+    for (other, q) in inputs {
+        let Some(name) = q.file_name().and_then(|n| n.to_str()) else {
+            continue;
+        };
+        let p = dir.join(name);
+        if writes(name) && output::same_file(&p, q) {
+            return Err(Failure::input(format!(
+                "{}: {what} would overwrite the {other} ({})",
+                p.display(),
+                q.display()
+            )));
+        }
+    }
+    Ok(())
+}
+
+/// Whether `name` is one of the frames `frame_0000.png` .. of a run of `frames` frames.
+#[cfg_attr(not(feature = "render"), allow(dead_code))]
+fn is_frame_name(name: &str, frames: u32) -> bool {
+    #[cfg(feature = "render")]
+    if let Some(k) = name
+        .strip_prefix("frame_")
+        .and_then(|r| r.strip_suffix(".png"))
+        .and_then(|d| d.parse::<u32>().ok())
+    {
+        return k < frames && sandbox2d::render::frame_name(k) == name;
+    }
+    let _ = (name, frames);
+    false
+}
+
+/// The files `bench --merge` may write into its `--out` folder: the reports and the
+/// plots (one per scene).
+fn merge_writes(name: &str) -> bool {
+    matches!(name, "results.csv" | "results.md" | "stability.md") || name.ends_with(".svg")
+}
+
+/// The files `tune --out` writes.
+const TUNE_FILES: [&str; 4] = ["tune.md", "tune.json", "pareto.svg", "solver.toml"];
+
 /// The scene file a name loads, when it is a file and not a built-in scene.
 fn scene_file(name: &str) -> Option<PathBuf> {
     scene::builtin(name).is_none().then(|| PathBuf::from(name))
@@ -1198,6 +1247,15 @@ fn render(a: &RenderArgs) -> Result<(), Failure> {
             )));
         }
     }
+    // a frame it writes must not be the scene file
+    if let Some(file) = scene_file(&a.scene) {
+        check_folder_outputs(
+            "--out",
+            &a.out,
+            |n| is_frame_name(n, a.frames),
+            &[("scene file", &file)],
+        )?;
+    }
     if !a.compare.is_empty() {
         return render_compare(a);
     }
@@ -1416,6 +1474,14 @@ fn run_headless(a: &RunArgs, sc: &Scene) -> Result<(), Failure> {
         }
         let inputs: Vec<(&str, &Path)> = inputs.iter().map(|(w, p)| (*w, p.as_path())).collect();
         check_distinct(&[("--screenshot", shot)], &inputs)?;
+    }
+    if let Some(file) = scene_file(&a.scene) {
+        check_folder_outputs(
+            "the headless frames (./out)",
+            &out,
+            |n| is_frame_name(n, frames),
+            &[("scene file", &file)],
+        )?;
     }
     let (_, mut world, _) = build(&a.scene, &a.solver)?;
     let job = sandbox2d::render::FrameJob {
@@ -1797,6 +1863,9 @@ fn bench_merge(inputs: &[PathBuf], out: &Path) -> Result<(), Failure> {
             paths.push(p.clone());
         }
     }
+    // a report or plot it writes must not replace a shard it reads
+    let inputs: Vec<(&str, &Path)> = paths.iter().map(|p| ("shard file", p.as_path())).collect();
+    check_folder_outputs("--out", out, merge_writes, &inputs)?;
     let mut files = Vec::with_capacity(paths.len());
     for p in &paths {
         let text = std::fs::read_to_string(p)
@@ -1857,6 +1926,14 @@ fn tune(a: &TuneArgs) -> Result<(), Failure> {
         MetricArg::EnergyDrift => TuneMetric::EnergyDrift,
         MetricArg::Residual => TuneMetric::Residual,
     };
+    if let (Some(out), Some(f)) = (&a.out, &file) {
+        check_folder_outputs(
+            "--out",
+            out,
+            |n| TUNE_FILES.contains(&n),
+            &[("scene file", f)],
+        )?;
+    }
     let sc = scene::load(&a.scene).map_err(Failure::input)?;
     if let Some(out) = &a.out {
         writable_dir(out)?;

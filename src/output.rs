@@ -326,9 +326,16 @@ pub fn write_atomic(path: impl AsRef<Path>, bytes: &[u8]) -> Result<(), OutputEr
     f.commit()
 }
 
-/// Whether `a` and `b` name the same file, whether or not either exists yet: their
-/// folders are compared once resolved (symbolic links, `..`), then their names.
+/// Whether `a` and `b` name the same file, whether or not either exists yet: two files
+/// that exist are the same when they are one file on the disk (hard links too, on
+/// Unix); otherwise their folders are compared once resolved (symbolic links, `..`),
+/// then their names.
 pub fn same_file(a: &Path, b: &Path) -> bool {
+    #[cfg(unix)]
+    if let (Ok(x), Ok(y)) = (std::fs::metadata(a), std::fs::metadata(b)) {
+        use std::os::unix::fs::MetadataExt;
+        return (x.dev(), x.ino()) == (y.dev(), y.ino());
+    }
     fn resolve(p: &Path) -> Option<PathBuf> {
         if let Ok(c) = p.canonicalize() {
             return Some(c);

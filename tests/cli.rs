@@ -1013,6 +1013,152 @@ fn an_output_that_is_an_input_is_refused() {
     );
 }
 
+/// For every command and every file it may write, an input in that place (the scene
+/// file, a state, a shard) is refused with exit 2 and one line before anything is
+/// written, and is left as it was: the scene as a frame of `render` or of `run`'s
+/// headless frames, as each of `tune`'s four files, as `simulate`'s trace, events and
+/// state, a shard as a report of `bench --merge`.
+#[test]
+fn no_output_of_any_command_replaces_an_input() {
+    let dir = fresh_tmp("outputs-over-inputs");
+    let scene_text = std::fs::read_to_string(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/assets/scenes/pendulum.toml"
+    ))
+    .unwrap();
+    // (the input's path in the folder, the command line with IN for the input)
+    let mut cases: Vec<(&str, Vec<&str>)> = vec![
+        (
+            "s.toml",
+            vec!["simulate", "IN", "--steps", "2", "--trace", "./s.toml"],
+        ),
+        (
+            "s.toml",
+            vec!["simulate", "IN", "--steps", "2", "--events", "s.toml"],
+        ),
+        (
+            "s.toml",
+            vec!["simulate", "IN", "--steps", "2", "--save-state", "s.toml"],
+        ),
+        (
+            "t/tune.md",
+            vec!["tune", "IN", "--budget-ms", "1", "--out", "t"],
+        ),
+        (
+            "t/tune.json",
+            vec!["tune", "IN", "--budget-ms", "1", "--out", "t"],
+        ),
+        (
+            "t/pareto.svg",
+            vec!["tune", "IN", "--budget-ms", "1", "--out", "t"],
+        ),
+        (
+            "t/solver.toml",
+            vec!["tune", "IN", "--budget-ms", "1", "--out", "t/."],
+        ),
+    ];
+    if cfg!(feature = "render") {
+        cases.extend([
+            (
+                "o/frame_0000.png",
+                vec!["render", "IN", "--frames", "1", "--out", "o"],
+            ),
+            (
+                "o/frame_0007.png",
+                vec!["render", "IN", "--frames", "8", "--out", "./o"],
+            ),
+            (
+                "o/frame_0001.png",
+                vec![
+                    "render",
+                    "IN",
+                    "--frames",
+                    "2",
+                    "--out",
+                    "o",
+                    "--compare",
+                    "--solver pgs",
+                    "--compare",
+                    "",
+                ],
+            ),
+            (
+                "s.toml",
+                vec![
+                    "render", "IN", "--frames", "2", "--out", "o", "--gif", "s.toml",
+                ],
+            ),
+            ("out/frame_0002.png", vec!["run", "IN", "--frames", "3"]),
+            (
+                "s.toml",
+                vec!["run", "IN", "--frames", "3", "--screenshot", "s.toml"],
+            ),
+        ]);
+    }
+    for (input, args) in &cases {
+        let path = dir.join(input);
+        std::fs::create_dir_all(path.parent().unwrap()).unwrap();
+        std::fs::write(&path, &scene_text).unwrap();
+        let args: Vec<&str> = args
+            .iter()
+            .map(|a| if *a == "IN" { *input } else { *a })
+            .collect();
+        let out = sandbox2d()
+            .args(&args)
+            .current_dir(&dir)
+            .env_remove("DISPLAY")
+            .env_remove("WAYLAND_DISPLAY")
+            .env_remove("WAYLAND_SOCKET")
+            .output()
+            .unwrap();
+        let err = String::from_utf8_lossy(&out.stderr);
+        let last = err.lines().last().unwrap_or("");
+        assert_eq!(out.status.code(), Some(2), "{args:?}: {err}");
+        assert!(
+            last.starts_with("error: ") && last.contains("would overwrite the scene file"),
+            "{args:?}: {err}"
+        );
+        assert_eq!(
+            std::fs::read_to_string(&path).unwrap(),
+            scene_text,
+            "{args:?}: the input is unchanged"
+        );
+        assert_eq!(temporaries(&dir), Vec::<String>::new(), "{args:?}");
+        std::fs::remove_file(&path).unwrap();
+    }
+    // a shard read by --merge is not replaced by the report of the same name
+    let shard = dir.join("m").join("results.md");
+    std::fs::create_dir_all(shard.parent().unwrap()).unwrap();
+    std::fs::write(&shard, "{}").unwrap();
+    let out = sandbox2d()
+        .args(["bench", "--merge", "m/results.md", "--out", "m"])
+        .current_dir(&dir)
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{err}");
+    assert!(
+        err.contains("--out would overwrite the shard file"),
+        "{err}"
+    );
+    assert_eq!(std::fs::read_to_string(&shard).unwrap(), "{}");
+    // a hard link to the scene is the scene
+    #[cfg(unix)]
+    {
+        let scene = dir.join("s.toml");
+        std::fs::write(&scene, &scene_text).unwrap();
+        std::fs::hard_link(&scene, dir.join("link.csv")).unwrap();
+        let out = sandbox2d()
+            .args(["simulate", "s.toml", "--steps", "2", "--trace", "link.csv"])
+            .current_dir(&dir)
+            .output()
+            .unwrap();
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(2), "{err}");
+        assert_eq!(std::fs::read_to_string(&scene).unwrap(), scene_text);
+    }
+}
+
 #[cfg(feature = "render")]
 #[test]
 fn render_and_run_refuse_outputs_that_collide() {
