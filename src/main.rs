@@ -173,10 +173,11 @@ fn parse_size(s: &str) -> Result<[u32; 2], String> {
             .trim()
             .parse()
             .map_err(|_| format!("\"{v}\" is not a whole number of pixels"))?;
-        if (1..=16384).contains(&n) {
+        let max = sandbox2d::defs::MAX_FRAME_SIDE;
+        if (1..=max).contains(&n) {
             Ok(n)
         } else {
-            Err(format!("each side must be 1..=16384 pixels, got {n}"))
+            Err(format!("each side must be 1..={max} pixels, got {n}"))
         }
     };
     Ok([side(w)?, side(h)?])
@@ -946,8 +947,19 @@ fn simulate(a: &SimulateArgs) -> Result<(), Failure> {
         ("largest joint error", summary.joint_error_max as f64),
     ];
     if let Some((what, v)) = figures.iter().find(|(_, v)| !v.is_finite()) {
+        // the energy at the end: the body whose term overflowed (at the start, the
+        // scene loader has refused such a body)
+        let culprit = match world.energy_not_finite() {
+            Some((i, why)) if what.starts_with("energy") => {
+                format!(
+                    " (body {:?} (#{i}): {why})",
+                    one_line(&world.bodies[i].name)
+                )
+            }
+            _ => String::new(),
+        };
         return Err(Failure::run(format!(
-            "{}: after step {}: the {what} is {v}, not a finite number",
+            "{}: after step {}: the {what} is {v}, not a finite number{culprit}",
             sc.source, summary.steps
         )));
     }

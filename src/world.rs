@@ -97,15 +97,22 @@ pub enum BodyInput {
 /// Why a step failed.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum StepError {
+    /// A body's state went NaN or infinite: `what` names the first quantity that did
+    /// (velocity, angular velocity, position, angle, in that order: a velocity gone bad
+    /// takes its position with it), `value` is it as written.
     #[error(
-        "body {name:?} (#{index}) has a non-finite state after step {step}: position {position:?}, velocity {velocity:?}"
+        "body {name:?} (#{index}) has a non-finite state after step {step}: its {what} is {value} (position {position:?}, angle {angle}, velocity {velocity:?}, angular velocity {angular_velocity})"
     )]
     NonFinite {
         name: String,
         index: usize,
         step: u64,
+        what: &'static str,
+        value: String,
         position: Vec2,
+        angle: f32,
         velocity: Vec2,
+        angular_velocity: f32,
     },
 }
 
@@ -822,12 +829,25 @@ impl World {
     /// The error for body `i`, whose state is not finite.
     fn non_finite(&self, i: usize) -> StepError {
         let b = &self.bodies[i];
+        let (what, value) = if !b.velocity.is_finite() {
+            ("velocity", format!("{:?}", b.velocity))
+        } else if !b.angular_velocity.is_finite() {
+            ("angular velocity", b.angular_velocity.to_string())
+        } else if !b.position.is_finite() {
+            ("position", format!("{:?}", b.position))
+        } else {
+            ("angle", b.angle.to_string())
+        };
         StepError::NonFinite {
             name: b.name.clone(),
             index: i,
             step: self.step_count,
+            what,
+            value,
             position: b.position,
+            angle: b.angle,
             velocity: b.velocity,
+            angular_velocity: b.angular_velocity,
         }
     }
 
@@ -1374,6 +1394,17 @@ impl World {
     /// in f64.
     pub fn world_position(&self, body: BodyId) -> glam::DVec2 {
         self.origin + self.bodies[body].position.as_dvec2()
+    }
+
+    /// The first dynamic body whose energy term ([`World::energy`]'s) is not finite,
+    /// and why: to name it when the total is not.
+    pub fn energy_not_finite(&self) -> Option<(BodyId, String)> {
+        self.bodies.iter().enumerate().find_map(|(i, b)| {
+            if !b.is_dynamic() {
+                return None;
+            }
+            energy_problem(b, self.gravity).map(|(_, why)| (i, why))
+        })
     }
 
     /// Kinetic plus gravitational potential energy of the dynamic bodies (J), with the

@@ -636,6 +636,34 @@ fn a_non_finite_state_names_the_scene_the_step_and_the_body() {
     );
 }
 
+/// An energy that overflows while every state stays finite is a failed run whose line
+/// names the body whose term overflowed.
+#[test]
+fn an_energy_that_overflows_names_the_body() {
+    let dir = fresh_tmp("energy-overflow");
+    let scene = dir.join("heavy.toml");
+    // 1/2 m v^2 starts at 3.38e38 J, just inside f32, and gravity along x adds to v
+    std::fs::write(
+        &scene,
+        "name = \"heavy\"\n[world]\ngravity = [10, 0]\n[[body]]\nname = \"weight\"\nshape = { circle = 1 }\nmass = 1e30\nvelocity = [26000, 0]\n",
+    )
+    .unwrap();
+    let out = sandbox2d()
+        .arg("simulate")
+        .arg(&scene)
+        .args(["--steps", "600"])
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{err}");
+    assert_eq!(err.lines().count(), 1, "{err}");
+    assert!(err.contains("the energy at the end is inf"), "{err}");
+    assert!(
+        err.contains("body \"weight\" (#0): its kinetic energy is not finite"),
+        "{err}"
+    );
+}
+
 /// A fresh empty folder (also without the render feature).
 fn fresh_tmp(name: &str) -> std::path::PathBuf {
     let dir = tmp(name);

@@ -163,7 +163,7 @@ fn infinite_number() {
     check(
         "name = \"t\"\n[world]\ngravity = [0, -inf]\n",
         3,
-        11,
+        15,
         &["gravity", "finite", "-inf"],
     );
 }
@@ -193,7 +193,7 @@ fn box_size_zero() {
     check(
         &body("shape = { box = [0.0, 1.0] }"),
         3,
-        17,
+        18,
         &["box", "size", "> 0", "[0, 1]"],
     );
 }
@@ -203,7 +203,7 @@ fn box_size_is_refused_on_static_bodies_too() {
     check(
         &body("type = \"static\"\nshape = { box = [4.0, -1.0] }"),
         4,
-        17,
+        23,
         &["box", "[4, -1]"],
     );
 }
@@ -279,7 +279,7 @@ fn polygon_point_not_finite() {
     check(
         &body("shape = { polygon = [[0, 0], [1, nan], [0, 1]] }"),
         3,
-        30,
+        34,
         &["polygon point", "finite"],
     );
 }
@@ -2216,4 +2216,122 @@ fn a_scene_file_past_the_size_limit_is_refused_before_it_is_read_whole() {
         let e = sandbox2d::scene::load_file(std::path::Path::new("/dev/zero")).unwrap_err();
         assert!(e.message().contains("past 16 MiB"), "{e}");
     }
+}
+
+/// The byte ranges of the numbers in a scene's text (outside comments and strings).
+fn numbers_in(text: &str) -> Vec<std::ops::Range<usize>> {
+    let b = text.as_bytes();
+    let mut out = Vec::new();
+    let (mut i, mut in_comment, mut in_string) = (0, false, false);
+    while i < b.len() {
+        let c = b[i];
+        if c == b'\n' {
+            in_comment = false;
+        }
+        if in_comment {
+            i += 1;
+            continue;
+        }
+        if c == b'#' && !in_string {
+            in_comment = true;
+        } else if c == b'"' {
+            in_string = !in_string;
+        } else if !in_string
+            && (c.is_ascii_digit() || c == b'-')
+            && (i == 0 || !(b[i - 1].is_ascii_alphanumeric() || b[i - 1] == b'_'))
+        {
+            let start = i;
+            i += 1;
+            while i < b.len()
+                && (b[i].is_ascii_alphanumeric() || matches!(b[i], b'.' | b'-' | b'+'))
+            {
+                i += 1;
+            }
+            if b[start..i].iter().any(u8::is_ascii_digit) {
+                out.push(start..i);
+            }
+            continue;
+        }
+        i += 1;
+    }
+    out
+}
+
+/// Every number of every built-in scene, set in turn to NaN, to 1e39 (past f32) and to
+/// a string: each is refused, and the error's line and column are those of the value
+/// itself (not of its array, its table, another body or the camera).
+#[test]
+fn every_number_of_every_builtin_scene_is_refused_at_itself() {
+    let dir = std::path::PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("assets/scenes");
+    let mut checked = 0;
+    for name in sandbox2d::scene::builtin_names() {
+        let text = std::fs::read_to_string(dir.join(format!("{name}.toml"))).unwrap();
+        for r in numbers_in(&text) {
+            let line = text[..r.start].matches('\n').count() + 1;
+            let col = text[..r.start].rsplit('\n').next().unwrap().chars().count() + 1;
+            for v in ["nan", "1e39", "\"x\""] {
+                let mut t = text.clone();
+                t.replace_range(r.clone(), v);
+                let e = match load_str(&t, "s.toml") {
+                    Ok(_) => panic!("{name}:{line}:{col}: {v} accepted"),
+                    Err(e) => e,
+                };
+                assert_eq!(
+                    (e.line(), e.column()),
+                    (Some(line), Some(col)),
+                    "{name}: {v} at {line}:{col}: {e}"
+                );
+                checked += 1;
+            }
+        }
+    }
+    // every built-in scene has numbers: some thousands of cases
+    assert!(checked > 3000, "{checked}");
+}
+
+/// A camera size past the largest frame is refused where the scene gives it, not later
+/// by the renderer without a place.
+#[test]
+fn a_camera_size_past_the_largest_frame_is_refused_at_the_side() {
+    check(
+        "name = \"t\"\n[camera]\nsize = [16385, 16]\n",
+        3,
+        9,
+        &["camera", "size", "1..=16384", "16385"],
+    );
+    check(
+        "name = \"t\"\n[camera]\nsize = [640, 0]\n",
+        3,
+        14,
+        &["camera", "size", "[640, 0]"],
+    );
+    load_str("name = \"t\"\n[camera]\nsize = [16384, 1]\n", "ok.toml").unwrap();
+}
+
+/// A dotted key deeper than the TOML reader goes (it gives no place of its own) is
+/// refused at the part that goes past the limit, not at 1:1.
+#[test]
+fn a_key_too_deep_for_the_reader_is_refused_where_it_goes_past() {
+    let key = vec!["a"; 1000].join(".");
+    check(
+        &format!("name = \"t\"\n{key} = 1\n"),
+        2,
+        161,
+        &["more than 80 levels"],
+    );
+    let key = vec!["b"; 81].join(" . ");
+    check(
+        &format!("name = \"t\"\n[t]\n\"x\" = 1\n{key} = 2\n"),
+        4,
+        1 + 80 * 4,
+        &["more than 80 levels"],
+    );
+    // 80 parts are within the reader's depth (and refused as an unknown key)
+    let key = vec!["c"; 80].join(".");
+    check(
+        &format!("name = \"t\"\n{key} = 1\n"),
+        2,
+        1,
+        &["unknown field"],
+    );
 }

@@ -120,14 +120,95 @@ pub fn load_str(text: &str, source: &str) -> Result<Scene, SceneError> {
         origin: [0.0; 2],
     };
     let file: FileScene = toml::from_str(text).map_err(|e| {
-        let span = e.span().unwrap_or(0..0);
-        ctx.err(span, e.message().trim_end().to_owned())
+        let message = e.message().trim_end();
+        match e.span() {
+            Some(span) => ctx.err(span, message.to_owned()),
+            // the reader gives no place for a dotted key too deep for it: found here
+            None => match deep_key(text) {
+                Some(at) => ctx.err(
+                    at..at,
+                    format!("this key nests more than {TOML_DEPTH} levels deep ({message})"),
+                ),
+                None => ctx.err(0..0, message.to_owned()),
+            },
+        }
     })?;
     let ctx = Ctx {
         origin: scene_origin(&file),
         ..ctx
     };
     build(&ctx, file)
+}
+
+/// How deep the TOML reader lets keys and values nest.
+const TOML_DEPTH: usize = 80;
+
+/// Where the first dotted key of more than [`TOML_DEPTH`] parts (`a.b.c...`) goes past
+/// that depth: the byte offset of its part beyond the limit. Comments and strings are
+/// skipped; a part is a bare key or a quoted one.
+fn deep_key(text: &str) -> Option<usize> {
+    let b = text.as_bytes();
+    let bare = |c: u8| c.is_ascii_alphanumeric() || c == b'_' || c == b'-';
+    // the end of the quoted string starting at i (past its closing quote)
+    let quoted = |i: usize| {
+        let q = b[i];
+        let mut j = i + 1;
+        while j < b.len() && b[j] != q && b[j] != b'\n' {
+            j += if b[j] == b'\\' && q == b'"' { 2 } else { 1 };
+        }
+        (j + 1).min(b.len())
+    };
+    let mut i = 0;
+    while i < b.len() {
+        match b[i] {
+            b'#' => {
+                while i < b.len() && b[i] != b'\n' {
+                    i += 1;
+                }
+            }
+            b'"' | b'\'' | b'_' | b'-' | b'0'..=b'9' | b'a'..=b'z' | b'A'..=b'Z' => {
+                // a chain of parts joined by dots
+                let mut parts = 0;
+                let mut j = i;
+                loop {
+                    let start = j;
+                    j = if b[j] == b'"' || b[j] == b'\'' {
+                        quoted(j)
+                    } else {
+                        let mut k = j;
+                        while k < b.len() && bare(b[k]) {
+                            k += 1;
+                        }
+                        k
+                    };
+                    parts += 1;
+                    if parts > TOML_DEPTH {
+                        return Some(start);
+                    }
+                    let mut k = j;
+                    while k < b.len() && (b[k] == b' ' || b[k] == b'\t') {
+                        k += 1;
+                    }
+                    if k >= b.len() || b[k] != b'.' {
+                        break;
+                    }
+                    k += 1;
+                    while k < b.len() && (b[k] == b' ' || b[k] == b'\t') {
+                        k += 1;
+                    }
+                    if k >= b.len() || !(bare(b[k]) || b[k] == b'"' || b[k] == b'\'') {
+                        break;
+                    }
+                    j = k;
+                }
+                i = j.max(i + 1);
+                continue;
+            }
+            _ => {}
+        }
+        i += 1;
+    }
+    None
 }
 
 /// A scene whose placed points (body positions, generator origins, chain anchors) reach
@@ -147,7 +228,9 @@ fn scene_origin(f: &FileScene) -> [f64; 2] {
         .chain(f.grid.iter().filter_map(|g| g.get_ref().origin.as_ref()))
         .chain(f.chain.iter().map(|g| &g.get_ref().anchor))
         .map(|p| p.get_ref().0)
-        .filter(|p| p.iter().all(|x| x.is_finite()));
+        // a point beyond f32 is refused where it is written; it must not move the
+        // origin (which would push every other point, the camera's too, out of range)
+        .filter(|p| p.iter().all(|x| x.abs() <= f32::MAX as f64));
     let (mut lo, mut hi) = ([f64::MAX; 2], [f64::MIN; 2]);
     let mut far = false;
     for p in points {
