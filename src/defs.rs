@@ -782,6 +782,9 @@ impl SolverOverrides {
     }
 }
 
+/// The largest side of a frame in pixels (a `[camera]` size, `render --size`).
+pub const MAX_FRAME_SIDE: u32 = 16384;
+
 /// The camera a scene asks for: the screen transform's centre and scale.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct CameraDef {

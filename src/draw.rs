@@ -11,6 +11,7 @@
 use crate::defs::Color;
 use glam::Vec2;
 
+pub mod clip;
 pub mod world;
 
 pub use world::{Overlays, Tint, fill_world_draw_list, push_joint_lines, world_draw_list};
@@ -53,10 +54,12 @@ impl From<crate::defs::CameraDef> for Camera {
 }
 
 impl Camera {
-    /// Smallest zoom [`Camera::zoom_about`] and [`Camera::fit`] will produce (px/m).
-    pub const MIN_PIXELS_PER_METER: f32 = 1e-3;
-    /// Largest zoom [`Camera::zoom_about`] and [`Camera::fit`] will produce (px/m).
-    pub const MAX_PIXELS_PER_METER: f32 = 1e6;
+    /// Smallest zoom [`Camera::zoom_about`] and [`Camera::fit`] will produce (px/m): a
+    /// body of 1e9 m still fits an image.
+    pub const MIN_PIXELS_PER_METER: f32 = 1e-9;
+    /// Largest zoom [`Camera::zoom_about`] and [`Camera::fit`] will produce (px/m): a
+    /// body of 1e-6 m still fills an image.
+    pub const MAX_PIXELS_PER_METER: f32 = 1e10;
 
     /// A camera centred on `center` at `pixels_per_meter`, for an image of `size` pixels.
     pub fn new(center: Vec2, pixels_per_meter: f32, size: [u32; 2]) -> Self {

@@ -18,6 +18,28 @@ use sandbox2d::{SolverKind, SolverOverrides, SolverSettings, World, WorldState};
 /// choose on purpose; EGL's report of a DRI2 driver it probes and then does without).
 const DEFAULT_LOG_FILTER: &str = "warn,egui_wgpu=error,wgpu_hal::gles::egl=off";
 
+/// `println!` that fails as a run does when stdout cannot be written (a full disk, a
+/// closed pipe): one line on stderr and exit 1, never a panic.
+macro_rules! say {
+    ($($arg:tt)*) => {{
+        use std::io::Write as _;
+        writeln!(std::io::stdout(), $($arg)*).map_err(stdout_failure)
+    }};
+}
+
+/// `print!`, as [`say!`].
+macro_rules! say_part {
+    ($($arg:tt)*) => {{
+        use std::io::Write as _;
+        write!(std::io::stdout(), $($arg)*).map_err(stdout_failure)
+    }};
+}
+
+/// A write to stdout that failed.
+fn stdout_failure(e: std::io::Error) -> Failure {
+    Failure::run(format!("stdout: cannot write: {e}"))
+}
+
 /// The scene the plain `sandbox2d` command shows.
 const DEFAULT_SCENE: &str = "pyramid";
 
@@ -168,10 +190,11 @@ fn parse_size(s: &str) -> Result<[u32; 2], String> {
             .trim()
             .parse()
             .map_err(|_| format!("\"{v}\" is not a whole number of pixels"))?;
-        if (1..=16384).contains(&n) {
+        let max = sandbox2d::defs::MAX_FRAME_SIDE;
+        if (1..=max).contains(&n) {
             Ok(n)
         } else {
-            Err(format!("each side must be 1..=16384 pixels, got {n}"))
+            Err(format!("each side must be 1..={max} pixels, got {n}"))
         }
     };
     Ok([side(w)?, side(h)?])
@@ -597,10 +620,14 @@ static GRACEFUL: AtomicBool = AtomicBool::new(false);
 /// no graceful command runs, exits at once with 130.
 fn install_interrupt_handler() {
     let _ = ctrlc::set_handler(|| {
-        if GRACEFUL.load(Ordering::Relaxed) && !output::interrupted() {
+        if !GRACEFUL.load(Ordering::Relaxed) {
+            output::abandon(130, "interrupted");
+        } else if !output::interrupted() {
             output::interrupt();
         } else {
-            std::process::exit(130);
+            // the temporary files still being written are removed; a file of finished
+            // rows (the bench's partial results) is kept, cut to its last whole row
+            output::abandon(130, "interrupted again: stopped at once");
         }
     });
 }
@@ -659,6 +686,55 @@ fn env_var(name: &str) -> Option<String> {
     std::env::var(name).ok()
 }
 
+/// Refuses a run whose writes into the folder `dir` would replace one of its inputs:
+/// `writes(name)` says whether the run writes a file of that name there (`what`, the
+/// flag that names the folder, goes into the message).
+fn check_folder_outputs(
+    what: &str,
+    dir: &Path,
+    writes: impl Fn(&str) -> bool,
+    inputs: &[(&str, &Path)],
+) -> Result<(), Failure> {
+    for (other, q) in inputs {
+        let Some(name) = q.file_name().and_then(|n| n.to_str()) else {
+            continue;
+        };
+        let p = dir.join(name);
+        if writes(name) && output::same_file(&p, q) {
+            return Err(Failure::input(format!(
+                "{}: {what} would overwrite the {other} ({})",
+                p.display(),
+                q.display()
+            )));
+        }
+    }
+    Ok(())
+}
+
+/// Whether `name` is one of the frames `frame_0000.png` .. of a run of `frames` frames.
+#[cfg_attr(not(feature = "render"), allow(dead_code))]
+fn is_frame_name(name: &str, frames: u32) -> bool {
+    #[cfg(feature = "render")]
+    if let Some(k) = name
+        .strip_prefix("frame_")
+        .and_then(|r| r.strip_suffix(".png"))
+        .and_then(|d| d.parse::<u32>().ok())
+    {
+        return k < frames && sandbox2d::render::frame_name(k) == name;
+    }
+    let _ = (name, frames);
+    false
+}
+
+/// The files `bench --merge` may write into its `--out` folder: the reports and the
+/// plots (one per scene).
+fn merge_writes(name: &str) -> bool {
+    matches!(name, "results.csv" | "results.md" | "stability.md") || name.ends_with(".svg")
+}
+
+/// The files `tune --out` writes.
+const TUNE_FILES: [&str; 4] = ["tune.md", "tune.json", "pareto.svg", "solver.toml"];
+
 /// The scene file a name loads, when it is a file and not a built-in scene.
 fn scene_file(name: &str) -> Option<PathBuf> {
     scene::builtin(name).is_none().then(|| PathBuf::from(name))
@@ -668,6 +744,7 @@ fn main() -> ExitCode {
     env_logger::Builder::from_env(env_logger::Env::default().default_filter_or(DEFAULT_LOG_FILTER))
         .init();
     let cli = Cli::parse();
+    output::ignore_file_size_signal();
     install_interrupt_handler();
     let timing = matches!(cli.command, Some(Command::Bench(_) | Command::Tune(_)));
     match cli.threads {
@@ -708,7 +785,7 @@ fn main() -> ExitCode {
 fn list_scenes() -> Result<(), Failure> {
     for name in scene::builtin_names() {
         let d = scene::builtin_description(name).unwrap_or_default();
-        println!("{name:<16} {d}");
+        say!("{name:<16} {d}")?;
     }
     Ok(())
 }
@@ -731,9 +808,9 @@ fn default_command() -> Result<(), Failure> {
 /// and prints its figures.
 #[cfg(not(feature = "render"))]
 fn default_command() -> Result<(), Failure> {
-    println!(
+    say!(
         "sandbox2d: running the built-in scene \"{DEFAULT_SCENE}\" headless for 600 steps (see `sandbox2d --help`)"
-    );
+    )?;
     simulate(&SimulateArgs {
         scene: DEFAULT_SCENE.into(),
         steps: 600,
@@ -1015,8 +1092,19 @@ fn simulate(a: &SimulateArgs) -> Result<(), Failure> {
         ("largest joint error", summary.joint_error_max as f64),
     ];
     if let Some((what, v)) = figures.iter().find(|(_, v)| !v.is_finite()) {
+        // the energy at the end: the body whose term overflowed (at the start, the
+        // scene loader has refused such a body)
+        let culprit = match world.energy_not_finite() {
+            Some((i, why)) if what.starts_with("energy") => {
+                format!(
+                    " (body {:?} (#{i}): {why})",
+                    one_line(&world.bodies[i].name)
+                )
+            }
+            _ => String::new(),
+        };
         return Err(Failure::run(format!(
-            "{}: after step {}: the {what} is {v}, not a finite number",
+            "{}: after step {}: the {what} is {v}, not a finite number{culprit}",
             sc.source, summary.steps
         )));
     }
@@ -1080,11 +1168,11 @@ fn simulate(a: &SimulateArgs) -> Result<(), Failure> {
                 "sensor_begin": event_counts[2], "sensor_end": event_counts[3],
             })),
         });
-        println!("{v}");
+        say!("{v}")?;
     } else {
         // quoted with escapes: a name cannot put control characters on the terminal
-        println!("scene        {:?} ({})", sc.name, one_line(&sc.source));
-        println!(
+        say!("scene        {:?} ({})", sc.name, one_line(&sc.source))?;
+        say!(
             "solver       {} dt={} substeps={} iterations={} tolerance={} warm_start={} split_impulse={} baumgarte={} slop={}",
             settings.kind.name(),
             settings.dt,
@@ -1095,19 +1183,19 @@ fn simulate(a: &SimulateArgs) -> Result<(), Failure> {
             settings.split_impulse,
             settings.baumgarte,
             settings.slop
-        );
+        )?;
         if settings.kind == SolverKind::Soft {
-            println!(
+            say!(
                 "soft step    contact_hertz={} contact_damping_ratio={} max_push_speed={} joint_hertz={} joint_damping_ratio={}",
                 settings.contact_hertz,
                 settings.contact_damping_ratio,
                 settings.max_push_speed,
                 settings.joint_hertz,
                 settings.joint_damping_ratio
-            );
+            )?;
         }
         let used = world.thread_use();
-        println!(
+        say!(
             "steps        {} ({} bodies, {} thread{}{})",
             summary.steps,
             world.bodies.len(),
@@ -1121,39 +1209,45 @@ fn simulate(a: &SimulateArgs) -> Result<(), Failure> {
             } else {
                 String::new()
             }
-        );
-        println!("ms/step      median {median:.3}  mean {mean:.3}  p95 {p95:.3}");
-        println!(
+        )?;
+        say!("ms/step      median {median:.3}  mean {mean:.3}  p95 {p95:.3}")?;
+        say!(
             "contacts     mean {:.1}  max {}",
-            summary.contacts_mean, summary.contacts_max
-        );
-        println!(
+            summary.contacts_mean,
+            summary.contacts_max
+        )?;
+        say!(
             "iterations   mean {:.2}  (position sweeps {:.2})",
-            summary.iterations_mean, summary.position_iterations_mean
-        );
-        println!(
+            summary.iterations_mean,
+            summary.position_iterations_mean
+        )?;
+        say!(
             "residual     mean {:.3e}  max {:.3e}",
-            summary.residual_mean, summary.residual_max
-        );
-        println!(
+            summary.residual_mean,
+            summary.residual_max
+        )?;
+        say!(
             "penetration  max {:.5} m  final {:.5} m",
-            summary.penetration_max, summary.penetration_final
-        );
-        println!(
+            summary.penetration_max,
+            summary.penetration_final
+        )?;
+        say!(
             "energy       start {:.4} J  end {:.4} J",
-            summary.energy_start, summary.energy_end
-        );
-        println!(
+            summary.energy_start,
+            summary.energy_end
+        )?;
+        say!(
             "displacement max {:.4} m (the farthest a body ended from its start)",
             summary.displacement_max
-        );
+        )?;
         if !world_has_no_joints {
-            println!(
+            say!(
                 "joint error  max {:.6} m  final {:.6} m",
-                summary.joint_error_max, summary.joint_error_final
-            );
+                summary.joint_error_max,
+                summary.joint_error_final
+            )?;
         }
-        println!("state hash   {hash}");
+        say!("state hash   {hash}")?;
     }
     Ok(())
 }
@@ -1324,7 +1418,10 @@ fn render_job(
 
 /// Tells where the frames went: one line.
 #[cfg(feature = "render")]
-fn print_written(w: &sandbox2d::render::FramesWritten, out: &std::path::Path) {
+fn print_written(
+    w: &sandbox2d::render::FramesWritten,
+    out: &std::path::Path,
+) -> Result<(), Failure> {
     let name = |p: Option<&PathBuf>| {
         p.and_then(|p| p.file_name())
             .map(|n| n.to_string_lossy().into_owned())
@@ -1335,13 +1432,14 @@ fn print_written(w: &sandbox2d::render::FramesWritten, out: &std::path::Path) {
         .as_ref()
         .map(|g| format!(" and {}", g.display()))
         .unwrap_or_default();
-    println!(
+    say!(
         "wrote {} frames ({} .. {}) to {}{gif}",
         w.pngs.len(),
         name(w.pngs.first()),
         name(w.pngs.last()),
         out.display()
-    );
+    )?;
+    Ok(())
 }
 
 #[cfg(feature = "render")]
@@ -1388,6 +1486,15 @@ fn render(a: &RenderArgs) -> Result<(), Failure> {
             )));
         }
     }
+    // a frame it writes must not be the scene file
+    if let Some(file) = scene_file(&a.scene) {
+        check_folder_outputs(
+            "--out",
+            &a.out,
+            |n| is_frame_name(n, a.frames),
+            &[("scene file", &file)],
+        )?;
+    }
     let start = match a.from_step {
         Some(k) => Some(start_state(&a.scene, a.run.as_deref(), k, &a.solver)?),
         None => None,
@@ -1407,7 +1514,7 @@ fn render(a: &RenderArgs) -> Result<(), Failure> {
     }
     let job = frame_job(a)?;
     let written = render_job(&sc, &mut world, a.size.unwrap_or(sc.camera.size), &job)?;
-    print_written(&written, &a.out);
+    print_written(&written, &a.out)?;
     Ok(())
 }
 
@@ -1503,13 +1610,13 @@ fn render_compare(a: &RenderArgs, start: Option<&WorldState>) -> Result<(), Fail
         }
         e => frames_failure(e),
     })?;
-    print_written(&written, &a.out);
+    print_written(&written, &a.out)?;
     for p in &panes {
-        println!(
+        say!(
             "{:<32} mean {:.3} ms/step",
             p.label,
             p.mean_ms().unwrap_or(0.0)
-        );
+        )?;
     }
     Ok(())
 }
@@ -1550,7 +1657,7 @@ fn run(a: &RunArgs) -> Result<(), Failure> {
             show_panel: !a.no_panel,
         };
         for (i, (label, _)) in panes.iter().enumerate() {
-            println!("pane {}: {label}", i + 1);
+            say!("pane {}: {label}", i + 1)?;
         }
         let shown = if panes.is_empty() {
             sandbox2d::app::run(sc.clone(), a.solver.overrides(), opts)
@@ -1559,7 +1666,7 @@ fn run(a: &RunArgs) -> Result<(), Failure> {
         };
         match shown {
             Ok(report) => {
-                println!(
+                say!(
                     "sandbox2d: {} frames in {:.2} s: {:.1} fps (frame time median {:.1} ms, p95 {:.1} ms) on {}",
                     report.frames,
                     report.seconds,
@@ -1571,27 +1678,27 @@ fn run(a: &RunArgs) -> Result<(), Failure> {
                     } else {
                         &report.adapter
                     }
-                );
+                )?;
                 if let Some(p) = &report.screenshot {
-                    println!("screenshot: {}", p.display());
+                    say!("screenshot: {}", p.display())?;
                 }
                 return Ok(());
             }
             Err(AppError::NoDisplay(why)) => {
-                println!(
+                say!(
                     "sandbox2d: no display ({why}); rendering {:?} headless into ./out instead",
                     sc.name
-                );
+                )?;
             }
             Err(AppError::Build(e)) => return Err(Failure::input(e)),
             Err(e) => return Err(Failure::run(e)),
         }
     }
     #[cfg(not(feature = "app"))]
-    println!(
+    say!(
         "sandbox2d: built without the window (feature \"app\"); rendering {:?} headless into ./out instead",
         sc.name
-    );
+    )?;
     run_headless(a, &sc)
 }
 
@@ -1628,6 +1735,14 @@ fn run_headless(a: &RunArgs, sc: &Scene) -> Result<(), Failure> {
         let inputs: Vec<(&str, &Path)> = inputs.iter().map(|(w, p)| (*w, p.as_path())).collect();
         check_distinct(&[("--screenshot", shot)], &inputs)?;
     }
+    if let Some(file) = scene_file(&a.scene) {
+        check_folder_outputs(
+            "the headless frames (./out)",
+            &out,
+            |n| is_frame_name(n, frames),
+            &[("scene file", &file)],
+        )?;
+    }
     let (_, mut world, _) = build(&a.scene, &a.solver)?;
     let job = sandbox2d::render::FrameJob {
         frames,
@@ -1637,12 +1752,12 @@ fn run_headless(a: &RunArgs, sc: &Scene) -> Result<(), Failure> {
         overlays: sandbox2d::draw::Overlays::NONE,
     };
     let written = render_job(sc, &mut world, sc.camera.size, &job)?;
-    print_written(&written, &out);
+    print_written(&written, &out)?;
     if let (Some(shot), Some(last)) = (&a.screenshot, written.pngs.last()) {
         let bytes = std::fs::read(last)
             .map_err(|e| Failure::run(format!("{}: cannot read: {e}", last.display())))?;
         output::write_atomic(shot, &bytes).map_err(Failure::run)?;
-        println!("screenshot: {}", shot.display());
+        say!("screenshot: {}", shot.display())?;
     }
     Ok(())
 }
@@ -1782,12 +1897,12 @@ fn bench(a: &BenchArgs) -> Result<(), Failure> {
                 .collect();
             let path = a.out.join(p.file_name());
             write_file(&path, &shard::extremes_json(&key, p, all.len(), &rows))?;
-            println!(
+            say!(
                 "wrote {} (shard {p}: {} of {} cases)",
                 path.display(),
                 cases.len(),
                 all.len()
-            );
+            )?;
             return Ok(());
         }
         return write_stability(&a.out, &extremes::assemble(&cases, results));
@@ -1831,61 +1946,77 @@ fn bench(a: &BenchArgs) -> Result<(), Failure> {
     let cases: Vec<bench::Case> = picked.iter().map(|&i| all[i]).collect();
     let total = cases.len();
     let bar = bench_progress(total);
-    // Each finished case's row goes to results.partial.csv (a shard's to
-    // results.shard-I-of-N.partial.csv) at once, so an interrupted (or failed) suite
-    // keeps what it measured; the complete results replace it at the end.
+    // Each finished case's row goes at once to a temporary file kept as
+    // results.partial.csv (a shard's as results.shard-I-of-N.partial.csv) when the suite
+    // stops early: interrupted, failed (a full disk), or interrupted twice; it then
+    // holds whole rows only. A complete suite's reports replace it.
     GRACEFUL.store(true, Ordering::Relaxed);
     let partial_path = a.out.join(match part {
         Some(p) => format!("results.shard-{}-of-{}.partial.csv", p.index, p.count),
         None => "results.partial.csv".to_string(),
     });
-    let mut partial = std::fs::File::create(&partial_path)
-        .map_err(|e| Failure::input(format!("{}: cannot write: {e}", partial_path.display())))?;
-    let partial_err =
-        |e: std::io::Error| Failure::run(format!("{}: cannot write: {e}", partial_path.display()));
-    writeln!(partial, "{}", bench::report::CSV_COLUMNS.join(",")).map_err(partial_err)?;
-    let (rows, complete) =
-        bench::run_cases(&scenes, &opts, &cases, a.jobs, |done, _, what, row| {
-            bar.set_position(done as u64);
-            bar.set_message(what.to_string());
-            let csv = bench::report::csv(std::slice::from_ref(row));
-            let line = csv.split_once('\n').map_or("", |(_, rest)| rest);
-            partial
-                .write_all(line.as_bytes())
-                .and_then(|()| partial.flush())
-                .map_err(partial_err)
-        })?;
+    let mut partial = output::RowFile::create(&partial_path).map_err(Failure::input)?;
+    partial
+        .push(&format!("{}\n", bench::report::CSV_COLUMNS.join(",")))
+        .map_err(Failure::run)?;
+    let run = bench::run_cases(&scenes, &opts, &cases, a.jobs, |done, _, what, row| {
+        bar.set_position(done as u64);
+        bar.set_message(what.to_string());
+        let csv = bench::report::csv(std::slice::from_ref(row));
+        let line = csv.split_once('\n').map_or("", |(_, rest)| rest);
+        partial.push(line).map_err(Failure::run)
+    });
     bar.finish_and_clear();
+    // a run that stops early keeps the finished rows and says where
+    let kept = |partial: output::RowFile| {
+        let rows = partial.rows().saturating_sub(1);
+        match partial.keep() {
+            Ok(p) => format!(
+                "kept the {rows} finished case(s) of {total} in {}",
+                p.display()
+            ),
+            Err(e) => format!("the finished cases were not kept: {e}"),
+        }
+    };
+    let keep = |partial: output::RowFile, mut f: Failure| {
+        f.message += &format!("; {}", kept(partial));
+        f
+    };
+    let (rows, complete) = match run {
+        Ok(r) => r,
+        Err(f) => return Err(keep(partial, f)),
+    };
     if !complete {
+        let what = if part.is_some() {
+            "the shard file was"
+        } else {
+            "results.csv, results.md and the plots were"
+        };
         return Err(Failure::interrupted(format!(
-            "interrupted: kept the {} finished case(s) of {total} in {}; {} not written",
-            rows.iter().flatten().count(),
-            partial_path.display(),
-            if part.is_some() {
-                "the shard file was"
-            } else {
-                "results.csv, results.md and the plots were"
-            }
+            "interrupted: {}; {what} not written",
+            kept(partial)
         )));
     }
     let rows: Vec<bench::Row> = rows.into_iter().flatten().collect();
     if let Some(p) = part {
         let indexed: Vec<(usize, &bench::Row)> = picked.iter().copied().zip(&rows).collect();
         let path = a.out.join(p.file_name());
-        write_file(&path, &shard::scenes_json(&key, p, all.len(), &indexed))?;
+        if let Err(f) = write_file(&path, &shard::scenes_json(&key, p, all.len(), &indexed)) {
+            return Err(keep(partial, f));
+        }
         drop(partial);
-        let _ = std::fs::remove_file(&partial_path);
-        println!(
+        say!(
             "wrote {} (shard {p}: {} of {} cases)",
             path.display(),
             rows.len(),
             all.len()
-        );
+        )?;
         return Ok(());
     }
-    write_reports(&a.out, suite, &scenes, &rows)?;
+    if let Err(f) = write_reports(&a.out, suite, &scenes, &rows) {
+        return Err(keep(partial, f));
+    }
     drop(partial);
-    let _ = std::fs::remove_file(&partial_path);
     Ok(())
 }
 
@@ -1954,11 +2085,11 @@ fn bench_scaling(a: &BenchArgs, sharded: bool) -> Result<(), Failure> {
         &a.out.join("scaling.md"),
         &scaling::markdown(&rows, repeats, cores, &command),
     )?;
-    println!(
+    say!(
         "wrote {}: scaling.csv, scaling.md and scaling.svg ({} rows)",
         a.out.display(),
         rows.len()
-    );
+    )?;
     Ok(())
 }
 
@@ -2159,7 +2290,7 @@ fn write_stability(
 ) -> Result<(), Failure> {
     let path = out.join("stability.md");
     write_file(&path, &sandbox2d::bench::extremes::markdown(results))?;
-    println!("wrote {}", path.display());
+    say!("wrote {}", path.display())?;
     Ok(())
 }
 
@@ -2184,18 +2315,25 @@ fn write_reports(
         &out.join("results.md"),
         &bench::report::markdown(suite, scenes, rows, &plots),
     )?;
-    println!(
+    say!(
         "wrote {}: results.csv, results.md and {} plot(s) ({} rows)",
         out.display(),
         plots.len(),
         rows.len()
-    );
+    )?;
     Ok(())
 }
 
 /// The shard files given to `--merge`, `(name, text)` each: the files, and in each
-/// folder the files `PREFIX.shard-*.json` (sorted by name).
-fn read_shard_files(inputs: &[PathBuf], prefix: &str) -> Result<Vec<(String, String)>, Failure> {
+/// folder the files `PREFIX.shard-*.json` (sorted by name, a shard's unfinished
+/// `.partial.json` left out). Refused when a file the merge writes into the folder
+/// `out` (`writes(name)`) would replace one of them.
+fn read_shard_files(
+    inputs: &[PathBuf],
+    prefix: &str,
+    out: Option<&Path>,
+    writes: impl Fn(&str) -> bool,
+) -> Result<Vec<(String, String)>, Failure> {
     let start = format!("{prefix}.shard-");
     let mut paths = Vec::new();
     for p in inputs {
@@ -2205,9 +2343,11 @@ fn read_shard_files(inputs: &[PathBuf], prefix: &str) -> Result<Vec<(String, Str
             let mut found: Vec<PathBuf> = entries
                 .filter_map(|e| e.ok().map(|e| e.path()))
                 .filter(|f| {
-                    f.file_name()
-                        .and_then(|n| n.to_str())
-                        .is_some_and(|n| n.starts_with(&start) && n.ends_with(".json"))
+                    f.file_name().and_then(|n| n.to_str()).is_some_and(|n| {
+                        n.starts_with(&start)
+                            && n.ends_with(".json")
+                            && !n.ends_with(".partial.json")
+                    })
                 })
                 .collect();
             if found.is_empty() {
@@ -2222,6 +2362,11 @@ fn read_shard_files(inputs: &[PathBuf], prefix: &str) -> Result<Vec<(String, Str
             paths.push(p.clone());
         }
     }
+    // a report or plot it writes must not replace a shard it reads
+    let inputs: Vec<(&str, &Path)> = paths.iter().map(|p| ("shard file", p.as_path())).collect();
+    if let Some(out) = out {
+        check_folder_outputs("--out", out, writes, &inputs)?;
+    }
     let mut files = Vec::with_capacity(paths.len());
     for p in &paths {
         let text = std::fs::read_to_string(p)
@@ -2235,7 +2380,7 @@ fn read_shard_files(inputs: &[PathBuf], prefix: &str) -> Result<Vec<(String, Str
 /// into the reports of one unsharded run.
 fn bench_merge(inputs: &[PathBuf], out: &Path, run: Option<&str>) -> Result<(), Failure> {
     use sandbox2d::bench::shard::{self, Merged};
-    let files = read_shard_files(inputs, "results")?;
+    let files = read_shard_files(inputs, "results", Some(out), merge_writes)?;
     let merged = shard::merge(&files, run).map_err(Failure::input)?;
     writable_dir(out)?;
     match merged {
@@ -2322,6 +2467,14 @@ fn tune(a: &TuneArgs) -> Result<(), Failure> {
         MetricArg::Residual => tune::TuneMetric::Residual,
         MetricArg::Trajectory => tune::TuneMetric::Trajectory,
     };
+    if let (Some(out), Some(f)) = (&a.out, &file) {
+        check_folder_outputs(
+            "--out",
+            out,
+            |n| TUNE_FILES.contains(&n),
+            &[("scene file", f)],
+        )?;
+    }
     let sc = scene::load(scene_name).map_err(Failure::input)?;
     if let Some(out) = &a.out {
         writable_dir(out)?;
@@ -2391,7 +2544,9 @@ fn tune_merge(a: &TuneArgs) -> Result<(), Failure> {
     if let Some(id) = &a.run_id {
         slurm::check_run_id(id).map_err(|e| Failure::input(format!("--run-id: {e}")))?;
     }
-    let files = read_shard_files(&a.merge, "tune")?;
+    let files = read_shard_files(&a.merge, "tune", a.out.as_deref(), |n| {
+        TUNE_FILES.contains(&n)
+    })?;
     let merged = shard::merge_tune(&files, a.run_id.as_deref()).map_err(Failure::input)?;
     let key = &merged.key;
     let sc = scene::load(&key.scene).map_err(|e| {
@@ -2461,14 +2616,14 @@ fn tune_output(
         }
     }
     if a.json {
-        println!("{}", tune::json(report));
+        say!("{}", tune::json(report))?;
     } else {
-        print!("{}", tune::markdown(report));
+        say_part!("{}", tune::markdown(report))?;
         if let Some(out) = &a.out {
-            println!(
+            say!(
                 "\nwrote {}: tune.md, tune.json, pareto.svg, solver.toml",
                 out.display()
-            );
+            )?;
         }
     }
     if let (true, Some(path), Some(p)) = (a.write, file, &pick) {
@@ -2501,7 +2656,7 @@ fn tune_output(
         }
         write_file(path, &new)?;
         if !a.json {
-            println!("wrote the pick ({}) into {}", p.label(), path.display());
+            say!("wrote the pick ({}) into {}", p.label(), path.display())?;
         }
     }
     Ok(())

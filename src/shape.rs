@@ -427,7 +427,72 @@ pub struct MassData {
 impl Shape {
     /// Builds the shape from its description, and returns where its centroid lies in the
     /// description's frame. The shape itself is re-centred on that centroid.
+    ///
+    /// A shape whose derived numbers do not fit f32 (a box so thin that an edge's
+    /// normal cannot be worked out, a segment so long that its length overflows) is
+    /// refused here, so that every shape a world holds can be saved and read back.
     pub fn from_def(def: &ShapeDef) -> Result<(Shape, Vec2), ShapeError> {
+        let (shape, c) = Self::from_def_unchecked(def)?;
+        if let Err(why) = shape.check_sound() {
+            return Err(ShapeError::Invalid(format!(
+                "the shape does not fit f32 ({why}): too small or too large to simulate"
+            )));
+        }
+        if !c.is_finite() {
+            return Err(ShapeError::Invalid(
+                "the shape's centroid is not finite: too large to simulate".into(),
+            ));
+        }
+        Ok((shape, c))
+    }
+
+    /// Whether every number of the shape is finite and consistent: radii finite and
+    /// positive, vertices finite, each edge normal a unit vector, a polyline segment of
+    /// finite, non-zero length. `Err` says what is wrong, in a few words. What
+    /// [`Shape::from_def`] makes passes; a shape read from a damaged state may not.
+    pub fn check_sound(&self) -> Result<(), String> {
+        match self {
+            Shape::Circle { radius } | Shape::Compound { radius } => {
+                if !(radius.is_finite() && *radius > 0.0) {
+                    return Err(format!("radius {radius}"));
+                }
+            }
+            Shape::Polygon(p) => {
+                if !(2..=MAX_POLYGON_VERTICES).contains(&p.count) {
+                    return Err(format!("{} vertices", p.count));
+                }
+                if !(p.radius.is_finite() && p.radius >= 0.0) {
+                    return Err(format!("rounding radius {}", p.radius));
+                }
+                for i in 0..p.count {
+                    let (v, n) = (p.vertices[i], p.normals[i]);
+                    if !v.is_finite() {
+                        return Err(format!("vertex {i} is {v}"));
+                    }
+                    if !(n.is_finite() && (n.length_squared() - 1.0).abs() < 1e-3) {
+                        return Err(format!("the normal of edge {i} is {n}, not a unit vector"));
+                    }
+                    let e = p.vertices[(i + 1) % p.count] - v;
+                    if !e.length_squared().is_finite() {
+                        return Err(format!("edge {i}'s length is not finite"));
+                    }
+                }
+            }
+            Shape::Chain(c) => {
+                let ends = [Some(c.a), Some(c.b), c.prev, c.next];
+                if let Some(v) = ends.iter().flatten().find(|v| !v.is_finite()) {
+                    return Err(format!("a point is {v}"));
+                }
+                let l = (c.b - c.a).length_squared();
+                if !(l.is_finite() && l > 0.0) {
+                    return Err("the segment's length is zero or not finite".into());
+                }
+            }
+        }
+        Ok(())
+    }
+
+    fn from_def_unchecked(def: &ShapeDef) -> Result<(Shape, Vec2), ShapeError> {
         match def {
             ShapeDef::Circle { radius } => {
                 if !(*radius > 0.0) {

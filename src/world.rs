@@ -99,15 +99,22 @@ pub enum BodyInput {
 /// Why a step failed.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum StepError {
+    /// A body's state went NaN or infinite: `what` names the first quantity that did
+    /// (velocity, angular velocity, position, angle, in that order: a velocity gone bad
+    /// takes its position with it), `value` is it as written.
     #[error(
-        "body {name:?} (#{index}) has a non-finite state after step {step}: position {position:?}, velocity {velocity:?}"
+        "body {name:?} (#{index}) has a non-finite state after step {step}: its {what} is {value} (position {position:?}, angle {angle}, velocity {velocity:?}, angular velocity {angular_velocity})"
     )]
     NonFinite {
         name: String,
         index: usize,
         step: u64,
+        what: &'static str,
+        value: String,
         position: Vec2,
+        angle: f32,
         velocity: Vec2,
+        angular_velocity: f32,
     },
 }
 
@@ -725,38 +732,8 @@ impl World {
             island: 0,
             parts: compound.map(|(parts, _)| parts).unwrap_or_default(),
         };
-        if dynamic {
-            // the terms of World::energy, in the same precision
-            let linear = 0.5 * body.mass * body.velocity.length_squared();
-            if !linear.is_finite() {
-                return Err(derived(
-                    BodyInput::Velocity,
-                    format!(
-                        "its kinetic energy is not finite (mass {} kg, velocity {:?})",
-                        body.mass, body.velocity
-                    ),
-                ));
-            }
-            let angular = 0.5 * body.inertia * body.angular_velocity * body.angular_velocity;
-            if !angular.is_finite() || !(linear + angular).is_finite() {
-                return Err(derived(
-                    BodyInput::AngularVelocity,
-                    format!(
-                        "its rotational kinetic energy is not finite (inertia {} kg m^2, angular_velocity {})",
-                        body.inertia, body.angular_velocity
-                    ),
-                ));
-            }
-            let g = gravity.unwrap_or(Vec2::ZERO);
-            if !(body.mass * g.dot(body.position)).is_finite() {
-                return Err(derived(
-                    BodyInput::Position,
-                    format!(
-                        "its potential energy is not finite (mass {} kg at {:?} under gravity {:?})",
-                        body.mass, body.position, g
-                    ),
-                ));
-            }
+        if dynamic && let Some((input, what)) = energy_problem(&body, gravity) {
+            return Err(derived(input, what));
         }
         Ok(body)
     }
@@ -910,12 +887,25 @@ impl World {
     /// The error for body `i`, whose state is not finite.
     fn non_finite(&self, i: usize) -> StepError {
         let b = &self.bodies[i];
+        let (what, value) = if !b.velocity.is_finite() {
+            ("velocity", format!("{:?}", b.velocity))
+        } else if !b.angular_velocity.is_finite() {
+            ("angular velocity", b.angular_velocity.to_string())
+        } else if !b.position.is_finite() {
+            ("position", format!("{:?}", b.position))
+        } else {
+            ("angle", b.angle.to_string())
+        };
         StepError::NonFinite {
             name: b.name.clone(),
             index: i,
             step: self.step_count,
+            what,
+            value,
             position: b.position,
+            angle: b.angle,
             velocity: b.velocity,
+            angular_velocity: b.angular_velocity,
         }
     }
 
@@ -1062,7 +1052,10 @@ impl World {
                     // a sleeping body is found only by the awake bodies near it, as a
                     // static one
                     *dy = b.is_dynamic() && !b.asleep;
-                    if kept && !broad.kept_holds(offset + i, bx, b.is_dynamic()) {
+                    if kept
+                        && !(broad.kept_holds(offset + i, bx, b.is_dynamic())
+                            && broad.kept_filter_holds(offset + i, &b.filter))
+                    {
                         f |= LEFT;
                     }
                 }
@@ -1084,9 +1077,12 @@ impl World {
         // without sensors (which read the pairs after the step) the narrow phase filters
         // the kept pairs itself, split between the threads: no list of this step's pairs
         let fused = !sensors;
+        // with filters, the kept pairs are only those the filters let touch
+        let filter_of = |i: usize| bodies[i].filter;
+        let filter_of = filtered.then_some(&filter_of as &dyn Fn(usize) -> crate::defs::Filter);
         if fused {
             self.broad
-                .refresh_kept(&self.aabbs, holds, |i| bodies[i].is_dynamic());
+                .refresh_kept(&self.aabbs, holds, |i| bodies[i].is_dynamic(), filter_of);
         } else {
             let test = PairTest {
                 bodies,
@@ -1100,6 +1096,7 @@ impl World {
                 &self.dynamic,
                 holds,
                 |i| bodies[i].is_dynamic(),
+                filter_of,
                 |a, b| test.may_collide(a, b),
             );
         }
@@ -1460,6 +1457,17 @@ impl World {
         self.origin + self.bodies[body].position.as_dvec2()
     }
 
+    /// The first dynamic body whose energy term ([`World::energy`]'s) is not finite,
+    /// and why: to name it when the total is not.
+    pub fn energy_not_finite(&self) -> Option<(BodyId, String)> {
+        self.bodies.iter().enumerate().find_map(|(i, b)| {
+            if !b.is_dynamic() {
+                return None;
+            }
+            energy_problem(b, self.gravity).map(|(_, why)| (i, why))
+        })
+    }
+
     /// Kinetic plus gravitational potential energy of the dynamic bodies (J), with the
     /// potential zero at the origin: E = sum 1/2 m v^2 + 1/2 I w^2 - m g.x
     pub fn energy(&self) -> f64 {
@@ -1719,4 +1727,175 @@ impl World {
     pub(crate) fn plain_forces(&self) -> bool {
         self.drag.is_none() && self.joints.is_empty() && self.forces.is_empty()
     }
+}
+
+/// Why a dynamic body's energy could not be summed ([`World::energy`]'s terms in the
+/// same precision): the value to blame and what went wrong; `None` when every term is
+/// finite.
+fn energy_problem(body: &Body, gravity: Option<Vec2>) -> Option<(BodyInput, String)> {
+    let linear = 0.5 * body.mass * body.velocity.length_squared();
+    if !linear.is_finite() {
+        return Some((
+            BodyInput::Velocity,
+            format!(
+                "its kinetic energy is not finite (mass {} kg, velocity {:?})",
+                body.mass, body.velocity
+            ),
+        ));
+    }
+    let angular = 0.5 * body.inertia * body.angular_velocity * body.angular_velocity;
+    if !angular.is_finite() || !(linear + angular).is_finite() {
+        return Some((
+            BodyInput::AngularVelocity,
+            format!(
+                "its rotational kinetic energy is not finite (inertia {} kg m^2, angular_velocity {})",
+                body.inertia, body.angular_velocity
+            ),
+        ));
+    }
+    let g = gravity.unwrap_or(Vec2::ZERO);
+    if !(body.mass * g.dot(body.position)).is_finite() {
+        return Some((
+            BodyInput::Position,
+            format!(
+                "its potential energy is not finite (mass {} kg at {:?} under gravity {:?})",
+                body.mass, body.position, g
+            ),
+        ));
+    }
+    None
+}
+
+/// Checks a body as a saved state holds it the way the scene loader checks one it
+/// makes ([`World::make_body`]): every number finite, friction and restitution in
+/// range, the shape sound, the mass properties those of its type (a dynamic body's
+/// mass and inertia positive with their inverses, a static or kinematic body's zero),
+/// and its energy finite. `Err` names the field and what is wrong.
+pub(crate) fn check_body_state(b: &Body, gravity: Option<Vec2>) -> Result<(), String> {
+    let numbers: [(&str, bool); 17] = [
+        ("position", b.position.is_finite()),
+        ("angle", b.angle.is_finite()),
+        ("rot", b.rot.c.is_finite() && b.rot.s.is_finite()),
+        ("velocity", b.velocity.is_finite()),
+        ("angular_velocity", b.angular_velocity.is_finite()),
+        ("mass", b.mass.is_finite()),
+        ("inv_mass", b.inv_mass.is_finite()),
+        ("inertia", b.inertia.is_finite()),
+        ("inv_inertia", b.inv_inertia.is_finite()),
+        ("force", b.force.is_finite()),
+        ("torque", b.torque.is_finite()),
+        ("correction", b.correction.is_finite()),
+        ("correction_angle", b.correction_angle.is_finite()),
+        ("friction", b.friction.is_finite()),
+        ("restitution", b.restitution.is_finite()),
+        ("origin_offset", b.origin_offset.is_finite()),
+        ("sleep_time", b.sleep_time.is_finite()),
+    ];
+    if let Some((what, _)) = numbers.iter().find(|(_, ok)| !ok) {
+        return Err(format!("{what} is not finite"));
+    }
+    let max_friction = crate::scene::MAX_FRICTION;
+    if !(0.0..=max_friction).contains(&b.friction) {
+        return Err(format!(
+            "friction must be in [0, {max_friction:e}], got {}",
+            b.friction
+        ));
+    }
+    if !(0.0..=1.0).contains(&b.restitution) {
+        return Err(format!(
+            "restitution must be in [0, 1], got {}",
+            b.restitution
+        ));
+    }
+    if ((b.rot.c * b.rot.c + b.rot.s * b.rot.s) - 1.0).abs() > 1e-3 {
+        return Err(format!("rot [{}, {}] is not a rotation", b.rot.c, b.rot.s));
+    }
+    b.shape.check_sound().map_err(|e| format!("shape: {e}"))?;
+    for (k, p) in b.parts.iter().enumerate() {
+        p.shape
+            .check_sound()
+            .map_err(|e| format!("part {k}'s shape: {e}"))?;
+    }
+    // a mass and its inverse: both positive, finite and each other's inverse (to a few
+    // ulps); or both zero
+    let pair = |what: &str, inv: &str, m: f32, im: f32, zero: bool| -> Result<(), String> {
+        if zero {
+            if m != 0.0 || im != 0.0 {
+                return Err(format!("{what} {m} and {inv} {im} must be 0 here"));
+            }
+            return Ok(());
+        }
+        if !(m > 0.0 && im > 0.0) {
+            return Err(format!("{what} {m} and {inv} {im} must be > 0"));
+        }
+        if ((m as f64 * im as f64) - 1.0).abs() > 1e-5 {
+            return Err(format!("{inv} {im} is not 1 / {what} ({m})"));
+        }
+        Ok(())
+    };
+    let dynamic = b.is_dynamic();
+    let particle = b.model == BodyModel::Particle;
+    pair("mass", "inv_mass", b.mass, b.inv_mass, !dynamic)?;
+    pair(
+        "inertia",
+        "inv_inertia",
+        b.inertia,
+        b.inv_inertia,
+        !dynamic || particle,
+    )?;
+    if particle && (b.angle != 0.0 || b.angular_velocity != 0.0) {
+        return Err("a particle has no angle or angular_velocity".into());
+    }
+    if dynamic && let Some((input, what)) = energy_problem(b, gravity) {
+        let field = match input {
+            BodyInput::Velocity => "velocity",
+            BodyInput::AngularVelocity => "angular_velocity",
+            BodyInput::Position => "position",
+            BodyInput::Shape | BodyInput::Mass => "mass",
+        };
+        return Err(format!("{field}: {what}"));
+    }
+    Ok(())
+}
+
+/// A world may start with at most this many pairs of bodies whose boxes overlap, or
+/// [`START_PAIRS_PER_BODY`] a body where that is more: see [`max_start_pairs`].
+pub const START_PAIRS_FLOOR: u64 = 1 << 20;
+
+/// Pairs a body may start with, on average, in a large world: bodies that do not
+/// overlap touch a handful of neighbours each.
+pub const START_PAIRS_PER_BODY: u64 = 8;
+
+/// The most pairs of overlapping boxes a world of `bodies` bodies may start with:
+/// [`START_PAIRS_PER_BODY`] a body, and at least [`START_PAIRS_FLOOR`]. Each pair the
+/// step keeps costs memory (about 1 KB under the soft step, its contact and its rows),
+/// so a scene whose bodies overlap by the million (a grid of circles far larger than
+/// its spacing) is refused when it loads instead of taking gigabytes when it runs.
+pub fn max_start_pairs(bodies: usize) -> u64 {
+    (START_PAIRS_PER_BODY * bodies as u64).max(START_PAIRS_FLOOR)
+}
+
+/// Counts the pairs a step would consider at the start: two bodies whose boxes
+/// (`boxes`, widened by the broad phase's margin) overlap, one of them dynamic, whose
+/// filters let them touch, up to [`max_start_pairs`]. `Ok(count)`, or `Err((a, b))`
+/// with the pair that went past it. Its memory grows with the bodies, not the pairs.
+pub fn count_start_pairs(
+    boxes: &[Aabb],
+    dynamic: &[bool],
+    filters: &[crate::defs::Filter],
+) -> Result<u64, (usize, usize)> {
+    let fat: Vec<Aabb> = boxes
+        .iter()
+        .map(|b| {
+            let extent = (b.max - b.min).max_element();
+            b.fattened(0.1f32.min(0.25 * extent))
+        })
+        .collect();
+    BroadPhase::count_pairs(
+        &fat,
+        dynamic,
+        |a, b| filters[a as usize].collides(&filters[b as usize]),
+        max_start_pairs(boxes.len()),
+    )
+    .map_err(|(a, b)| (a as usize, b as usize))
 }

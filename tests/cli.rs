@@ -636,6 +636,34 @@ fn a_non_finite_state_names_the_scene_the_step_and_the_body() {
     );
 }
 
+/// An energy that overflows while every state stays finite is a failed run whose line
+/// names the body whose term overflowed.
+#[test]
+fn an_energy_that_overflows_names_the_body() {
+    let dir = fresh_tmp("energy-overflow");
+    let scene = dir.join("heavy.toml");
+    // 1/2 m v^2 starts at 3.38e38 J, just inside f32, and gravity along x adds to v
+    std::fs::write(
+        &scene,
+        "name = \"heavy\"\n[world]\ngravity = [10, 0]\n[[body]]\nname = \"weight\"\nshape = { circle = 1 }\nmass = 1e30\nvelocity = [26000, 0]\n",
+    )
+    .unwrap();
+    let out = sandbox2d()
+        .arg("simulate")
+        .arg(&scene)
+        .args(["--steps", "600"])
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{err}");
+    assert_eq!(err.lines().count(), 1, "{err}");
+    assert!(err.contains("the energy at the end is inf"), "{err}");
+    assert!(
+        err.contains("body \"weight\" (#0): its kinetic energy is not finite"),
+        "{err}"
+    );
+}
+
 /// A fresh empty folder (also without the render feature).
 fn fresh_tmp(name: &str) -> std::path::PathBuf {
     let dir = tmp(name);
@@ -644,12 +672,13 @@ fn fresh_tmp(name: &str) -> std::path::PathBuf {
     dir
 }
 
-/// Runs `cmd` under a file-size limit of `kib` KiB with SIGXFSZ ignored: a write past
-/// it fails with EFBIG, as a write to a full disk fails with ENOSPC.
+/// Runs `cmd` under a file-size limit of `kib` KiB (bash's `ulimit -f`). The binary ignores
+/// SIGXFSZ itself, so a write past the limit fails with EFBIG, as a write to a full
+/// disk fails with ENOSPC, instead of ending it silently.
 fn with_file_limit(kib: u32, args: &[&str], cwd: &std::path::Path) -> std::process::Output {
-    let mut cmd = Command::new("sh");
+    let mut cmd = Command::new("bash");
     cmd.arg("-c")
-        .arg(format!("trap '' XFSZ; ulimit -f {kib}; exec \"$0\" \"$@\""))
+        .arg(format!("ulimit -f {kib}; exec \"$0\" \"$@\""))
         .arg(env!("CARGO_BIN_EXE_sandbox2d"))
         .args(args)
         .current_dir(cwd);
@@ -709,6 +738,176 @@ fn bench_results_that_cannot_be_written_in_full_are_not_left() {
     for e in std::fs::read_dir(dir.join("r")).unwrap() {
         let name = e.unwrap().file_name().to_string_lossy().into_owned();
         assert!(!name.ends_with(".tmp"), "temporary file {name} left");
+    }
+}
+
+/// The files left in `dir` and below whose names end in `.tmp`.
+fn temporaries(dir: &std::path::Path) -> Vec<String> {
+    let mut out = Vec::new();
+    for e in std::fs::read_dir(dir).unwrap() {
+        let p = e.unwrap().path();
+        if p.is_dir() {
+            out.extend(temporaries(&p));
+        } else if p.to_string_lossy().ends_with(".tmp") {
+            out.push(p.display().to_string());
+        }
+    }
+    out
+}
+
+/// Under `ulimit -f` every command that writes a file stops with exit 1 and one line
+/// naming the file that did not fit (the binary ignores SIGXFSZ, which would end it
+/// with no word), and leaves no temporary file.
+#[cfg(unix)]
+#[test]
+fn every_output_past_the_file_size_limit_is_one_line_naming_it() {
+    let cases: &[(u32, &[&str], &str)] = &[
+        (
+            4,
+            &[
+                "simulate", "pyramid", "--steps", "30", "--events", "e.csv", "--trace", "t.csv",
+            ],
+            "t.csv",
+        ),
+        (
+            4,
+            &[
+                "simulate",
+                "pyramid",
+                "--steps",
+                "30",
+                "--save-state",
+                "s.json",
+            ],
+            "s.json",
+        ),
+        (
+            4,
+            &[
+                "render", "pyramid", "--frames", "2", "--size", "640x400", "--out", "f",
+            ],
+            "f/frame_0000.png",
+        ),
+        // frames of about 4.5 KB fit, the GIF of about 6 KB does not
+        (
+            5,
+            &[
+                "render", "pyramid", "--frames", "3", "--size", "160x100", "--out", "f", "--gif",
+                "g.gif",
+            ],
+            "g.gif",
+        ),
+        (
+            4,
+            &[
+                "tune",
+                "pendulum",
+                "--budget-ms",
+                "1",
+                "--steps",
+                "10",
+                "--rounds",
+                "1",
+                "--out",
+                "t",
+            ],
+            "t/tune.md",
+        ),
+    ];
+    for (kib, args, file) in cases {
+        if !cfg!(feature = "render") && args[0] == "render" {
+            continue;
+        }
+        let dir = fresh_tmp("size-limit");
+        let out = with_file_limit(*kib, args, &dir);
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(1), "{args:?}: {err}");
+        assert_eq!(err.lines().count(), 1, "{args:?}: {err}");
+        assert!(
+            err.starts_with(&format!("error: {file}: ")) && err.contains("too large"),
+            "{args:?}: {err}"
+        );
+        assert_eq!(temporaries(&dir), Vec::<String>::new(), "{args:?}");
+        assert!(!dir.join(file).exists(), "{args:?}: {file} left");
+    }
+}
+
+/// Two interrupts back to back (what `timeout -s INT` and an impatient user send) end
+/// the run at once: exit 130, one line, and no temporary file left behind.
+#[cfg(unix)]
+#[test]
+fn two_interrupts_end_at_once_with_one_line_and_leave_nothing() {
+    let dir = fresh_tmp("interrupt-twice");
+    // steps of seconds each (10,000 PGS sweeps on 5050 boxes), so that the second
+    // interrupt comes while the first waits for the step to end; apart by a moment, as
+    // two signals sent at once may reach the process as one
+    let mut child = sandbox2d()
+        .args([
+            "simulate",
+            "large_pyramid",
+            "--steps",
+            "1000",
+            "--solver",
+            "pgs",
+            "--substeps",
+            "1",
+            "--iterations",
+            "10000",
+            "--tolerance",
+            "0",
+            "--trace",
+            "t.csv",
+        ])
+        .current_dir(&dir)
+        .stderr(std::process::Stdio::piped())
+        .stdout(std::process::Stdio::null())
+        .spawn()
+        .unwrap();
+    let temp = dir.join(format!(".t.csv.{}.tmp", child.id()));
+    let t = std::time::Instant::now();
+    while !temp.exists() && t.elapsed().as_secs() < 60 {
+        std::thread::sleep(std::time::Duration::from_millis(20));
+    }
+    assert!(temp.exists(), "the run started");
+    let pid = child.id().to_string();
+    Command::new("sh")
+        .arg("-c")
+        .arg(format!("kill -INT {pid}; sleep 0.2; kill -INT {pid}"))
+        .status()
+        .unwrap();
+    let status = child.wait().unwrap();
+    let mut err = String::new();
+    std::io::Read::read_to_string(child.stderr.as_mut().unwrap(), &mut err).unwrap();
+    assert_eq!(status.code(), Some(130), "{err}");
+    assert_eq!(err.lines().count(), 1, "{err}");
+    assert!(
+        err.starts_with("error: interrupted again: stopped at once; removed 1 incomplete file"),
+        "{err}"
+    );
+    assert_eq!(std::fs::read_dir(&dir).unwrap().count(), 0, "nothing left");
+}
+
+/// stdout that cannot be written (a full disk, a closed pipe) is a failed run with one
+/// line, not a panic.
+#[cfg(target_os = "linux")]
+#[test]
+fn stdout_that_cannot_be_written_is_one_line_not_a_panic() {
+    for args in [
+        &["scenes"][..],
+        &["simulate", "pendulum", "--steps", "5", "--json"],
+    ] {
+        let out = sandbox2d()
+            .args(args)
+            .stdout(std::fs::File::create("/dev/full").unwrap())
+            .output()
+            .unwrap();
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(1), "{args:?}: {err}");
+        assert_eq!(
+            err.trim_end(),
+            "error: stdout: cannot write: No space left on device (os error 28)",
+            "{args:?}"
+        );
     }
 }
 
@@ -794,9 +993,12 @@ fn an_interrupted_bench_keeps_the_cases_it_finished_and_says_so() {
         .spawn()
         .unwrap();
     let partial = dir.join("r").join("results.partial.csv");
-    let p = partial.clone();
+    // the rows go to a temporary file until the suite stops
+    let temp = dir
+        .join("r")
+        .join(format!(".results.partial.csv.{}.tmp", child.id()));
     let status = interrupt_when(&mut child, "-INT", move || {
-        std::fs::read_to_string(&p).is_ok_and(|t| t.lines().count() >= 3)
+        std::fs::read_to_string(&temp).is_ok_and(|t| t.lines().count() >= 3)
     });
     let mut err = String::new();
     std::io::Read::read_to_string(child.stderr.as_mut().unwrap(), &mut err).unwrap();
@@ -837,6 +1039,152 @@ fn an_output_that_is_an_input_is_refused() {
         text,
         "scene unchanged"
     );
+}
+
+/// For every command and every file it may write, an input in that place (the scene
+/// file, a state, a shard) is refused with exit 2 and one line before anything is
+/// written, and is left as it was: the scene as a frame of `render` or of `run`'s
+/// headless frames, as each of `tune`'s four files, as `simulate`'s trace, events and
+/// state, a shard as a report of `bench --merge`.
+#[test]
+fn no_output_of_any_command_replaces_an_input() {
+    let dir = fresh_tmp("outputs-over-inputs");
+    let scene_text = std::fs::read_to_string(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/assets/scenes/pendulum.toml"
+    ))
+    .unwrap();
+    // (the input's path in the folder, the command line with IN for the input)
+    let mut cases: Vec<(&str, Vec<&str>)> = vec![
+        (
+            "s.toml",
+            vec!["simulate", "IN", "--steps", "2", "--trace", "./s.toml"],
+        ),
+        (
+            "s.toml",
+            vec!["simulate", "IN", "--steps", "2", "--events", "s.toml"],
+        ),
+        (
+            "s.toml",
+            vec!["simulate", "IN", "--steps", "2", "--save-state", "s.toml"],
+        ),
+        (
+            "t/tune.md",
+            vec!["tune", "IN", "--budget-ms", "1", "--out", "t"],
+        ),
+        (
+            "t/tune.json",
+            vec!["tune", "IN", "--budget-ms", "1", "--out", "t"],
+        ),
+        (
+            "t/pareto.svg",
+            vec!["tune", "IN", "--budget-ms", "1", "--out", "t"],
+        ),
+        (
+            "t/solver.toml",
+            vec!["tune", "IN", "--budget-ms", "1", "--out", "t/."],
+        ),
+    ];
+    if cfg!(feature = "render") {
+        cases.extend([
+            (
+                "o/frame_0000.png",
+                vec!["render", "IN", "--frames", "1", "--out", "o"],
+            ),
+            (
+                "o/frame_0007.png",
+                vec!["render", "IN", "--frames", "8", "--out", "./o"],
+            ),
+            (
+                "o/frame_0001.png",
+                vec![
+                    "render",
+                    "IN",
+                    "--frames",
+                    "2",
+                    "--out",
+                    "o",
+                    "--compare",
+                    "--solver pgs",
+                    "--compare",
+                    "",
+                ],
+            ),
+            (
+                "s.toml",
+                vec![
+                    "render", "IN", "--frames", "2", "--out", "o", "--gif", "s.toml",
+                ],
+            ),
+            ("out/frame_0002.png", vec!["run", "IN", "--frames", "3"]),
+            (
+                "s.toml",
+                vec!["run", "IN", "--frames", "3", "--screenshot", "s.toml"],
+            ),
+        ]);
+    }
+    for (input, args) in &cases {
+        let path = dir.join(input);
+        std::fs::create_dir_all(path.parent().unwrap()).unwrap();
+        std::fs::write(&path, &scene_text).unwrap();
+        let args: Vec<&str> = args
+            .iter()
+            .map(|a| if *a == "IN" { *input } else { *a })
+            .collect();
+        let out = sandbox2d()
+            .args(&args)
+            .current_dir(&dir)
+            .env_remove("DISPLAY")
+            .env_remove("WAYLAND_DISPLAY")
+            .env_remove("WAYLAND_SOCKET")
+            .output()
+            .unwrap();
+        let err = String::from_utf8_lossy(&out.stderr);
+        let last = err.lines().last().unwrap_or("");
+        assert_eq!(out.status.code(), Some(2), "{args:?}: {err}");
+        assert!(
+            last.starts_with("error: ") && last.contains("would overwrite the scene file"),
+            "{args:?}: {err}"
+        );
+        assert_eq!(
+            std::fs::read_to_string(&path).unwrap(),
+            scene_text,
+            "{args:?}: the input is unchanged"
+        );
+        assert_eq!(temporaries(&dir), Vec::<String>::new(), "{args:?}");
+        std::fs::remove_file(&path).unwrap();
+    }
+    // a shard read by --merge is not replaced by the report of the same name
+    let shard = dir.join("m").join("results.md");
+    std::fs::create_dir_all(shard.parent().unwrap()).unwrap();
+    std::fs::write(&shard, "{}").unwrap();
+    let out = sandbox2d()
+        .args(["bench", "--merge", "m/results.md", "--out", "m"])
+        .current_dir(&dir)
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{err}");
+    assert!(
+        err.contains("--out would overwrite the shard file"),
+        "{err}"
+    );
+    assert_eq!(std::fs::read_to_string(&shard).unwrap(), "{}");
+    // a hard link to the scene is the scene
+    #[cfg(unix)]
+    {
+        let scene = dir.join("s.toml");
+        std::fs::write(&scene, &scene_text).unwrap();
+        std::fs::hard_link(&scene, dir.join("link.csv")).unwrap();
+        let out = sandbox2d()
+            .args(["simulate", "s.toml", "--steps", "2", "--trace", "link.csv"])
+            .current_dir(&dir)
+            .output()
+            .unwrap();
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(2), "{err}");
+        assert_eq!(std::fs::read_to_string(&scene).unwrap(), scene_text);
+    }
 }
 
 #[cfg(feature = "render")]

@@ -576,6 +576,53 @@ fn a_runaway_world_names_the_body() {
     }
 }
 
+/// A body whose spin or angle goes bad fails on that quantity: the message names it,
+/// with its value, not a finite position alone.
+#[test]
+fn a_runaway_spin_is_named_as_the_spin() {
+    let mut def = WorldDef::default();
+    def.bodies.push(BodyDef {
+        name: "top".into(),
+        ..Default::default()
+    });
+    for s in [
+        SolverSettings::pgs(),
+        SolverSettings::soft(),
+        SolverSettings::xpbd(),
+    ] {
+        let kind = s.kind;
+        // a spin gone infinite (from outside: a scene with one is refused at load)
+        let mut w = World::from_def(&def, s).unwrap();
+        w.bodies[0].angular_velocity = f32::INFINITY;
+        let err = w.step().unwrap_err();
+        let StepError::NonFinite { what, value, .. } = &err;
+        let m = err.to_string();
+        assert_eq!(*what, "angular velocity", "{kind:?}: {m}");
+        // inf, or NaN once a solve has multiplied it by 0
+        assert!(value == "inf" || value == "NaN", "{kind:?}: {m}");
+        assert!(
+            m.contains(&format!("its angular velocity is {value}")),
+            "{kind:?}: {m}"
+        );
+        // an angle carried past f32 by a spin that is still finite
+        let mut w = World::from_def(&def, s).unwrap();
+        w.bodies[0].angle = f32::MAX;
+        w.bodies[0].angular_velocity = f32::MAX;
+        let err = w.step().unwrap_err();
+        let StepError::NonFinite { what, value, .. } = &err;
+        let m = err.to_string();
+        assert!(
+            ["angle", "angular velocity"].contains(what),
+            "{kind:?}: {m}"
+        );
+        assert!(
+            m.contains(&format!("its {what} is {value}")),
+            "{kind:?}: {m}"
+        );
+        assert!(value == "inf" || value == "NaN", "{kind:?}: {m}");
+    }
+}
+
 #[test]
 fn restitution_bounces_to_e_squared_height() {
     // A ball dropped from height H on a pad of restitution e rises to about e^2 H, with

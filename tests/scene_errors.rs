@@ -163,7 +163,7 @@ fn infinite_number() {
     check(
         "name = \"t\"\n[world]\ngravity = [0, -inf]\n",
         3,
-        11,
+        15,
         &["gravity", "finite", "-inf"],
     );
 }
@@ -193,7 +193,7 @@ fn box_size_zero() {
     check(
         &body("shape = { box = [0.0, 1.0] }"),
         3,
-        17,
+        18,
         &["box", "size", "> 0", "[0, 1]"],
     );
 }
@@ -203,7 +203,7 @@ fn box_size_is_refused_on_static_bodies_too() {
     check(
         &body("type = \"static\"\nshape = { box = [4.0, -1.0] }"),
         4,
-        17,
+        23,
         &["box", "[4, -1]"],
     );
 }
@@ -279,7 +279,7 @@ fn polygon_point_not_finite() {
     check(
         &body("shape = { polygon = [[0, 0], [1, nan], [0, 1]] }"),
         3,
-        30,
+        34,
         &["polygon point", "finite"],
     );
 }
@@ -1366,12 +1366,12 @@ fn chain_link_too_long_is_refused_at_the_link() {
         8,
         &["chain0", "body 3", "link"],
     );
-    // one link: its position fits, but its rotational inertia does not
+    // one link: its position fits, but its edges' normals (and its inertia) do not
     check(
         "name = \"t\"\n[[chain]]\nlinks = 1\nlink = [3e38, 0.1]\nanchor = [0, 0]\njoint = \"distance\"\n",
         4,
         8,
-        &["chain0_0", "inertia"],
+        &["chain0_0", "does not fit f32"],
     );
 }
 
@@ -1393,7 +1393,7 @@ fn huge_box_has_no_finite_mass_and_is_refused_at_the_shape() {
         &body("shape = { box = [3e38, 3e38] }"),
         3,
         9,
-        &["body \"body0\"", "mass"],
+        &["body \"body0\"", "does not fit f32", "too large"],
     );
 }
 
@@ -1403,7 +1403,7 @@ fn tiny_box_has_no_usable_mass_and_is_refused_at_the_shape() {
         &body("shape = { box = [1e-30, 1e-30] }"),
         3,
         9,
-        &["body \"body0\"", "mass"],
+        &["body \"body0\"", "does not fit f32", "too small"],
     );
 }
 
@@ -2136,4 +2136,202 @@ fn a_part_filter_category_counts_as_a_scene_category() {
     let scene = load_str(text, "ok.toml").unwrap_or_else(|e| panic!("{e}"));
     let b = &scene.world.bodies[1];
     assert_eq!(b.filter.mask, 1 << 1, "spikes is the second category");
+}
+
+/// Shapes the format accepts in range but whose derived numbers do not fit f32 (an
+/// edge normal of a box thinner than f32 resolves, a segment longer than f32 holds)
+/// are refused at the shape: a world holding one could not be saved and read back.
+#[test]
+fn shapes_that_do_not_fit_f32_are_refused_at_the_shape() {
+    for (shape, what) in [
+        ("{ box = [1e-45, 1.0] }", "box 1e-45 m wide"),
+        ("{ capsule = [1e-30, 1e-31] }", "capsule 1e-30 m long"),
+        (
+            "{ segment = [[-3e38, 0], [3e38, 0]] }",
+            "segment across f32",
+        ),
+    ] {
+        let text = format!("name = \"t\"\n[[body]]\ntype = \"static\"\nshape = {shape}\n");
+        let e = refuse(&text);
+        assert_eq!((e.line(), e.column()), (Some(4), Some(9)), "{what}: {e}");
+        assert!(e.message().contains("does not fit f32"), "{what}: {e}");
+    }
+    // the smallest and largest bodies the renderer is checked with still load
+    for shape in [
+        "{ box = [1e-6, 1e-6] }",
+        "{ box = [1e9, 1e9] }",
+        "{ circle = 1e-6 }",
+    ] {
+        let text = format!("name = \"t\"\n[[body]]\ntype = \"static\"\nshape = {shape}\n");
+        load_str(&text, "ok.toml").unwrap_or_else(|e| panic!("{shape}: {e}"));
+    }
+}
+
+/// A grid of circles far larger than its spacing overlaps in 50 million pairs, tens of
+/// gigabytes once stepped: refused when it loads, at a body of the grid; filtered apart,
+/// the same grid loads.
+#[test]
+fn bodies_overlapping_by_the_million_are_refused_when_they_load() {
+    let grid = |filter: &str| {
+        format!(
+            "name = \"t\"\n[world]\ngravity = [0, -10]\n[[grid]]\nrows = 100\ncolumns = 100\nspacing = [1.0, 1.0]\nshape = {{ circle = 1000.0 }}\n{filter}"
+        )
+    };
+    let e = refuse(&grid(""));
+    assert_eq!((e.line(), e.column()), (Some(4), Some(1)), "{e}");
+    assert!(
+        e.message().contains("overlap in more than 1048576 pairs"),
+        "{e}"
+    );
+    let sc = load_str(&grid("filter = { group = -1 }\n"), "ok.toml").unwrap();
+    assert_eq!(sc.world.bodies.len(), 10_000);
+    // the limit grows with the bodies: 8 a body
+    assert_eq!(sandbox2d::world::max_start_pairs(10), 1 << 20);
+    assert_eq!(sandbox2d::world::max_start_pairs(1_000_000), 8_000_000);
+}
+
+/// A scene file past 16 MiB is refused at the line and column where the limit falls,
+/// before it is read whole; an endless one too.
+#[test]
+fn a_scene_file_past_the_size_limit_is_refused_before_it_is_read_whole() {
+    let dir = std::env::temp_dir().join(format!("sandbox2d-big-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let path = dir.join("big.toml");
+    let line = "[[body]]\nshape = { circle = 1 }\n"; // 33 bytes, 2 lines
+    let n = (sandbox2d::scene::MAX_FILE_BYTES as usize) / line.len() + 1;
+    std::fs::write(&path, format!("name = \"big\"\n{}", line.repeat(n))).unwrap();
+    let e = sandbox2d::scene::load_file(&path).unwrap_err();
+    // the byte at the limit: past the 13-byte first line, in body table k
+    let k = (sandbox2d::scene::MAX_FILE_BYTES as usize - 13) / line.len();
+    let within = (sandbox2d::scene::MAX_FILE_BYTES as usize - 13) % line.len();
+    let (l, c) = if within < 9 {
+        (2 + 2 * k, within + 1)
+    } else {
+        (3 + 2 * k, within - 9 + 1)
+    };
+    assert_eq!((e.line(), e.column()), (Some(l), Some(c)), "{e}");
+    assert!(e.message().contains("past 16 MiB"), "{e}");
+    std::fs::remove_dir_all(&dir).unwrap();
+    if std::path::Path::new("/dev/zero").exists() {
+        let e = sandbox2d::scene::load_file(std::path::Path::new("/dev/zero")).unwrap_err();
+        assert!(e.message().contains("past 16 MiB"), "{e}");
+    }
+}
+
+/// The byte ranges of the numbers in a scene's text (outside comments and strings).
+fn numbers_in(text: &str) -> Vec<std::ops::Range<usize>> {
+    let b = text.as_bytes();
+    let mut out = Vec::new();
+    let (mut i, mut in_comment, mut in_string) = (0, false, false);
+    while i < b.len() {
+        let c = b[i];
+        if c == b'\n' {
+            in_comment = false;
+        }
+        if in_comment {
+            i += 1;
+            continue;
+        }
+        if c == b'#' && !in_string {
+            in_comment = true;
+        } else if c == b'"' {
+            in_string = !in_string;
+        } else if !in_string
+            && (c.is_ascii_digit() || c == b'-')
+            && (i == 0 || !(b[i - 1].is_ascii_alphanumeric() || b[i - 1] == b'_'))
+        {
+            let start = i;
+            i += 1;
+            while i < b.len()
+                && (b[i].is_ascii_alphanumeric() || matches!(b[i], b'.' | b'-' | b'+'))
+            {
+                i += 1;
+            }
+            if b[start..i].iter().any(u8::is_ascii_digit) {
+                out.push(start..i);
+            }
+            continue;
+        }
+        i += 1;
+    }
+    out
+}
+
+/// Every number of every built-in scene, set in turn to NaN, to 1e39 (past f32) and to
+/// a string: each is refused, and the error's line and column are those of the value
+/// itself (not of its array, its table, another body or the camera).
+#[test]
+fn every_number_of_every_builtin_scene_is_refused_at_itself() {
+    let dir = std::path::PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("assets/scenes");
+    let mut checked = 0;
+    for name in sandbox2d::scene::builtin_names() {
+        let text = std::fs::read_to_string(dir.join(format!("{name}.toml"))).unwrap();
+        for r in numbers_in(&text) {
+            let line = text[..r.start].matches('\n').count() + 1;
+            let col = text[..r.start].rsplit('\n').next().unwrap().chars().count() + 1;
+            for v in ["nan", "1e39", "\"x\""] {
+                let mut t = text.clone();
+                t.replace_range(r.clone(), v);
+                let e = match load_str(&t, "s.toml") {
+                    Ok(_) => panic!("{name}:{line}:{col}: {v} accepted"),
+                    Err(e) => e,
+                };
+                assert_eq!(
+                    (e.line(), e.column()),
+                    (Some(line), Some(col)),
+                    "{name}: {v} at {line}:{col}: {e}"
+                );
+                checked += 1;
+            }
+        }
+    }
+    // every built-in scene has numbers: some thousands of cases
+    assert!(checked > 3000, "{checked}");
+}
+
+/// A camera size past the largest frame is refused where the scene gives it, not later
+/// by the renderer without a place.
+#[test]
+fn a_camera_size_past_the_largest_frame_is_refused_at_the_side() {
+    check(
+        "name = \"t\"\n[camera]\nsize = [16385, 16]\n",
+        3,
+        9,
+        &["camera", "size", "1..=16384", "16385"],
+    );
+    check(
+        "name = \"t\"\n[camera]\nsize = [640, 0]\n",
+        3,
+        14,
+        &["camera", "size", "[640, 0]"],
+    );
+    load_str("name = \"t\"\n[camera]\nsize = [16384, 1]\n", "ok.toml").unwrap();
+}
+
+/// A dotted key deeper than the TOML reader goes (it gives no place of its own) is
+/// refused at the part that goes past the limit, not at 1:1.
+#[test]
+fn a_key_too_deep_for_the_reader_is_refused_where_it_goes_past() {
+    let key = vec!["a"; 1000].join(".");
+    check(
+        &format!("name = \"t\"\n{key} = 1\n"),
+        2,
+        161,
+        &["more than 80 levels"],
+    );
+    let key = vec!["b"; 81].join(" . ");
+    check(
+        &format!("name = \"t\"\n[t]\n\"x\" = 1\n{key} = 2\n"),
+        4,
+        1 + 80 * 4,
+        &["more than 80 levels"],
+    );
+    // 80 parts are within the reader's depth (and refused as an unknown key)
+    let key = vec!["c"; 80].join(".");
+    check(
+        &format!("name = \"t\"\n{key} = 1\n"),
+        2,
+        1,
+        &["unknown field"],
+    );
 }

@@ -751,3 +751,181 @@ fn the_feature_scenes_draw_each_moving_body_where_the_physics_puts_it() {
         );
     }
 }
+
+/// A renderer of one sample a pixel: what `render` uses on a CPU rasteriser
+/// (llvmpipe), where the shapes' edges are antialiased by their distance fields alone.
+fn renderer_1x() -> Option<std::sync::MutexGuard<'static, Renderer>> {
+    static RENDERER: OnceLock<Result<Mutex<Renderer>, String>> = OnceLock::new();
+    let r = RENDERER.get_or_init(|| {
+        Renderer::new_headless_with_samples(wgpu::Backends::GL, 1)
+            .map(Mutex::new)
+            .map_err(|e| e.to_string())
+    });
+    match r {
+        Ok(m) => {
+            let r = m.lock().unwrap_or_else(|p| p.into_inner());
+            assert_eq!(r.sample_count(), 1);
+            Some(r)
+        }
+        Err(e) => {
+            if std::env::var_os("SANDBOX2D_REQUIRE_ADAPTER").is_some() {
+                panic!("no renderer and SANDBOX2D_REQUIRE_ADAPTER is set: {e}");
+            }
+            eprintln!("SKIPPED: no GL adapter for the snapshot tests: {e}");
+            None
+        }
+    }
+}
+
+fn render_1x(list: &DrawList, camera: &Camera) -> Option<RgbaImage> {
+    let mut r = renderer_1x()?;
+    Some(r.render_to_image(list, camera).expect("render_to_image"))
+}
+
+/// The one-sample path (what `render` uses on llvmpipe) against its own reference
+/// image, as the four-sample path is against `pyramid.png`.
+#[test]
+fn pyramid_scene_one_sample() {
+    let list = common::scenes::small_scene();
+    let camera = Camera::new(Vec2::new(0.0, 3.0), 48.0, [640, 400]);
+    let Some(img) = render_1x(&list, &camera) else {
+        return;
+    };
+    assert_snapshot("pyramid_1_sample", &img);
+}
+
+/// `list` with every length multiplied by `k` (positions, sizes, radii, points).
+fn scaled(list: &DrawList, k: f32) -> DrawList {
+    let mut l = list.clone();
+    for b in &mut l.boxes {
+        b.center *= k;
+        b.half_size *= k;
+    }
+    for c in &mut l.circles {
+        c.center *= k;
+        c.radius *= k;
+    }
+    for p in &mut l.polygon_points {
+        *p *= k;
+    }
+    for p in &mut l.polygons {
+        p.radius *= k;
+    }
+    for line in &mut l.lines {
+        line.a *= k;
+        line.b *= k;
+    }
+    l
+}
+
+/// The same scene drawn at every scale from 1e-6 to 1e9 (every length and the camera's
+/// metres per pixel multiplied alike) gives the same picture: no size is clamped away
+/// and no f32 or rasteriser range is passed, on either sample count.
+#[test]
+fn bodies_from_a_micron_to_a_million_km_draw_the_same() {
+    let list = common::scenes::small_scene();
+    let camera = Camera::new(Vec2::new(0.0, 3.0), 48.0, [640, 400]);
+    for one in [false, true] {
+        let draw = |l: &DrawList, c: &Camera| {
+            if one { render_1x(l, c) } else { render(l, c) }
+        };
+        let Some(base) = draw(&list, &camera) else {
+            return;
+        };
+        for k in [1e-6f32, 1e-3, 1e3, 1e6, 1e9] {
+            let cam = Camera::new(camera.center * k, camera.pixels_per_meter / k, camera.size);
+            let img = draw(&scaled(&list, k), &cam).unwrap();
+            let differing = differing_pixels(&base, &img).len();
+            assert!(
+                differing <= MAX_DIFFERING_PIXELS,
+                "scale {k:e} ({} sample): {differing} pixels differ",
+                if one { 1 } else { 4 }
+            );
+        }
+        // and a fitted camera frames a micron-sized scene as it frames the metre one
+        let (lo, hi) = list.bounds().unwrap();
+        let mut fit = Camera::new(Vec2::ZERO, 1.0, [640, 400]);
+        fit.fit(lo, hi, 20.0);
+        let small = scaled(&list, 1e-6);
+        let (slo, shi) = small.bounds().unwrap();
+        let mut fit_small = Camera::new(Vec2::ZERO, 1.0, [640, 400]);
+        fit_small.fit(slo, shi, 20.0);
+        let a = draw(&list, &fit).unwrap();
+        let b = draw(&small, &fit_small).unwrap();
+        assert!(differing_pixels(&a, &b).len() <= MAX_DIFFERING_PIXELS);
+    }
+}
+
+/// A static box or circle of 1e9 m covering the view fills all of it (it was drawn on
+/// the left half only: its corners 2e10 pixels out passed the rasteriser's range), a
+/// rim far from its centre is drawn where it is, and a 1e9 m box's edge through the
+/// view lies where a small box's would.
+#[test]
+fn bodies_of_a_million_km_cover_the_view_and_show_their_edges() {
+    let camera = Camera::new(Vec2::ZERO, 40.0, [320, 200]);
+    let blue = [48, 128, 255, 255];
+    let red = [255, 48, 48, 255];
+    let outline = common::scenes::OUTLINE;
+    for one in [false, true] {
+        let draw = |l: &DrawList, c: &Camera| {
+            if one { render_1x(l, c) } else { render(l, c) }
+        };
+        // covering the view, with a small circle over it
+        let covered = |mut l: DrawList| {
+            l.push_circle(Vec2::ZERO, 1.0, None, red, outline);
+            l
+        };
+        let mut huge = DrawList::new();
+        huge.push_box(Vec2::ZERO, 1e9, 1e9, 0.3, blue, outline);
+        let mut modest = DrawList::new();
+        modest.push_box(Vec2::ZERO, 100.0, 100.0, 0.3, blue, outline);
+        let Some(a) = draw(&covered(huge), &camera) else {
+            return;
+        };
+        let b = draw(&covered(modest), &camera).unwrap();
+        assert!(differing_pixels(&a, &b).len() <= MAX_DIFFERING_PIXELS);
+        assert_eq!(a.get_pixel(5, 5).0, blue);
+        assert_eq!(a.get_pixel(315, 195).0, blue);
+        // a circle of 1e9 m over the view
+        let mut huge = DrawList::new();
+        huge.push_circle(Vec2::new(3e8, -2e8), 1e9, Some(0.5), blue, outline);
+        let img = draw(&huge, &camera).unwrap();
+        assert!(img.pixels().all(|p| p.0 == blue), "the view is all circle");
+        // a box of 1e9 m whose top edge is y = 0 (its centre at -5e8, which f32 holds
+        // exactly), against one of 100 m
+        let mut huge = DrawList::new();
+        huge.push_box(Vec2::new(0.0, -5e8), 1e9, 1e9, 0.0, blue, outline);
+        let mut modest = DrawList::new();
+        modest.push_box(Vec2::new(0.0, -50.0), 100.0, 100.0, 0.0, blue, outline);
+        let a = draw(&huge, &camera).unwrap();
+        let b = draw(&modest, &camera).unwrap();
+        assert!(differing_pixels(&a, &b).len() <= MAX_DIFFERING_PIXELS);
+        // rims: a circle of 100 m (4000 px) and one of 1e6 m (4e7 px), their tops at
+        // y = 0, the image's middle row: each column turns from background to circle
+        // where the circle's own equation says (within a pixel)
+        for r in [100.0f32, 1e6] {
+            let mut l = DrawList::new();
+            l.push_circle(Vec2::new(0.0, -r), r, Some(0.0), blue, [0, 0, 0, 0]);
+            let img = draw(&l, &camera).unwrap();
+            for x in (0..320).step_by(16) {
+                let wx = (x as f64 + 0.5 - 160.0) / 40.0;
+                let top = -(r as f64) + ((r as f64).powi(2) - wx * wx).sqrt();
+                let row = 100.0 - top * 40.0;
+                // the first pixel nearer the circle's colour than the background's
+                let near = |p: [u8; 4], q: [u8; 4]| -> u32 {
+                    (0..3).map(|c| p[c].abs_diff(q[c]) as u32).sum()
+                };
+                let first = (0..200)
+                    .find(|&y| {
+                        let p = img.get_pixel(x, y).0;
+                        near(p, blue) < near(p, l.background)
+                    })
+                    .expect("the circle shows");
+                assert!(
+                    (first as f64 + 0.5 - row).abs() <= 1.0,
+                    "r {r}: column {x}: circle from row {first}, expected {row:.2}"
+                );
+            }
+        }
+    }
+}

@@ -308,6 +308,98 @@ fn a_rewound_and_restepped_run_ends_as_the_unbroken_one_under_every_solver() {
     }
 }
 
+/// A state that parses but holds what the scene loader refuses is refused too, with
+/// the body and the field named: the numbers a run would blow up on, ranges, the shape,
+/// and mass properties that do not fit together.
+#[test]
+fn damaged_numbers_are_refused_as_a_scene_refuses_them() {
+    let mut w = build("pendulum", SolverKind::Soft);
+    steps(&mut w, 5);
+    let good = w.snapshot();
+    let bob = good
+        .bodies
+        .iter()
+        .position(|b| b.is_dynamic())
+        .expect("a dynamic body");
+    let name = good.bodies[bob].name.clone();
+    let refused = |damage: &dyn Fn(&mut sandbox2d::Body), field: &str| {
+        let mut s = good.clone();
+        damage(&mut s.bodies[bob]);
+        // through the file: a value past f32 reads back as infinite
+        let bytes = serde_json::to_vec(&s).unwrap();
+        let e = WorldState::from_json(&bytes).unwrap_err();
+        let m = e.to_string();
+        assert!(matches!(e, StateError::Invalid(_)), "{field}: {m}");
+        assert!(
+            m.contains(&format!("body {name:?} (#{bob}): {field}")),
+            "{field}: {m}"
+        );
+        assert!(!m.contains('\n'));
+        // and the library's restore refuses the same
+        let mut x = build("pendulum", SolverKind::Soft);
+        assert!(x.restore(&s).is_err(), "{field}");
+    };
+    refused(&|b| b.angular_velocity = 1e30, "angular_velocity");
+    refused(&|b| b.inv_inertia = 3e38, "inv_inertia");
+    refused(&|b| b.velocity.x = 1e30, "velocity");
+    refused(&|b| b.mass = -1.0, "mass");
+    refused(&|b| b.inv_mass = 0.0, "mass");
+    refused(&|b| b.friction = -0.5, "friction");
+    refused(&|b| b.restitution = 2.0, "restitution");
+    refused(&|b| b.rot.c = 5.0, "rot");
+    refused(&|b| b.position.y = 3e38, "position");
+    refused(
+        &|b| {
+            if let sandbox2d::shape::Shape::Circle { radius } = &mut b.shape {
+                *radius = -1.0;
+            } else if let sandbox2d::shape::Shape::Polygon(p) = &mut b.shape {
+                p.normals[0] = Vec2::ZERO;
+            }
+        },
+        "shape",
+    );
+    // a value past f32 written into the file is refused where it is written
+    let text = String::from_utf8(good.to_json().unwrap()).unwrap();
+    for key in ["angular_velocity", "torque"] {
+        let quoted = format!("\"{key}\":");
+        let at = text
+            .match_indices(&quoted)
+            .nth(bob)
+            .expect("the bob's field")
+            .0
+            + quoted.len();
+        let end = at + text[at..].find([',', '}']).unwrap();
+        let damaged = format!("{}1e39{}", &text[..at], &text[end..]);
+        let e = WorldState::from_json(damaged.as_bytes()).unwrap_err();
+        assert!(
+            matches!(e, StateError::Parse(_)) && e.to_string().contains("out of range at line 1"),
+            "{key}: {e}"
+        );
+    }
+    // the good one still loads
+    WorldState::from_json(&good.to_json().unwrap()).unwrap();
+}
+
+/// A state whose bodies were piled onto each other by the hundred thousand is refused
+/// before the first step could take gigabytes for their contacts.
+#[test]
+fn a_state_of_bodies_piled_together_is_refused() {
+    let text = "name = \"grid\"\n[[grid]]\nrows = 40\ncolumns = 40\nspacing = [3.0, 3.0]\nshape = { circle = 1.0 }\n";
+    let sc = sandbox2d::scene::load_str(text, "grid.toml").unwrap();
+    let w = World::from_def(&sc.world, SolverSettings::defaults(SolverKind::Soft)).unwrap();
+    let mut s = w.snapshot();
+    WorldState::from_json(&s.to_json().unwrap()).unwrap();
+    // 1600 circles of radius 1 moved onto one point: 1.28 million pairs
+    for b in &mut s.bodies {
+        b.position = Vec2::new(0.5, 0.5);
+    }
+    let e = WorldState::from_json(&s.to_json().unwrap()).unwrap_err();
+    assert!(
+        e.to_string().contains("overlap in more than 1048576 pairs"),
+        "{e}"
+    );
+}
+
 // ---- the command line ----
 
 mod common;
@@ -457,6 +549,28 @@ fn cli_refuses_bad_state_files() {
         ]);
         assert_refused(&out, f.to_str().unwrap(), what);
     }
+    // parseable but damaged: a spin the scene loader would refuse, through the CLI
+    let mut v: serde_json::Value = serde_json::from_slice(&bytes).unwrap();
+    let body = v["bodies"]
+        .as_array_mut()
+        .unwrap()
+        .iter_mut()
+        .find(|b| b["body_type"] == "Dynamic")
+        .expect("a dynamic body");
+    body["angular_velocity"] = serde_json::json!(1e30);
+    let damaged = serde_json::to_vec(&v).unwrap();
+    let f = tmp("bad-spin.json");
+    std::fs::write(&f, damaged).unwrap();
+    let out = simulate(&[
+        "ragdoll",
+        "--steps",
+        "5",
+        "--load-state",
+        f.to_str().unwrap(),
+    ]);
+    assert_refused(&out, f.to_str().unwrap(), "spin");
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("angular_velocity"), "{err}");
     // a state of the ragdoll loaded into the car
     let out = simulate(&["car", "--steps", "5", "--load-state", good_s]);
     assert_refused(&out, good_s, "another scene");

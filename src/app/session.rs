@@ -265,6 +265,16 @@ impl Session {
 
     /// ctrl+S: writes the world's state to `path` (JSON, written whole or not at all).
     pub fn save_state(&mut self, path: &Path) {
+        // the scene file it was loaded from is an input, never overwritten
+        if !self.scene.source.starts_with("builtin:")
+            && crate::output::same_file(path, Path::new(&self.scene.source))
+        {
+            self.error = Some(format!(
+                "save: {} is the scene file; not overwritten",
+                path.display()
+            ));
+            return;
+        }
         let written = self
             .world
             .snapshot()

@@ -6,6 +6,7 @@
 //! boxes span many cells (the ground) go to a short list tested against everyone. The
 //! output is sorted by (a, b), so the step order does not depend on the grid.
 
+use crate::defs::Filter;
 use crate::math::{Aabb, Vec2};
 
 /// A candidate pair of body indices, a < b.
@@ -34,6 +35,11 @@ pub struct BroadPhase {
     /// (dynamic, asleep or not), and every pair of those boxes, from the last rebuild.
     kept_boxes: Vec<Aabb>,
     kept_moves: Vec<bool>,
+    /// Each body's collision filter at the last rebuild, when the kept pairs were
+    /// filtered by them (empty when they were not: then they hold every pair of boxes).
+    /// A pair the filters refuse is not kept, so bodies that overlap without touching
+    /// (a filtered grid of large circles) cost no memory for their pairs.
+    kept_filters: Vec<Filter>,
     kept_pairs: Vec<Pair>,
     /// Rebuilds of the kept pairs so far.
     pub rebuilds: u64,
@@ -65,9 +71,53 @@ impl BroadPhase {
         moves: &[bool],
         can_collide: impl Fn(u32, u32) -> bool,
     ) {
+        let mut pairs = std::mem::take(&mut self.pairs);
+        pairs.clear();
+        self.each_pair(aabbs, moves, &can_collide, &mut |p| {
+            pairs.push(p);
+            true
+        });
+        self.pairs = pairs;
+        self.sort_pairs(aabbs.len());
+        self.pairs.dedup();
+    }
+
+    /// Counts the pairs [`BroadPhase::find_pairs`] would find, without keeping them, up
+    /// to `limit`: `Ok(count)`, or `Err(pair)` with the pair that went past `limit`.
+    /// Memory grows with the bodies, not with the pairs, so a scene whose bodies overlap
+    /// by the million can be measured before anything is allocated for its pairs.
+    pub fn count_pairs(
+        aabbs: &[Aabb],
+        moves: &[bool],
+        can_collide: impl Fn(u32, u32) -> bool,
+        limit: u64,
+    ) -> Result<u64, Pair> {
+        let mut count = 0u64;
+        let mut over = None;
+        BroadPhase::default().each_pair(aabbs, moves, &can_collide, &mut |p| {
+            count += 1;
+            if count > limit {
+                over = Some(p);
+            }
+            over.is_none()
+        });
+        match over {
+            Some(p) => Err(p),
+            None => Ok(count),
+        }
+    }
+
+    /// Calls `emit` for each pair of overlapping boxes where `can_collide` holds, in no
+    /// particular order (a pair may come twice); stops once `emit` returns false.
+    fn each_pair<E: FnMut(Pair) -> bool>(
+        &mut self,
+        aabbs: &[Aabb],
+        moves: &[bool],
+        can_collide: &impl Fn(u32, u32) -> bool,
+        emit: &mut E,
+    ) {
         self.entries.clear();
         self.large.clear();
-        self.pairs.clear();
         if aabbs.len() < 2 {
             return;
         }
@@ -124,17 +174,21 @@ impl BroadPhase {
             && w > 0
             && h > 0
             && w.saturating_mul(h) <= (8 * self.ranges.len() as i64).max(1 << 16);
-        if dense {
+        let more = if dense {
             self.pairs_dense(
                 aabbs,
                 moves,
-                &can_collide,
+                can_collide,
                 [gx0, gy0],
                 w as usize,
                 h as usize,
-            );
+                emit,
+            )
         } else {
-            self.pairs_sorted(aabbs, moves, &can_collide, inv);
+            self.pairs_sorted(aabbs, moves, can_collide, inv, emit)
+        };
+        if !more {
+            return;
         }
 
         // per body: its place in `large` (u32::MAX if it is not large)
@@ -158,13 +212,11 @@ impl BroadPhase {
                     continue;
                 }
                 let p = if l < i { (l, i) } else { (i, l) };
-                if can_collide(p.0, p.1) {
-                    self.pairs.push(p);
+                if can_collide(p.0, p.1) && !emit(p) {
+                    return;
                 }
             }
         }
-        self.sort_pairs(aabbs.len());
-        self.pairs.dedup();
     }
 
     /// The pairs [`BroadPhase::find_pairs`] would find, found from last step's where
@@ -189,7 +241,7 @@ impl BroadPhase {
                 .iter()
                 .enumerate()
                 .all(|(i, b)| self.kept_holds(i, b, may_move(i)));
-        self.find_pairs_kept_checked(aabbs, moves, holds, may_move, can_collide);
+        self.find_pairs_kept_checked(aabbs, moves, holds, may_move, None, can_collide);
     }
 
     /// Bodies the kept boxes are for (0 before the first [`BroadPhase::find_pairs_kept`]).
@@ -204,19 +256,27 @@ impl BroadPhase {
         self.kept_boxes[i].contains(b) && self.kept_moves[i] == may_move
     }
 
+    /// Whether body `i`'s filter is the one the kept pairs were filtered with (always,
+    /// when they were not filtered: they then hold every pair whatever the filters).
+    #[inline]
+    pub fn kept_filter_holds(&self, i: usize, filter: &Filter) -> bool {
+        self.kept_filters.is_empty() || self.kept_filters[i] == *filter
+    }
+
     /// [`BroadPhase::find_pairs_kept`] where the caller has checked whether the kept
     /// boxes hold (`holds`: the kept boxes are for `aabbs.len()` bodies and
     /// [`BroadPhase::kept_holds`] holds for each), in a pass over the bodies it makes
-    /// anyway.
+    /// anyway. `filter_of`, as for [`BroadPhase::refresh_kept`].
     pub fn find_pairs_kept_checked(
         &mut self,
         aabbs: &[Aabb],
         moves: &[bool],
         holds: bool,
         may_move: impl Fn(usize) -> bool,
+        filter_of: Option<&dyn Fn(usize) -> Filter>,
         can_collide: impl Fn(u32, u32) -> bool,
     ) {
-        self.refresh_kept(aabbs, holds, may_move);
+        self.refresh_kept(aabbs, holds, may_move, filter_of);
         self.pairs.clear();
         for &(a, b) in &self.kept_pairs {
             if Self::kept_pair_holds(aabbs, moves, a, b) && can_collide(a, b) {
@@ -230,7 +290,18 @@ impl BroadPhase {
     /// [`BroadPhase::kept_pairs`] itself, with [`BroadPhase::kept_pair_holds`] and its
     /// own test, in a pass over the pairs it makes anyway (the narrow phase); `pairs`
     /// is left empty.
-    pub fn refresh_kept(&mut self, aabbs: &[Aabb], holds: bool, may_move: impl Fn(usize) -> bool) {
+    ///
+    /// With `filter_of` (each body's collision filter), a rebuild keeps only the pairs
+    /// whose filters let them touch, and remembers the filters: while they stay the same
+    /// ([`BroadPhase::kept_filter_holds`], which `holds` must then include) the kept
+    /// pairs still hold every pair of the step. Without it every pair of boxes is kept.
+    pub fn refresh_kept(
+        &mut self,
+        aabbs: &[Aabb],
+        holds: bool,
+        may_move: impl Fn(usize) -> bool,
+        filter_of: Option<&dyn Fn(usize) -> Filter>,
+    ) {
         if !holds {
             let mut fat = std::mem::take(&mut self.kept_boxes);
             let mut fat_moves = std::mem::take(&mut self.kept_moves);
@@ -241,7 +312,18 @@ impl BroadPhase {
             }));
             fat_moves.clear();
             fat_moves.extend((0..aabbs.len()).map(&may_move));
-            self.find_pairs(&fat, &fat_moves, |_, _| true);
+            let mut filters = std::mem::take(&mut self.kept_filters);
+            filters.clear();
+            match filter_of {
+                Some(f) => {
+                    filters.extend((0..aabbs.len()).map(f));
+                    self.find_pairs(&fat, &fat_moves, |a, b| {
+                        filters[a as usize].collides(&filters[b as usize])
+                    });
+                }
+                None => self.find_pairs(&fat, &fat_moves, |_, _| true),
+            }
+            self.kept_filters = filters;
             // copied, not swapped: `pairs`, which the grid just filled, holds at least as
             // many as the filter below keeps, so neither buffer grows in a steady run
             self.kept_pairs.clear();
@@ -308,7 +390,8 @@ impl BroadPhase {
     /// The cells of a bounded grid (w x h cells from `origin`) hold the bodies, placed by
     /// a counting sort: within a cell in body order, cells in row order.
     #[allow(clippy::too_many_arguments)]
-    fn pairs_dense(
+    /// Returns false when `emit` asked to stop.
+    fn pairs_dense<E: FnMut(Pair) -> bool>(
         &mut self,
         aabbs: &[Aabb],
         moves: &[bool],
@@ -316,7 +399,8 @@ impl BroadPhase {
         origin: [i64; 2],
         w: usize,
         h: usize,
-    ) {
+        emit: &mut E,
+    ) -> bool {
         let cell_of = |ix: i64, iy: i64| (iy - origin[1]) as usize * w + (ix - origin[0]) as usize;
         self.cell_start.clear();
         self.cell_start.resize(w * h + 1, 0);
@@ -367,22 +451,25 @@ impl BroadPhase {
                         continue;
                     }
                     // a < b: bodies lie in a cell in increasing order
-                    if can_collide(a, b) {
-                        self.pairs.push((a, b));
+                    if can_collide(a, b) && !emit((a, b)) {
+                        return false;
                     }
                 }
             }
         }
+        true
     }
 
-    /// The sparse case: (cell key, body) entries sorted.
-    fn pairs_sorted(
+    /// The sparse case: (cell key, body) entries sorted. Returns false when `emit`
+    /// asked to stop.
+    fn pairs_sorted<E: FnMut(Pair) -> bool>(
         &mut self,
         aabbs: &[Aabb],
         moves: &[bool],
         can_collide: &impl Fn(u32, u32) -> bool,
         inv: f32,
-    ) {
+        emit: &mut E,
+    ) -> bool {
         let to_cell = |v: Vec2| (floor_i64(v.x * inv), floor_i64(v.y * inv));
         for &(i, [x0, y0, x1, y1]) in &self.ranges {
             for ix in x0..=x1 {
@@ -416,13 +503,14 @@ impl BroadPhase {
                         continue;
                     }
                     let p = if a < b { (a, b) } else { (b, a) };
-                    if can_collide(p.0, p.1) {
-                        self.pairs.push(p);
+                    if can_collide(p.0, p.1) && !emit(p) {
+                        return false;
                     }
                 }
             }
             start = end;
         }
+        true
     }
 }
 
@@ -618,5 +706,66 @@ mod tests {
             "{} rebuilds",
             kept.rebuilds
         );
+    }
+
+    /// Bodies whose filters keep them apart cost no kept pairs however much their boxes
+    /// overlap, and a filter changed between steps still gives the pairs found afresh.
+    #[test]
+    fn kept_pairs_leave_out_what_the_filters_refuse() {
+        // a category that touches none
+        let apart = Filter {
+            category: 2,
+            mask: 0,
+            group: 0,
+        };
+        // 30 x 30 large boxes, every one overlapping every other
+        let boxes: Vec<Aabb> = (0..900)
+            .map(|k| {
+                let (x, y) = ((k % 30) as f32 * 0.1, (k / 30) as f32 * 0.1);
+                aabb(x, y, x + 100.0, y + 100.0)
+            })
+            .collect();
+        let n = boxes.len();
+        let moves = vec![true; n];
+        let mut filters = vec![apart; n];
+        let mut bp = BroadPhase::default();
+        let step = |bp: &mut BroadPhase, filters: &[Filter]| {
+            let holds = bp.kept_count() == n
+                && (0..n).all(|i| {
+                    bp.kept_holds(i, &boxes[i], true) && bp.kept_filter_holds(i, &filters[i])
+                });
+            let of = |i: usize| filters[i];
+            bp.find_pairs_kept_checked(
+                &boxes,
+                &moves,
+                holds,
+                |_| true,
+                Some(&of),
+                |a, b| filters[a as usize].collides(&filters[b as usize]),
+            );
+        };
+        step(&mut bp, &filters);
+        assert!(bp.pairs.is_empty());
+        assert!(
+            bp.kept_pairs().is_empty(),
+            "{} pairs kept that can never touch",
+            bp.kept_pairs().len()
+        );
+        // two bodies that touch each other only: their pair is found, as afresh
+        let pair = Filter {
+            category: 4,
+            mask: 4,
+            group: 0,
+        };
+        (filters[10], filters[500]) = (pair, pair);
+        step(&mut bp, &filters);
+        assert_eq!(bp.pairs.len(), 1);
+        assert_eq!(bp.pairs, vec![(10, 500)]);
+        assert_eq!(bp.kept_pairs(), &[(10, 500)]);
+        assert_eq!(bp.rebuilds, 2);
+        // unfiltered, every pair of boxes is kept
+        let mut all = BroadPhase::default();
+        all.refresh_kept(&boxes, false, |_| true, None);
+        assert_eq!(all.kept_pairs().len(), n * (n - 1) / 2);
     }
 }

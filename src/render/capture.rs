@@ -76,7 +76,7 @@ impl GifWriter {
     ) -> Result<Self, RenderError> {
         let path = path.as_ref().to_path_buf();
         let temp = temp_path(&path);
-        let file = File::create(&temp).map_err(|source| RenderError::Io {
+        let file = crate::output::create_tracked(&temp).map_err(|source| RenderError::Io {
             path: path.clone(),
             source,
         })?;
@@ -148,7 +148,9 @@ impl GifWriter {
         std::fs::rename(&self.temp, &self.path).map_err(|source| RenderError::Io {
             path: self.path.clone(),
             source,
-        })
+        })?;
+        crate::output::untrack(&self.temp);
+        Ok(())
     }
 
     fn close(&mut self) -> Result<(), RenderError> {
@@ -209,5 +211,6 @@ impl Drop for GifWriter {
         // its temporary file goes.
         let _ = self.close();
         let _ = std::fs::remove_file(&self.temp);
+        crate::output::untrack(&self.temp);
     }
 }

@@ -150,7 +150,7 @@ pub fn render_compare_frames(
                     pane.step().map_err(|source| FramesError::PaneStep {
                         pane: pane.label.clone(),
                         step: written.steps,
-                        source,
+                        source: Box::new(source),
                     })?;
                 }
                 written.steps += 1;

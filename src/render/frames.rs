@@ -66,7 +66,7 @@ pub enum FramesError {
         /// Steps taken before the failure.
         step: u64,
         /// The cause.
-        source: StepError,
+        source: Box<StepError>,
     },
     /// The world failed to step.
     #[error("step {step}: {source}")]
@@ -74,7 +74,7 @@ pub enum FramesError {
         /// Steps taken before the failure.
         step: u64,
         /// The cause.
-        source: StepError,
+        source: Box<StepError>,
     },
 }
 
@@ -137,7 +137,7 @@ pub fn render_frames(
                 }
                 world.step().map_err(|source| FramesError::Step {
                     step: written.steps,
-                    source,
+                    source: Box::new(source),
                 })?;
                 written.steps += 1;
             }

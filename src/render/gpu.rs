@@ -249,6 +249,8 @@ pub struct Renderer {
     shape_data: Vec<ShapeInstance>,
     /// A rounded polygon's outline points, for one with more than [`SHAPE_POINTS`].
     rounded: Vec<Vec2>,
+    /// Of `line_data`, how many are polygon outlines (the rest are the list's lines).
+    outline_lines: usize,
     msaa: Option<MsaaTarget>,
     offscreen: Option<Offscreen>,
     samples: u32,
@@ -469,6 +471,7 @@ impl Renderer {
             polygon_data: Vec::new(),
             shape_data: Vec::new(),
             rounded: Vec::new(),
+            outline_lines: 0,
             msaa: None,
             offscreen: None,
             samples,
@@ -550,8 +553,8 @@ impl Renderer {
         });
         pass.set_bind_group(0, &self.globals_bind_group, &[]);
         let line_stride = std::mem::size_of::<LineInstance>() as u64;
-        let outline_lines = self.outline_line_count(list) as u32;
-        let user_lines = list.lines.len() as u32;
+        let outline_lines = self.outline_lines as u32;
+        let user_lines = (self.line_data.len() - self.outline_lines) as u32;
         // 1. rectangles, each with its outline
         if !self.box_data.is_empty() {
             pass.set_pipeline(&self.box_pipeline);
@@ -691,10 +694,6 @@ impl Renderer {
     }
 
     /// Number of outline segments the list's polygons produce (drawn before its lines).
-    fn outline_line_count(&self, list: &DrawList) -> usize {
-        self.line_data.len() - list.lines.len()
-    }
-
     /// Fills the CPU-side arrays from the list and uploads them and the camera.
     fn upload(&mut self, list: &DrawList, camera: &Camera, size: [u32; 2]) {
         let globals = Globals {
@@ -708,42 +707,90 @@ impl Renderer {
         self.queue
             .write_buffer(&self.globals, 0, bytemuck::bytes_of(&globals));
 
+        // What reaches far past the image is cut down to what can show, in f64, before
+        // it meets the GPU's f32 and its rasteriser (`crate::draw::clip`).
+        use crate::draw::clip::{self, CircleCut};
         self.box_data.clear();
-        self.box_data.extend(list.boxes.iter().map(|r| BoxInstance {
-            center: r.center.to_array(),
-            half_size: r.half_size.to_array(),
-            rot: r.rot.to_array(),
-            fill: premultiplied_linear(r.fill),
-            outline: premultiplied_linear(r.outline),
-        }));
+        for r in &list.boxes {
+            let r = match clip::cut_box(r, camera) {
+                Ok(None) => *r,
+                Ok(Some(cut)) => cut,
+                Err(()) => continue,
+            };
+            self.box_data.push(BoxInstance {
+                center: r.center.to_array(),
+                half_size: r.half_size.to_array(),
+                rot: r.rot.to_array(),
+                fill: premultiplied_linear(r.fill),
+                outline: premultiplied_linear(r.outline),
+            });
+        }
+
+        self.polygon_data.clear();
+        self.shape_data.clear();
+        self.line_data.clear();
+        let outline_px = list.outline_width_px;
 
         self.circle_data.clear();
-        self.circle_data
-            .extend(list.circles.iter().map(|c| CircleInstance {
+        // a circle whose rim crosses the image far from its centre: drawn as the
+        // polygon of its visible part, after the polygons
+        let mut rims: Vec<(Vec<Vec2>, crate::Color, crate::Color)> = Vec::new();
+        for c in &list.circles {
+            let c = match clip::cut_circle(c, camera) {
+                CircleCut::Keep => *c,
+                CircleCut::Cover(k) => k,
+                CircleCut::Nothing => continue,
+                CircleCut::Polygon(p) => {
+                    rims.push((p, c.fill, c.outline));
+                    continue;
+                }
+            };
+            self.circle_data.push(CircleInstance {
                 center: c.center.to_array(),
                 radius: c.radius,
                 angle: c.angle.unwrap_or(0.0),
                 has_angle: if c.angle.is_some() { 1.0 } else { 0.0 },
                 fill: premultiplied_linear(c.fill),
                 outline: premultiplied_linear(c.outline),
-            }));
+            });
+        }
 
-        self.polygon_data.clear();
-        self.shape_data.clear();
-        self.line_data.clear();
-        let outline_px = list.outline_width_px;
-        for poly in &list.polygons {
-            let (fill, outline) = (poly.fill, poly.outline);
+        let (mut cut_points, mut huge_rounded) = (Vec::new(), Vec::new());
+        let polygons = list
+            .polygons
+            .iter()
+            .map(|poly| (list.points_of(poly), poly.radius, poly.fill, poly.outline));
+        let rims = rims.iter().map(|(p, f, o)| (p.as_slice(), 0.0, *f, *o));
+        for (points, radius, fill, outline) in polygons.chain(rims) {
             let (fill_linear, outline_linear) =
                 (premultiplied_linear(fill), premultiplied_linear(outline));
-            let mut p = list.points_of(poly);
-            if let Some(shape) = ShapeInstance::new(p, poly.radius, fill_linear, outline_linear) {
+            let mut p = points;
+            let mut radius = radius;
+            if radius > 0.0
+                && !p.is_empty()
+                && clip::cut_polygon(p, camera, &mut cut_points).is_some()
+            {
+                // a huge rounded shape: its outline, then cut as a polygon
+                huge_rounded.clear();
+                crate::draw::rounded_points(p, radius, &mut huge_rounded);
+                p = &huge_rounded;
+                radius = 0.0;
+            }
+            if p.len() >= 3
+                && radius == 0.0
+                && clip::cut_polygon(p, camera, &mut cut_points).is_some()
+            {
+                if cut_points.len() < 3 {
+                    continue;
+                }
+                p = &cut_points;
+            } else if let Some(shape) = ShapeInstance::new(p, radius, fill_linear, outline_linear) {
                 self.shape_data.push(shape);
                 continue;
             }
-            if poly.radius > 0.0 && !p.is_empty() {
+            if radius > 0.0 && !p.is_empty() {
                 self.rounded.clear();
-                crate::draw::rounded_points(p, poly.radius, &mut self.rounded);
+                crate::draw::rounded_points(p, radius, &mut self.rounded);
                 p = &self.rounded;
             }
             // Fan triangulation of a convex polygon: (p0, p_i, p_i+1).
@@ -760,22 +807,34 @@ impl Renderer {
                 let n = p.len();
                 let edges = if n == 2 { 1 } else { n };
                 for i in 0..edges {
+                    let (a, b) = match clip::cut_segment(p[i], p[(i + 1) % n], camera) {
+                        None => (p[i], p[(i + 1) % n]),
+                        Some(Some(ab)) => ab,
+                        Some(None) => continue,
+                    };
                     self.line_data.push(LineInstance {
-                        a: p[i].to_array(),
-                        b: p[(i + 1) % n].to_array(),
+                        a: a.to_array(),
+                        b: b.to_array(),
                         width_px: outline_px,
                         color: outline_linear,
                     });
                 }
             }
         }
-        self.line_data
-            .extend(list.lines.iter().map(|l| LineInstance {
-                a: l.a.to_array(),
-                b: l.b.to_array(),
+        self.outline_lines = self.line_data.len();
+        for l in &list.lines {
+            let (a, b) = match clip::cut_segment(l.a, l.b, camera) {
+                None => (l.a, l.b),
+                Some(Some(ab)) => ab,
+                Some(None) => continue,
+            };
+            self.line_data.push(LineInstance {
+                a: a.to_array(),
+                b: b.to_array(),
                 width_px: l.width_px,
                 color: premultiplied_linear(l.color),
-            }));
+            });
+        }
 
         self.box_buffer.upload(
             &self.device,

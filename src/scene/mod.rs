@@ -37,7 +37,7 @@ use std::path::Path;
 pub use builtin::{builtin, builtin_description, builtin_names};
 pub use error::{SceneError, escape_controls};
 pub use generators::MAX_GENERATED;
-pub use validate::{MAX_ITERATIONS, MAX_POLYGON_POINTS, MAX_SUBSTEPS};
+pub use validate::{MAX_FRICTION, MAX_ITERATIONS, MAX_POLYGON_POINTS, MAX_SUBSTEPS};
 
 use crate::defs::{CameraDef, JointDef, WorldDef};
 use format::FileScene;
@@ -62,11 +62,44 @@ pub struct Scene {
 /// Reads, parses and validates the scene file at `path`. Messages name the file as
 /// `path` displays.
 pub fn load_file(path: &Path) -> Result<Scene, SceneError> {
+    use std::io::Read;
     let source = path.display().to_string();
-    let text = std::fs::read_to_string(path)
-        .map_err(|e| SceneError::whole_file(&source, format!("cannot read: {e}")))?;
+    let cannot = |e: std::io::Error| SceneError::whole_file(&source, format!("cannot read: {e}"));
+    // at most one byte past the limit is read: a larger file (or an endless one, such
+    // as /dev/zero) is refused before it is held, let alone parsed
+    let file = std::fs::File::open(path).map_err(cannot)?;
+    let mut bytes = Vec::new();
+    file.take(MAX_FILE_BYTES + 1)
+        .read_to_end(&mut bytes)
+        .map_err(cannot)?;
+    if bytes.len() as u64 > MAX_FILE_BYTES {
+        // pointed at where the limit falls (in the text read so far)
+        let cut = String::from_utf8_lossy(&bytes[..MAX_FILE_BYTES as usize]);
+        let (line, column) = error::line_col(&cut, cut.len());
+        return Err(SceneError::at(
+            &source,
+            line,
+            column,
+            format!(
+                "the file goes on past {} MiB here, the most a scene file may hold (large scenes are made by generators: [[pyramid]], [[grid]], [[stack]], [[chain]])",
+                MAX_FILE_BYTES >> 20
+            ),
+        ));
+    }
+    let text = String::from_utf8(bytes).map_err(|e| {
+        let (line, column) = error::line_col(
+            &String::from_utf8_lossy(&e.as_bytes()[..e.utf8_error().valid_up_to()]),
+            usize::MAX,
+        );
+        SceneError::at(&source, line, column, "the file is not valid UTF-8 here")
+    })?;
     load_str(&text, &source)
 }
+
+/// The largest scene file [`load_file`] reads (16 MiB): parsing holds about 70 bytes
+/// of memory for each byte of a file of many small tables, so this bounds a load to
+/// about a gigabyte.
+pub const MAX_FILE_BYTES: u64 = 16 << 20;
 
 /// Loads a built-in scene by name (see [`builtin_names`]), else the file at that path.
 /// A built-in name wins over a file of the same name in the working directory; write
@@ -87,14 +120,95 @@ pub fn load_str(text: &str, source: &str) -> Result<Scene, SceneError> {
         origin: [0.0; 2],
     };
     let file: FileScene = toml::from_str(text).map_err(|e| {
-        let span = e.span().unwrap_or(0..0);
-        ctx.err(span, e.message().trim_end().to_owned())
+        let message = e.message().trim_end();
+        match e.span() {
+            Some(span) => ctx.err(span, message.to_owned()),
+            // the reader gives no place for a dotted key too deep for it: found here
+            None => match deep_key(text) {
+                Some(at) => ctx.err(
+                    at..at,
+                    format!("this key nests more than {TOML_DEPTH} levels deep ({message})"),
+                ),
+                None => ctx.err(0..0, message.to_owned()),
+            },
+        }
     })?;
     let ctx = Ctx {
         origin: scene_origin(&file),
         ..ctx
     };
     build(&ctx, file)
+}
+
+/// How deep the TOML reader lets keys and values nest.
+const TOML_DEPTH: usize = 80;
+
+/// Where the first dotted key of more than [`TOML_DEPTH`] parts (`a.b.c...`) goes past
+/// that depth: the byte offset of its part beyond the limit. Comments and strings are
+/// skipped; a part is a bare key or a quoted one.
+fn deep_key(text: &str) -> Option<usize> {
+    let b = text.as_bytes();
+    let bare = |c: u8| c.is_ascii_alphanumeric() || c == b'_' || c == b'-';
+    // the end of the quoted string starting at i (past its closing quote)
+    let quoted = |i: usize| {
+        let q = b[i];
+        let mut j = i + 1;
+        while j < b.len() && b[j] != q && b[j] != b'\n' {
+            j += if b[j] == b'\\' && q == b'"' { 2 } else { 1 };
+        }
+        (j + 1).min(b.len())
+    };
+    let mut i = 0;
+    while i < b.len() {
+        match b[i] {
+            b'#' => {
+                while i < b.len() && b[i] != b'\n' {
+                    i += 1;
+                }
+            }
+            b'"' | b'\'' | b'_' | b'-' | b'0'..=b'9' | b'a'..=b'z' | b'A'..=b'Z' => {
+                // a chain of parts joined by dots
+                let mut parts = 0;
+                let mut j = i;
+                loop {
+                    let start = j;
+                    j = if b[j] == b'"' || b[j] == b'\'' {
+                        quoted(j)
+                    } else {
+                        let mut k = j;
+                        while k < b.len() && bare(b[k]) {
+                            k += 1;
+                        }
+                        k
+                    };
+                    parts += 1;
+                    if parts > TOML_DEPTH {
+                        return Some(start);
+                    }
+                    let mut k = j;
+                    while k < b.len() && (b[k] == b' ' || b[k] == b'\t') {
+                        k += 1;
+                    }
+                    if k >= b.len() || b[k] != b'.' {
+                        break;
+                    }
+                    k += 1;
+                    while k < b.len() && (b[k] == b' ' || b[k] == b'\t') {
+                        k += 1;
+                    }
+                    if k >= b.len() || !(bare(b[k]) || b[k] == b'"' || b[k] == b'\'') {
+                        break;
+                    }
+                    j = k;
+                }
+                i = j.max(i + 1);
+                continue;
+            }
+            _ => {}
+        }
+        i += 1;
+    }
+    None
 }
 
 /// A scene whose placed points (body positions, generator origins, chain anchors) reach
@@ -114,7 +228,9 @@ fn scene_origin(f: &FileScene) -> [f64; 2] {
         .chain(f.grid.iter().filter_map(|g| g.get_ref().origin.as_ref()))
         .chain(f.chain.iter().map(|g| &g.get_ref().anchor))
         .map(|p| p.get_ref().0)
-        .filter(|p| p.iter().all(|x| x.is_finite()));
+        // a point beyond f32 is refused where it is written; it must not move the
+        // origin (which would push every other point, the camera's too, out of range)
+        .filter(|p| p.iter().all(|x| x.abs() <= f32::MAX as f64));
     let (mut lo, mut hi) = ([f64::MAX; 2], [f64::MIN; 2]);
     let mut far = false;
     for p in points {
@@ -309,6 +425,22 @@ fn build(ctx: &Ctx, f: FileScene) -> R<Scene> {
         }
     }
 
+    // what the bodies' overlap would cost before anything is allocated for it
+    if let Err((_, b)) =
+        crate::world::count_start_pairs(&bodies.boxes, &bodies.dynamic, &bodies.filters)
+    {
+        let n = bodies.defs.len();
+        return Err(ctx.err(
+            bodies.spans[b].clone(),
+            format!(
+                "body {:?}: the bodies' boxes overlap in more than {} pairs at the start, the most a scene of {n} bodies may have ({} a body, at least {}; each pair costs about 1 KB of memory): spread the bodies apart, or filter apart those that never touch",
+                bodies.defs[b].name,
+                crate::world::max_start_pairs(n),
+                crate::world::START_PAIRS_PER_BODY,
+                crate::world::START_PAIRS_FLOOR,
+            ),
+        ));
+    }
     for t in &f.force {
         world
             .forces

@@ -50,6 +50,56 @@ impl Ctx<'_> {
         SceneError::at_span(self.file, self.text, span, message)
     }
 
+    /// Where element `k` of the array at `span` starts in the text (`span` itself when
+    /// the text there is not an array, or has no such element): so that a bad component
+    /// of `[x, y]` is pointed at, not the bracket before it.
+    pub fn element(&self, span: Range<usize>, k: usize) -> Range<usize> {
+        let b = self.text.as_bytes();
+        if b.get(span.start) != Some(&b'[') {
+            return span;
+        }
+        let end = span.end.min(b.len());
+        let (mut i, mut depth, mut index) = (span.start + 1, 0usize, 0usize);
+        let mut at_start = true;
+        while i < end {
+            let c = b[i];
+            match c {
+                b'#' => {
+                    while i < end && b[i] != b'\n' {
+                        i += 1;
+                    }
+                    continue;
+                }
+                b' ' | b'\t' | b'\n' | b'\r' => {}
+                _ if at_start => {
+                    if index == k {
+                        return i..span.end;
+                    }
+                    at_start = false;
+                    continue;
+                }
+                b'"' | b'\'' => {
+                    // a string: skip to its closing quote
+                    let q = c;
+                    i += 1;
+                    while i < end && b[i] != q {
+                        i += if b[i] == b'\\' { 2 } else { 1 };
+                    }
+                }
+                b'[' | b'{' => depth += 1,
+                b']' | b'}' if depth == 0 => break,
+                b']' | b'}' => depth -= 1,
+                b',' if depth == 0 => {
+                    index += 1;
+                    at_start = true;
+                }
+                _ => {}
+            }
+            i += 1;
+        }
+        span
+    }
+
     /// A finite number.
     pub fn finite(&self, who: &str, key: &str, v: &S<f32>) -> R<f32> {
         let x = *v.get_ref();
@@ -122,8 +172,9 @@ impl Ctx<'_> {
         if a.iter().all(|x| x.is_finite()) {
             Ok(Vec2::from(a))
         } else {
+            let k = a.iter().position(|x| !x.is_finite()).unwrap_or(0);
             Err(self.err(
-                v.span(),
+                self.element(v.span(), k),
                 format!(
                     "{who}: {key} must have finite components, got {}",
                     fmt_v2(a)
@@ -143,8 +194,13 @@ impl Ctx<'_> {
         if a.iter().all(|x| x.is_finite()) && local.is_finite() {
             Ok(local)
         } else {
+            let k = if a[0].is_finite() && local.x.is_finite() {
+                1
+            } else {
+                0
+            };
             Err(self.err(
-                v.span(),
+                self.element(v.span(), k),
                 format!(
                     "{who}: {key} must have finite components, got [{}, {}]",
                     a[0], a[1]
@@ -178,7 +234,7 @@ impl Ctx<'_> {
             Ok(s)
         } else {
             Err(self.err(
-                v.span(),
+                self.element(v.span(), if s.x > 0.0 { 1 } else { 0 }),
                 format!(
                     "{who}: {key} size must be > 0, got {}",
                     fmt_v2(v.get_ref().0)
@@ -895,10 +951,11 @@ impl Ctx<'_> {
             None => d.size,
             Some(s) => {
                 let [w, h] = s.get_ref().0;
-                if w == 0 || h == 0 {
+                let max = crate::defs::MAX_FRAME_SIDE;
+                if let Some(k) = [w, h].iter().position(|&x| !(1..=max).contains(&x)) {
                     return Err(self.err(
-                        s.span(),
-                        format!("{who}: size must be > 0 pixels each way, got [{w}, {h}]"),
+                        self.element(s.span(), k),
+                        format!("{who}: size must be 1..={max} pixels each way, got [{w}, {h}]"),
                     ));
                 }
                 [w, h]
@@ -1010,6 +1067,11 @@ pub(crate) struct Bodies {
     pub spans: Vec<Range<usize>>,
     /// The world's gravity (for the potential energy check).
     pub gravity: Option<Vec2>,
+    /// Each body's box, whether it is dynamic, and its filter: for the count of the
+    /// pairs the world starts with ([`crate::world::count_start_pairs`]).
+    pub boxes: Vec<crate::math::Aabb>,
+    pub dynamic: Vec<bool>,
+    pub filters: Vec<Filter>,
 }
 
 impl Bodies {
@@ -1042,7 +1104,10 @@ impl Bodies {
                 ),
             ));
         }
-        check_body(ctx, &body, self.gravity, places)?;
+        let made = check_body(ctx, &body, self.gravity, places)?;
+        self.boxes.push(made.aabb());
+        self.dynamic.push(made.is_dynamic());
+        self.filters.push(made.filter);
         let i = self.defs.len();
         self.index.insert(body.name.clone(), i);
         self.defs.push(body);
@@ -1066,9 +1131,9 @@ pub(crate) fn check_body(
     body: &BodyDef,
     gravity: Option<Vec2>,
     places: &Places,
-) -> R<()> {
+) -> R<crate::body::Body> {
     match World::make_body(body, gravity) {
-        Ok(_) => Ok(()),
+        Ok(b) => Ok(b),
         Err(e) => {
             let span = match &e {
                 BuildError::Derived { input, .. } => places.of(*input),

@@ -154,6 +154,19 @@ impl WorldState {
         }
         let state: WorldState = serde_json::from_slice(bytes).map_err(parse)?;
         state.check()?;
+        // as a scene: bodies piled on each other by the million would take gigabytes
+        // of contacts at the first step
+        let boxes: Vec<_> = state.bodies.iter().map(|b| b.aabb()).collect();
+        let dynamic: Vec<bool> = state.bodies.iter().map(|b| b.is_dynamic()).collect();
+        let filters: Vec<_> = state.bodies.iter().map(|b| b.filter).collect();
+        if let Err((_, b)) = crate::world::count_start_pairs(&boxes, &dynamic, &filters) {
+            return Err(StateError::Invalid(format!(
+                "body {:?} (#{b}): the bodies' boxes overlap in more than {} pairs, the most a world of {} bodies may start with",
+                state.bodies[b].name,
+                crate::world::max_start_pairs(state.bodies.len()),
+                state.bodies.len()
+            )));
+        }
         Ok(state)
     }
 
@@ -171,6 +184,23 @@ impl WorldState {
         if let Err(e) = self.settings.check() {
             return bad(format!("solver: {e}"));
         }
+        if !(self.time.is_finite() && self.time >= 0.0) {
+            return bad(format!("time is {}", self.time));
+        }
+        if !self.origin.is_finite() {
+            return bad(format!("origin is {}", self.origin));
+        }
+        if let Some(g) = self.gravity
+            && !g.is_finite()
+        {
+            return bad(format!("gravity is {g}"));
+        }
+        if let Some(d) = &self.drag {
+            let all = [d.linear, d.quadratic, d.fluid_density, d.drag_coefficient];
+            if !all.iter().all(|x| x.is_finite() && *x >= 0.0) {
+                return bad(format!("drag {d:?} is not finite and >= 0"));
+            }
+        }
         let n = self.bodies.len();
         for (i, b) in self.bodies.iter().enumerate() {
             if let Shape::Polygon(p) = &b.shape
@@ -180,6 +210,10 @@ impl WorldState {
                     "body {:?} (#{i}) is a polygon of {} vertices",
                     b.name, p.count
                 ));
+            }
+            // checked as the scene loader checks the bodies it makes
+            if let Err(e) = crate::world::check_body_state(b, self.gravity) {
+                return bad(format!("body {:?} (#{i}): {e}", b.name));
             }
         }
         let body = |what: &str, i: usize| {
@@ -197,12 +231,42 @@ impl WorldState {
             if j.a == j.b {
                 return bad(format!("joint #{k} joins body #{} to itself", j.a));
             }
+            if let Some(what) = crate::world::joint_not_finite(j) {
+                return bad(format!("joint #{k}: its {what} is not finite"));
+            }
+            let mut numbers = vec![
+                ("drive", j.drive),
+                ("compliance", j.compliance),
+                ("max_force", j.max_force),
+                ("max_torque", j.max_torque),
+                ("correction", j.correction),
+                ("ratio", j.ratio),
+                (
+                    "ground",
+                    j.ground[0].x + j.ground[0].y + j.ground[1].x + j.ground[1].y,
+                ),
+            ];
+            numbers.extend(j.impulses.iter().map(|&x| ("impulses", x)));
+            numbers.extend(j.limits.iter().flatten().map(|&x| ("limits", x)));
+            if let Some((what, x)) = numbers.iter().find(|(_, x)| !x.is_finite()) {
+                return bad(format!("joint #{k}: {what} is {x}, not finite"));
+            }
         }
         for f in &self.forces {
             body("a force", f.body)?;
+            if !(f.force.is_finite() && f.local.is_finite()) {
+                return bad(format!(
+                    "a force on body #{} is not finite ({}, at {})",
+                    f.body, f.force, f.local
+                ));
+            }
         }
         if let Some(m) = &self.mouse {
             body("the mouse joint", m.body)?;
+            let all = [m.hertz, m.damping_ratio, m.max_force];
+            if !(m.local.is_finite() && m.target.is_finite() && all.iter().all(|x| x.is_finite())) {
+                return bad("the mouse joint has a number that is not finite".into());
+            }
         }
         let pairs = [
             ("a joint's no-collide pair", &self.no_collide),
@@ -233,6 +297,23 @@ impl WorldState {
                     "contact #{k} has {} points (at most {})",
                     c.manifold.count,
                     c.manifold.points.len()
+                ));
+            }
+            let finite = c.manifold.normal.is_finite()
+                && c.friction.is_finite()
+                && c.restitution.is_finite()
+                && c.manifold.points().iter().all(|p| {
+                    p.point.is_finite()
+                        && p.anchor_a.is_finite()
+                        && p.anchor_b.is_finite()
+                        && p.separation.is_finite()
+                        && p.normal_impulse.is_finite()
+                        && p.tangent_impulse.is_finite()
+                });
+            if !finite {
+                return bad(format!(
+                    "contact #{k} (bodies #{} and #{}) has a number that is not finite",
+                    c.a, c.b
                 ));
             }
         }
