@@ -203,14 +203,38 @@ pub fn for_each_collider(body: &Body, mut f: impl FnMut(usize, Collider)) {
 /// mixed friction and restitution. Sensor parts make none (they are heard, see
 /// [`senses`]). Anchors are from each body's centre of mass; the feature ids carry the
 /// part indices.
+///
+/// A pair of parts further apart than the margin (and a centimetre), by their bounding
+/// circles, is not tested: no point of either can be within the margin of the other, so
+/// the test would find none (a drum of 40 parts around 8,000 boxes tests each box
+/// against the parts near it only).
 pub fn collide_bodies(ba: &Body, bb: &Body, margin: f32, mut out: impl FnMut(Manifold, f32, f32)) {
+    // the gap beyond which two shapes cannot keep a point: the margin, and a cushion
+    // far above the rounding of the points' clipping
+    let reach = margin + 0.01;
+    // b's centre in a's frame, and how far b reaches from it
+    let b_in_a = ba.rot.inv_rotate(bb.position - ba.position);
+    let rb = bb.shape.radius();
     for_each_collider(ba, |i, ca| {
         if ca.sensor {
             return;
         }
+        let ra = ca.shape.radius();
+        if let Some(p) = ba.parts.get(i) {
+            let r = ra + rb + reach;
+            if (b_in_a - p.offset).length_squared() > r * r {
+                return;
+            }
+        }
         for_each_collider(bb, |j, cb| {
             if cb.sensor || !ca.filter.collides(&cb.filter) {
                 return;
+            }
+            if !bb.parts.is_empty() {
+                let r = ra + cb.shape.radius() + reach;
+                if (cb.xf.p - ca.xf.p).length_squared() > r * r {
+                    return;
+                }
             }
             let mut m = sat::collide(&ca.shape, &ca.xf, &cb.shape, &cb.xf, margin);
             if m.count == 0 {

@@ -704,9 +704,7 @@ fn build(name: &str, flags: &SolverFlags) -> Result<(Scene, World, SolverSetting
         if !names.insert(b.name.as_str()) {
             return Err(fail(sandbox2d::BuildError::DuplicateName(b.name.clone())));
         }
-        world
-            .bodies
-            .push(World::make_body(b, def.gravity).map_err(fail)?);
+        world.add_made_body(World::make_body(b, def.gravity).map_err(fail)?, b.awake);
         if i % 1024 == 0 {
             bar.set_position(i as u64);
         }
@@ -717,6 +715,12 @@ fn build(name: &str, flags: &SolverFlags) -> Result<(Scene, World, SolverSetting
     }
     for j in &def.joints {
         world.add_joint(j).map_err(fail)?;
+    }
+    for m in &def.motions {
+        world.add_motion(m).map_err(fail)?;
+    }
+    for s in &def.spawns {
+        world.add_spawn(s).map_err(fail)?;
     }
     Ok((sc, world, settings))
 }

@@ -65,6 +65,20 @@ impl BroadPhase {
         moves: &[bool],
         can_collide: impl Fn(u32, u32) -> bool,
     ) {
+        self.find_pairs_sized(aabbs, moves, moves, can_collide);
+    }
+
+    /// [`BroadPhase::find_pairs`] with the grid's cells sized by the boxes `sized` marks
+    /// rather than by the moving ones: the pairs are the same (the grid only decides how
+    /// fast they are found). Waking uses it: there the few awake bodies move, and a
+    /// grid sized by one large mover would put thousands of small sleepers in a cell.
+    pub fn find_pairs_sized(
+        &mut self,
+        aabbs: &[Aabb],
+        moves: &[bool],
+        sized: &[bool],
+        can_collide: impl Fn(u32, u32) -> bool,
+    ) {
         self.entries.clear();
         self.large.clear();
         self.pairs.clear();
@@ -78,11 +92,11 @@ impl BroadPhase {
             sizes.extend(
                 aabbs
                     .iter()
-                    .zip(moves)
+                    .zip(sized)
                     .filter(|(_, m)| **m)
                     .map(|(b, _)| (b.max - b.min).max_element()),
             );
-            if sizes.is_empty() {
+            if sizes.is_empty() || (!std::ptr::eq(sized, moves) && !moves.contains(&true)) {
                 return;
             }
             let mid = sizes.len() / 2;
