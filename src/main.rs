@@ -166,6 +166,7 @@ enum SuiteArg {
     Standard,
     Extremes,
     Scaling,
+    Box2d,
 }
 
 #[derive(Args)]
@@ -174,7 +175,9 @@ struct BenchArgs {
     /// stability sweeps), scaling (the benchmark pyramid at 1k, 5k, 20k and 80k boxes on
     /// 1 and 2 threads, and every core above 2: scaling.csv, scaling.md, scaling.svg; a
     /// few minutes; --filter picks sizes by label, e.g. 5k; it sets its own thread counts
-    /// (--threads does not apply) and refuses --jobs and --shard).
+    /// (--threads does not apply) and refuses --jobs and --shard), box2d (Box2D v3's
+    /// ten benchmarks as scenes/box2d/*.toml at Box2D's step counts on 1 and 2 threads:
+    /// box2d.csv, box2d.md, box2d.svg; --filter picks scenes by name).
     #[arg(long, value_enum, default_value = "quick")]
     suite: SuiteArg,
     /// Directory for the results (created if missing).
@@ -1463,6 +1466,7 @@ fn bench(a: &BenchArgs) -> Result<(), Failure> {
         SuiteArg::Standard => Suite::Standard,
         SuiteArg::Extremes => Suite::Extremes,
         SuiteArg::Scaling => return bench_scaling(a, part.is_some()),
+        SuiteArg::Box2d => return bench_box2d(a, part),
     };
     let filter = a.filter.clone();
     let key = shard::RunKey {
@@ -1676,6 +1680,106 @@ fn bench_scaling(a: &BenchArgs, sharded: bool) -> Result<(), Failure> {
     Ok(())
 }
 
+/// `bench --suite box2d`: each of Box2D's benchmark scenes on 1 and 2 threads, then
+/// box2d.csv, box2d.md and box2d.svg (or, with --shard, the shard's file).
+fn bench_box2d(a: &BenchArgs, part: Option<sandbox2d::bench::Shard>) -> Result<(), Failure> {
+    use sandbox2d::bench::{self, Suite, box2d, shard};
+    let scenes = box2d::scenes(a.filter.as_deref());
+    if scenes.is_empty() {
+        return Err(Failure::input(format!(
+            "--filter {:?} matches no scene of the box2d suite ({})",
+            a.filter.clone().unwrap_or_default(),
+            box2d::SCENES.map(|s| s.name).join(", ")
+        )));
+    }
+    writable_dir(&a.out)?;
+    let all = box2d::cases(&scenes);
+    let picked: Vec<usize> = match part {
+        Some(p) => p.indices(all.len()),
+        None => (0..all.len()).collect(),
+    };
+    let cases: Vec<box2d::Case> = picked.iter().map(|&i| all[i]).collect();
+    let repeats = a.repeats.unwrap_or(1);
+    let bar = bench_progress(cases.len());
+    if let Some(c) = cases.first() {
+        bar.set_message(c.label());
+    }
+    let mut done = 0;
+    let (results, complete) = bench::run_jobs(
+        &cases,
+        a.jobs,
+        |c| box2d::run_case(c, a.steps, repeats),
+        |i, r| {
+            done += 1;
+            bar.set_position(done as u64);
+            bar.set_message(cases.get(i + 1).map_or(String::new(), |c| c.label()));
+            match r {
+                Ok(_) => Ok(()),
+                Err(e) => Err(Failure::run(e.clone())),
+            }
+        },
+    )?;
+    bar.finish_and_clear();
+    if !complete {
+        return Err(Failure::interrupted("interrupted: nothing was written"));
+    }
+    let rows: Vec<box2d::Row> = results.into_iter().flatten().flatten().collect();
+    if let Some(p) = part {
+        let key = shard::RunKey {
+            suite: Suite::Box2d,
+            filter: a.filter.clone(),
+            steps: a.steps,
+            repeats: a.repeats,
+        };
+        let indexed: Vec<(usize, &box2d::Row)> = picked.iter().copied().zip(&rows).collect();
+        let path = a.out.join(p.file_name());
+        write_file(&path, &shard::box2d_json(&key, p, all.len(), &indexed))?;
+        println!(
+            "wrote {} (shard {p}: {} of {} cases)",
+            path.display(),
+            rows.len(),
+            all.len()
+        );
+        return Ok(());
+    }
+    let mut command = String::from("sandbox2d bench --suite box2d");
+    if let Some(f) = &a.filter {
+        command.push_str(&format!(" --filter {f}"));
+    }
+    if let Some(s) = a.steps {
+        command.push_str(&format!(" --steps {s}"));
+    }
+    if let Some(r) = a.repeats {
+        command.push_str(&format!(" --repeats {r}"));
+    }
+    if a.jobs != 1 {
+        command.push_str(&format!(" --jobs {}", a.jobs));
+    }
+    command.push_str(&format!(" --out {}", a.out.display()));
+    write_box2d(&a.out, &rows, &command)
+}
+
+/// Writes the box2d suite's reports into `out`.
+fn write_box2d(
+    out: &Path,
+    rows: &[sandbox2d::bench::box2d::Row],
+    command: &str,
+) -> Result<(), Failure> {
+    use sandbox2d::bench::box2d;
+    write_file(
+        &out.join("box2d.svg"),
+        &box2d::svg(rows).map_err(Failure::run)?,
+    )?;
+    write_file(&out.join("box2d.csv"), &box2d::csv(rows))?;
+    write_file(&out.join("box2d.md"), &box2d::markdown(rows, command))?;
+    println!(
+        "wrote {}: box2d.csv, box2d.md and box2d.svg ({} rows)",
+        out.display(),
+        rows.len()
+    );
+    Ok(())
+}
+
 /// Writes stability.md (the extremes suite's report) into `out`.
 fn write_stability(
     out: &Path,
@@ -1758,6 +1862,11 @@ fn bench_merge(inputs: &[PathBuf], out: &Path) -> Result<(), Failure> {
     writable_dir(out)?;
     match merged {
         Merged::Extremes { results } => write_stability(out, &results),
+        Merged::Box2d { rows } => write_box2d(
+            out,
+            &rows,
+            &format!("sandbox2d bench --merge ... --out {}", out.display()),
+        ),
         Merged::Scenes {
             suite,
             scenes,
