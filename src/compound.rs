@@ -18,7 +18,7 @@ use crate::math::{Aabb, Rot, Transform, Vec2};
 use crate::shape::{MassData, Shape, ShapeError};
 
 /// One part of a compound body, in the body frame.
-#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+#[derive(Clone, Copy, Debug, serde::Serialize, serde::Deserialize)]
 pub struct Part {
     /// Centred on the part's own centroid.
     pub shape: Shape,
@@ -37,6 +37,29 @@ pub struct Part {
     /// [`Part::reach`] works it out.
     #[serde(skip)]
     pub reach: f32,
+}
+
+/// Two parts are equal when what they are is (the kept reach is worked out from it).
+impl PartialEq for Part {
+    fn eq(&self, o: &Part) -> bool {
+        (
+            &self.shape,
+            self.offset,
+            self.rot,
+            self.friction,
+            self.restitution,
+            self.filter,
+            self.sensor,
+        ) == (
+            &o.shape,
+            o.offset,
+            o.rot,
+            o.friction,
+            o.restitution,
+            o.filter,
+            o.sensor,
+        )
+    }
 }
 
 impl Part {

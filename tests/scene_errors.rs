@@ -2571,3 +2571,28 @@ fn a_spawn_table_becomes_its_timing_and_its_group() {
         "the offsets cycle every 4"
     );
 }
+
+mod common;
+
+#[test]
+fn the_cli_refuses_a_bad_spawn_table_with_one_line_and_exit_2() {
+    // as a user meets it: `simulate` on the file, file:line:col, nothing run
+    let path = common::cli::tmp("bad_spawn.toml");
+    std::fs::write(
+        &path,
+        "name = \"t\"\n[[spawn]]\nevery = 8\nkeep = 0\n[[spawn.humans]]\ncount = 5\n",
+    )
+    .unwrap();
+    let out = common::cli::sandbox2d()
+        .args(["simulate", path.to_str().unwrap(), "--steps", "10"])
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(2));
+    assert!(out.stdout.is_empty(), "nothing was run");
+    let err = String::from_utf8(out.stderr).unwrap();
+    assert_eq!(err.lines().count(), 1, "{err}");
+    assert!(
+        err.contains("bad_spawn.toml:4:8: spawn0: keep must be >= 1, got 0"),
+        "{err}"
+    );
+}
