@@ -86,6 +86,19 @@ pub struct Body {
     /// The island it fell asleep with (woken together).
     #[serde(default)]
     pub(crate) island: u32,
+    /// Box2D's linear and angular damping (1/s): each (sub)step of h divides the
+    /// velocity by 1 + h c ([`crate::defs::BodyDef::linear_damping`]).
+    #[serde(default)]
+    pub linear_damping: f32,
+    #[serde(default)]
+    pub angular_damping: f32,
+    /// The speed (m/s) below which it counts as at rest for sleeping.
+    #[serde(default = "default_sleep_threshold")]
+    pub sleep_threshold: f32,
+}
+
+fn default_sleep_threshold() -> f32 {
+    crate::defs::SLEEP_THRESHOLD
 }
 
 impl Body {

@@ -71,7 +71,7 @@ pub enum ShapeDef {
 }
 
 /// The most parts a compound body has.
-pub const MAX_PARTS: usize = 32;
+pub const MAX_PARTS: usize = 64;
 
 /// One part of a compound body ([`ShapeDef::Compound`]): a shape placed in the body's
 /// frame, and the material it has there.
@@ -147,7 +147,23 @@ pub struct BodyDef {
     /// A sensor: its overlaps with other (non-static, non-sensor) bodies are reported as
     /// events ([`crate::World::events`]) and never resolved.
     pub sensor: bool,
+    /// `false`: a dynamic body starts asleep, on an island of its own (Box2D's
+    /// `isAwake`): not integrated, collided or solved until something wakes it, as any
+    /// sleeping body wakes. Ignored (awake) when the world's `sleep` setting is off.
+    pub awake: bool,
+    /// Box2D's linear damping (1/s): each (sub)step of h multiplies the velocity by
+    /// 1 / (1 + h c). 0: none.
+    pub linear_damping: f32,
+    /// Angular damping (1/s), as `linear_damping` for the spin.
+    pub angular_damping: f32,
+    /// The speed (m/s) below which the body counts as at rest for sleeping (also
+    /// |w| r, r the shape's radius); Box2D's `sleepThreshold`, 0.05 m/s by default.
+    pub sleep_threshold: f32,
 }
+
+/// The speed below which a body rests, unless it sets its own
+/// ([`BodyDef::sleep_threshold`]): Box2D's default, 0.05 m/s.
+pub const SLEEP_THRESHOLD: f32 = 0.05;
 
 /// Collision filtering, Box2D's rule: two bodies of the same non-zero group always
 /// collide when the group is positive and never when it is negative; otherwise each
@@ -206,6 +222,10 @@ impl Default for BodyDef {
             color: None,
             filter: Filter::default(),
             sensor: false,
+            awake: true,
+            linear_damping: 0.0,
+            angular_damping: 0.0,
+            sleep_threshold: SLEEP_THRESHOLD,
         }
     }
 }
@@ -293,12 +313,16 @@ pub struct JointDef {
     pub compliance: f32,
     pub damping: DampingDef,
     pub collide_connected: bool,
-    /// The wheel joint's suspension along its axis.
+    /// The wheel joint's suspension along its axis; a hinge's torsion spring, which pulls
+    /// the hinge angle towards 0 (Box2D's revolute spring).
     pub spring: Option<SpringDef>,
     /// Motor joint: b's target position relative to a's (centres of mass), in a's frame;
     /// `None` = the offset at creation.
     pub offset: Option<Vec2>,
     /// Motor joint: target theta_b - theta_a (rad); `None` = the angle at creation.
+    /// Hinge: the theta_b - theta_a at which the hinge angle reads 0 (its limits and
+    /// spring are measured from it; Box2D's joint frames turned against each other);
+    /// `None` = the angle at creation.
     pub angle: Option<f32>,
     /// Motor joint: largest force (N) and torque (N m) it applies.
     pub max_force: f32,
@@ -824,4 +848,79 @@ pub struct WorldDef {
     /// from 0 keeps f32's precision near its bodies; (0, 0) for a scene within
     /// [`crate::scene::ORIGIN_SHIFT_BEYOND`] of 0. Outputs (traces) add it back.
     pub origin: glam::DVec2,
+    /// Kinematic bodies that follow a path ([`MotionDef`]).
+    pub motions: Vec<MotionDef>,
+    /// Groups of bodies and joints added (and removed) as the world steps.
+    pub spawns: Vec<SpawnDef>,
+}
+
+/// A kinematic body that sways along a line: at time t it is at
+/// `p0 + amplitude (sin(angular_frequency t + phase) - sin(phase))`, p0 where it was
+/// made. Before each step the world sets its velocity so that it arrives at the path's
+/// point of the step's end (Box2D's `b2Body_SetTargetTransform`, once a step).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct MotionDef {
+    /// Index of the body (kinematic) in creation order.
+    pub body: usize,
+    /// m.
+    pub amplitude: Vec2,
+    /// rad/s, > 0.
+    pub angular_frequency: f32,
+    /// rad.
+    pub phase: f32,
+}
+
+/// A group of bodies and joints the world adds as it steps: before step `first`, and
+/// every `every` steps after, `count` times in all (or without end), the k-th copy
+/// shifted by `(k mod cycle) offset`. With `keep`, at most that many copies live: the
+/// oldest is removed (bodies and joints) just before a new one is added. Spawned bodies
+/// are named `NAME#k` (`k` from 0); the world's state hash covers them like any other
+/// bodies, so a run with spawns is as deterministic as one without.
+#[derive(Clone, Debug, PartialEq)]
+pub struct SpawnDef {
+    /// What messages call it (`spawn0`, ...).
+    pub name: String,
+    /// Steps between spawns, >= 1.
+    pub every: u64,
+    /// The step (0-based count of steps taken) before which the first copy is added.
+    pub first: u64,
+    /// Copies in all; `None` = one every `every` steps for as long as the world runs.
+    pub count: Option<u64>,
+    /// The most copies alive at once; `None` = no limit.
+    pub keep: Option<u64>,
+    /// How far (m) each copy is from the one before.
+    pub offset: Vec2,
+    /// The offsets start over every `cycle` copies (`None` = never).
+    pub cycle: Option<u64>,
+    /// The group as the first copy has it (names without the `#k`).
+    pub bodies: Vec<BodyDef>,
+    /// Joints between the group's bodies, by index into `bodies`.
+    pub joints: Vec<JointDef>,
+}
+
+impl SpawnDef {
+    /// The offset of copy `k` (from 0).
+    pub fn offset_of(&self, k: u64) -> Vec2 {
+        let i = match self.cycle {
+            Some(c) if c > 0 => k % c,
+            _ => k,
+        };
+        // in f64 and then f32, so a long run's offsets do not gather rounding
+        Vec2::new(
+            (self.offset.x as f64 * i as f64) as f32,
+            (self.offset.y as f64 * i as f64) as f32,
+        )
+    }
+
+    /// Whether a copy is due before the step numbered `step` (0-based), and which.
+    pub fn due(&self, step: u64) -> Option<u64> {
+        if step < self.first || !(step - self.first).is_multiple_of(self.every.max(1)) {
+            return None;
+        }
+        let k = (step - self.first) / self.every.max(1);
+        match self.count {
+            Some(n) if k >= n => None,
+            _ => Some(k),
+        }
+    }
 }

@@ -221,6 +221,12 @@ impl Joint {
                 j.servo = None;
                 j.spring = def.spring;
             }
+            JointKind::Hinge => {
+                // a torsion spring to the hinge's zero, which the def may set apart from
+                // the angle at creation
+                j.spring = def.spring;
+                j.ref_angle = def.angle.unwrap_or(j.ref_angle);
+            }
             JointKind::Motor => {
                 // the target: b's centre in a's frame, and theta_b - theta_a
                 j.local_a = def
@@ -394,6 +400,26 @@ impl Joint {
                         &mut lambdas[slot::ANGLE],
                     );
                 } else {
+                    // the torsion spring: C = angle with compliance 1 / k, k = I_eff
+                    // omega^2 (its damping is applied in the velocity pass)
+                    if let Some(sp) = self.spring
+                        && sp.hertz > 0.0
+                    {
+                        let w = bodies[self.a].inv_inertia + bodies[self.b].inv_inertia;
+                        if w > 0.0 {
+                            let omega = std::f32::consts::TAU * sp.hertz;
+                            let alpha = w / (omega * omega);
+                            angular_correction(
+                                bodies,
+                                self.a,
+                                self.b,
+                                f.angle,
+                                alpha / (h * h),
+                                &mut lambdas[slot::SPRING],
+                            );
+                        }
+                    }
+                    let f = self.frame(bodies);
                     self.project_range(bodies, f.angle, lambdas, None);
                 }
             }

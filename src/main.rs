@@ -208,6 +208,7 @@ enum SuiteArg {
     Scaling,
     Contention,
     Convergence,
+    Box2d,
 }
 
 #[derive(Args)]
@@ -221,7 +222,9 @@ struct BenchArgs {
     /// suite starts and stops: contention.csv, contention.md; a few minutes; as scaling,
     /// it sets its own threads and refuses --jobs and --shard), convergence (each
     /// solver's order of accuracy on the closed-form scenes: convergence.csv,
-    /// convergence.md and convergence.svg; seconds; refuses --jobs and --shard).
+    /// convergence.md and convergence.svg; seconds; refuses --jobs and --shard), box2d
+    /// (Box2D v3's ten benchmarks as scenes/box2d/*.toml at Box2D's step counts on 1 and
+    /// 2 threads: box2d.csv, box2d.md, box2d.svg; --filter picks scenes by name).
     #[arg(long, value_enum, default_value = "quick")]
     suite: SuiteArg,
     /// Directory for the results (created if missing).
@@ -881,9 +884,7 @@ fn build(name: &str, flags: &SolverFlags) -> Result<(Scene, World, SolverSetting
         if !names.insert(b.name.as_str()) {
             return Err(fail(sandbox2d::BuildError::DuplicateName(b.name.clone())));
         }
-        world
-            .bodies
-            .push(World::make_body(b, def.gravity).map_err(fail)?);
+        world.add_made_body(World::make_body(b, def.gravity).map_err(fail)?, b.awake);
         if i % 1024 == 0 {
             bar.set_position(i as u64);
         }
@@ -894,6 +895,12 @@ fn build(name: &str, flags: &SolverFlags) -> Result<(Scene, World, SolverSetting
     }
     for j in &def.joints {
         world.add_joint(j).map_err(fail)?;
+    }
+    for m in &def.motions {
+        world.add_motion(m).map_err(fail)?;
+    }
+    for s in &def.spawns {
+        world.add_spawn(s).map_err(fail)?;
     }
     Ok((sc, world, settings))
 }
@@ -1846,6 +1853,7 @@ fn bench(a: &BenchArgs) -> Result<(), Failure> {
         SuiteArg::Scaling => return bench_scaling(a, part.is_some()),
         SuiteArg::Contention => return bench_contention(a, part.is_some()),
         SuiteArg::Convergence => return bench_convergence(a, part.is_some()),
+        SuiteArg::Box2d => return bench_box2d(a, part, run),
     };
     let filter = a.filter.clone();
     let key = shard::RunKey {
@@ -2283,6 +2291,111 @@ fn bench_convergence(a: &BenchArgs, sharded: bool) -> Result<(), Failure> {
     Ok(())
 }
 
+/// `bench --suite box2d`: each of Box2D's benchmark scenes on 1 and 2 threads, then
+/// box2d.csv, box2d.md and box2d.svg (or, with --shard, the shard's file).
+fn bench_box2d(
+    a: &BenchArgs,
+    part: Option<sandbox2d::bench::Shard>,
+    run: Option<String>,
+) -> Result<(), Failure> {
+    use sandbox2d::bench::{self, Suite, box2d, shard};
+    let scenes = box2d::scenes(a.filter.as_deref());
+    if scenes.is_empty() {
+        return Err(Failure::input(format!(
+            "--filter {:?} matches no scene of the box2d suite ({})",
+            a.filter.clone().unwrap_or_default(),
+            box2d::SCENES.map(|s| s.name).join(", ")
+        )));
+    }
+    writable_dir(&a.out)?;
+    let all = box2d::cases(&scenes);
+    let picked: Vec<usize> = match part {
+        Some(p) => p.indices(all.len()),
+        None => (0..all.len()).collect(),
+    };
+    let cases: Vec<box2d::Case> = picked.iter().map(|&i| all[i]).collect();
+    let repeats = a.repeats.unwrap_or(1);
+    let bar = bench_progress(cases.len());
+    if let Some(c) = cases.first() {
+        bar.set_message(c.label());
+    }
+    let mut done = 0;
+    let (results, complete) = bench::run_jobs(
+        &cases,
+        a.jobs,
+        |c| box2d::run_case(c, a.steps, repeats),
+        |i, r| {
+            done += 1;
+            bar.set_position(done as u64);
+            bar.set_message(cases.get(i + 1).map_or(String::new(), |c| c.label()));
+            match r {
+                Ok(_) => Ok(()),
+                Err(e) => Err(Failure::run(e.clone())),
+            }
+        },
+    )?;
+    bar.finish_and_clear();
+    if !complete {
+        return Err(Failure::interrupted("interrupted: nothing was written"));
+    }
+    let rows: Vec<box2d::Row> = results.into_iter().flatten().flatten().collect();
+    if let Some(p) = part {
+        let key = shard::RunKey {
+            suite: Suite::Box2d,
+            filter: a.filter.clone(),
+            steps: a.steps,
+            repeats: a.repeats,
+            run,
+        };
+        let indexed: Vec<(usize, &box2d::Row)> = picked.iter().copied().zip(&rows).collect();
+        let path = a.out.join(p.file_name());
+        write_file(&path, &shard::box2d_json(&key, p, all.len(), &indexed))?;
+        println!(
+            "wrote {} (shard {p}: {} of {} cases)",
+            path.display(),
+            rows.len(),
+            all.len()
+        );
+        return Ok(());
+    }
+    let mut command = String::from("sandbox2d bench --suite box2d");
+    if let Some(f) = &a.filter {
+        command.push_str(&format!(" --filter {f}"));
+    }
+    if let Some(s) = a.steps {
+        command.push_str(&format!(" --steps {s}"));
+    }
+    if let Some(r) = a.repeats {
+        command.push_str(&format!(" --repeats {r}"));
+    }
+    if a.jobs != 1 {
+        command.push_str(&format!(" --jobs {}", a.jobs));
+    }
+    command.push_str(&format!(" --out {}", a.out.display()));
+    write_box2d(&a.out, &rows, &command)
+}
+
+/// Writes the box2d suite's reports into `out`.
+fn write_box2d(
+    out: &Path,
+    rows: &[sandbox2d::bench::box2d::Row],
+    command: &str,
+) -> Result<(), Failure> {
+    use sandbox2d::bench::box2d;
+    write_file(
+        &out.join("box2d.svg"),
+        &box2d::svg(rows).map_err(Failure::run)?,
+    )?;
+    write_file(&out.join("box2d.csv"), &box2d::csv(rows))?;
+    write_file(&out.join("box2d.md"), &box2d::markdown(rows, command))?;
+    println!(
+        "wrote {}: box2d.csv, box2d.md and box2d.svg ({} rows)",
+        out.display(),
+        rows.len()
+    );
+    Ok(())
+}
+
 /// Writes stability.md (the extremes suite's report) into `out`.
 fn write_stability(
     out: &Path,
@@ -2385,6 +2498,11 @@ fn bench_merge(inputs: &[PathBuf], out: &Path, run: Option<&str>) -> Result<(), 
     writable_dir(out)?;
     match merged {
         Merged::Extremes { results } => write_stability(out, &results),
+        Merged::Box2d { rows } => write_box2d(
+            out,
+            &rows,
+            &format!("sandbox2d bench --merge ... --out {}", out.display()),
+        ),
         Merged::Scenes {
             suite,
             scenes,

@@ -23,6 +23,7 @@ mod edit;
 mod events;
 mod measure;
 mod query;
+mod spawn;
 mod state;
 mod threads;
 
@@ -176,6 +177,8 @@ pub struct World {
     least_rest: Vec<f32>,
     /// Islands to wake (scratch).
     to_wake: Vec<u32>,
+    /// Which bodies size the waking pass's grid: the dynamic ones, asleep or not (scratch).
+    wake_sized: Vec<bool>,
     pub(crate) joints: Vec<Joint>,
     /// Joints whose bodies all sleep (or do not move), with their index, taken out of
     /// `joints` for the solve of one step (see `park_sleeping_joints`).
@@ -190,6 +193,13 @@ pub struct World {
     filtered: bool,
     /// Whether any body is a sensor (else the narrow phase skips the check).
     has_sensors: bool,
+    /// Whether any body has linear or angular damping (then the forces are not
+    /// [`World::plain_forces`]).
+    damped: bool,
+    /// Kinematic bodies on a path, by key ([`crate::defs::MotionDef`]).
+    motions: Vec<spawn::Motion>,
+    /// The scene's timed spawns ([`crate::defs::SpawnDef`]) and what each has made.
+    spawners: Vec<spawn::Spawner>,
     /// Whether this step's collide found no body asleep and no sleeping contact (then
     /// none is asleep at the step's end either: only `update_sleep` puts bodies to
     /// sleep), so the end of the step need not look again.
@@ -279,6 +289,7 @@ impl World {
             islands: Vec::new(),
             least_rest: Vec::new(),
             to_wake: Vec::new(),
+            wake_sized: Vec::new(),
             joints: Vec::new(),
             parked: Vec::new(),
             joints_scratch: Vec::new(),
@@ -286,6 +297,9 @@ impl World {
             no_collide: Vec::new(),
             filtered: false,
             has_sensors: false,
+            damped: false,
+            motions: Vec::new(),
+            spawners: Vec::new(),
             none_asleep: false,
             movers_found: false,
             ended: None,
@@ -392,6 +406,12 @@ impl World {
         for j in &def.joints {
             w.add_joint(j)?;
         }
+        for m in &def.motions {
+            w.add_motion(m)?;
+        }
+        for s in &def.spawns {
+            w.add_spawn(s)?;
+        }
         Ok(w)
     }
 
@@ -449,6 +469,9 @@ impl World {
             ));
         }
         match def.kind {
+            crate::defs::JointKind::Hinge if def.servo.is_some() && def.spring.is_some() => {
+                return bad("a hinge takes a servo or a spring, not both".into());
+            }
             crate::defs::JointKind::Motor
                 if !(def.max_force >= 0.0
                     && def.max_torque >= 0.0
@@ -482,8 +505,21 @@ impl World {
                 self.no_collide.insert(at, pair);
             }
         }
-        self.wake(a);
-        self.wake(b);
+        let (ia, ib) = (self.bodies[a].island, self.bodies[b].island);
+        if self.bodies[a].asleep && self.bodies[b].asleep {
+            // a joint between two sleepers (bodies made asleep) joins their islands:
+            // they sleep on, and wake together
+            if ia != ib {
+                for body in &mut self.bodies {
+                    if body.asleep && body.island == ib {
+                        body.island = ia;
+                    }
+                }
+            }
+        } else {
+            self.wake(a);
+            self.wake(b);
+        }
         Ok(id)
     }
 
@@ -545,7 +581,20 @@ impl World {
             return Err(BuildError::DuplicateName(def.name.clone()));
         }
         let body = World::make_body(def, self.gravity)?;
+        Ok(self.add_made_body(body, def.awake))
+    }
+
+    /// Adds a body made by [`World::make_body`] without checking that its name is new
+    /// (the caller has: a loader with a set of names), asleep on an island of its own if
+    /// not `awake` and dynamic ([`BodyDef::awake`]).
+    pub fn add_made_body(&mut self, mut body: Body, awake: bool) -> BodyId {
         self.filtered |= body.filter != crate::defs::Filter::default();
+        self.damped |= body.linear_damping != 0.0 || body.angular_damping != 0.0;
+        if !awake && body.is_dynamic() {
+            // an island's label is the index of one of its bodies: its own
+            body.asleep = true;
+            body.island = self.bodies.len() as u32;
+        }
         if body.has_sensor() {
             // a sensor is there to be heard: its scene records events
             self.has_sensors = true;
@@ -553,7 +602,7 @@ impl World {
         }
         self.bodies.push(body);
         self.sync_keys();
-        Ok(self.bodies.len() - 1)
+        self.bodies.len() - 1
     }
 
     /// The body a description makes, as [`World::add_body`] would add it to a world with
@@ -577,6 +626,20 @@ impl World {
         finite("angular_velocity", def.angular_velocity.is_finite())?;
         finite("friction", def.friction.is_finite())?;
         finite("restitution", def.restitution.is_finite())?;
+        for (what, v) in [
+            ("linear_damping", def.linear_damping),
+            ("angular_damping", def.angular_damping),
+            ("sleep_threshold", def.sleep_threshold),
+        ] {
+            finite(what, v.is_finite())?;
+            if v < 0.0 {
+                return Err(BuildError::NotPositive {
+                    name: name.clone(),
+                    what,
+                    value: v,
+                });
+            }
+        }
         let shape_error = |source| BuildError::Shape {
             name: name.clone(),
             source,
@@ -731,6 +794,9 @@ impl World {
             sleep_time: 0.0,
             island: 0,
             parts: compound.map(|(parts, _)| parts).unwrap_or_default(),
+            linear_damping: def.linear_damping,
+            angular_damping: def.angular_damping,
+            sleep_threshold: def.sleep_threshold,
         };
         if dynamic && let Some((input, what)) = energy_problem(&body, gravity) {
             return Err(derived(input, what));
@@ -805,6 +871,9 @@ impl World {
     /// Advances the world by one step of `settings.dt` (in `settings.substeps` substeps)
     /// with the solver `settings.kind`.
     pub fn step(&mut self) -> Result<(), StepError> {
+        if !self.spawners.is_empty() || !self.motions.is_empty() {
+            self.run_events();
+        }
         self.sync_keys();
         let kind = self.settings.kind;
         let mut stepper = match self.stepper.take() {
@@ -926,13 +995,14 @@ impl World {
         }
         let g = self.gravity;
         let drag = self.drag;
+        let damped = self.damped;
         let pool = self.pool();
         parallel::chunks_mut(
             pool.as_deref(),
             &mut self.bodies,
             BODY_PASS_BLOCK,
             &|_, _, bodies| {
-                integrate_velocities_of(bodies, h, g, drag);
+                integrate_velocities_of(bodies, h, g, drag, damped);
                 0.0
             },
         );
@@ -978,12 +1048,7 @@ impl World {
         }
         // wake every island an awake body (or a moving kinematic one) reaches, then every
         // island those reach, and so on: a woken island's own pairs were not looked for
-        loop {
-            let woke = self.wake_touched(h, margin);
-            if !woke {
-                break;
-            }
-        }
+        self.wake_reached(h, margin);
         self.park_sleeping_joints();
         if !self.bodies.iter().any(is_mover) {
             // all at rest: last step's contacts are kept aside, nothing is looked for
@@ -1200,6 +1265,38 @@ impl World {
         }
     }
 
+    /// Wakes the sleeping islands labelled in `islands` (any order, repeats allowed) in
+    /// one pass over the bodies and the kept contacts, as [`World::wake_island`] would
+    /// one by one.
+    pub(crate) fn wake_islands(&mut self, islands: &mut Vec<u32>) {
+        islands.sort_unstable();
+        islands.dedup();
+        if islands.is_empty() {
+            return;
+        }
+        for b in &mut self.bodies {
+            if b.asleep && islands.binary_search(&b.island).is_ok() {
+                b.asleep = false;
+                b.sleep_time = 0.0;
+            }
+        }
+        let bodies = &self.bodies;
+        let (mut back, mut kept) = (Vec::new(), Vec::new());
+        for c in self.sleeping_contacts.drain(..) {
+            if bodies[c.a as usize].asleep || bodies[c.b as usize].asleep {
+                kept.push(c);
+            } else {
+                back.push(c);
+            }
+        }
+        self.sleeping_contacts = kept;
+        if !back.is_empty() {
+            // the cache is read as one list sorted by pair
+            self.contacts.extend(back);
+            self.contacts.sort_by_key(|c| (c.a, c.b));
+        }
+    }
+
     /// Wakes every sleeping body of `island` and puts its kept contacts back in the
     /// cache, so they start warm.
     fn wake_island(&mut self, island: u32) {
@@ -1272,10 +1369,16 @@ impl World {
         self.joints_scratch = std::mem::replace(&mut self.joints, all);
     }
 
-    /// One pass of waking: every sleeping island that an awake dynamic body's (or a
-    /// moving kinematic body's) box reaches, or whose body was pushed, set moving or
-    /// given a force since it fell asleep. Returns whether any woke.
-    fn wake_touched(&mut self, h: f32, margin: f32) -> bool {
+    /// Waking: every sleeping island that an awake dynamic body's (or a moving kinematic
+    /// body's) box reaches, or whose body was pushed, set moving or given a force since
+    /// it fell asleep; then every island those reach, and so on until none wakes.
+    ///
+    /// Each round looks only from the bodies the round before woke (the others' reach
+    /// was looked at already), through one grid of every body's box (boxes do not
+    /// change while waking), and wakes that round's islands in one pass
+    /// ([`World::wake_islands`]): the same bodies wake, with the same contacts in the
+    /// same order, as round after round of looking from every awake body.
+    fn wake_reached(&mut self, h: f32, margin: f32) {
         let mut wake = std::mem::take(&mut self.to_wake);
         wake.clear();
         let mut movers = false;
@@ -1294,52 +1397,80 @@ impl World {
         if movers {
             self.aabbs.clear();
             self.dynamic.clear();
+            self.wake_sized.clear();
             for b in &self.bodies {
                 self.aabbs.push(swept_box(b, b.aabb(), h, margin));
                 // the movers look for sleepers; sleepers and static bodies are looked up
                 self.dynamic.push(is_mover(b));
+                // the grid's cells fit the dynamic bodies, asleep or not: a few large
+                // movers must not put many small sleepers in one cell
+                self.wake_sized.push(b.is_dynamic());
             }
-            let bodies = &self.bodies;
-            self.broad.find_pairs(&self.aabbs, &self.dynamic, |a, b| {
-                let (ba, bb) = (&bodies[a as usize], &bodies[b as usize]);
-                (ba.asleep && is_mover(bb)) || (bb.asleep && is_mover(ba))
-            });
-            for &(a, b) in &self.broad.pairs {
-                for i in [a, b] {
-                    let body = &self.bodies[i as usize];
-                    if body.asleep {
-                        wake.push(body.island);
+        }
+        let mut first = true;
+        loop {
+            if movers {
+                let bodies = &self.bodies;
+                let (aabbs, look, sized) = (&self.aabbs, &self.dynamic, &self.wake_sized);
+                self.broad.find_pairs_sized(aabbs, look, sized, |a, b| {
+                    let (ba, bb) = (&bodies[a as usize], &bodies[b as usize]);
+                    (ba.asleep && is_mover(bb)) || (bb.asleep && is_mover(ba))
+                });
+                for &(a, b) in &self.broad.pairs {
+                    for i in [a, b] {
+                        let body = &self.bodies[i as usize];
+                        if body.asleep {
+                            wake.push(body.island);
+                        }
+                    }
+                }
+                // a joint to a body that moves (one to a static anchor keeps it asleep)
+                for j in &self.joints {
+                    let (ba, bb) = (&self.bodies[j.a], &self.bodies[j.b]);
+                    if ba.asleep && is_mover(bb) && (first || self.dynamic[j.b]) {
+                        wake.push(ba.island);
+                    }
+                    if bb.asleep && is_mover(ba) && (first || self.dynamic[j.a]) {
+                        wake.push(bb.island);
                     }
                 }
             }
-            // a joint to a body that moves (one to a static anchor keeps it asleep)
-            for j in &self.joints {
-                let (ba, bb) = (&self.bodies[j.a], &self.bodies[j.b]);
-                if ba.asleep && is_mover(bb) {
-                    wake.push(ba.island);
-                }
-                if bb.asleep && is_mover(ba) {
-                    wake.push(bb.island);
+            first = false;
+            wake.sort_unstable();
+            wake.dedup();
+            if wake.is_empty() {
+                break;
+            }
+            // the next round looks from the bodies this one wakes
+            if movers {
+                for (look, b) in self.dynamic.iter_mut().zip(&self.bodies) {
+                    *look = b.asleep && wake.binary_search(&b.island).is_ok();
                 }
             }
+            self.wake_islands(&mut wake);
+            movers = true;
+            if self.aabbs.len() != self.bodies.len() {
+                // the first round had no mover (a pushed sleeper woke): the boxes now
+                self.aabbs.clear();
+                self.wake_sized.clear();
+                self.dynamic.clear();
+                for b in &self.bodies {
+                    self.aabbs.push(swept_box(b, b.aabb(), h, margin));
+                    self.wake_sized.push(b.is_dynamic());
+                    self.dynamic.push(is_mover(b));
+                }
+            }
+            wake.clear();
         }
-        wake.sort_unstable();
-        wake.dedup();
-        for &island in &wake {
-            self.wake_island(island);
-        }
-        let woke = !wake.is_empty();
         self.to_wake = wake;
-        woke
     }
 
-    /// After a step: a dynamic body slower than 0.05 m/s and 2 degrees/s (Box2D's
-    /// thresholds) for 0.5 s is at rest; an island of bodies joined by touching contacts
+    /// After a step: a dynamic body slower than its sleep threshold (0.05 m/s unless it
+    /// sets its own) and 2 degrees/s (Box2D's thresholds) for 0.5 s is at rest; an island of bodies joined by touching contacts
     /// and joints falls asleep when all of its bodies are. Bodies held by the mouse, with
     /// a constant force, on a joint with a turning motor or a drive, or touching a
     /// moving kinematic body stay awake.
     fn update_sleep(&mut self) {
-        const LINEAR: f32 = 0.05;
         const ANGULAR: f32 = 2.0 * std::f32::consts::PI / 180.0;
         const TIME_TO_SLEEP: f32 = 0.5;
         if !self.settings.sleep {
@@ -1365,9 +1496,10 @@ impl World {
                 continue;
             }
             let r = b.shape.radius();
-            let slow = b.velocity.length_squared() < LINEAR * LINEAR
+            let linear = b.sleep_threshold;
+            let slow = b.velocity.length_squared() < linear * linear
                 && (b.angular_velocity * b.angular_velocity < ANGULAR * ANGULAR)
-                && (b.angular_velocity * r).abs() < LINEAR;
+                && (b.angular_velocity * r).abs() < linear;
             b.sleep_time = if slow { b.sleep_time + dt } else { 0.0 };
         }
         // what keeps a body awake whatever its speed
@@ -1685,7 +1817,13 @@ pub(crate) fn joint_not_finite(j: &Joint) -> Option<&'static str> {
 
 /// The velocity half of semi-implicit Euler for `bodies` (see
 /// [`World::integrate_velocities`]): each dynamic, awake body on its own.
-fn integrate_velocities_of(bodies: &mut [Body], h: f32, g: Option<Vec2>, drag: Option<DragDef>) {
+fn integrate_velocities_of(
+    bodies: &mut [Body],
+    h: f32,
+    g: Option<Vec2>,
+    drag: Option<DragDef>,
+    damped: bool,
+) {
     for i in 0..bodies.len() {
         prefetch(bodies, i + BODY_AHEAD, HOT_BYTES);
         let b = &mut bodies[i];
@@ -1694,6 +1832,9 @@ fn integrate_velocities_of(bodies: &mut [Body], h: f32, g: Option<Vec2>, drag: O
         }
         let Some(d) = drag else {
             (b.velocity, b.angular_velocity) = free_velocity(b, h, g);
+            if damped {
+                damp(b, h);
+            }
             continue;
         };
         let (mut v, w) = free_velocity(b, h, g);
@@ -1706,6 +1847,20 @@ fn integrate_velocities_of(bodies: &mut [Body], h: f32, g: Option<Vec2>, drag: O
         }
         v /= 1.0 + h * k * b.inv_mass;
         (b.velocity, b.angular_velocity) = (v, w);
+        if damped {
+            damp(b, h);
+        }
+    }
+}
+
+/// A body's own damping over h (Box2D's): v /= 1 + h c_linear, w /= 1 + h c_angular.
+#[inline]
+fn damp(b: &mut Body, h: f32) {
+    if b.linear_damping != 0.0 {
+        b.velocity *= 1.0 / (1.0 + h * b.linear_damping);
+    }
+    if b.angular_damping != 0.0 {
+        b.angular_velocity *= 1.0 / (1.0 + h * b.angular_damping);
     }
 }
 
@@ -1721,11 +1876,17 @@ pub(crate) fn free_velocity(b: &Body, h: f32, g: Option<Vec2>) -> (Vec2, f32) {
 }
 
 impl World {
+    /// Whether the forces change every substep's velocities by the same amount (no drag
+    /// and no body's own damping, which scale with the velocity).
+    pub(crate) fn uniform_forces(&self) -> bool {
+        self.drag.is_none() && !self.damped
+    }
+
     /// Whether the only forces are gravity and the bodies' own force and torque (no
     /// drag, joint drives or point forces), so that a solver may integrate them in a
     /// pass of its own (see `SoftSolver::prepare_integrating`).
     pub(crate) fn plain_forces(&self) -> bool {
-        self.drag.is_none() && self.joints.is_empty() && self.forces.is_empty()
+        self.drag.is_none() && self.joints.is_empty() && self.forces.is_empty() && !self.damped
     }
 }
 

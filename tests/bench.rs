@@ -566,3 +566,131 @@ fn the_scaling_suite_refuses_jobs_shard_and_an_unknown_size() {
     assert!(err.contains("3k"), "{err}");
     assert!(!dir.exists(), "refused before writing anything");
 }
+
+/// Runs `bench --suite box2d --filter tumbler` (2,027 bodies) for 8 steps with `extra`
+/// into a fresh folder `name`; returns the folder and what it printed.
+fn bench_box2d(name: &str, extra: &[&str]) -> (std::path::PathBuf, String) {
+    let dir = tmp(name);
+    let _ = std::fs::remove_dir_all(&dir);
+    let out = sandbox2d()
+        .args([
+            "bench", "--suite", "box2d", "--filter", "tumbler", "--steps", "8",
+        ])
+        .args(extra)
+        .arg("--out")
+        .arg(&dir)
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{extra:?}: {err}");
+    assert!(err.is_empty(), "{extra:?}: {err}");
+    (dir, String::from_utf8(out.stdout).unwrap())
+}
+
+/// box2d.csv's rows as columns by name.
+fn box2d_rows(dir: &std::path::Path) -> Vec<std::collections::HashMap<String, String>> {
+    let csv = std::fs::read_to_string(dir.join("box2d.csv")).unwrap();
+    let header: Vec<String> = csv
+        .lines()
+        .next()
+        .unwrap()
+        .split(',')
+        .map(String::from)
+        .collect();
+    csv.lines()
+        .skip(1)
+        .map(|l| {
+            header
+                .iter()
+                .cloned()
+                .zip(l.split(',').map(String::from))
+                .collect()
+        })
+        .collect()
+}
+
+#[test]
+fn the_box2d_suite_runs_a_scene_on_1_and_2_threads_to_the_same_bits() {
+    let (dir, said) = bench_box2d("box2d-tumbler", &[]);
+    assert!(
+        said.contains("box2d.csv") && said.contains("(2 rows)"),
+        "{said}"
+    );
+    let rows = box2d_rows(&dir);
+    assert_eq!(rows.len(), 2);
+    for (r, threads) in rows.iter().zip(["1", "2"]) {
+        assert_eq!(r["scene"], "tumbler");
+        assert_eq!(r["threads"], threads);
+        assert_eq!(r["steps"], "8");
+        assert_eq!(r["bodies"], "2026", "2025 boxes and the drum");
+        assert_eq!(r["figure"], "escaped");
+        assert_eq!(r["accuracy"], "0e0", "no box left the drum in 8 steps");
+        for ms in ["ms_median", "ms_mean"] {
+            let x: f64 = r[ms].parse().unwrap();
+            assert!(x > 0.0 && x.is_finite(), "{ms} {x}");
+        }
+        assert_eq!(
+            r["state_hash"], rows[0]["state_hash"],
+            "the same bits on 2 threads"
+        );
+    }
+    let md = std::fs::read_to_string(dir.join("box2d.md")).unwrap();
+    assert!(
+        md.contains("| tumbler | 2 | 8 |") && md.contains("- tumbler: "),
+        "{md}"
+    );
+    let svg = std::fs::read_to_string(dir.join("box2d.svg")).unwrap();
+    assert!(
+        svg.starts_with("<svg") && svg.contains("2 threads"),
+        "{svg}"
+    );
+}
+
+#[test]
+fn box2d_shards_merge_into_the_rows_of_one_run() {
+    let (whole, _) = bench_box2d("box2d-whole", &[]);
+    let (one, said) = bench_box2d("box2d-shard-1", &["--shard", "1/2"]);
+    assert!(said.contains("shard 1/2: 1 of 2 cases"), "{said}");
+    let (two, _) = bench_box2d("box2d-shard-2", &["--shard", "2/2", "--jobs", "2"]);
+    let merged = tmp("box2d-merged");
+    let _ = std::fs::remove_dir_all(&merged);
+    let out = sandbox2d()
+        .args(["bench", "--merge"])
+        .arg(two.join("results.shard-2-of-2.json"))
+        .arg(one.join("results.shard-1-of-2.json"))
+        .arg("--out")
+        .arg(&merged)
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let strip = |rows: Vec<std::collections::HashMap<String, String>>| -> Vec<Vec<String>> {
+        rows.into_iter()
+            .map(|r| {
+                let mut v: Vec<String> = r
+                    .into_iter()
+                    .filter(|(k, _)| !k.ends_with("_ms") && !k.starts_with("ms_"))
+                    .map(|(k, v)| format!("{k}={v}"))
+                    .collect();
+                v.sort();
+                v
+            })
+            .collect()
+    };
+    assert_eq!(strip(box2d_rows(&whole)), strip(box2d_rows(&merged)));
+}
+
+#[test]
+fn the_box2d_suite_refuses_an_unknown_scene_with_one_line_and_exit_2() {
+    let dir = tmp("box2d-bad");
+    let _ = std::fs::remove_dir_all(&dir);
+    let d = dir.to_str().unwrap();
+    let err = refused(&[
+        "bench", "--suite", "box2d", "--filter", "pyramidz", "--out", d,
+    ]);
+    assert!(err.contains("pyramidz") && err.contains("washer"), "{err}");
+    assert!(!dir.exists(), "refused before writing anything");
+}

@@ -482,3 +482,30 @@ fn every_solver_is_deterministic_with_pinned_hashes() {
         assert_eq!(h, pin, "{kind:?}: results changed: {h:#018x}");
     }
 }
+
+#[test]
+fn body_damping_follows_its_step_by_step_closed_form() {
+    // v_n = v0 / (1 + h c)^n over n (sub)steps of h, with no other force
+    let text = "name = \"d\"\n[[body]]\nname = \"b\"\nshape = { circle = 0.5 }\n\
+        velocity = [2.0, 0.0]\nangular_velocity = 3.0\nlinear_damping = 0.5\nangular_damping = 0.25\n";
+    for kind in SolverKind::ALL {
+        let mut w = world(text, kind);
+        let settings = w.settings;
+        let h = settings.dt as f64 / settings.substeps as f64;
+        steps(&mut w, 120);
+        let n = 120.0 * settings.substeps as f64;
+        let v = 2.0 / (1.0 + h * 0.5).powf(n);
+        let spin = 3.0 / (1.0 + h * 0.25).powf(n);
+        let b = &w.bodies[0];
+        assert!(
+            (b.velocity.x as f64 - v).abs() < 1e-4 * v,
+            "{kind:?}: {} vs {v}",
+            b.velocity.x
+        );
+        assert!(
+            (b.angular_velocity as f64 - spin).abs() < 1e-4 * spin,
+            "{kind:?}: {} vs {spin}",
+            b.angular_velocity
+        );
+    }
+}

@@ -2020,7 +2020,7 @@ fn pulley_refuses_the_keys_it_does_not_take() {
 fn older_joints_refuse_the_new_keys() {
     for (ty, line, key) in [
         (
-            "hinge",
+            "weld",
             "spring = { hertz = 1, damping_ratio = 0 }",
             "spring",
         ),
@@ -2062,7 +2062,7 @@ fn shape_and_shapes_together_are_refused_at_shapes() {
 
 #[test]
 fn an_empty_shapes_list_is_refused() {
-    check(&body("shapes = []"), 3, 10, &["1 to 32 parts", "got 0"]);
+    check(&body("shapes = []"), 3, 10, &["1 to 64 parts", "got 0"]);
 }
 
 #[test]
@@ -2333,5 +2333,464 @@ fn a_key_too_deep_for_the_reader_is_refused_where_it_goes_past() {
         2,
         1,
         &["unknown field"],
+    );
+}
+
+// ---- bodies that start asleep, damping, sleep thresholds, paths
+
+#[test]
+fn a_static_body_cannot_start_asleep() {
+    check(
+        &body("type = \"static\"\nshape = { circle = 1 }\nawake = false"),
+        5,
+        9,
+        &["only a dynamic body can start asleep"],
+    );
+}
+
+#[test]
+fn a_body_that_starts_asleep_has_no_velocity() {
+    check(
+        &body("shape = { circle = 1 }\nvelocity = [1, 0]\nawake = false"),
+        5,
+        9,
+        &["starts asleep", "no velocity"],
+    );
+}
+
+#[test]
+fn a_grid_of_kinematic_bodies_cannot_start_asleep() {
+    check(
+        "name = \"t\"\n[[grid]]\nrows = 1\ncolumns = 1\nspacing = [1, 1]\ntype = \"kinematic\"\nshape = { circle = 1 }\nawake = false\n",
+        8,
+        9,
+        &["grid0", "only a dynamic body can start asleep"],
+    );
+}
+
+#[test]
+fn negative_damping_is_refused() {
+    check(
+        &body("shape = { circle = 1 }\nlinear_damping = -0.1"),
+        4,
+        18,
+        &["linear_damping", ">= 0", "-0.1"],
+    );
+}
+
+#[test]
+fn damping_on_a_static_body_is_refused() {
+    check(
+        &body("type = \"static\"\nshape = { circle = 1 }\nangular_damping = 1"),
+        5,
+        19,
+        &["angular_damping", "dynamic body only"],
+    );
+}
+
+#[test]
+fn a_negative_sleep_threshold_is_refused() {
+    check(
+        &body("shape = { circle = 1 }\nsleep_threshold = -1"),
+        4,
+        19,
+        &["sleep_threshold", ">= 0"],
+    );
+}
+
+#[test]
+fn only_a_kinematic_body_oscillates() {
+    check(
+        &body("shape = { circle = 1 }\noscillate = { amplitude = [1, 0], angular_frequency = 1 }"),
+        4,
+        13,
+        &["only a kinematic body follows a path", "oscillate"],
+    );
+}
+
+#[test]
+fn an_oscillation_needs_a_positive_angular_frequency() {
+    check(
+        &body(
+            "type = \"kinematic\"\nshape = { circle = 1 }\noscillate = { amplitude = [1, 0], angular_frequency = 0 }",
+        ),
+        5,
+        55,
+        &["angular_frequency", "> 0", "got 0"],
+    );
+}
+
+#[test]
+fn an_unknown_key_in_oscillate_is_refused() {
+    check(
+        &body(
+            "type = \"kinematic\"\nshape = { circle = 1 }\noscillate = { amplitude = [1, 0], omega = 1 }",
+        ),
+        5,
+        35,
+        &["unknown field", "omega"],
+    );
+}
+
+// ---- loops
+
+#[test]
+fn a_loop_needs_three_points() {
+    check(
+        "name = \"t\"\n[[polyline]]\npoints = [[0, 0], [1, 0]]\nloop = true\n",
+        4,
+        8,
+        &["polyline0", "a loop needs at least 3 points", "got 2"],
+    );
+}
+
+#[test]
+fn a_loop_does_not_repeat_its_first_point() {
+    check(
+        "name = \"t\"\n[[polyline]]\npoints = [[0, 0], [1, 0], [1, 1], [0, 0]]\nloop = true\n",
+        4,
+        8,
+        &["polyline0", "must not repeat the first"],
+    );
+}
+
+#[test]
+fn a_closed_loop_makes_one_segment_per_point_each_knowing_both_neighbours() {
+    let text =
+        "name = \"t\"\n[[polyline]]\npoints = [[0, 0], [2, 0], [2, 2], [0, 2]]\nloop = true\n";
+    let sc = load_str(text, "ok.toml").unwrap_or_else(|e| panic!("{e}"));
+    let segs: Vec<_> = sc.world.bodies.iter().map(|b| b.shape.clone()).collect();
+    assert_eq!(segs.len(), 4, "4 points close into 4 segments");
+    for s in segs {
+        match s {
+            sandbox2d::ShapeDef::ChainSegment { prev, next, .. } => {
+                assert!(prev.is_some() && next.is_some(), "a loop has no open end")
+            }
+            other => panic!("{other:?}"),
+        }
+    }
+}
+
+// ---- hinge springs and reference angles
+
+fn two_bodies(joint: &str) -> String {
+    format!(
+        "name = \"t\"\n[[body]]\nname = \"a\"\nshape = {{ circle = 1 }}\n[[body]]\nname = \"b\"\nshape = {{ circle = 1 }}\nposition = [3, 0]\n[[joint]]\n{joint}\n"
+    )
+}
+
+#[test]
+fn a_hinge_takes_a_servo_or_a_spring_not_both() {
+    check(
+        &two_bodies(
+            "type = \"hinge\"\nbodies = [\"a\", \"b\"]\nservo = { target = 0 }\nspring = { hertz = 5, damping_ratio = 0.5 }",
+        ),
+        13,
+        10,
+        &["servo", "spring", "not both"],
+    );
+}
+
+#[test]
+fn a_hinge_spring_needs_positive_hertz() {
+    check(
+        &two_bodies(
+            "type = \"hinge\"\nbodies = [\"a\", \"b\"]\nspring = { hertz = 0, damping_ratio = 0.5 }",
+        ),
+        12,
+        20,
+        &["spring hertz", "> 0"],
+    );
+}
+
+#[test]
+fn a_reference_angle_is_for_hinges() {
+    check(
+        &two_bodies("type = \"weld\"\nbodies = [\"a\", \"b\"]\nreference_angle = 0.5"),
+        12,
+        19,
+        &["`reference_angle` does not apply to a weld joint"],
+    );
+}
+
+#[test]
+fn a_spring_still_does_not_apply_to_a_prismatic_joint() {
+    check(
+        &two_bodies(
+            "type = \"prismatic\"\nbodies = [\"a\", \"b\"]\nspring = { hertz = 5, damping_ratio = 0.5 }",
+        ),
+        12,
+        10,
+        &["`spring` does not apply to a prismatic joint"],
+    );
+}
+
+// ---- humans
+
+#[test]
+fn humans_count_of_zero_is_refused() {
+    check(
+        "name = \"t\"\n[[humans]]\ncount = 0\n",
+        3,
+        9,
+        &["humans0", "count must be >= 1"],
+    );
+}
+
+#[test]
+fn humans_scale_must_be_positive() {
+    check(
+        "name = \"t\"\n[[humans]]\nscale = -1\n",
+        3,
+        9,
+        &["humans0", "scale", "> 0"],
+    );
+}
+
+#[test]
+fn humans_group_must_be_positive() {
+    check(
+        "name = \"t\"\n[[humans]]\ngroup = 0\n",
+        3,
+        9,
+        &["humans0", "group must be an integer from 1"],
+    );
+}
+
+#[test]
+fn humans_negative_joint_hertz_is_refused() {
+    check(
+        "name = \"t\"\n[[humans]]\njoint_hertz = -5\n",
+        3,
+        15,
+        &["humans0", "joint_hertz", ">= 0"],
+    );
+}
+
+#[test]
+fn an_unknown_key_in_humans_is_refused() {
+    check(
+        "name = \"t\"\n[[humans]]\nheight = 2\n",
+        3,
+        1,
+        &["unknown field", "height"],
+    );
+}
+
+#[test]
+fn a_human_has_eleven_bones_on_ten_hinges_in_the_human_category() {
+    let text = "name = \"t\"\n[[humans]]\ncount = 2\ngroup = 3\n";
+    let sc = load_str(text, "ok.toml").unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(sc.world.bodies.len(), 22);
+    assert_eq!(sc.world.joints.len(), 20);
+    // "human" is the scene's second category (bit 1), after "default"
+    let hip = &sc.world.bodies[0];
+    assert_eq!(hip.name, "humans0_0_hip");
+    assert_eq!((hip.filter.category, hip.filter.mask), (2, 3));
+    assert_eq!(hip.filter.group, -3);
+    assert_eq!(
+        sc.world.bodies[11].filter.group, -4,
+        "the next human's group"
+    );
+    for j in &sc.world.joints {
+        let [lo, hi] = j.limits.expect("every hinge has limits");
+        assert!(lo < hi);
+        assert!(j.spring.is_some() && j.motor.is_some());
+    }
+}
+
+// ---- grids of compounds and of several shapes
+
+#[test]
+fn a_grid_takes_one_of_shape_shapes_and_shape_cycle() {
+    check(
+        "name = \"t\"\n[[grid]]\nrows = 1\ncolumns = 1\nspacing = [1, 1]\nshape = { circle = 1 }\nshape_cycle = [{ circle = 1 }]\n",
+        7,
+        15,
+        &["grid0", "one of `shape`, `shapes` and `shape_cycle`"],
+    );
+}
+
+#[test]
+fn a_grid_without_a_shape_is_refused() {
+    check(
+        "name = \"t\"\n[[grid]]\nrows = 1\ncolumns = 1\nspacing = [1, 1]\n",
+        2,
+        1,
+        &["grid0", "missing field `shape`"],
+    );
+}
+
+#[test]
+fn a_grid_count_beyond_its_cells_is_refused() {
+    check(
+        "name = \"t\"\n[[grid]]\nrows = 2\ncolumns = 2\ncount = 5\nspacing = [1, 1]\nshape = { circle = 0.1 }\n",
+        5,
+        9,
+        &["grid0", "count must be at most rows x columns = 4", "got 5"],
+    );
+}
+
+#[test]
+fn an_empty_shape_cycle_is_refused() {
+    check(
+        "name = \"t\"\n[[grid]]\nrows = 1\ncolumns = 1\nspacing = [1, 1]\nshape_cycle = []\n",
+        6,
+        15,
+        &["grid0", "shape_cycle needs at least one shape"],
+    );
+}
+
+#[test]
+fn a_grid_cycles_its_shapes_and_stops_at_its_count() {
+    let text = "name = \"t\"\n[[grid]]\nrows = 2\ncolumns = 3\ncount = 5\nspacing = [1, 1]\nshape_cycle = [{ circle = 0.1 }, { box = [0.2, 0.2] }]\n";
+    let sc = load_str(text, "ok.toml").unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(sc.world.bodies.len(), 5);
+    for (i, b) in sc.world.bodies.iter().enumerate() {
+        let circle = matches!(b.shape, sandbox2d::ShapeDef::Circle { .. });
+        assert_eq!(circle, i % 2 == 0, "body {i}");
+    }
+}
+
+#[test]
+fn a_compound_of_more_than_64_parts_is_refused() {
+    let parts = vec!["{ circle = 0.1 }"; 65].join(", ");
+    check(
+        &body(&format!("shapes = [{parts}]")),
+        3,
+        10,
+        &["`shapes` takes 1 to 64 parts, got 65"],
+    );
+}
+
+// ---- spawns
+
+#[test]
+fn spawn_every_zero_is_refused() {
+    check(
+        "name = \"t\"\n[[spawn]]\nevery = 0\n[[spawn.body]]\nshape = { circle = 1 }\n",
+        3,
+        9,
+        &["spawn0", "every must be >= 1"],
+    );
+}
+
+#[test]
+fn spawn_keep_zero_is_refused() {
+    check(
+        "name = \"t\"\n[[spawn]]\nevery = 4\nkeep = 0\n[[spawn.body]]\nshape = { circle = 1 }\n",
+        4,
+        8,
+        &["spawn0", "keep must be >= 1"],
+    );
+}
+
+#[test]
+fn a_spawn_that_makes_nothing_is_refused() {
+    check(
+        "name = \"t\"\n[[spawn]]\nevery = 4\n",
+        2,
+        1,
+        &["spawn0", "makes no body"],
+    );
+}
+
+#[test]
+fn an_unknown_key_in_a_spawn_is_refused() {
+    check(
+        "name = \"t\"\n[[spawn]]\nevry = 4\n",
+        3,
+        1,
+        &["unknown field", "evry"],
+    );
+}
+
+#[test]
+fn a_spawned_body_is_checked_like_any_body() {
+    check(
+        "name = \"t\"\n[[spawn]]\nevery = 4\n[[spawn.body]]\nshape = { circle = -1 }\n",
+        5,
+        20,
+        &["body \"body0\"", "radius", "> 0"],
+    );
+}
+
+#[test]
+fn a_spawned_joint_names_only_the_group_s_bodies() {
+    let text = "name = \"t\"\n[[body]]\nname = \"ground\"\ntype = \"static\"\nshape = { box = [4, 1] }\n\
+                [[spawn]]\nevery = 4\n[[spawn.body]]\nname = \"ball\"\nshape = { circle = 1 }\n\
+                [[spawn.joint]]\ntype = \"hinge\"\nbodies = [\"ground\", \"ball\"]\n";
+    check(text, 13, 11, &["no body named \"ground\""]);
+}
+
+#[test]
+fn a_spawned_body_cannot_oscillate() {
+    check(
+        "name = \"t\"\n[[spawn]]\nevery = 4\n[[spawn.body]]\ntype = \"kinematic\"\nshape = { circle = 1 }\noscillate = { amplitude = [1, 0], angular_frequency = 1 }\n",
+        7,
+        13,
+        &["spawn0", "cannot follow a path"],
+    );
+}
+
+#[test]
+fn a_scene_with_spawns_keeps_hashes_out_of_its_body_names() {
+    check(
+        "name = \"t\"\n[[body]]\nname = \"a#1\"\nshape = { circle = 1 }\n[[spawn]]\nevery = 4\n[[spawn.body]]\nshape = { circle = 1 }\n",
+        3,
+        8,
+        &["\"a#1\"", "cannot hold a '#'"],
+    );
+}
+
+#[test]
+fn a_spawn_table_becomes_its_timing_and_its_group() {
+    let text = "name = \"t\"\n[[spawn]]\nevery = 8\nfirst = 2\ncount = 10\nkeep = 3\ncycle = 4\noffset = [2, 0]\n\
+                [[spawn.humans]]\norigin = [0, 5]\n";
+    let sc = load_str(text, "ok.toml").unwrap_or_else(|e| panic!("{e}"));
+    let s = &sc.world.spawns[0];
+    assert_eq!(
+        (s.every, s.first, s.count, s.keep, s.cycle),
+        (8, 2, Some(10), Some(3), Some(4))
+    );
+    assert_eq!((s.bodies.len(), s.joints.len()), (11, 10));
+    assert_eq!(s.bodies[0].name, "spawn0/humans0_0_hip");
+    assert!(
+        sc.world.bodies.is_empty(),
+        "nothing is made before the first step"
+    );
+    assert_eq!(s.due(2), Some(0));
+    assert_eq!(s.due(9), None);
+    assert_eq!(s.due(10), Some(1));
+    assert_eq!(s.due(2 + 8 * 10), None, "ten copies in all");
+    assert_eq!(
+        s.offset_of(5),
+        glam::Vec2::new(2.0, 0.0),
+        "the offsets cycle every 4"
+    );
+}
+
+mod common;
+
+#[test]
+fn the_cli_refuses_a_bad_spawn_table_with_one_line_and_exit_2() {
+    // as a user meets it: `simulate` on the file, file:line:col, nothing run
+    let path = common::cli::tmp("bad_spawn.toml");
+    std::fs::write(
+        &path,
+        "name = \"t\"\n[[spawn]]\nevery = 8\nkeep = 0\n[[spawn.humans]]\ncount = 5\n",
+    )
+    .unwrap();
+    let out = common::cli::sandbox2d()
+        .args(["simulate", path.to_str().unwrap(), "--steps", "10"])
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(2));
+    assert!(out.stdout.is_empty(), "nothing was run");
+    let err = String::from_utf8(out.stderr).unwrap();
+    assert_eq!(err.lines().count(), 1, "{err}");
+    assert!(
+        err.contains("bad_spawn.toml:4:8: spawn0: keep must be >= 1, got 0"),
+        "{err}"
     );
 }

@@ -249,3 +249,80 @@ fn a_jointed_island_sleeps_costs_nothing_and_wakes_when_hit() {
         );
     }
 }
+
+/// A box made asleep (`awake = false`) 5 m up, and a ball that falls onto it after a
+/// while: gravity 10, sleep on.
+fn sleeper_and_ball(kind: SolverKind) -> World {
+    let text = "name = \"s\"\n[world]\ngravity = [0.0, -10.0]\n\
+        [[body]]\nname = \"ground\"\ntype = \"static\"\nshape = { box = [40.0, 1.0] }\nposition = [0.0, -0.5]\n\
+        [[body]]\nname = \"sleeper\"\nshape = { box = [1.0, 1.0] }\nposition = [0.0, 5.0]\nawake = false\n\
+        [[body]]\nname = \"ball\"\nshape = { circle = 0.25 }\nposition = [0.0, 10.0]\n";
+    let sc = sandbox2d::scene::load_str(text, "sleeper.toml").unwrap();
+    World::from_def(&sc.world, SolverSettings::defaults(kind)).unwrap()
+}
+
+#[test]
+fn a_body_made_asleep_is_not_integrated_until_something_touches_it() {
+    for kind in SolverKind::ALL {
+        let mut w = sleeper_and_ball(kind);
+        let s = w.body_index("sleeper").unwrap();
+        let b = w.body_index("ball").unwrap();
+        assert!(w.bodies[s].asleep, "{kind:?}: made asleep");
+        let start = (w.bodies[s].position, w.bodies[s].angle);
+        // the ball falls 4.25 m to the box's top: sqrt(2 * 4.25 / 10) = 0.92 s, 55 steps
+        let mut woke_at = None;
+        for i in 0..120 {
+            w.step().unwrap();
+            if w.bodies[s].asleep {
+                // asleep in gravity, 5 m up: not one bit moved, no velocity
+                assert_eq!(
+                    (w.bodies[s].position, w.bodies[s].angle),
+                    start,
+                    "{kind:?} step {i}"
+                );
+                assert_eq!(w.bodies[s].velocity, sandbox2d::math::Vec2::ZERO);
+            } else if woke_at.is_none() {
+                woke_at = Some(i);
+            }
+        }
+        let woke_at = woke_at.unwrap_or_else(|| panic!("{kind:?}: the ball never woke the box"));
+        // it woke when the ball reached it (free fall: 0.92 s = step 55), not before
+        assert!(
+            (45..65).contains(&woke_at),
+            "{kind:?}: woke at step {woke_at}"
+        );
+        // and then fell like any body: 2 s after waking it lies on the ground
+        steps(&mut w, 120);
+        let y = w.bodies[s].position.y;
+        assert!(
+            (0.4..0.6).contains(&y),
+            "{kind:?}: the box rests on the ground, y = {y}"
+        );
+        assert!(
+            w.bodies[b].position.y < 3.0,
+            "{kind:?}: the ball came down too"
+        );
+    }
+}
+
+#[test]
+fn bodies_made_asleep_and_jointed_sleep_as_one_island_and_wake_together() {
+    let text = "name = \"s\"\n[world]\ngravity = [0.0, -10.0]\n\
+        [[body]]\nname = \"a\"\nshape = { box = [1.0, 0.2] }\nposition = [0.0, 5.0]\nawake = false\n\
+        [[body]]\nname = \"b\"\nshape = { box = [1.0, 0.2] }\nposition = [1.0, 5.0]\nawake = false\n\
+        [[joint]]\ntype = \"hinge\"\nbodies = [\"a\", \"b\"]\nanchor = [0.5, 5.0]\n\
+        [[body]]\nname = \"ball\"\nshape = { circle = 0.1 }\nposition = [1.0, 6.0]\n";
+    let sc = sandbox2d::scene::load_str(text, "pair.toml").unwrap();
+    let mut w = World::from_def(&sc.world, SolverSettings::defaults(SolverKind::Soft)).unwrap();
+    assert!(
+        w.bodies[0].asleep && w.bodies[1].asleep,
+        "the joint did not wake them"
+    );
+    // the ball lands on b only (0.9 m in 0.42 s); a wakes with it
+    for _ in 0..60 {
+        w.step().unwrap();
+        assert_eq!(w.bodies[0].asleep, w.bodies[1].asleep, "one island");
+    }
+    assert!(!w.bodies[0].asleep, "hit, the pair woke");
+    assert!(w.bodies[0].position.y < 5.0, "and falls");
+}

@@ -13,6 +13,7 @@
 //! [`extremes`] the one-thing-at-a-time stability sweeps behind `stability.md`;
 //! [`scaling`] times the benchmark pyramid from 1k to 80k boxes on 1 and 2 threads.
 
+pub mod box2d;
 pub mod contention;
 pub mod convergence;
 pub mod extremes;
@@ -44,6 +45,8 @@ pub enum Suite {
     Standard,
     /// The stability sweeps (see [`extremes`]).
     Extremes,
+    /// Box2D v3's benchmark set (see [`box2d`]).
+    Box2d,
 }
 
 impl Suite {
@@ -53,6 +56,7 @@ impl Suite {
             Suite::Quick => "quick",
             Suite::Standard => "standard",
             Suite::Extremes => "extremes",
+            Suite::Box2d => "box2d",
         }
     }
 }

@@ -372,7 +372,7 @@ pub fn suite(s: Suite) -> Vec<BenchScene> {
             v.extend(standard_extra());
             v
         }
-        Suite::Extremes => Vec::new(),
+        Suite::Extremes | Suite::Box2d => Vec::new(),
     }
 }
 

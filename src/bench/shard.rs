@@ -47,6 +47,8 @@ pub enum Merged {
     },
     /// The extremes suite: every sweep and setting, in the run's order.
     Extremes { results: Vec<SweepResult> },
+    /// The box2d suite: every scene and thread count, in the run's order.
+    Box2d { rows: Vec<super::box2d::Row> },
 }
 
 #[derive(Serialize, Deserialize)]
@@ -68,6 +70,27 @@ struct Wire {
     rows: Vec<WireRow>,
     #[serde(default)]
     extremes: Vec<WireCase>,
+    #[serde(default)]
+    box2d: Vec<WireBox2d>,
+}
+
+#[derive(Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+struct WireBox2d {
+    case: usize,
+    scene: String,
+    threads: usize,
+    steps: u64,
+    repeats: u32,
+    ms_median: String,
+    ms_mean: String,
+    stage_ms: [String; 5],
+    contacts_mean: String,
+    contacts_end: u64,
+    bodies: u64,
+    accuracy: String,
+    lost: u64,
+    state_hash: String,
 }
 
 #[derive(Serialize, Deserialize)]
@@ -120,7 +143,7 @@ fn number(s: &str) -> Result<f64, String> {
 }
 
 fn suite_of(name: &str) -> Option<Suite> {
-    [Suite::Quick, Suite::Standard, Suite::Extremes]
+    [Suite::Quick, Suite::Standard, Suite::Extremes, Suite::Box2d]
         .into_iter()
         .find(|s| s.name() == name)
 }
@@ -138,6 +161,7 @@ fn header(key: &RunKey, shard: Shard, cases: usize) -> Wire {
         cases,
         rows: Vec::new(),
         extremes: Vec::new(),
+        box2d: Vec::new(),
     }
 }
 
@@ -220,6 +244,37 @@ fn wire_outcome(o: &Outcome) -> (Option<String>, Option<WireMeasured>) {
             }),
         ),
     }
+}
+
+/// A shard file of the box2d suite: `rows` are (index in the full case list, row);
+/// `cases` is the length of that list.
+pub fn box2d_json(
+    key: &RunKey,
+    shard: Shard,
+    cases: usize,
+    rows: &[(usize, &super::box2d::Row)],
+) -> String {
+    let mut w = header(key, shard, cases);
+    w.box2d = rows
+        .iter()
+        .map(|&(case, r)| WireBox2d {
+            case,
+            scene: r.scene.clone(),
+            threads: r.threads,
+            steps: r.steps,
+            repeats: r.repeats,
+            ms_median: full(r.ms_median),
+            ms_mean: full(r.ms_mean),
+            stage_ms: r.stage_ms.map(full),
+            contacts_mean: full(r.contacts_mean),
+            contacts_end: r.contacts_end,
+            bodies: r.bodies,
+            accuracy: full(r.accuracy),
+            lost: r.lost,
+            state_hash: format!("{:016x}", r.state_hash),
+        })
+        .collect();
+    to_text(&w)
 }
 
 fn outcome(r: WireRow) -> Result<Outcome, String> {
@@ -439,12 +494,67 @@ pub fn merge(files: &[(String, String)], run: Option<&str>) -> Result<Merged, St
             case % n + 1
         )
     };
+    if suite == Suite::Box2d {
+        let cases = super::box2d::cases(&super::box2d::scenes(filter.as_deref()));
+        count_check(cases.len())?;
+        let mut rows: Vec<Option<super::box2d::Row>> = vec![None; total];
+        for (name, w, shard) in &parsed {
+            if !w.rows.is_empty() || !w.extremes.is_empty() {
+                return Err(format!("{name}: other suites' rows in a box2d shard"));
+            }
+            for r in &w.box2d {
+                slot(
+                    name,
+                    shard,
+                    r.case,
+                    rows.get(r.case).is_some_and(Option::is_some),
+                )?;
+                let want = &cases[r.case];
+                if r.scene != want.scene.name || r.threads != want.threads {
+                    return Err(format!(
+                        "{name}: case {} is {} on {} thread(s) here but {} in this build's suite",
+                        r.case,
+                        r.scene,
+                        r.threads,
+                        want.label()
+                    ));
+                }
+                let num = |t: &str| number(t).map_err(|e| format!("{name}: {e}"));
+                let mut stage_ms = [0.0; 5];
+                for (x, t) in stage_ms.iter_mut().zip(&r.stage_ms) {
+                    *x = num(t)?;
+                }
+                rows[r.case] = Some(super::box2d::Row {
+                    scene: r.scene.clone(),
+                    threads: r.threads,
+                    steps: r.steps,
+                    repeats: r.repeats,
+                    ms_median: num(&r.ms_median)?,
+                    ms_mean: num(&r.ms_mean)?,
+                    stage_ms,
+                    contacts_mean: num(&r.contacts_mean)?,
+                    contacts_end: r.contacts_end,
+                    bodies: r.bodies,
+                    figure: want.scene.figure,
+                    accuracy: num(&r.accuracy)?,
+                    lost: r.lost,
+                    state_hash: u64::from_str_radix(&r.state_hash, 16)
+                        .map_err(|_| format!("{name}: bad state hash {:?}", r.state_hash))?,
+                });
+            }
+        }
+        let mut all = Vec::with_capacity(total);
+        for (i, r) in rows.into_iter().enumerate() {
+            all.push(r.ok_or_else(|| absent(i))?);
+        }
+        return Ok(Merged::Box2d { rows: all });
+    }
     if suite == Suite::Extremes {
         let cases = extremes::cases(&extremes::sweeps(filter.as_deref()));
         count_check(cases.len())?;
         let mut results: Vec<Option<CaseResult>> = vec![None; total];
         for (name, w, shard) in &parsed {
-            if !w.rows.is_empty() {
+            if !w.rows.is_empty() || !w.box2d.is_empty() {
                 return Err(format!("{name}: scene rows in an extremes shard"));
             }
             for c in &w.extremes {
@@ -490,9 +600,9 @@ pub fn merge(files: &[(String, String)], run: Option<&str>) -> Result<Merged, St
     count_check(cases.len())?;
     let mut rows: Vec<Option<Row>> = vec![None; total];
     for (name, w, _) in &parsed {
-        if !w.extremes.is_empty() {
+        if !w.extremes.is_empty() || !w.box2d.is_empty() {
             return Err(format!(
-                "{name}: extremes cases in a {} shard",
+                "{name}: other suites' cases in a {} shard",
                 suite.name()
             ));
         }

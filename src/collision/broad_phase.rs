@@ -71,9 +71,23 @@ impl BroadPhase {
         moves: &[bool],
         can_collide: impl Fn(u32, u32) -> bool,
     ) {
+        self.find_pairs_sized(aabbs, moves, moves, can_collide);
+    }
+
+    /// [`BroadPhase::find_pairs`] with the grid's cells sized by the boxes `sized` marks
+    /// rather than by the moving ones: the pairs are the same (the grid only decides how
+    /// fast they are found). Waking uses it: there the few awake bodies move, and a
+    /// grid sized by one large mover would put thousands of small sleepers in a cell.
+    pub fn find_pairs_sized(
+        &mut self,
+        aabbs: &[Aabb],
+        moves: &[bool],
+        sized: &[bool],
+        can_collide: impl Fn(u32, u32) -> bool,
+    ) {
         let mut pairs = std::mem::take(&mut self.pairs);
         pairs.clear();
-        self.each_pair(aabbs, moves, &can_collide, &mut |p| {
+        self.each_pair(aabbs, moves, sized, &can_collide, &mut |p| {
             pairs.push(p);
             true
         });
@@ -94,7 +108,7 @@ impl BroadPhase {
     ) -> Result<u64, Pair> {
         let mut count = 0u64;
         let mut over = None;
-        BroadPhase::default().each_pair(aabbs, moves, &can_collide, &mut |p| {
+        BroadPhase::default().each_pair(aabbs, moves, moves, &can_collide, &mut |p| {
             count += 1;
             if count > limit {
                 over = Some(p);
@@ -108,11 +122,13 @@ impl BroadPhase {
     }
 
     /// Calls `emit` for each pair of overlapping boxes where `can_collide` holds, in no
-    /// particular order (a pair may come twice); stops once `emit` returns false.
+    /// particular order (a pair may come twice); stops once `emit` returns false. The
+    /// grid's cells are sized by the boxes `sized` marks.
     fn each_pair<E: FnMut(Pair) -> bool>(
         &mut self,
         aabbs: &[Aabb],
         moves: &[bool],
+        sized: &[bool],
         can_collide: &impl Fn(u32, u32) -> bool,
         emit: &mut E,
     ) {
@@ -128,11 +144,11 @@ impl BroadPhase {
             sizes.extend(
                 aabbs
                     .iter()
-                    .zip(moves)
+                    .zip(sized)
                     .filter(|(_, m)| **m)
                     .map(|(b, _)| (b.max - b.min).max_element()),
             );
-            if sizes.is_empty() {
+            if sizes.is_empty() || (!std::ptr::eq(sized, moves) && !moves.contains(&true)) {
                 return;
             }
             let mid = sizes.len() / 2;

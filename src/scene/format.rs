@@ -54,6 +54,53 @@ pub(crate) struct FileScene {
     pub chain: Vec<S<FileChain>>,
     #[serde(default)]
     pub polyline: Vec<S<FilePolyline>>,
+    #[serde(default)]
+    pub humans: Vec<S<FileHumans>>,
+    #[serde(default)]
+    pub spawn: Vec<S<FileSpawn>>,
+}
+
+/// `[[spawn]]`: a group of bodies and joints added every `every` steps.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(crate) struct FileSpawn {
+    pub every: S<u64>,
+    pub first: Option<S<u64>>,
+    pub count: Option<S<u64>>,
+    pub keep: Option<S<u64>>,
+    pub offset: Option<S<V2>>,
+    pub cycle: Option<S<u64>>,
+    #[serde(default)]
+    pub body: Vec<S<FileBody>>,
+    #[serde(default)]
+    pub joint: Vec<S<FileJoint>>,
+    #[serde(default)]
+    pub pyramid: Vec<S<FilePyramid>>,
+    #[serde(default)]
+    pub stack: Vec<S<FileStack>>,
+    #[serde(default)]
+    pub grid: Vec<S<FileGrid>>,
+    #[serde(default)]
+    pub chain: Vec<S<FileChain>>,
+    #[serde(default)]
+    pub polyline: Vec<S<FilePolyline>>,
+    #[serde(default)]
+    pub humans: Vec<S<FileHumans>>,
+}
+
+/// `[[humans]]`: Box2D's ragdoll ("human"), `count` of them side by side.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(crate) struct FileHumans {
+    pub origin: Option<S<P2>>,
+    pub count: Option<S<u32>>,
+    pub spacing: Option<S<V2>>,
+    pub scale: Option<S<f32>>,
+    pub joint_friction: Option<S<f32>>,
+    pub joint_hertz: Option<S<f32>>,
+    pub joint_damping_ratio: Option<S<f32>>,
+    pub group: Option<S<i64>>,
+    pub awake: Option<S<bool>>,
 }
 
 /// `[[polyline]]`: terrain, one static (or kinematic) segment body per pair of points.
@@ -65,6 +112,9 @@ pub(crate) struct FilePolyline {
     #[serde(rename = "type")]
     pub type_: Option<S<String>>,
     pub one_sided: Option<S<bool>>,
+    /// Closed: a last segment joins the last point to the first.
+    #[serde(rename = "loop")]
+    pub loop_: Option<S<bool>>,
     pub friction: Option<S<f32>>,
     pub restitution: Option<S<f32>>,
     pub color: Option<S<String>>,
@@ -187,6 +237,20 @@ pub(crate) struct FileBody {
     pub color: Option<S<String>>,
     pub filter: Option<S<FileFilter>>,
     pub sensor: Option<S<bool>>,
+    pub awake: Option<S<bool>>,
+    pub linear_damping: Option<S<f32>>,
+    pub angular_damping: Option<S<f32>>,
+    pub sleep_threshold: Option<S<f32>>,
+    pub oscillate: Option<S<FileOscillate>>,
+}
+
+/// `oscillate = { amplitude = [x, y], angular_frequency = w, phase = p }`.
+#[derive(Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub(crate) struct FileOscillate {
+    pub amplitude: S<V2>,
+    pub angular_frequency: S<f32>,
+    pub phase: Option<S<f32>>,
 }
 
 /// `filter = { category = "debris", mask = ["ground", "debris"], group = -1 }`.
@@ -259,6 +323,8 @@ pub(crate) struct FileJoint {
     /// pulley
     pub ground_anchors: Option<S<Pair<S<P2>>>>,
     pub ratio: Option<S<f32>>,
+    /// hinge
+    pub reference_angle: Option<S<f32>>,
 }
 
 /// `spring = { hertz, damping_ratio }` (wheel).
@@ -282,6 +348,7 @@ pub(crate) struct FilePyramid {
     pub restitution: Option<S<f32>>,
     pub color: Option<S<String>>,
     pub filter: Option<S<FileFilter>>,
+    pub awake: Option<S<bool>>,
 }
 
 /// `[[stack]]`.
@@ -298,6 +365,7 @@ pub(crate) struct FileStack {
     pub restitution: Option<S<f32>>,
     pub color: Option<S<String>>,
     pub filter: Option<S<FileFilter>>,
+    pub awake: Option<S<bool>>,
 }
 
 /// `[[grid]]`.
@@ -308,7 +376,13 @@ pub(crate) struct FileGrid {
     pub columns: S<u32>,
     pub spacing: S<V2>,
     pub origin: Option<S<P2>>,
-    pub shape: S<FileShape>,
+    /// One shape for every cell; or `shapes` (a compound's parts), or `shape_cycle`
+    /// (cell i takes shape i mod n).
+    pub shape: Option<S<FileShape>>,
+    pub shapes: Option<S<Vec<S<FilePart>>>>,
+    pub shape_cycle: Option<S<Vec<S<FileShape>>>>,
+    /// Only the first `count` cells, row by row.
+    pub count: Option<S<u32>>,
     #[serde(rename = "type")]
     pub type_: Option<S<String>>,
     pub model: Option<S<String>>,
@@ -322,6 +396,7 @@ pub(crate) struct FileGrid {
     pub joints: Option<S<String>>,
     /// `[[row, column], ...]`: cells made static (anchors).
     pub static_cells: Option<S<Vec<S<Pair<i64>>>>>,
+    pub awake: Option<S<bool>>,
 }
 
 /// `end = { shape, density | mass, friction, restitution, color }` of a chain.

@@ -130,6 +130,7 @@ pub(crate) fn pyramid(
         p.color.as_ref(),
     )?;
     let filter = ctx.filter(who, p.filter.as_ref(), categories)?;
+    let awake = ctx.awake(who, p.awake.as_ref(), BodyType::Dynamic)?;
     let (w, h, n) = (size.x as f64, size.y as f64, base as f64);
     let shape = ShapeDef::Box {
         width: size.x,
@@ -160,6 +161,7 @@ pub(crate) fn pyramid(
             )?;
             let body = BodyDef {
                 filter,
+                awake,
                 ..dynamic_body(format!("{who}_{index}"), shape.clone(), at, &m)
             };
             bodies.push(ctx, body, t.span(), &places)?;
@@ -198,6 +200,7 @@ pub(crate) fn stack(
         s.color.as_ref(),
     )?;
     let filter = ctx.filter(who, s.filter.as_ref(), categories)?;
+    let awake = ctx.awake(who, s.awake.as_ref(), BodyType::Dynamic)?;
     let shape = ShapeDef::Box {
         width: size.x,
         height: size.y,
@@ -231,6 +234,7 @@ pub(crate) fn stack(
         )?;
         let body = BodyDef {
             filter,
+            awake,
             ..dynamic_body(format!("{who}_{i}"), shape.clone(), at, &m)
         };
         bodies.push(ctx, body, t.span(), &places)?;
@@ -261,7 +265,7 @@ pub(crate) fn polyline(
             ),
         ));
     }
-    check_total(ctx, who, given.len() as u64 - 1, bodies, g.points.span())?;
+    check_total(ctx, who, given.len() as u64, bodies, g.points.span())?;
     let mut points = Vec::with_capacity(given.len());
     for (i, q) in given.iter().enumerate() {
         let p = ctx.vec2(who, "polyline point", q)?;
@@ -293,6 +297,28 @@ pub(crate) fn polyline(
         },
     };
     let one_sided = g.one_sided.as_ref().is_some_and(|v| *v.get_ref());
+    let closed = g.loop_.as_ref().is_some_and(|v| *v.get_ref());
+    if closed {
+        let at = g.loop_.as_ref().map_or(t.span(), |v| v.span());
+        if points.len() < 3 {
+            return Err(ctx.err(
+                at,
+                format!(
+                    "{who}: a loop needs at least 3 points, got {}",
+                    points.len()
+                ),
+            ));
+        }
+        let gap = points[0].distance(points[points.len() - 1]);
+        if gap < 1e-4 {
+            return Err(ctx.err(
+                at,
+                format!(
+                    "{who}: a loop closes itself: its last point must not repeat the first (they are {gap} m apart)"
+                ),
+            ));
+        }
+    }
     let m = ctx.material(
         who,
         false,
@@ -305,12 +331,15 @@ pub(crate) fn polyline(
     let filter = ctx.filter(who, g.filter.as_ref(), categories)?;
     let places = Places::all(g.points.span());
     let n = points.len();
-    for i in 0..n - 1 {
+    // a loop's segments wrap around: segment i runs from point i to point i + 1 mod n
+    let segments = if closed { n } else { n - 1 };
+    let at = |i: usize| points[i % n];
+    for i in 0..segments {
         let shape = ShapeDef::ChainSegment {
-            a: points[i],
-            b: points[i + 1],
-            prev: (i > 0).then(|| points[i - 1]),
-            next: (i + 2 < n).then(|| points[i + 2]),
+            a: at(i),
+            b: at(i + 1),
+            prev: (closed || i > 0).then(|| at(i + n - 1)),
+            next: (closed || i + 2 < n).then(|| at(i + 2)),
             one_sided,
         };
         let body = BodyDef {
@@ -338,25 +367,72 @@ pub(crate) fn grid(
     let g = t.get_ref();
     let rows = ctx.count(who, "rows", &g.rows)?;
     let columns = ctx.count(who, "columns", &g.columns)?;
-    check_total(
-        ctx,
-        who,
-        rows as u64 * columns as u64,
-        bodies,
-        g.rows.span(),
-    )?;
+    let cells = rows as u64 * columns as u64;
+    let count = match &g.count {
+        Some(c) => {
+            let n = ctx.count(who, "count", c)? as u64;
+            if n > cells {
+                return Err(ctx.err(
+                    c.span(),
+                    format!("{who}: count must be at most rows x columns = {cells}, got {n}"),
+                ));
+            }
+            n
+        }
+        None => cells,
+    };
+    check_total(ctx, who, count, bodies, g.rows.span())?;
     let spacing = ctx.vec2(who, "spacing", &g.spacing)?;
     let origin = ctx.opt_point(who, "origin", g.origin.as_ref(), Vec2::ZERO)?;
     let body_type = ctx.body_type(who, g.type_.as_ref())?;
     let model = ctx.body_model(who, g.model.as_ref())?;
-    let shape = ctx.shape(who, &g.shape)?;
-    ctx.shape_fits(
-        who,
-        model,
-        body_type == BodyType::Dynamic,
-        &shape,
-        g.shape.span(),
-    )?;
+    // the cells' shapes: one, a compound, or a cycle of shapes
+    let (shapes, shape_span) = match (&g.shape, &g.shapes, &g.shape_cycle) {
+        (Some(s), None, None) => (vec![ctx.shape(who, s)?], s.span()),
+        (None, Some(p), None) => (vec![ctx.parts(who, p, categories)?], p.span()),
+        (None, None, Some(c)) => {
+            if c.get_ref().is_empty() {
+                return Err(ctx.err(
+                    c.span(),
+                    format!("{who}: shape_cycle needs at least one shape"),
+                ));
+            }
+            let mut list = Vec::new();
+            for s in c.get_ref() {
+                list.push(ctx.shape(who, s)?);
+            }
+            (list, c.span())
+        }
+        (None, None, None) => {
+            return Err(ctx.err(
+                t.span(),
+                format!("{who}: missing field `shape` (or `shapes`, a compound's parts, or `shape_cycle`)"),
+            ));
+        }
+        _ => {
+            let span = [
+                g.shapes.as_ref().map(|v| v.span()),
+                g.shape_cycle.as_ref().map(|v| v.span()),
+            ]
+            .into_iter()
+            .flatten()
+            .next()
+            .unwrap_or(t.span());
+            return Err(ctx.err(
+                span,
+                format!("{who}: give one of `shape`, `shapes` and `shape_cycle`"),
+            ));
+        }
+    };
+    for shape in &shapes {
+        ctx.shape_fits(
+            who,
+            model,
+            body_type == BodyType::Dynamic,
+            shape,
+            shape_span.clone(),
+        )?;
+    }
     let m = ctx.material(
         who,
         body_type == BodyType::Dynamic,
@@ -367,6 +443,7 @@ pub(crate) fn grid(
         g.color.as_ref(),
     )?;
     let filter = ctx.filter(who, g.filter.as_ref(), categories)?;
+    let awake = ctx.awake(who, g.awake.as_ref(), body_type)?;
     let hinged = match &g.joints {
         Some(j) => ctx.choice(who, "joints", j, &[("hinge", true), ("none", false)])?,
         None => false,
@@ -389,17 +466,20 @@ pub(crate) fn grid(
     }
     let origin_span = g.origin.as_ref().map_or(t.span(), |v| v.span());
     let places = Places {
-        shape: g.shape.span(),
+        shape: shape_span.clone(),
         mass: g
             .mass
             .as_ref()
             .or(g.density.as_ref())
-            .map_or(g.shape.span(), |v| v.span()),
+            .map_or(shape_span.clone(), |v| v.span()),
         position: g.spacing.span(),
         ..Places::all(t.span())
     };
     for r in 0..rows {
         for c in 0..columns {
+            if r as u64 * columns as u64 + c as u64 >= count {
+                break;
+            }
             let x = c as f64 * spacing.x as f64;
             let y = r as f64 * spacing.y as f64;
             let i = r as u64 * columns as u64 + c as u64;
@@ -420,7 +500,13 @@ pub(crate) fn grid(
                 },
                 model,
                 filter,
-                ..dynamic_body(format!("{who}_{i}"), shape.clone(), at, &m)
+                awake,
+                ..dynamic_body(
+                    format!("{who}_{i}"),
+                    shapes[i as usize % shapes.len()].clone(),
+                    at,
+                    &m,
+                )
             };
             let index = bodies.push(ctx, body, t.span(), &places)?;
             if !hinged {
@@ -630,6 +716,335 @@ pub(crate) fn chain(
         let j = joint(prev, index, prev_center, center, tip);
         check_joint(ctx, bodies, who, &j, end_span)?;
         joints.push(j);
+    }
+    Ok(())
+}
+
+/// The bones of a `[[humans]]` ragdoll (Box2D's `shared/human.c` layout), in the order
+/// they are made: name, centre of the capsule above the feet (m, at scale 1), capsule
+/// length end to end and radius, the bone it hangs from, the hinge's pivot height,
+/// limits (as fractions of pi), the share of the joint friction it gets, its linear
+/// damping, and the turn of its hinge's zero against the parent (fractions of pi).
+struct Bone {
+    name: &'static str,
+    center: f32,
+    length: f32,
+    radius: f32,
+    parent: Option<usize>,
+    pivot: f32,
+    limits: [f32; 2],
+    friction_scale: f32,
+    damping: f32,
+    frame: f32,
+}
+
+/// Box2D's human: hip, torso, head, legs (lower ones with a foot), arms.
+const BONES: [Bone; 11] = [
+    Bone {
+        name: "hip",
+        center: 0.95,
+        length: 0.23,
+        radius: 0.095,
+        parent: None,
+        pivot: 0.0,
+        limits: [0.0, 0.0],
+        friction_scale: 1.0,
+        damping: 0.0,
+        frame: 0.0,
+    },
+    Bone {
+        name: "torso",
+        center: 1.2,
+        length: 0.45,
+        radius: 0.09,
+        parent: Some(0),
+        pivot: 1.0,
+        limits: [-0.25, 0.0],
+        friction_scale: 0.5,
+        damping: 0.0,
+        frame: 0.0,
+    },
+    // Box2D's head capsule runs from -0.038 to 0.039 about 1.475: its centre is 0.0005 up
+    Bone {
+        name: "head",
+        center: 1.4755,
+        length: 0.227,
+        radius: 0.075,
+        parent: Some(1),
+        pivot: 1.4,
+        limits: [-0.3, 0.1],
+        friction_scale: 0.25,
+        damping: 0.1,
+        frame: 0.0,
+    },
+    Bone {
+        name: "upper_left_leg",
+        center: 0.775,
+        length: 0.37,
+        radius: 0.06,
+        parent: Some(0),
+        pivot: 0.9,
+        limits: [-0.05, 0.4],
+        friction_scale: 1.0,
+        damping: 0.0,
+        frame: 0.0,
+    },
+    // the lower legs' capsule runs from -0.155 to 0.125 about 0.475 (centre 0.015 down),
+    // with a foot; their body stays at 0.475
+    Bone {
+        name: "lower_left_leg",
+        center: 0.475,
+        length: 0.37,
+        radius: 0.045,
+        parent: Some(3),
+        pivot: 0.625,
+        limits: [-0.5, -0.02],
+        friction_scale: 0.5,
+        damping: 0.0,
+        frame: 0.0,
+    },
+    Bone {
+        name: "upper_right_leg",
+        center: 0.775,
+        length: 0.37,
+        radius: 0.06,
+        parent: Some(0),
+        pivot: 0.9,
+        limits: [-0.05, 0.4],
+        friction_scale: 1.0,
+        damping: 0.0,
+        frame: 0.0,
+    },
+    Bone {
+        name: "lower_right_leg",
+        center: 0.475,
+        length: 0.37,
+        radius: 0.045,
+        parent: Some(5),
+        pivot: 0.625,
+        limits: [-0.5, -0.02],
+        friction_scale: 0.5,
+        damping: 0.0,
+        frame: 0.0,
+    },
+    Bone {
+        name: "upper_left_arm",
+        center: 1.225,
+        length: 0.32,
+        radius: 0.035,
+        parent: Some(1),
+        pivot: 1.35,
+        limits: [-0.1, 0.8],
+        friction_scale: 0.5,
+        damping: 0.0,
+        frame: 0.0,
+    },
+    Bone {
+        name: "lower_left_arm",
+        center: 0.975,
+        length: 0.31,
+        radius: 0.03,
+        parent: Some(7),
+        pivot: 1.1,
+        limits: [-0.2, 0.3],
+        friction_scale: 0.1,
+        damping: 0.1,
+        frame: 0.25,
+    },
+    Bone {
+        name: "upper_right_arm",
+        center: 1.225,
+        length: 0.32,
+        radius: 0.035,
+        parent: Some(1),
+        pivot: 1.35,
+        limits: [-0.1, 0.8],
+        friction_scale: 0.5,
+        damping: 0.0,
+        frame: 0.0,
+    },
+    Bone {
+        name: "lower_right_arm",
+        center: 0.975,
+        length: 0.31,
+        radius: 0.03,
+        parent: Some(9),
+        pivot: 1.1,
+        limits: [-0.2, 0.3],
+        friction_scale: 0.1,
+        damping: 0.1,
+        frame: 0.25,
+    },
+];
+
+/// The filter category every human's bones belong to.
+pub(crate) const HUMAN_CATEGORY: &str = "human";
+
+/// `[[humans]]`: `count` ragdolls of Box2D's human layout, the k-th with its feet at
+/// origin + k spacing: 11 capsule bodies (the lower legs with a rounded foot) on 10
+/// hinges with limits, joint friction (a motor of speed 0 and torque joint_friction x
+/// the bone's share x scale) and a torsion spring (joint_hertz, joint_damping_ratio) to
+/// the standing pose. Bones are in the category "human" and collide with "default" and
+/// "human" bodies, feet with "default" only; human k is in filter group -(group + k), so
+/// its own bones never touch. Bodies `humans{t}_{k}_{bone}`.
+pub(crate) fn humans(
+    ctx: &Ctx,
+    t: &S<FileHumans>,
+    k: usize,
+    categories: &[String],
+    bodies: &mut Bodies,
+    joints: &mut Vec<JointDef>,
+) -> R<()> {
+    use std::f32::consts::{FRAC_PI_2, PI};
+    let who = format!("humans{k}");
+    let who = who.as_str();
+    let h = t.get_ref();
+    let count = match &h.count {
+        Some(c) => ctx.count(who, "count", c)?,
+        None => 1,
+    };
+    check_total(
+        ctx,
+        who,
+        count as u64 * BONES.len() as u64,
+        bodies,
+        h.count.as_ref().map_or(t.span(), |c| c.span()),
+    )?;
+    let origin = ctx.opt_point(who, "origin", h.origin.as_ref(), Vec2::ZERO)?;
+    let spacing = ctx.opt_vec2(who, "spacing", h.spacing.as_ref(), Vec2::new(0.5, 0.0))?;
+    let s = ctx.opt(h.scale.as_ref(), 1.0, |v| ctx.positive(who, "scale", v))?;
+    let friction = ctx.opt(h.joint_friction.as_ref(), 0.05, |v| {
+        ctx.non_negative(who, "joint_friction", v)
+    })?;
+    let hertz = ctx.opt(h.joint_hertz.as_ref(), 5.0, |v| {
+        ctx.non_negative(who, "joint_hertz", v)
+    })?;
+    let zeta = ctx.opt(h.joint_damping_ratio.as_ref(), 0.5, |v| {
+        ctx.non_negative(who, "joint_damping_ratio", v)
+    })?;
+    let awake = ctx.awake(who, h.awake.as_ref(), BodyType::Dynamic)?;
+    let first_group = match &h.group {
+        Some(g) => {
+            let v = *g.get_ref();
+            if !(1..=i32::MAX as i64 - count as i64).contains(&v) {
+                return Err(ctx.err(
+                    g.span(),
+                    format!(
+                        "{who}: group must be an integer from 1 to {} (human k is in filter group -(group + k)), got {v}",
+                        i32::MAX as i64 - count as i64
+                    ),
+                ));
+            }
+            v as i32
+        }
+        None => 1,
+    };
+    let bit = |name: &str| {
+        categories
+            .iter()
+            .position(|c| c == name)
+            .map_or(0, |i| 1u32 << i)
+    };
+    let (human, default) = (bit(HUMAN_CATEGORY), bit("default"));
+    let origin_span = h.origin.as_ref().map_or(t.span(), |v| v.span());
+    let places = Places {
+        shape: h.scale.as_ref().map_or(t.span(), |v| v.span()),
+        position: origin_span.clone(),
+        ..Places::all(t.span())
+    };
+    // the foot, in the lower leg's frame (Box2D's points, rounded by 0.015)
+    let foot = [
+        [-0.03, -0.185],
+        [0.11, -0.185],
+        [0.11, -0.16],
+        [-0.03, -0.14],
+    ]
+    .map(|[x, y]| Vec2::new(x * s, y * s));
+    for i in 0..count {
+        let feet = position(
+            ctx,
+            who,
+            i as u64,
+            origin,
+            (i as f64 * spacing.x as f64, i as f64 * spacing.y as f64),
+            ("spacing", h.spacing.as_ref().map_or(t.span(), |v| v.span())),
+            origin_span.clone(),
+        )?;
+        let filter = Filter {
+            category: human,
+            mask: human | default,
+            group: -(first_group + i as i32),
+        };
+        let foot_filter = Filter {
+            mask: default,
+            ..filter
+        };
+        let first = bodies.defs.len();
+        for bone in &BONES {
+            let capsule = ShapeDef::Capsule {
+                length: bone.length * s,
+                radius: bone.radius * s,
+            };
+            let legged = bone.name.starts_with("lower") && bone.name.ends_with("leg");
+            // a capsule lies along its body's x axis: the bones stand at 90 degrees,
+            // the lower legs at 0 with their capsule turned as a part
+            let (shape, angle) = if legged {
+                let leg = PartDef {
+                    angle: FRAC_PI_2,
+                    ..PartDef::new(capsule, Vec2::new(0.0, -0.015 * s))
+                };
+                let foot = PartDef {
+                    friction: Some(0.05),
+                    filter: Some(foot_filter),
+                    ..PartDef::new(
+                        ShapeDef::RoundedPolygon {
+                            points: foot.to_vec(),
+                            radius: 0.015 * s,
+                        },
+                        Vec2::ZERO,
+                    )
+                };
+                (
+                    ShapeDef::Compound {
+                        parts: vec![leg, foot],
+                    },
+                    0.0,
+                )
+            } else {
+                (capsule, FRAC_PI_2)
+            };
+            let body = BodyDef {
+                name: format!("{who}_{i}_{}", bone.name),
+                shape,
+                position: feet + Vec2::new(0.0, bone.center * s),
+                angle,
+                friction: 0.2,
+                filter,
+                awake,
+                linear_damping: bone.damping,
+                sleep_threshold: 0.1,
+                ..BodyDef::default()
+            };
+            let index = bodies.push(ctx, body, t.span(), &places)?;
+            let Some(parent) = bone.parent else {
+                continue;
+            };
+            let a = first + parent;
+            let (pa, pb) = (&bodies.defs[a], &bodies.defs[index]);
+            let mut j = JointDef::hinge(a, index, feet + Vec2::new(0.0, bone.pivot * s));
+            j.limits = Some([bone.limits[0] * PI, bone.limits[1] * PI]);
+            j.angle = Some(pb.angle - pa.angle + bone.frame * PI);
+            j.motor = (friction > 0.0).then_some(MotorDef {
+                speed: 0.0,
+                max_force: bone.friction_scale * friction * s,
+            });
+            j.spring = (hertz > 0.0).then_some(SpringDef {
+                hertz,
+                damping_ratio: zeta,
+            });
+            check_joint(ctx, bodies, who, &j, t.span())?;
+            joints.push(j);
+        }
     }
     Ok(())
 }

@@ -252,7 +252,212 @@ fn scene_origin(f: &FileScene) -> [f64; 2] {
     }
 }
 
-/// One table that makes bodies, by its position in the file.
+/// The tables that make bodies and joints: the whole file's, or one `[[spawn]]`'s.
+struct Tables<'a> {
+    body: &'a [format::S<format::FileBody>],
+    joint: &'a [format::S<format::FileJoint>],
+    pyramid: &'a [format::S<format::FilePyramid>],
+    stack: &'a [format::S<format::FileStack>],
+    grid: &'a [format::S<format::FileGrid>],
+    chain: &'a [format::S<format::FileChain>],
+    polyline: &'a [format::S<format::FilePolyline>],
+    humans: &'a [format::S<format::FileHumans>],
+}
+
+impl<'a> Tables<'a> {
+    fn of_scene(f: &'a FileScene) -> Tables<'a> {
+        Tables {
+            body: &f.body,
+            joint: &f.joint,
+            pyramid: &f.pyramid,
+            stack: &f.stack,
+            grid: &f.grid,
+            chain: &f.chain,
+            polyline: &f.polyline,
+            humans: &f.humans,
+        }
+    }
+
+    fn of_spawn(f: &'a format::FileSpawn) -> Tables<'a> {
+        Tables {
+            body: &f.body,
+            joint: &f.joint,
+            pyramid: &f.pyramid,
+            stack: &f.stack,
+            grid: &f.grid,
+            chain: &f.chain,
+            polyline: &f.polyline,
+            humans: &f.humans,
+        }
+    }
+
+    /// The tables that make bodies, in file order: an array-of-tables element's span
+    /// starts at its `[[...]]` header (or at its inline table).
+    fn makers(&self) -> Vec<(usize, Maker)> {
+        let mut makers: Vec<(usize, Maker)> = Vec::new();
+        let mut add = |spans: Vec<usize>, make: fn(usize) -> Maker| {
+            makers.extend(spans.into_iter().enumerate().map(|(k, at)| (at, make(k))));
+        };
+        add(
+            self.body.iter().map(|t| t.span().start).collect(),
+            Maker::Body,
+        );
+        add(
+            self.pyramid.iter().map(|t| t.span().start).collect(),
+            Maker::Pyramid,
+        );
+        add(
+            self.stack.iter().map(|t| t.span().start).collect(),
+            Maker::Stack,
+        );
+        add(
+            self.grid.iter().map(|t| t.span().start).collect(),
+            Maker::Grid,
+        );
+        add(
+            self.chain.iter().map(|t| t.span().start).collect(),
+            Maker::Chain,
+        );
+        add(
+            self.polyline.iter().map(|t| t.span().start).collect(),
+            Maker::Polyline,
+        );
+        add(
+            self.humans.iter().map(|t| t.span().start).collect(),
+            Maker::Humans,
+        );
+        makers.sort_by_key(|(start, _)| *start);
+        makers
+    }
+
+    /// Every filter the tables give (a body's, then its parts'), in file order.
+    fn filters(&self) -> Vec<&'a format::S<format::FileFilter>> {
+        let mut out = Vec::new();
+        for (_, maker) in self.makers() {
+            match maker {
+                Maker::Body(k) => {
+                    let b = self.body[k].get_ref();
+                    let parts = b
+                        .shapes
+                        .as_ref()
+                        .map_or(&[][..], |p| p.get_ref().as_slice());
+                    out.extend(
+                        b.filter
+                            .iter()
+                            .chain(parts.iter().filter_map(|p| p.get_ref().filter.as_ref())),
+                    );
+                }
+                Maker::Pyramid(k) => out.extend(self.pyramid[k].get_ref().filter.iter()),
+                Maker::Stack(k) => out.extend(self.stack[k].get_ref().filter.iter()),
+                Maker::Grid(k) => out.extend(self.grid[k].get_ref().filter.iter()),
+                Maker::Chain(k) => out.extend(self.chain[k].get_ref().filter.iter()),
+                Maker::Polyline(k) => out.extend(self.polyline[k].get_ref().filter.iter()),
+                Maker::Humans(_) => {}
+            }
+        }
+        out
+    }
+
+    /// Makes the bodies (into `bodies`) and joints of these tables; the motions of the
+    /// kinematic bodies that `oscillate`. `no_hash`: body names may not hold a '#'
+    /// (the scene spawns copies named `NAME#k`).
+    fn make(
+        &self,
+        ctx: &Ctx,
+        categories: &[String],
+        bodies: &mut Bodies,
+        no_hash: bool,
+    ) -> R<(Vec<JointDef>, Vec<crate::defs::MotionDef>)> {
+        // Joints with the file position of the table that made them, to keep file order.
+        let mut joints: Vec<(usize, JointDef)> = Vec::new();
+        let mut motions = Vec::new();
+        for (start, maker) in self.makers() {
+            let before = bodies.defs.len();
+            match maker {
+                Maker::Body(k) => {
+                    let t = &self.body[k];
+                    let (name, span) = match &t.get_ref().name {
+                        Some(n) => (n.get_ref().clone(), n.span()),
+                        // An unnamed body is named after its table, like generated bodies.
+                        None => (format!("body{k}"), t.span()),
+                    };
+                    if name.is_empty() {
+                        return Err(ctx.err(span, "body name must not be empty"));
+                    }
+                    let body = ctx.body(t.get_ref(), name, categories, t.span())?;
+                    let b = t.get_ref();
+                    let at = |v: Option<std::ops::Range<usize>>| v.unwrap_or(t.span());
+                    let shape_span = b
+                        .shape
+                        .as_ref()
+                        .map(|s| s.span())
+                        .or(b.shapes.as_ref().map(|s| s.span()))
+                        .unwrap_or(t.span());
+                    let places = validate::Places {
+                        shape: shape_span.clone(),
+                        mass: b
+                            .mass
+                            .as_ref()
+                            .or(b.density.as_ref())
+                            .map_or(shape_span, |v| v.span()),
+                        position: at(b.position.as_ref().map(|v| v.span())),
+                        velocity: at(b.velocity.as_ref().map(|v| v.span())),
+                        angular_velocity: at(b.angular_velocity.as_ref().map(|v| v.span())),
+                    };
+                    let body_type = body.body_type;
+                    let index = bodies.push(ctx, body, span, &places)?;
+                    if let Some(o) = &b.oscillate {
+                        let who = format!("body {:?}", bodies.defs[index].name);
+                        motions.push(ctx.oscillate(&who, o, index, body_type)?);
+                    }
+                }
+                Maker::Pyramid(k) => {
+                    generators::pyramid(ctx, &self.pyramid[k], k, categories, bodies)?
+                }
+                Maker::Stack(k) => generators::stack(ctx, &self.stack[k], k, categories, bodies)?,
+                Maker::Grid(k) => {
+                    let mut made = Vec::new();
+                    generators::grid(ctx, &self.grid[k], k, categories, bodies, &mut made)?;
+                    joints.extend(made.into_iter().map(|j| (start, j)));
+                }
+                Maker::Polyline(k) => {
+                    generators::polyline(ctx, &self.polyline[k], k, categories, bodies)?
+                }
+                Maker::Chain(k) => {
+                    let mut made = Vec::new();
+                    generators::chain(ctx, &self.chain[k], k, categories, bodies, &mut made)?;
+                    joints.extend(made.into_iter().map(|j| (start, j)));
+                }
+                Maker::Humans(k) => {
+                    let mut made = Vec::new();
+                    generators::humans(ctx, &self.humans[k], k, categories, bodies, &mut made)?;
+                    joints.extend(made.into_iter().map(|j| (start, j)));
+                }
+            }
+            if no_hash
+                && let Some(i) =
+                    (before..bodies.defs.len()).find(|&i| bodies.defs[i].name.contains('#'))
+            {
+                return Err(ctx.err(
+                    bodies.spans[i].clone(),
+                    format!(
+                        "body name {:?}: a scene with [[spawn]] tables names its spawned copies NAME#k, so its own body names cannot hold a '#'",
+                        bodies.defs[i].name
+                    ),
+                ));
+            }
+        }
+        for t in self.joint {
+            joints.push((t.span().start, validate::joint(ctx, bodies, t.get_ref())?));
+        }
+        // Stable: a chain's joints keep their order.
+        joints.sort_by_key(|(start, _)| *start);
+        Ok((joints.into_iter().map(|(_, j)| j).collect(), motions))
+    }
+}
+
+/// One table that makes bodies, by its position in its list.
+#[derive(Clone, Copy)]
 enum Maker {
     Body(usize),
     Pyramid(usize),
@@ -260,6 +465,7 @@ enum Maker {
     Grid(usize),
     Chain(usize),
     Polyline(usize),
+    Humans(usize),
 }
 
 /// Turns the parsed file into a [`Scene`], checking every value.
@@ -283,147 +489,54 @@ fn build(ctx: &Ctx, f: FileScene) -> R<Scene> {
         None => CameraDef::default(),
     };
 
-    // Bodies and generators in file order: an array-of-tables element's span starts
-    // at its `[[...]]` header (or at its inline table).
-    let mut makers: Vec<(usize, Maker)> = Vec::new();
-    makers.extend(
-        f.body
-            .iter()
-            .enumerate()
-            .map(|(k, t)| (t.span().start, Maker::Body(k))),
-    );
-    makers.extend(
-        f.pyramid
-            .iter()
-            .enumerate()
-            .map(|(k, t)| (t.span().start, Maker::Pyramid(k))),
-    );
-    makers.extend(
-        f.stack
-            .iter()
-            .enumerate()
-            .map(|(k, t)| (t.span().start, Maker::Stack(k))),
-    );
-    makers.extend(
-        f.grid
-            .iter()
-            .enumerate()
-            .map(|(k, t)| (t.span().start, Maker::Grid(k))),
-    );
-    makers.extend(
-        f.chain
-            .iter()
-            .enumerate()
-            .map(|(k, t)| (t.span().start, Maker::Chain(k))),
-    );
-    makers.extend(
-        f.polyline
-            .iter()
-            .enumerate()
-            .map(|(k, t)| (t.span().start, Maker::Polyline(k))),
-    );
-    makers.sort_by_key(|(start, _)| *start);
-
-    // Filter categories by name, in file order: "default" (every body without one) first.
-    let mut categories = vec!["default".to_string()];
-    // a body's filter, then its parts' (a compound's), in file order
-    let filters_of = |maker: &Maker| match *maker {
-        Maker::Body(k) => {
-            let b = f.body[k].get_ref();
-            let parts = b
-                .shapes
-                .as_ref()
-                .map_or(&[][..], |p| p.get_ref().as_slice());
-            b.filter
-                .iter()
-                .chain(parts.iter().filter_map(|p| p.get_ref().filter.as_ref()))
-                .collect::<Vec<_>>()
-        }
-        Maker::Pyramid(k) => f.pyramid[k].get_ref().filter.iter().collect(),
-        Maker::Stack(k) => f.stack[k].get_ref().filter.iter().collect(),
-        Maker::Grid(k) => f.grid[k].get_ref().filter.iter().collect(),
-        Maker::Chain(k) => f.chain[k].get_ref().filter.iter().collect(),
-        Maker::Polyline(k) => f.polyline[k].get_ref().filter.iter().collect(),
-    };
-    for c in makers
+    let scene = Tables::of_scene(&f);
+    let spawns: Vec<Tables> = f
+        .spawn
         .iter()
-        .flat_map(|(_, maker)| filters_of(maker))
-        .filter_map(|x| x.get_ref().category.as_ref())
-    {
-        if !categories.contains(c.get_ref()) {
+        .map(|s| Tables::of_spawn(s.get_ref()))
+        .collect();
+
+    // Filter categories by name, in file order: "default" (every body without one)
+    // first, then the scene's, then the spawn tables'; "human" where humans are made.
+    let mut categories = vec!["default".to_string()];
+    let mut named: Vec<(usize, &String)> = Vec::new();
+    for t in std::iter::once(&scene).chain(&spawns) {
+        for x in t.filters() {
+            if let Some(c) = x.get_ref().category.as_ref() {
+                named.push((c.span().start, c.get_ref()));
+            }
+        }
+    }
+    let human = generators::HUMAN_CATEGORY.to_string();
+    let first_humans = std::iter::once(&scene)
+        .chain(&spawns)
+        .flat_map(|t| t.humans.iter().map(|h| h.span().start))
+        .min();
+    if let Some(at) = first_humans {
+        named.push((at, &human));
+    }
+    named.sort_by_key(|(at, _)| *at);
+    for (at, c) in named {
+        if !categories.contains(c) {
             if categories.len() == MAX_CATEGORIES {
                 return Err(ctx.err(
-                    c.span(),
+                    at..at,
                     format!(
-                        "filter category {:?}: a scene has at most {MAX_CATEGORIES} \
-                         category names (with \"default\")",
-                        c.get_ref()
+                        "filter category {c:?}: a scene has at most {MAX_CATEGORIES} \
+                         category names (with \"default\")"
                     ),
                 ));
             }
-            categories.push(c.get_ref().clone());
+            categories.push(c.clone());
         }
     }
 
+    let no_hash = !f.spawn.is_empty();
     let mut bodies = Bodies {
         gravity: world.gravity,
         ..Bodies::default()
     };
-    // Joints with the file position of the table that made them, to keep file order.
-    let mut joints: Vec<(usize, JointDef)> = Vec::new();
-    for (start, maker) in &makers {
-        match *maker {
-            Maker::Body(k) => {
-                let t = &f.body[k];
-                let (name, span) = match &t.get_ref().name {
-                    Some(n) => (n.get_ref().clone(), n.span()),
-                    // An unnamed body is named after its table, like generated bodies.
-                    None => (format!("body{k}"), t.span()),
-                };
-                if name.is_empty() {
-                    return Err(ctx.err(span, "body name must not be empty"));
-                }
-                let body = ctx.body(t.get_ref(), name, &categories, t.span())?;
-                let b = t.get_ref();
-                let at = |v: Option<std::ops::Range<usize>>| v.unwrap_or(t.span());
-                let shape_span = b
-                    .shape
-                    .as_ref()
-                    .map(|s| s.span())
-                    .or(b.shapes.as_ref().map(|s| s.span()))
-                    .unwrap_or(t.span());
-                let places = validate::Places {
-                    shape: shape_span.clone(),
-                    mass: b
-                        .mass
-                        .as_ref()
-                        .or(b.density.as_ref())
-                        .map_or(shape_span, |v| v.span()),
-                    position: at(b.position.as_ref().map(|v| v.span())),
-                    velocity: at(b.velocity.as_ref().map(|v| v.span())),
-                    angular_velocity: at(b.angular_velocity.as_ref().map(|v| v.span())),
-                };
-                bodies.push(ctx, body, span, &places)?;
-            }
-            Maker::Pyramid(k) => {
-                generators::pyramid(ctx, &f.pyramid[k], k, &categories, &mut bodies)?
-            }
-            Maker::Stack(k) => generators::stack(ctx, &f.stack[k], k, &categories, &mut bodies)?,
-            Maker::Grid(k) => {
-                let mut made = Vec::new();
-                generators::grid(ctx, &f.grid[k], k, &categories, &mut bodies, &mut made)?;
-                joints.extend(made.into_iter().map(|j| (*start, j)));
-            }
-            Maker::Polyline(k) => {
-                generators::polyline(ctx, &f.polyline[k], k, &categories, &mut bodies)?
-            }
-            Maker::Chain(k) => {
-                let mut made = Vec::new();
-                generators::chain(ctx, &f.chain[k], k, &categories, &mut bodies, &mut made)?;
-                joints.extend(made.into_iter().map(|j| (*start, j)));
-            }
-        }
-    }
+    let (joints, motions) = scene.make(ctx, &categories, &mut bodies, no_hash)?;
 
     // what the bodies' overlap would cost before anything is allocated for it
     if let Err((_, b)) =
@@ -446,13 +559,15 @@ fn build(ctx: &Ctx, f: FileScene) -> R<Scene> {
             .forces
             .push(validate::force(ctx, &bodies, t.get_ref())?);
     }
-    for t in &f.joint {
-        joints.push((t.span().start, validate::joint(ctx, &bodies, t.get_ref())?));
-    }
-    // Stable: a chain's joints keep their order.
-    joints.sort_by_key(|(start, _)| *start);
-    world.joints = joints.into_iter().map(|(_, j)| j).collect();
+    world.joints = joints;
+    world.motions = motions;
     world.bodies = bodies.defs;
+
+    for (k, (t, tables)) in f.spawn.iter().zip(&spawns).enumerate() {
+        world
+            .spawns
+            .push(spawn(ctx, t, tables, k, &categories, world.gravity)?);
+    }
 
     Ok(Scene {
         name,
@@ -461,4 +576,121 @@ fn build(ctx: &Ctx, f: FileScene) -> R<Scene> {
         camera,
         source: ctx.file.to_owned(),
     })
+}
+
+/// A `[[spawn]]` table: its timing, and its group built as the scene's bodies are (names
+/// checked within the group, joints naming the group's bodies only).
+fn spawn(
+    ctx: &Ctx,
+    t: &format::S<format::FileSpawn>,
+    tables: &Tables,
+    k: usize,
+    categories: &[String],
+    gravity: Option<glam::Vec2>,
+) -> R<crate::defs::SpawnDef> {
+    let who = format!("spawn{k}");
+    let s = t.get_ref();
+    let at_least_one = |key: &str, v: &format::S<u64>| -> R<u64> {
+        let n = *v.get_ref();
+        if n >= 1 {
+            Ok(n)
+        } else {
+            Err(ctx.err(v.span(), format!("{who}: {key} must be >= 1, got {n}")))
+        }
+    };
+    let every = at_least_one("every", &s.every)?;
+    let first = s.first.as_ref().map_or(0, |v| *v.get_ref());
+    let count = s
+        .count
+        .as_ref()
+        .map(|v| at_least_one("count", v))
+        .transpose()?;
+    let keep = s
+        .keep
+        .as_ref()
+        .map(|v| at_least_one("keep", v))
+        .transpose()?;
+    let cycle = s
+        .cycle
+        .as_ref()
+        .map(|v| at_least_one("cycle", v))
+        .transpose()?;
+    let offset = ctx.opt_vec2(&who, "offset", s.offset.as_ref(), glam::Vec2::ZERO)?;
+    let mut bodies = Bodies {
+        gravity,
+        ..Bodies::default()
+    };
+    let (joints, motions) = tables.make(ctx, categories, &mut bodies, true)?;
+    if let Some(m) = motions.first() {
+        let span = tables
+            .body
+            .iter()
+            .filter_map(|b| b.get_ref().oscillate.as_ref())
+            .map(|o| o.span())
+            .next()
+            .unwrap_or(t.span());
+        return Err(ctx.err(
+            span,
+            format!(
+                "{who}: body {:?}: a spawned body cannot follow a path (`oscillate`)",
+                bodies.defs[m.body].name
+            ),
+        ));
+    }
+    if bodies.defs.is_empty() {
+        return Err(ctx.err(
+            t.span(),
+            format!("{who}: a spawn table makes no body; give it [[spawn.body]], [[spawn.humans]] or another generator"),
+        ));
+    }
+    let mut def = crate::defs::SpawnDef {
+        name: who.clone(),
+        every,
+        first,
+        count,
+        keep,
+        offset,
+        cycle,
+        bodies: bodies.defs,
+        joints,
+    };
+    for b in &mut def.bodies {
+        b.name = format!("{who}/{}", b.name);
+    }
+    // the farthest copy that will be made, where the copies are bounded
+    let last = match (count, cycle) {
+        (Some(n), Some(c)) => Some(n.min(c) - 1),
+        (Some(n), None) => Some(n - 1),
+        (None, Some(c)) => Some(c - 1),
+        (None, None) => None,
+    };
+    if let Some(last) = last {
+        let off = def.offset_of(last);
+        for (i, b) in def.bodies.iter().enumerate() {
+            let p = b.position + off;
+            if !p.is_finite() {
+                let span = s
+                    .offset
+                    .as_ref()
+                    .map_or(tables_span(&bodies.spans, i, t), |v| v.span());
+                return Err(ctx.err(
+                    span,
+                    format!(
+                        "{who}: copy {last} would put body {:?} at {:?}, beyond f32's range; reduce `offset`",
+                        b.name, p
+                    ),
+                ));
+            }
+        }
+    }
+    Ok(def)
+}
+
+/// Where the group's body `i` was declared (the spawn table when unknown).
+fn tables_span(
+    spans: &[std::ops::Range<usize>],
+    i: usize,
+    t: &format::S<format::FileSpawn>,
+) -> std::ops::Range<usize> {
+    spans.get(i).cloned().unwrap_or(t.span())
 }

@@ -430,7 +430,12 @@ impl Ctx<'_> {
     /// `shapes = [ { box = [w, h], offset = [x, y], angle = a, density = d }, ... ]`: a
     /// compound's parts, 1 to [`MAX_PARTS`], each a shape (no segment) with where it sits
     /// in the body and what it is made of (absent keys: the body's).
-    fn parts(&self, who: &str, parts: &S<Vec<S<FilePart>>>, categories: &[String]) -> R<ShapeDef> {
+    pub fn parts(
+        &self,
+        who: &str,
+        parts: &S<Vec<S<FilePart>>>,
+        categories: &[String],
+    ) -> R<ShapeDef> {
         let list = parts.get_ref();
         if list.is_empty() || list.len() > MAX_PARTS {
             return Err(self.err(
@@ -815,6 +820,48 @@ impl Ctx<'_> {
             b.restitution.as_ref(),
             b.color.as_ref(),
         )?;
+        let velocity = self.opt_vec2(who, "velocity", b.velocity.as_ref(), Vec2::ZERO)?;
+        let angular_velocity = self.opt(b.angular_velocity.as_ref(), 0.0, |v| {
+            self.finite(who, "angular_velocity", v)
+        })?;
+        let awake = self.awake(who, b.awake.as_ref(), body_type)?;
+        if !awake && (velocity != Vec2::ZERO || angular_velocity != 0.0) {
+            let span = b.awake.as_ref().map_or(table.clone(), |v| v.span());
+            return Err(self.err(
+                span,
+                format!("{who}: a body that starts asleep (awake = false) has no velocity"),
+            ));
+        }
+        let dynamic = body_type == BodyType::Dynamic;
+        let mut damping = [0.0f32; 2];
+        for (out, key, v) in damping
+            .iter_mut()
+            .zip([
+                ("linear_damping", b.linear_damping.as_ref()),
+                ("angular_damping", b.angular_damping.as_ref()),
+            ])
+            .map(|(o, (k, v))| (o, k, v))
+        {
+            if let Some(v) = v {
+                if !dynamic {
+                    return Err(self.err(
+                        v.span(),
+                        format!("{who}: `{key}` applies to a dynamic body only"),
+                    ));
+                }
+                *out = self.non_negative(who, key, v)?;
+            }
+        }
+        let sleep_threshold = match &b.sleep_threshold {
+            Some(v) if !dynamic => {
+                return Err(self.err(
+                    v.span(),
+                    format!("{who}: `sleep_threshold` applies to a dynamic body only"),
+                ));
+            }
+            Some(v) => self.non_negative(who, "sleep_threshold", v)?,
+            None => SLEEP_THRESHOLD,
+        };
         Ok(BodyDef {
             name,
             body_type,
@@ -822,10 +869,8 @@ impl Ctx<'_> {
             shape,
             position: self.opt_point(who, "position", b.position.as_ref(), Vec2::ZERO)?,
             angle: self.opt(b.angle.as_ref(), 0.0, |v| self.finite(who, "angle", v))?,
-            velocity: self.opt_vec2(who, "velocity", b.velocity.as_ref(), Vec2::ZERO)?,
-            angular_velocity: self.opt(b.angular_velocity.as_ref(), 0.0, |v| {
-                self.finite(who, "angular_velocity", v)
-            })?,
+            velocity,
+            angular_velocity,
             density: m.density,
             mass: m.mass,
             friction: m.friction,
@@ -833,6 +878,55 @@ impl Ctx<'_> {
             color: m.color,
             filter: self.filter(who, b.filter.as_ref(), categories)?,
             sensor: b.sensor.as_ref().is_some_and(|v| *v.get_ref()),
+            awake,
+            linear_damping: damping[0],
+            angular_damping: damping[1],
+            sleep_threshold,
+        })
+    }
+
+    /// `awake = true | false` (default true); false only on a dynamic body.
+    pub fn awake(&self, who: &str, v: Option<&S<bool>>, body_type: BodyType) -> R<bool> {
+        match v {
+            None => Ok(true),
+            Some(v) if !*v.get_ref() && body_type != BodyType::Dynamic => Err(self.err(
+                v.span(),
+                format!(
+                    "{who}: only a dynamic body can start asleep (awake = false); a static or kinematic one never sleeps"
+                ),
+            )),
+            Some(v) => Ok(*v.get_ref()),
+        }
+    }
+
+    /// A kinematic body's `oscillate = { amplitude, angular_frequency, phase }`.
+    pub fn oscillate(
+        &self,
+        who: &str,
+        o: &S<FileOscillate>,
+        body: usize,
+        body_type: BodyType,
+    ) -> R<MotionDef> {
+        if body_type != BodyType::Kinematic {
+            return Err(self.err(
+                o.span(),
+                format!(
+                    "{who}: only a kinematic body follows a path (`oscillate`); give it type = \"kinematic\""
+                ),
+            ));
+        }
+        let f = o.get_ref();
+        Ok(MotionDef {
+            body,
+            amplitude: self.vec2(who, "oscillate amplitude", &f.amplitude)?,
+            angular_frequency: self.positive(
+                who,
+                "oscillate angular_frequency",
+                &f.angular_frequency,
+            )?,
+            phase: self.opt(f.phase.as_ref(), 0.0, |v| {
+                self.finite(who, "oscillate phase", v)
+            })?,
         })
     }
 
@@ -1329,10 +1423,26 @@ pub(crate) fn joint(ctx: &Ctx, bodies: &Bodies, j: &FileJoint) -> R<JointDef> {
         },
     )?;
     not_for(
-        span_of(j.spring.as_ref().map(|v| v.span()), kind == Wheel),
+        span_of(
+            j.spring.as_ref().map(|v| v.span()),
+            matches!(kind, Wheel | Hinge),
+        ),
         "spring",
         "",
     )?;
+    not_for(
+        span_of(j.reference_angle.as_ref().map(|v| v.span()), kind == Hinge),
+        "reference_angle",
+        "",
+    )?;
+    if let (Some(_), Some(sp)) = (&j.servo, &j.spring) {
+        return Err(ctx.err(
+            sp.span(),
+            format!(
+                "{who}: a hinge takes a `servo` (rigid, to a target) or a `spring` (soft, to its zero angle), not both"
+            ),
+        ));
+    }
     for (key, v) in [
         ("offset", j.offset.as_ref().map(|v| v.span())),
         ("angle", j.angle.as_ref().map(|v| v.span())),
@@ -1486,11 +1596,11 @@ pub(crate) fn joint(ctx: &Ctx, bodies: &Bodies, j: &FileJoint) -> R<JointDef> {
         .as_ref()
         .map(|v| ctx.vec2(who, "offset", v))
         .transpose()?;
-    let angle = j
-        .angle
-        .as_ref()
-        .map(|v| ctx.finite(who, "angle", v))
-        .transpose()?;
+    let angle = match (&j.angle, &j.reference_angle) {
+        (Some(v), _) => Some(ctx.finite(who, "angle", v)?),
+        (None, Some(v)) => Some(ctx.finite(who, "reference_angle", v)?),
+        (None, None) => None,
+    };
     let (mut max_force, mut max_torque) = (0.0, 0.0);
     let mut correction = 0.0;
     if kind == Motor {

@@ -329,6 +329,14 @@ impl JointRows {
             match j.kind {
                 JointKind::Hinge | JointKind::Weld => {
                     let ang = angle_row(a, b);
+                    // a hinge's torsion spring, to its zero angle
+                    if let Some(sp) = j.spring.filter(|_| j.kind == JointKind::Hinge) {
+                        push(
+                            &mut self.items,
+                            spring(ang, bodies, f.angle, sp.hertz, sp.damping_ratio, h),
+                            slot::SPRING,
+                        );
+                    }
                     if let Some(m) = j.motor {
                         push(
                             &mut self.items,
@@ -844,13 +852,18 @@ pub fn xpbd_velocity_pass(
             rows.damping
                 .push((equality(r, bodies, 0.0, 0.0, 0.0, h), j.damping.linear));
         }
-        // the wheel's suspension damper, c = 2 m_eff zeta omega: a rate of 2 zeta omega
-        if let Some(sp) = j.spring.filter(|_| spring_damped)
-            && let Some(r) = axis_row
-        {
+        // the wheel's suspension damper (a hinge's torsion damper, on its angle),
+        // c = 2 m_eff zeta omega: a rate of 2 zeta omega
+        if let Some(sp) = j.spring.filter(|_| spring_damped) {
             let rate = 2.0 * sp.damping_ratio * std::f32::consts::TAU * sp.hertz;
-            rows.damping
-                .push((equality(r, bodies, 0.0, 0.0, 0.0, h), rate));
+            let row = match j.kind {
+                JointKind::Hinge => Some(angle_row(a, b)),
+                _ => axis_row,
+            };
+            if let Some(r) = row {
+                rows.damping
+                    .push((equality(r, bodies, 0.0, 0.0, 0.0, h), rate));
+            }
         }
         let turns = matches!(
             j.kind,

@@ -33,9 +33,10 @@ impl Stepper for SoftStepper {
         // points out to the distance each pair can close in the step (speculative
         // contacts): a fast body meets what it would pass through
         let penetration = world.collide(cx.dt, cx.margin, Speculative::MarginOrMotion, clock);
-        // without drag the forces change every substep's velocities by the same amount:
-        // integrate once, and the solver adds that increment in the later substeps
-        let uniform = world.drag.is_none();
+        // without drag (or bodies' own damping) the forces change every substep's
+        // velocities by the same amount: integrate once, and the solver adds that
+        // increment in the later substeps
+        let uniform = world.uniform_forces();
         // with only gravity and the bodies' own forces, the first substep's forces are
         // integrated in prepare's pass over the bodies
         let fused = world.plain_forces();

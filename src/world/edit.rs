@@ -94,6 +94,26 @@ impl Keys {
         }
     }
 
+    /// Frees the slots of the items at `gone` (sorted, distinct indices) and closes up
+    /// the rest, in one pass.
+    fn remove_many(&mut self, gone: &[usize]) {
+        let mut g = gone.iter().peekable();
+        let mut kept = Vec::with_capacity(self.by_index.len() - gone.len());
+        for (i, &(slot, generation)) in self.by_index.iter().enumerate() {
+            if g.peek() == Some(&&i) {
+                g.next();
+                let s = &mut self.slots[slot as usize];
+                s.0 = s.0.wrapping_add(1);
+                s.1 = u32::MAX;
+                self.free.push(slot);
+            } else {
+                self.slots[slot as usize].1 = kept.len() as u32;
+                kept.push((slot, generation));
+            }
+        }
+        self.by_index = kept;
+    }
+
     /// New keys for `len` items, none equal to a key handed out before (a restore).
     pub(crate) fn renew(&mut self, len: usize) {
         let base = self
@@ -228,6 +248,158 @@ impl World {
             .iter()
             .any(|b| b.filter != crate::defs::Filter::default());
         Ok(body)
+    }
+
+    /// Removes several bodies at once, as [`World::remove_body`] would one after the
+    /// other (their joints, forces and contacts go too, what they touched wakes, the
+    /// rest keep their order), in one pass over the world instead of one per body.
+    /// Returns how many were removed; a key that names no body is refused before
+    /// anything is removed.
+    pub fn remove_bodies(&mut self, keys: &[BodyKey]) -> Result<usize, RemoveError> {
+        self.sync_keys();
+        let mut indices = Vec::with_capacity(keys.len());
+        for &k in keys {
+            indices.push(self.body_of_key(k).ok_or(RemoveError::NoSuchBody)?);
+        }
+        Ok(self.remove_indices(&mut indices))
+    }
+
+    /// Removes the bodies at `gone` (any order, repeats allowed); see
+    /// [`World::remove_bodies`].
+    pub(crate) fn remove_indices(&mut self, gone: &mut Vec<usize>) -> usize {
+        gone.sort_unstable();
+        gone.dedup();
+        gone.retain(|&i| i < self.bodies.len());
+        if gone.is_empty() {
+            return 0;
+        }
+        let n = self.bodies.len();
+        let mut is_gone = vec![false; n];
+        for &i in gone.iter() {
+            is_gone[i] = true;
+        }
+        // what rests on them falls: wake their islands and those of what they touch
+        let mut islands: Vec<u32> = Vec::new();
+        let mut note = |b: &Body| {
+            if b.asleep {
+                islands.push(b.island);
+            }
+        };
+        for &i in gone.iter() {
+            note(&self.bodies[i]);
+        }
+        for c in self.contacts.iter().chain(&self.sleeping_contacts) {
+            let (a, b) = (c.a as usize, c.b as usize);
+            if is_gone[a] {
+                note(&self.bodies[b]);
+            } else if is_gone[b] {
+                note(&self.bodies[a]);
+            }
+        }
+        for j in &self.joints {
+            if is_gone[j.a] {
+                note(&self.bodies[j.b]);
+            } else if is_gone[j.b] {
+                note(&self.bodies[j.a]);
+            }
+        }
+        self.wake_islands(&mut islands);
+        // the new index of each body that stays
+        let mut map = vec![u32::MAX; n];
+        let mut next = 0u32;
+        for (i, m) in map.iter_mut().enumerate() {
+            if !is_gone[i] {
+                *m = next;
+                next += 1;
+            }
+        }
+        let new = |i: usize| map[i] as usize;
+        // joints: those that hold a removed body go
+        let mut gone_joints = Vec::new();
+        for (ji, j) in self.joints.iter().enumerate() {
+            if is_gone[j.a] || is_gone[j.b] {
+                gone_joints.push(ji);
+            }
+        }
+        if !gone_joints.is_empty() {
+            let mut g = gone_joints.iter().peekable();
+            let mut ji = 0;
+            self.joints.retain(|_| {
+                let drop = g.peek() == Some(&&ji);
+                if drop {
+                    g.next();
+                }
+                ji += 1;
+                !drop
+            });
+            self.joint_keys.remove_many(&gone_joints);
+        }
+        for j in &mut self.joints {
+            j.a = new(j.a);
+            j.b = new(j.b);
+        }
+        self.forces.retain(|f| !is_gone[f.body]);
+        for f in &mut self.forces {
+            f.body = new(f.body);
+        }
+        if let Some(m) = &mut self.mouse {
+            if is_gone[m.body] {
+                self.mouse = None;
+            } else {
+                m.body = new(m.body);
+            }
+        }
+        for list in [
+            &mut self.contacts,
+            &mut self.old_contacts,
+            &mut self.sleeping_contacts,
+        ] {
+            list.retain(|c| !is_gone[c.a as usize] && !is_gone[c.b as usize]);
+            for c in list.iter_mut() {
+                c.a = map[c.a as usize];
+                c.b = map[c.b as usize];
+            }
+        }
+        for list in [&mut self.no_collide, &mut self.touching, &mut self.sensed] {
+            list.retain(|&(a, b)| !is_gone[a as usize] && !is_gone[b as usize]);
+            for p in list.iter_mut() {
+                *p = (map[p.0 as usize], map[p.1 as usize]);
+            }
+        }
+        self.events.retain(|e| !is_gone[e.a] && !is_gone[e.b]);
+        for e in &mut self.events {
+            e.a = new(e.a);
+            e.b = new(e.b);
+        }
+        let mut i = 0;
+        self.bodies.retain(|_| {
+            let keep = !is_gone[i];
+            i += 1;
+            keep
+        });
+        self.body_keys.remove_many(gone);
+        self.relabel_islands();
+        self.filtered = self
+            .bodies
+            .iter()
+            .any(|b| b.filter != crate::defs::Filter::default());
+        self.damped = self
+            .bodies
+            .iter()
+            .any(|b| b.linear_damping != 0.0 || b.angular_damping != 0.0);
+        gone.len()
+    }
+
+    /// A sleeping island's label is a body index: after bodies are removed, relabel
+    /// each by its first member, so that no label can meet one the sleep pass hands out
+    /// later.
+    fn relabel_islands(&mut self) {
+        let mut first: std::collections::HashMap<u32, u32> = std::collections::HashMap::new();
+        for (i, b) in self.bodies.iter_mut().enumerate() {
+            if b.asleep {
+                b.island = *first.entry(b.island).or_insert(i as u32);
+            }
+        }
     }
 
     /// Removes a joint; later joints move down one index (their keys stay). The two

@@ -23,6 +23,7 @@
 
 use serde::{Deserialize, Serialize};
 
+use super::spawn::{MotionState, SpawnProgress};
 use super::{PointForce, World};
 use crate::body::Body;
 use crate::collision::broad_phase::BroadPhase;
@@ -74,6 +75,12 @@ pub struct WorldState {
     no_collide: Vec<(u32, u32)>,
     touching: Vec<(u32, u32)>,
     sensed: Vec<(u32, u32)>,
+    /// Kinematic bodies on a path ([`crate::defs::MotionDef`]), by body index.
+    #[serde(default)]
+    motions: Vec<MotionState>,
+    /// Each spawn table's progress: copies made, and the live copies' bodies.
+    #[serde(default)]
+    spawns: Vec<SpawnProgress>,
 }
 
 /// Why a state could not be read or restored. Each message is one line.
@@ -412,6 +419,7 @@ impl World {
     /// it back. Cheap enough to take every frame for small worlds (it copies the bodies,
     /// joints and contacts).
     pub fn snapshot(&self) -> WorldState {
+        let (motions, spawns) = self.events_state();
         WorldState {
             format: STATE_FORMAT.into(),
             version: STATE_VERSION,
@@ -431,6 +439,8 @@ impl World {
             no_collide: self.no_collide.clone(),
             touching: self.touching.clone(),
             sensed: self.sensed.clone(),
+            motions,
+            spawns,
         }
     }
 
@@ -440,6 +450,8 @@ impl World {
     /// they read empty until the next step.
     pub fn restore(&mut self, s: &WorldState) -> Result<(), StateError> {
         s.check()?;
+        self.check_events_state(s.bodies.len(), &s.motions, &s.spawns)
+            .map_err(StateError::Mismatch)?;
         self.bodies = s.bodies.clone();
         self.gravity = s.gravity;
         self.drag = s.drag;
@@ -464,6 +476,11 @@ impl World {
             .iter()
             .any(|b| b.filter != crate::defs::Filter::default());
         self.has_sensors = self.bodies.iter().any(|b| b.has_sensor());
+        self.damped = self
+            .bodies
+            .iter()
+            .any(|b| b.linear_damping != 0.0 || b.angular_damping != 0.0);
+        self.restore_events(&s.motions, &s.spawns);
         self.record_events = s.record_events;
         self.events.clear();
         self.touching = s.touching.clone();

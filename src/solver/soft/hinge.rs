@@ -232,11 +232,12 @@ impl WideHinge {
 }
 
 /// Whether a joint takes a hinge's lanes: a rigid hinge with at most a motor and limits
-/// (no servo, compliance or damping).
+/// (no servo, spring, compliance or damping).
 pub(super) fn takes_lanes(j: &Joint) -> bool {
     j.kind == JointKind::Hinge
         && j.compliance == 0.0
         && j.servo.is_none()
+        && j.spring.is_none()
         && j.damping.linear <= 0.0
         && j.damping.angular <= 0.0
 }

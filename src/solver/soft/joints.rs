@@ -404,7 +404,10 @@ impl SoftJoints {
                         eb0,
                         spring: j
                             .spring
-                            .filter(|sp| j.kind == JointKind::Wheel && sp.hertz > 0.0)
+                            .filter(|sp| {
+                                matches!(j.kind, JointKind::Wheel | JointKind::Hinge)
+                                    && sp.hertz > 0.0
+                            })
                             .map(|sp| Softness::new(sp.hertz, sp.damping_ratio.max(0.0), h)),
                         impulses: if warm { j.impulses } else { [0.0; SLOTS] },
                     };
@@ -656,7 +659,13 @@ pub(super) unsafe fn solve_joint(
     let r = match j.kind {
         JointKind::Hinge | JointKind::Weld => {
             let ang = Jac::angle();
-            let mut r = motor_row(sw, &mut pair, j, &ang, l);
+            // a hinge's torsion spring pulls its angle to 0 (in the lambda slot a
+            // hinge's servo would use: it has one or the other)
+            let mut r = match &spring {
+                Some(soft) => sw.spring(&mut pair, &ang, g.angle, soft, &mut l[slot::SPRING]),
+                None => 0.0,
+            };
+            r = r.max(motor_row(sw, &mut pair, j, &ang, l));
             if j.kind == JointKind::Hinge {
                 r = r.max(range(sw, &mut pair, j, &ang, g.angle, true, l));
             } else {
