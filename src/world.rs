@@ -204,6 +204,13 @@ pub struct World {
     /// none is asleep at the step's end either: only `update_sleep` puts bodies to
     /// sleep), so the end of the step need not look again.
     none_asleep: bool,
+    /// Whether a static body is a one-sided segment, worked out for this many bodies
+    /// ([`World::keep_in_front`] looks only when one is).
+    one_sided: (usize, bool),
+    /// With a one-sided segment: where each body's centre was when the step began.
+    step_start: Vec<Vec2>,
+    /// The static one-sided segments by grid cell ([`World::keep_in_front`]).
+    walls: WallGrid,
     /// Whether this step's collide found `dynamic` for every body with none asleep: it
     /// then says which bodies are dynamic ([`World::bodies_with_movers`]).
     movers_found: bool,
@@ -301,6 +308,9 @@ impl World {
             motions: Vec::new(),
             spawners: Vec::new(),
             none_asleep: false,
+            one_sided: (usize::MAX, false),
+            step_start: Vec::new(),
+            walls: WallGrid::default(),
             movers_found: false,
             ended: None,
             record_events: false,
@@ -890,8 +900,17 @@ impl World {
         let mut clock = StageClock::start();
         // only this step's solver may say it ended the step
         self.ended = None;
+        let one_sided = self.has_one_sided();
+        if one_sided {
+            self.step_start.clear();
+            self.step_start
+                .extend(self.bodies.iter().map(|b| b.position));
+        }
         let mut stats = stepper.step(self, &cx, &mut clock);
         self.unpark_joints();
+        if one_sided {
+            self.keep_in_front();
+        }
         clock.fill(&mut stats);
         self.stats = stats;
         self.stepper = Some(stepper);
@@ -913,6 +932,89 @@ impl World {
         }
         self.step_many = true;
         result
+    }
+
+    /// A one-sided segment holds what meets it from the front however fast it comes: a
+    /// dynamic body whose centre this step carried across the line of a static one-sided
+    /// segment, from the front to behind and within the segment, is put back onto the
+    /// segment's line and its speed into the segment taken away; the contact pushes it
+    /// out from there. Without it a body driven hard along a curved wall (the spinner's
+    /// bodies at 100 m/s) sinks in a little each step until its centre slips behind the
+    /// wall and it is gone; Box2D's continuous step stops such a centre too.
+    fn keep_in_front(&mut self) {
+        let bodies = &mut self.bodies;
+        let walls = &self.walls;
+        for body in 0..bodies.len() {
+            let b = &bodies[body];
+            let start = self.step_start[body];
+            if !b.is_dynamic() || b.asleep || b.position == start {
+                continue;
+            }
+            let (c0, c1) = (
+                walls.cell(start.min(b.position)),
+                walls.cell(start.max(b.position)),
+            );
+            // a path over many cells (a body thrown far in one step) looks at every wall
+            let cells = (c1.0 as i64 - c0.0 as i64 + 1) * (c1.1 as i64 - c0.1 as i64 + 1);
+            let (c0, c1) = if cells > 64 {
+                ((0, 0), (0, 0))
+            } else {
+                (c0, c1)
+            };
+            for cx in c0.0..=c1.0 {
+                for cy in c0.1..=c1.1 {
+                    let list = if cells > 64 {
+                        &walls.all
+                    } else {
+                        match walls.cells.get(&(cx, cy)) {
+                            Some(list) => list,
+                            None => continue,
+                        }
+                    };
+                    for &wall in list {
+                        let wall = wall as usize;
+                        let Shape::Chain(seg) = bodies[wall].shape else {
+                            continue;
+                        };
+                        let xf = bodies[wall].transform();
+                        let end = xf.inv_apply(bodies[body].position);
+                        let from = xf.inv_apply(start);
+                        let left = seg.left_normal();
+                        let (before, after) = (left.dot(from - seg.a), left.dot(end - seg.a));
+                        if before < 0.0 || after >= 0.0 {
+                            continue;
+                        }
+                        // where the path crosses the line, along the segment
+                        let cross = from + (end - from) * (before / (before - after));
+                        let e = seg.b - seg.a;
+                        let t = e.dot(cross - seg.a) / e.length_squared();
+                        if !(0.0..=1.0).contains(&t) {
+                            continue;
+                        }
+                        let normal = xf.q.rotate(left);
+                        let moved = &mut bodies[body];
+                        // a tenth of a millimetre in front: on the line, rounding could
+                        // leave it behind
+                        moved.position += normal * (1.0e-4 - after);
+                        let into = moved.velocity.dot(normal);
+                        if into < 0.0 {
+                            moved.velocity -= normal * into;
+                        }
+                    }
+                }
+            }
+        }
+    }
+
+    /// Whether a static body is a one-sided segment (worked out again, with the grid of
+    /// them, when the body count changes).
+    fn has_one_sided(&mut self) -> bool {
+        let n = self.bodies.len();
+        if self.one_sided.0 != n {
+            self.walls = WallGrid::of(&self.bodies);
+            self.one_sided = (n, !self.walls.cells.is_empty());
+        }
+        self.one_sided.1
     }
 
     /// The error for the first body (by index) whose state is not finite.
@@ -1465,13 +1567,13 @@ impl World {
         self.to_wake = wake;
     }
 
-    /// After a step: a dynamic body slower than its sleep threshold (0.05 m/s unless it
-    /// sets its own) and 2 degrees/s (Box2D's thresholds) for 0.5 s is at rest; an island of bodies joined by touching contacts
+    /// After a step: a dynamic body none of whose points moves faster than its sleep
+    /// threshold (0.05 m/s unless it sets its own: its speed plus its spin times its
+    /// reach, as Box2D v3 measures it) for 0.5 s is at rest; an island of bodies joined by contacts (boxes within the margin)
     /// and joints falls asleep when all of its bodies are. Bodies held by the mouse, with
     /// a constant force, on a joint with a turning motor or a drive, or touching a
     /// moving kinematic body stay awake.
     fn update_sleep(&mut self) {
-        const ANGULAR: f32 = 2.0 * std::f32::consts::PI / 180.0;
         const TIME_TO_SLEEP: f32 = 0.5;
         if !self.settings.sleep {
             if !self.none_asleep
@@ -1497,9 +1599,7 @@ impl World {
             }
             let r = b.shape.radius();
             let linear = b.sleep_threshold;
-            let slow = b.velocity.length_squared() < linear * linear
-                && (b.angular_velocity * b.angular_velocity < ANGULAR * ANGULAR)
-                && (b.angular_velocity * r).abs() < linear;
+            let slow = b.velocity.length() + (b.angular_velocity * r).abs() < linear;
             b.sleep_time = if slow { b.sleep_time + dt } else { 0.0 };
         }
         // what keeps a body awake whatever its speed
@@ -1536,8 +1636,7 @@ impl World {
         {
             return;
         }
-        // islands: union-find over awake dynamic bodies joined by touching contacts and
-        // joints
+        // islands: union-find over awake dynamic bodies joined by contacts and joints
         let parent = &mut self.islands;
         parent.clear();
         parent.extend(0..n as u32);
@@ -1545,10 +1644,12 @@ impl World {
         let joins = |a: usize, b: usize| bodies[a].is_dynamic() && bodies[b].is_dynamic();
         let union =
             |parent: &mut Vec<u32>, a: usize, b: usize| uf_union(parent, a as u32, b as u32);
-        let touch = self.settings.slop.max(0.005);
+        // every pair of the contact cache (boxes within the margin): a pair close
+        // enough that an awake body would wake the other is one island, or two such
+        // bodies could take turns waking each other forever
         for c in &self.contacts {
             let (a, b) = (c.a as usize, c.b as usize);
-            if joins(a, b) && c.manifold.points().iter().any(|p| p.separation < touch) {
+            if joins(a, b) {
                 union(parent, a, b);
             }
         }
@@ -2059,4 +2160,49 @@ pub fn count_start_pairs(
         max_start_pairs(boxes.len()),
     )
     .map_err(|(a, b)| (a as usize, b as usize))
+}
+
+/// The static one-sided segments in a grid of square cells, each segment in every cell
+/// its box touches: where a body's path through the step may cross one.
+#[derive(Clone, Debug, Default)]
+struct WallGrid {
+    /// The cells' side (m): twice the longest segment's box, at least 1 m.
+    side: f32,
+    cells: std::collections::HashMap<(i32, i32), Vec<u32>>,
+    /// Every one of them.
+    all: Vec<u32>,
+}
+
+impl WallGrid {
+    fn of(bodies: &[Body]) -> WallGrid {
+        let walls: Vec<(usize, Aabb)> = bodies
+            .iter()
+            .enumerate()
+            .filter(|(_, b)| !b.is_dynamic() && matches!(b.shape, Shape::Chain(c) if c.one_sided))
+            .map(|(i, b)| (i, b.aabb()))
+            .collect();
+        let longest = walls
+            .iter()
+            .map(|(_, bb)| (bb.max - bb.min).max_element())
+            .fold(0.0f32, f32::max);
+        let mut grid = WallGrid {
+            side: (2.0 * longest).max(1.0),
+            cells: Default::default(),
+            all: walls.iter().map(|&(i, _)| i as u32).collect(),
+        };
+        for (i, bb) in walls {
+            let (c0, c1) = (grid.cell(bb.min), grid.cell(bb.max));
+            for cx in c0.0..=c1.0 {
+                for cy in c0.1..=c1.1 {
+                    grid.cells.entry((cx, cy)).or_default().push(i as u32);
+                }
+            }
+        }
+        grid
+    }
+
+    fn cell(&self, p: Vec2) -> (i32, i32) {
+        let c = |x: f32| (x / self.side).floor().clamp(-1e9, 1e9) as i32;
+        (c(p.x), c(p.y))
+    }
 }

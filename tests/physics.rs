@@ -1113,3 +1113,35 @@ filter = {fb}
         }
     }
 }
+
+/// A one-sided wall holds what presses on it from the front, however hard: a disc
+/// pressed into a one-sided floor by a force of 100,000 times its weight, step after
+/// step, under every solver, never ends with its centre behind the floor (where the
+/// floor would let it fall through for good).
+#[test]
+fn a_one_sided_wall_holds_a_disc_pressed_into_it() {
+    let text = "name = \"w\"\n[world]\ngravity = [0.0, -10.0]\n\
+        [[polyline]]\none_sided = true\npoints = [[-10.0, 0.0], [0.0, 0.0], [10.0, 0.0]]\n\
+        [[body]]\nname = \"disc\"\nshape = { circle = 0.25 }\nposition = [0.0, 0.25]\n";
+    let sc = sandbox2d::scene::load_str(text, "wall.toml").unwrap();
+    for kind in [
+        sandbox2d::SolverKind::Soft,
+        sandbox2d::SolverKind::Pgs,
+        sandbox2d::SolverKind::Xpbd,
+    ] {
+        let mut w = World::from_def(&sc.world, SolverSettings::defaults(kind)).unwrap();
+        let disc = w.body_index("disc").unwrap();
+        let weight = w.bodies[disc].mass * 10.0;
+        let mut lowest = f32::INFINITY;
+        for _ in 0..120 {
+            let p = w.bodies[disc].position;
+            w.apply_force(disc, Vec2::new(0.0, -1e5 * weight), p);
+            w.step().unwrap();
+            lowest = lowest.min(w.bodies[disc].position.y);
+        }
+        assert!(
+            lowest >= 0.0,
+            "{kind:?}: the disc's centre went {lowest} m below the floor"
+        );
+    }
+}

@@ -326,3 +326,45 @@ fn bodies_made_asleep_and_jointed_sleep_as_one_island_and_wake_together() {
     assert!(!w.bodies[0].asleep, "hit, the pair woke");
     assert!(w.bodies[0].position.y < 5.0, "and falls");
 }
+
+/// Ragdolls (Box2D's humans: hinges with limits, joint friction and springs) dropped on
+/// a ground come to rest and sleep, under every solver: a body rests when none of its
+/// points moves faster than its threshold, so a limb turning slowly about its joint
+/// still counts its spin at its reach.
+#[test]
+fn dropped_ragdolls_come_to_rest_and_fall_asleep() {
+    let text = "name = \"h\"\n[world]\ngravity = [0.0, -10.0]\n\
+        [[body]]\nname = \"ground\"\ntype = \"static\"\nshape = { box = [40.0, 2.0] }\nposition = [0.0, -1.0]\n\
+        [[humans]]\norigin = [-3.0, 1.0]\ncount = 3\nspacing = [3.0, 0.0]\n\
+        [[humans]]\norigin = [-3.0, 3.5]\ncount = 3\nspacing = [3.0, 0.0]\ngroup = 4\n";
+    let sc = sandbox2d::scene::load_str(text, "humans.toml").unwrap();
+    for kind in [SolverKind::Soft, SolverKind::Pgs, SolverKind::Xpbd] {
+        let mut w = World::from_def(&sc.world, SolverSettings::defaults(kind)).unwrap();
+        let dynamic = w.bodies.iter().filter(|b| b.is_dynamic()).count();
+        assert_eq!(dynamic, 66);
+        // at most 10 s
+        let mut n = 0;
+        while asleep(&w) < dynamic && n < 600 {
+            w.step().unwrap();
+            n += 1;
+        }
+        assert_eq!(
+            asleep(&w),
+            dynamic,
+            "{kind:?}: every bone asleep after 10 s"
+        );
+    }
+    // the rule itself: a body spinning at 0.2 rad/s with a reach of 0.5 m moves its rim
+    // at 0.1 m/s, over the 0.05 m/s threshold: it stays awake however slow its centre
+    let mut w = stack(1, SolverKind::Soft);
+    w.settings.sleep = true;
+    let b = w.bodies.iter().position(|b| b.is_dynamic()).unwrap();
+    w.gravity = None;
+    for _ in 0..120 {
+        w.bodies[b].velocity = sandbox2d::math::Vec2::ZERO;
+        w.bodies[b].position.y = 5.0;
+        w.bodies[b].angular_velocity = 0.2;
+        w.step().unwrap();
+    }
+    assert!(!w.bodies[b].asleep, "a spinning body stays awake");
+}
