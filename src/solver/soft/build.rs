@@ -452,7 +452,7 @@ impl SoftSolver {
                 let frames = unsafe { frames.range(offset..offset + hinges.len()) };
                 for (k, ((c, r), f)) in hinges.iter_mut().zip(rows).zip(frames).enumerate() {
                     if kept {
-                        c.refresh(r, f, bodies, inv_mass, warm);
+                        c.refresh(r, f, joints, bodies, inv_mass, h, warm);
                     } else {
                         (*c, *r, *f) = WideHinge::fill(
                             &joints_of[offset + k],

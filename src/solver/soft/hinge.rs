@@ -2,7 +2,8 @@
 //! moving body) solved in lock step in SIMD lanes, as the contacts are (Box2D v3 solves
 //! its revolute joints one by one; here they take lanes like its contacts).
 //!
-//! A hinge's rows, in the order the scalar rows take them (`joints.rs`): a velocity
+//! A hinge's rows, in the order the scalar rows take them (`joints.rs`): a torsion
+//! spring to its zero angle (soft, its own hertz and damping ratio), a velocity
 //! motor on the relative angle (|lambda| <= max torque h), the lower and upper angle
 //! limits (speculative while open, soft once reached), then the point (a 2x2 block):
 //! soft in the biased sweeps (`joint_hertz`, `joint_damping_ratio`), rigid in the relax
@@ -44,11 +45,12 @@ pub(super) struct WideHinge {
     /// The point's lambda.
     px: Vec4,
     py: Vec4,
-    /// Whether some lane has a limit or a motor (its [`HingeRows`] then count).
+    /// Whether some lane has a limit, a motor or a spring (its [`HingeRows`] then
+    /// count).
     rows: bool,
 }
 
-/// The angular rows of four hinges: the limits and the motor.
+/// The angular rows of four hinges: the spring, the limits and the motor.
 #[derive(Clone, Copy, Debug)]
 pub(super) struct HingeRows {
     /// 1/I_a + 1/I_b: the angular rows' K (0 where neither turns: no angular row).
@@ -65,15 +67,28 @@ pub(super) struct HingeRows {
     lower_impulse: Vec4,
     upper_impulse: Vec4,
     motor_impulse: Vec4,
+    has_spring: BVec4A,
+    /// The spring's softness at the substep (bias rate, mass scale, impulse scale).
+    spring_bias: Vec4,
+    spring_mass: Vec4,
+    spring_scale: Vec4,
+    spring_impulse: Vec4,
 }
 
-/// Where four hinges' anchors sit on their bodies (for the geometry at each step's start,
-/// while the layout holds).
-#[derive(Clone, Copy, Debug, Default)]
+/// The joint in each lane of four hinges (`u32::MAX`: empty), whose anchors, limits,
+/// motor, spring and lambdas are read anew every step while the layout holds (a joint
+/// may be changed, or replaced by another between the same bodies, between steps).
+#[derive(Clone, Copy, Debug)]
 pub(super) struct HingeFrames {
-    local_a: [Vec2; 4],
-    local_b: [Vec2; 4],
-    ref_angle: [f32; 4],
+    joint: [u32; 4],
+}
+
+impl Default for HingeFrames {
+    fn default() -> Self {
+        HingeFrames {
+            joint: [u32::MAX; 4],
+        }
+    }
 }
 
 impl Default for HingeRows {
@@ -90,6 +105,11 @@ impl Default for HingeRows {
             lower_impulse: Vec4::ZERO,
             upper_impulse: Vec4::ZERO,
             motor_impulse: Vec4::ZERO,
+            has_spring: BVec4A::FALSE,
+            spring_bias: Vec4::ZERO,
+            spring_mass: Vec4::ZERO,
+            spring_scale: Vec4::ZERO,
+            spring_impulse: Vec4::ZERO,
         }
     }
 }
@@ -145,58 +165,78 @@ impl WideHinge {
             c.b[k] = b as u32;
             c.wa[k] = if moves[a] { a as u32 } else { sink };
             c.wb[k] = if moves[b] { b as u32 } else { sink };
-            f.local_a[k] = j.local_a;
-            f.local_b[k] = j.local_b;
-            f.ref_angle[k] = j.ref_angle;
+        }
+        f.joint = *idx;
+        c.refresh(&mut r, &f, joints, bodies, inv_mass, h, warm);
+        (c, r, f)
+    }
+
+    /// Takes the four lanes' geometry and masses from the bodies as they are now (the
+    /// step's start), and from their joints (`f`'s) the anchors, limits, motors,
+    /// springs (`h`: the substep) and, if `warm`, the lambdas (else zero). What
+    /// [`WideHinge::fill`] gives, to the bit, while the joints' bodies and which of them
+    /// move stay as they were.
+    #[allow(clippy::too_many_arguments)]
+    pub(super) fn refresh(
+        &mut self,
+        r: &mut HingeRows,
+        f: &HingeFrames,
+        joints: &[Joint],
+        bodies: &[Body],
+        inv_mass: &[(f32, f32)],
+        h: f32,
+        warm: bool,
+    ) {
+        self.rows = false;
+        (r.has_limits, r.has_motor, r.has_spring) = (BVec4A::FALSE, BVec4A::FALSE, BVec4A::FALSE);
+        for k in 0..4 {
+            let Some(j) = joints.get(f.joint[k] as usize) else {
+                continue;
+            };
             if let Some([lo, hi]) = j.limits {
                 r.has_limits.set(k, true);
                 r.lower[k] = lo;
                 r.upper[k] = hi;
-                c.rows = true;
+                self.rows = true;
             }
             if let Some(m) = j.motor {
                 r.has_motor.set(k, true);
                 r.motor_speed[k] = m.speed;
                 r.motor_max[k] = m.max_force.max(0.0) * h;
-                c.rows = true;
+                self.rows = true;
             }
-            let l = if warm { j.impulses } else { [0.0; SLOTS] };
-            c.px[k] = l[slot::POINT_X];
-            c.py[k] = l[slot::POINT_Y];
-            r.lower_impulse[k] = l[slot::LOWER];
-            r.upper_impulse[k] = l[slot::UPPER];
-            r.motor_impulse[k] = l[slot::MOTOR];
+            if let Some(sp) = j.spring.filter(|sp| sp.hertz > 0.0) {
+                // (as the scalar rows' spring)
+                let soft = Softness::new(sp.hertz, sp.damping_ratio.max(0.0), h);
+                r.has_spring.set(k, true);
+                r.spring_bias[k] = soft.bias_rate;
+                r.spring_mass[k] = soft.mass_scale;
+                r.spring_scale[k] = soft.impulse_scale;
+                self.rows = true;
+            }
         }
-        c.refresh(&mut r, &f, bodies, inv_mass, true);
-        (c, r, f)
-    }
-
-    /// Takes the four lanes' geometry and masses from the bodies as they are now (the
-    /// step's start), their anchors from `f`; keeps their lambdas if `warm`, else zeroes
-    /// them. What [`WideHinge::fill`] gives from the joints, to the bit, while the joints
-    /// and which bodies move stay as they were.
-    pub(super) fn refresh(
-        &mut self,
-        r: &mut HingeRows,
-        f: &HingeFrames,
-        bodies: &[Body],
-        inv_mass: &[(f32, f32)],
-        warm: bool,
-    ) {
         for k in 0..4 {
             let (a, b) = (self.a[k] as usize, self.b[k] as usize);
             if a >= bodies.len() {
                 // (an empty lane reads the rest slot)
                 continue;
             }
+            let j = &joints[f.joint[k] as usize];
             let g = JointFrame::of(
                 &bodies[a],
                 &bodies[b],
-                f.local_a[k],
-                f.local_b[k],
-                f.ref_angle[k],
+                j.local_a,
+                j.local_b,
+                j.ref_angle,
                 Vec2::X,
             );
+            let l = if warm { j.impulses } else { [0.0; SLOTS] };
+            self.px[k] = l[slot::POINT_X];
+            self.py[k] = l[slot::POINT_Y];
+            r.lower_impulse[k] = l[slot::LOWER];
+            r.upper_impulse[k] = l[slot::UPPER];
+            r.motor_impulse[k] = l[slot::MOTOR];
+            r.spring_impulse[k] = l[slot::SPRING];
             let ((ima, iia), (imb, iib)) = (inv_mass[a], inv_mass[b]);
             self.ima[k] = ima;
             self.iia[k] = iia;
@@ -212,13 +252,6 @@ impl WideHinge {
             r.axial_k[k] = ima * 0.0 + iia + imb * 0.0 + iib;
             r.angle0[k] = g.angle;
         }
-        if !warm {
-            self.px = Vec4::ZERO;
-            self.py = Vec4::ZERO;
-            r.lower_impulse = Vec4::ZERO;
-            r.upper_impulse = Vec4::ZERO;
-            r.motor_impulse = Vec4::ZERO;
-        }
     }
 
     /// Lane k's lambdas, as the joint keeps them.
@@ -228,16 +261,16 @@ impl WideHinge {
         into[slot::LOWER] = rows.lower_impulse[k];
         into[slot::UPPER] = rows.upper_impulse[k];
         into[slot::MOTOR] = rows.motor_impulse[k];
+        into[slot::SPRING] = rows.spring_impulse[k];
     }
 }
 
-/// Whether a joint takes a hinge's lanes: a rigid hinge with at most a motor and limits
-/// (no servo, spring, compliance or damping).
+/// Whether a joint takes a hinge's lanes: a rigid hinge with at most a spring, a motor
+/// and limits (no servo, compliance or damping).
 pub(super) fn takes_lanes(j: &Joint) -> bool {
     j.kind == JointKind::Hinge
         && j.compliance == 0.0
         && j.servo.is_none()
-        && j.spring.is_none()
         && j.damping.linear <= 0.0
         && j.damping.angular <= 0.0
 }
@@ -321,7 +354,7 @@ pub(super) fn warm_start_hinges<const SHARED: bool>(
             apply_angular(
                 c,
                 &mut v,
-                r.motor_impulse + r.lower_impulse - r.upper_impulse,
+                r.motor_impulse + r.spring_impulse + r.lower_impulse - r.upper_impulse,
             );
         }
         WideBody::scatter_velocities::<SHARED>(v.vax, v.vay, v.wa, a.dtheta, bodies, &c.wa);
@@ -358,7 +391,7 @@ impl HingeConsts {
     }
 }
 
-/// Four hinges' motor and limit rows; returns the largest |delta lambda| per lane.
+/// Four hinges' spring, motor and limit rows; returns the largest |delta lambda| per lane.
 #[inline(always)]
 fn angular_rows(
     c: &WideHinge,
@@ -371,6 +404,17 @@ fn angular_rows(
     let mut residual = zero;
     // (no angular row where neither body turns)
     let turns = r.axial_k.cmpgt(zero);
+    // the spring: soft, to the zero angle
+    if r.has_spring.any() {
+        let old = r.spring_impulse;
+        let d = -(r.spring_mass / r.axial_k) * (v.wb - v.wa + r.spring_bias * angle)
+            - r.spring_scale * old;
+        let live = r.has_spring & turns;
+        r.spring_impulse = Vec4::select(live, old + d, old);
+        let d = Vec4::select(live, d, zero);
+        apply_angular(c, v, d);
+        residual = residual.max(d.abs());
+    }
     // the motor: w_b - w_a = speed, |lambda| <= max torque h
     if r.has_motor.any() {
         let old = r.motor_impulse;

@@ -1178,9 +1178,18 @@ mod tests {
         // the joints' colours and wide hinges kept from step to step (the bodies' new
         // geometry taken each step) against a layout made anew every step; the ragdoll
         // falls asleep and wakes on the way (its joints leave the step and come back),
-        // the chain's grabbed link has a mouse joint
-        for name in ["ragdoll", "chain", "joint_grid", "bridge", "joints"] {
-            let sc = crate::scene::load(name).unwrap();
+        // the chain's grabbed link has a mouse joint; at step 90 every motor's speed and
+        // every limit changes (a kept layout reads them anew); Box2D's humans carry
+        // springs and joint friction
+        for name in [
+            "ragdoll",
+            "chain",
+            "joint_grid",
+            "bridge",
+            "joints",
+            "humans",
+        ] {
+            let sc = scene_for_lanes(name);
             let run = |fresh: bool| {
                 super::testing::fresh_joint_layout(fresh);
                 let mut w = crate::World::from_def(&sc.world, sc.world.solver.resolve()).unwrap();
@@ -1196,6 +1205,19 @@ mod tests {
                         if i == 60 {
                             w.set_mouse(None);
                         }
+                        if i == 90 {
+                            for j in &mut w.joints {
+                                if let Some(m) = &mut j.motor {
+                                    m.speed = 1.0 - 2.0 * m.speed;
+                                }
+                                if let Some(l) = &mut j.limits {
+                                    *l = [0.5 * l[0], 0.5 * l[1]];
+                                }
+                                if let Some(sp) = &mut j.spring {
+                                    sp.hertz *= 2.0;
+                                }
+                            }
+                        }
                         w.step().unwrap();
                         w.state_hash()
                     })
@@ -1209,15 +1231,36 @@ mod tests {
         }
     }
 
+    /// A built-in scene, or `humans`: six of Box2D's ragdolls dropped on a ground.
+    fn scene_for_lanes(name: &str) -> crate::scene::Scene {
+        if name != "humans" {
+            return crate::scene::load(name).unwrap();
+        }
+        let text = "name = \"h\"\n[world]\ngravity = [0.0, -10.0]\n\
+            [[body]]\nname = \"ground\"\ntype = \"static\"\nshape = { box = [40.0, 2.0] }\nposition = [0.0, -1.0]\n\
+            [[humans]]\norigin = [-3.0, 1.0]\ncount = 3\nspacing = [1.0, 0.0]\n\
+            [[humans]]\norigin = [-3.0, 3.5]\ncount = 3\nspacing = [1.0, 0.0]\ngroup = 4\n";
+        crate::scene::load_str(text, "humans.toml").unwrap()
+    }
+
     #[test]
     fn hinges_in_lanes_give_the_bits_of_hinges_one_by_one() {
         // the ragdoll (hinges with limits), the joints scene (a motor, limits, a servo,
         // a prismatic and a weld beside them), a chain and the joint grid: the same state
         // after every step whether the hinges take lanes or the scalar rows
-        for name in ["ragdoll", "joints", "chain", "joint_grid", "car", "bridge"] {
+        for name in [
+            "ragdoll",
+            "joints",
+            "chain",
+            "joint_grid",
+            "car",
+            "bridge",
+            "humans",
+        ] {
             // (the car's joints are wheels, the joints scene's hinges have servos or
-            // motors beside other kinds: some of them take lanes, some not)
-            let sc = crate::scene::load(name).unwrap();
+            // motors beside other kinds: some of them take lanes, some not; the humans'
+            // hinges have springs, joint friction and limits)
+            let sc = scene_for_lanes(name);
             let run = |lanes: bool| {
                 super::testing::no_hinge_lanes(!lanes);
                 let mut w = crate::World::from_def(&sc.world, sc.world.solver.resolve()).unwrap();
