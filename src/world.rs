@@ -4,7 +4,9 @@
 
 use crate::body::{Body, BodyId};
 use crate::body::{HOT_BYTES, SHAPE_BYTES};
+use crate::collision::Contact;
 use crate::collision::broad_phase::BroadPhase;
+use crate::collision::contact_cache::{CacheCursor, match_points};
 use crate::collision::sat;
 use crate::defs::{
     BodyDef, BodyModel, BodyType, DragDef, ForceDef, JointDef, ShapeDef, SolverSettings, WorldDef,
@@ -13,7 +15,6 @@ use crate::joint::{Joint, JointId, MouseJoint};
 use crate::math::{Aabb, BODY_AHEAD, Rot, Vec2, cross, prefetch, uf_root, uf_union};
 use crate::parallel::{self, Pool};
 use crate::shape::{Shape, ShapeError};
-use crate::solver::contact_cache::{CacheCursor, Contact, match_points};
 use crate::solver::joint_rows::apply_drives;
 use crate::step::{Stage, StageClock, StepContext, Stepper, new_stepper};
 use std::sync::atomic::{AtomicU32, Ordering};

@@ -244,7 +244,7 @@ fn the_soft_step_with_drag_holds_a_resting_box() {
 #[test]
 fn the_contact_cache_carries_friction_impulses() {
     // Matching by feature id carries the friction lambda (checked point by point in
-    // solver::contact_cache's unit test); here the world's use of it.
+    // collision::contact_cache's unit test); here the world's use of it.
     // In a world: a box held by friction on a 20-degree ramp. The friction lambdas the
     // solve leaves in the contacts (the cache) carry m g sin(theta) h per (sub)step;
     // with one PGS sweep a step the box stays put because each step starts from them.

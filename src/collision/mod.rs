@@ -2,7 +2,11 @@
 //! (SAT) turns each pair into a contact manifold.
 
 pub mod broad_phase;
+pub mod collide;
+pub(crate) mod contact_cache;
 pub mod sat;
+
+pub use collide::Contact;
 
 use crate::math::Vec2;
 

@@ -26,12 +26,12 @@ use serde::{Deserialize, Serialize};
 use super::spawn::{MotionState, SpawnProgress};
 use super::{PointForce, World};
 use crate::body::Body;
+use crate::collision::Contact;
 use crate::collision::broad_phase::BroadPhase;
 use crate::defs::{DragDef, SolverSettings};
 use crate::joint::{Joint, MouseJoint};
 use crate::math::Vec2;
 use crate::shape::{MAX_POLYGON_VERTICES, Shape};
-use crate::solver::contact_cache::Contact;
 use crate::world::StepStats;
 
 /// The `format` field of a state file.
