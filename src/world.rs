@@ -2,17 +2,17 @@
 //! forces -> integrate velocities -> broad phase -> narrow phase -> contact cache
 //! -> solver -> integrate positions -> step stats.
 
+use crate::body::SHAPE_BYTES;
 use crate::body::{Body, BodyId};
-use crate::body::{HOT_BYTES, SHAPE_BYTES};
 use crate::collision::Contact;
 use crate::collision::broad_phase::BroadPhase;
 use crate::collision::contact_cache::{CacheCursor, match_points};
 use crate::collision::sat;
 use crate::defs::{BodyModel, BodyType, DragDef, SolverSettings};
 use crate::joint::{Joint, JointId, MouseJoint};
-use crate::math::{Aabb, BODY_AHEAD, Vec2, cross, prefetch, uf_root, uf_union};
+use crate::math::{Aabb, BODY_AHEAD, BODY_PASS_BLOCK, Vec2, cross, prefetch, uf_root, uf_union};
 use crate::parallel::{self, Pool};
-use crate::solver::joint_rows::apply_drives;
+use crate::step::integrate::{self, PointForce, body_finite};
 use crate::step::{Stage, StageClock, StepContext, Stepper, new_stepper};
 use std::sync::atomic::{AtomicU32, Ordering};
 use std::sync::{Arc, Mutex};
@@ -91,15 +91,6 @@ pub struct StepStats {
     pub ms_narrow: f32,
     pub ms_solve: f32,
     pub ms_integrate: f32,
-}
-
-/// A constant force at a body point.
-#[derive(Clone, Copy, Debug, serde::Serialize, serde::Deserialize)]
-struct PointForce {
-    body: usize,
-    force: Vec2,
-    /// point relative to the centre of mass, body frame
-    local: Vec2,
 }
 
 /// A physics world.
@@ -219,8 +210,6 @@ impl std::fmt::Debug for NarrowScratch {
 const MIN_BODIES_FOR_THREADS: usize = 256;
 /// Body pairs a thread claims at a time in the narrow phase.
 const PAIR_BLOCK: usize = 256;
-/// Bodies per block of a parallel pass over the bodies.
-const BODY_PASS_BLOCK: usize = 256;
 
 impl World {
     /// An empty world with the given gravity and solver settings.
@@ -492,23 +481,7 @@ impl World {
     /// the first body whose state is not finite (the step's error).
     fn end_step(&mut self) -> Result<(), StepError> {
         let pool = self.pool();
-        let bad = parallel::chunks_mut(
-            pool.as_deref(),
-            &mut self.bodies,
-            BODY_PASS_BLOCK,
-            &|_, _, bodies| {
-                let mut bad = false;
-                for i in 0..bodies.len() {
-                    prefetch(bodies, i + BODY_AHEAD, HOT_BYTES);
-                    let b = &mut bodies[i];
-                    b.force = Vec2::ZERO;
-                    b.torque = 0.0;
-                    bad |= !body_finite(b);
-                }
-                if bad { 1.0 } else { 0.0 }
-            },
-        );
-        if bad <= 0.0 {
+        if !integrate::end_step(&mut self.bodies, pool.as_deref()) {
             return Ok(());
         }
         // the first one, by index (rare: the step failed)
@@ -545,34 +518,40 @@ impl World {
         }
     }
 
-    /// Semi-implicit Euler, velocity half: v += h (g + F/m), w += h tau / I; drag taken
-    /// implicitly so it can only slow a body down, whatever the step.
+    /// What moves the bodies' velocities besides the solver's rows.
+    fn forces(&self) -> integrate::Forces<'_> {
+        integrate::Forces {
+            joints: &self.joints,
+            forces: &self.forces,
+            gravity: self.gravity,
+            drag: self.drag,
+            damped: self.damped,
+        }
+    }
+
+    /// Whether the forces change every substep's velocities by the same amount (see
+    /// [`integrate::Forces::uniform`]).
+    pub(crate) fn uniform_forces(&self) -> bool {
+        self.forces().uniform()
+    }
+
+    /// Whether the only forces are gravity and the bodies' own force and torque (see
+    /// [`integrate::Forces::plain`]).
+    pub(crate) fn plain_forces(&self) -> bool {
+        self.forces().plain()
+    }
+
+    /// Semi-implicit Euler, velocity half (see [`integrate::integrate_velocities`]).
     pub(crate) fn integrate_velocities(&mut self, h: f32) {
-        if !self.joints.is_empty() {
-            apply_drives(&self.joints, &mut self.bodies, h);
-        }
-        // constant point forces: dv = h F / m, dw = h (r x F) / I
-        for f in &self.forces {
-            let b = &mut self.bodies[f.body];
-            if b.is_dynamic() {
-                let r = b.rot.rotate(f.local);
-                b.velocity += h * b.inv_mass * f.force;
-                b.angular_velocity += h * b.inv_inertia * cross(r, f.force);
-            }
-        }
-        let g = self.gravity;
-        let drag = self.drag;
-        let damped = self.damped;
         let pool = self.pool();
-        parallel::chunks_mut(
-            pool.as_deref(),
-            &mut self.bodies,
-            BODY_PASS_BLOCK,
-            &|_, _, bodies| {
-                integrate_velocities_of(bodies, h, g, drag, damped);
-                0.0
-            },
-        );
+        let forces = integrate::Forces {
+            joints: &self.joints,
+            forces: &self.forces,
+            gravity: self.gravity,
+            drag: self.drag,
+            damped: self.damped,
+        };
+        integrate::integrate_velocities(&mut self.bodies, &forces, h, pool.as_deref());
     }
 
     /// The bodies and this step's contacts, with whether each body is dynamic where
@@ -1353,95 +1332,12 @@ impl Narrow<'_> {
     }
 }
 
-/// Whether a body's position, velocity, angle and spin are all finite.
-pub(crate) fn body_finite(b: &Body) -> bool {
-    b.position.is_finite()
-        && b.velocity.is_finite()
-        && b.angle.is_finite()
-        && b.angular_velocity.is_finite()
-}
-
 /// An awake dynamic body, or a kinematic one that moves: what wakes a sleeping island
 /// it reaches.
 fn is_mover(b: &Body) -> bool {
     (b.is_dynamic() && !b.asleep)
         || (b.body_type == BodyType::Kinematic
             && (b.velocity != Vec2::ZERO || b.angular_velocity != 0.0))
-}
-
-/// The velocity half of semi-implicit Euler for `bodies` (see
-/// [`World::integrate_velocities`]): each dynamic, awake body on its own.
-fn integrate_velocities_of(
-    bodies: &mut [Body],
-    h: f32,
-    g: Option<Vec2>,
-    drag: Option<DragDef>,
-    damped: bool,
-) {
-    for i in 0..bodies.len() {
-        prefetch(bodies, i + BODY_AHEAD, HOT_BYTES);
-        let b = &mut bodies[i];
-        if !b.is_dynamic() || b.asleep {
-            continue;
-        }
-        let Some(d) = drag else {
-            (b.velocity, b.angular_velocity) = free_velocity(b, h, g);
-            if damped {
-                damp(b, h);
-            }
-            continue;
-        };
-        let (mut v, w) = free_velocity(b, h, g);
-        // F = -(k1 + k2 |v|) v with k2 = quadratic + 1/2 rho Cd width; backward Euler in the factor
-        let speed = v.length();
-        let mut k = d.linear + d.quadratic * speed;
-        if d.fluid_density > 0.0 && d.drag_coefficient > 0.0 && speed > 0.0 {
-            let width = b.shape.extent_across(&b.transform(), v / speed);
-            k += 0.5 * d.fluid_density * d.drag_coefficient * width * speed;
-        }
-        v /= 1.0 + h * k * b.inv_mass;
-        (b.velocity, b.angular_velocity) = (v, w);
-        if damped {
-            damp(b, h);
-        }
-    }
-}
-
-/// A body's own damping over h (Box2D's): v /= 1 + h c_linear, w /= 1 + h c_angular.
-#[inline]
-fn damp(b: &mut Body, h: f32) {
-    if b.linear_damping != 0.0 {
-        b.velocity *= 1.0 / (1.0 + h * b.linear_damping);
-    }
-    if b.angular_damping != 0.0 {
-        b.angular_velocity *= 1.0 / (1.0 + h * b.angular_damping);
-    }
-}
-
-/// A dynamic body's velocities after `h` of gravity and its own force and torque,
-/// before drag: v + h (F / m + g), w + h tau / I.
-#[inline]
-pub(crate) fn free_velocity(b: &Body, h: f32, g: Option<Vec2>) -> (Vec2, f32) {
-    let mut v = b.velocity + h * b.inv_mass * b.force;
-    if let Some(g) = g {
-        v += h * g;
-    }
-    (v, b.angular_velocity + h * b.inv_inertia * b.torque)
-}
-
-impl World {
-    /// Whether the forces change every substep's velocities by the same amount (no drag
-    /// and no body's own damping, which scale with the velocity).
-    pub(crate) fn uniform_forces(&self) -> bool {
-        self.drag.is_none() && !self.damped
-    }
-
-    /// Whether the only forces are gravity and the bodies' own force and torque (no
-    /// drag, joint drives or point forces), so that a solver may integrate them in a
-    /// pass of its own (see `SoftSolver::prepare_integrating`).
-    pub(crate) fn plain_forces(&self) -> bool {
-        self.drag.is_none() && self.joints.is_empty() && self.forces.is_empty() && !self.damped
-    }
 }
 
 /// Checks a body as a saved state holds it the way the scene loader checks one it

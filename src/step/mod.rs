@@ -12,6 +12,7 @@ use std::time::Instant;
 use crate::defs::{SolverKind, SolverSettings};
 use crate::world::{StepStats, World};
 
+pub(crate) mod integrate;
 pub mod pgs;
 pub mod soft;
 pub mod xpbd;

@@ -2,9 +2,8 @@
 //! contact MLCP (collisions, warm start, velocity sweeps with joints, split-impulse
 //! position sweeps), integrate positions.
 
-use super::{Stage, StageClock, StepContext, Stepper};
-use crate::defs::{BodyModel, BodyType, SolverKind};
-use crate::math::Rot;
+use super::{Stage, StageClock, StepContext, Stepper, integrate};
+use crate::defs::SolverKind;
 use crate::solver::joint_rows::JointRows;
 use crate::solver::pgs::{PgsSolver, SolveStats, SolverBody};
 use crate::world::{Speculative, StepStats, World};
@@ -124,30 +123,19 @@ impl PgsStepper {
         }
         self.pgs.store_impulses(&mut world.contacts);
         clock.lap(Stage::Solve);
-        // positions: x += h (v + v_pseudo), theta += h (w + w_pseudo)
-        for (i, b) in world.bodies.iter_mut().enumerate() {
-            match b.body_type {
-                BodyType::Static => continue,
-                BodyType::Kinematic => {}
-                BodyType::Dynamic => {
-                    let sb = self.pgs.bodies[i];
-                    b.velocity = sb.v;
-                    b.angular_velocity = sb.w;
-                }
-            }
-            let (pv, pw) = if b.is_dynamic() {
-                // pseudo-velocities (split impulse) and collisions' time-of-impact shifts
-                let ((pv, pw), (iv, iw)) = (self.pgs.pseudo[i], self.pgs.impact[i]);
-                (pv + iv, pw + iw)
-            } else {
-                (crate::math::Vec2::ZERO, 0.0)
-            };
-            b.position += h * (b.velocity + pv);
-            if b.model == BodyModel::Rigid {
-                b.angle += h * (b.angular_velocity + pw);
-                b.rot = Rot::from_angle(b.angle);
+        // the solved velocities, then x += h (v + v_pseudo), theta += h (w + w_pseudo)
+        for (b, sb) in world.bodies.iter_mut().zip(&self.pgs.bodies) {
+            if b.is_dynamic() {
+                b.velocity = sb.v;
+                b.angular_velocity = sb.w;
             }
         }
+        let pgs = &self.pgs;
+        integrate::integrate_positions(&mut world.bodies, h, |i| {
+            // pseudo-velocities (split impulse) and collisions' time-of-impact shifts
+            let ((pv, pw), (iv, iw)) = (pgs.pseudo[i], pgs.impact[i]);
+            (pv + iv, pw + iw)
+        });
         clock.lap(Stage::Integrate);
         StepStats {
             iterations: st.iterations,

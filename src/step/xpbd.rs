@@ -1,11 +1,11 @@
 //! XPBD (Mueller et al. 2020): contacts found once per step, then per substep predict,
 //! project joints and contacts, derive velocities, and a velocity pass.
 
-use super::{Stage, StageClock, StepContext, Stepper};
+use super::{Stage, StageClock, StepContext, Stepper, integrate};
 use crate::body::Body;
-use crate::defs::{BodyModel, BodyType, SolverKind};
+use crate::defs::SolverKind;
 use crate::joint::{MouseJoint, SLOTS};
-use crate::math::{Rot, Vec2, cross};
+use crate::math::cross;
 use crate::solver::joint_rows::{JointRows, xpbd_velocity_pass};
 use crate::solver::pgs::SolverBody;
 use crate::solver::xpbd::XpbdContacts;
@@ -46,16 +46,7 @@ impl Stepper for XpbdStepper {
             clock.lap(Stage::Forces);
             self.xpbd.begin_substep(&world.bodies, h, s.max_push_speed);
             // predict: x += h v, theta += h w
-            for b in &mut world.bodies {
-                if b.body_type == BodyType::Static {
-                    continue;
-                }
-                b.position += h * b.velocity;
-                if b.model == BodyModel::Rigid && b.angular_velocity != 0.0 {
-                    b.angle += h * b.angular_velocity;
-                    b.rot = Rot::from_angle(b.angle);
-                }
-            }
+            integrate::predict_positions(&mut world.bodies, h);
             clock.lap(Stage::Integrate);
             // lambda is a substep's multiplier: alpha~ lambda is the spring's force over
             // this substep only (carried over the substeps, a compliance of alpha acted as
@@ -73,15 +64,8 @@ impl Stepper for XpbdStepper {
                 let d = self.xpbd.project(&mut world.bodies);
                 deepest = deepest.max(d);
             }
-            // v = (x - x_prev) / h, w = (theta - theta_prev) / h, as v += dx / h
-            for b in &mut world.bodies {
-                if b.is_dynamic() {
-                    b.velocity += b.correction / h;
-                    b.angular_velocity += b.correction_angle / h;
-                }
-                b.correction = Vec2::ZERO;
-                b.correction_angle = 0.0;
-            }
+            // v = (x - x_prev) / h, w = (theta - theta_prev) / h
+            integrate::derive_velocities(&mut world.bodies, h);
             // velocity pass
             self.bodies.clear();
             self.bodies.extend(world.bodies.iter().map(|b| SolverBody {

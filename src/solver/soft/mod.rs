@@ -496,7 +496,8 @@ impl SoftSolver {
                 let b = &mut bodies[i];
                 let (v0, w0) = (b.velocity, b.angular_velocity);
                 if b.is_dynamic() && !b.asleep {
-                    (b.velocity, b.angular_velocity) = crate::world::free_velocity(b, h, gravity);
+                    (b.velocity, b.angular_velocity) =
+                        crate::step::integrate::free_velocity(b, h, gravity);
                 }
                 // the constraints are built from the velocities before the step (restitution
                 // keeps each point's approach speed): the new ones wait in `increments`
@@ -706,7 +707,7 @@ impl SoftSolver {
                             b.rot = Rot::from_angle(b.angle);
                         }
                     }
-                    bad |= !crate::world::body_finite(b);
+                    bad |= !crate::step::integrate::body_finite(b);
                 }
                 if bad { 1.0 } else { 0.0 }
             },
@@ -716,7 +717,7 @@ impl SoftSolver {
         for b in &mut bodies[n..] {
             b.force = Vec2::ZERO;
             b.torque = 0.0;
-            rest_bad |= !crate::world::body_finite(b);
+            rest_bad |= !crate::step::integrate::body_finite(b);
         }
         bad > 0.0 || rest_bad
     }
