@@ -117,6 +117,15 @@ impl Body {
         self.body_type == BodyType::Dynamic
     }
 
+    /// An awake dynamic body, or a kinematic one that moves: what wakes a sleeping
+    /// island it reaches.
+    #[inline]
+    pub(crate) fn is_mover(&self) -> bool {
+        (self.is_dynamic() && !self.asleep)
+            || (self.body_type == BodyType::Kinematic
+                && (self.velocity != Vec2::ZERO || self.angular_velocity != 0.0))
+    }
+
     /// World position of the shape origin the scene gave (equal to the centre of mass
     /// unless the polygon was not centred).
     pub fn origin(&self) -> Vec2 {

@@ -2,20 +2,18 @@
 //! forces -> integrate velocities -> broad phase -> narrow phase -> contact cache
 //! -> solver -> integrate positions -> step stats.
 
-use crate::body::SHAPE_BYTES;
 use crate::body::{Body, BodyId};
 use crate::collision::Contact;
 use crate::collision::broad_phase::BroadPhase;
-use crate::collision::contact_cache::{CacheCursor, match_points};
-use crate::collision::sat;
-use crate::defs::{BodyModel, BodyType, DragDef, SolverSettings};
+use crate::collision::collide::{Collider, Speculative};
+use crate::defs::{BodyModel, DragDef, SolverSettings};
 use crate::joint::{Joint, JointId, MouseJoint};
-use crate::math::{Aabb, BODY_AHEAD, BODY_PASS_BLOCK, Vec2, cross, prefetch, uf_root, uf_union};
+use crate::math::{Aabb, Vec2, cross};
 use crate::parallel::{self, Pool};
 use crate::step::integrate::{self, PointForce, body_finite};
+use crate::step::sleep::{self, Sleep};
 use crate::step::{Stage, StageClock, StepContext, Stepper, new_stepper};
-use std::sync::atomic::{AtomicU32, Ordering};
-use std::sync::{Arc, Mutex};
+use std::sync::Arc;
 
 mod build;
 mod edit;
@@ -35,19 +33,6 @@ pub use measure::{FAR_FROM_ORIGIN, far_from_origin};
 pub use query::RayHit;
 pub use state::{STATE_FORMAT, STATE_VERSION, StateError, WorldState};
 pub use threads::{ThreadUse, Threads};
-
-/// How far out a pair keeps contact points (speculative contacts).
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub(crate) enum Speculative {
-    /// Up to the margin plus the distance the two bodies can close in h (classic PGS,
-    /// XPBD).
-    MarginPlusMotion,
-    /// Up to the larger of the margin and the distance the two bodies can close in h:
-    /// a gap beyond both cannot close in the step, and resting bodies keep no more
-    /// points than the margin gives (the soft step: the same protection against
-    /// tunnelling, 3 to 5% less time on the large pyramid than the sum).
-    MarginOrMotion,
-}
 
 /// Why a step failed.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
@@ -105,37 +90,11 @@ pub struct World {
     /// The solver and its settings.
     pub settings: SolverSettings,
     forces: Vec<PointForce>,
-    broad: BroadPhase,
-    aabbs: Vec<Aabb>,
-    dynamic: Vec<bool>,
-    /// How far each body can move this step (the speculative margin's part per body).
-    reach: Vec<f32>,
     pub(crate) contacts: Vec<Contact>,
-    old_contacts: Vec<Contact>,
-    /// The contacts of sleeping islands, kept with their impulses for when they wake.
-    pub(crate) sleeping_contacts: Vec<Contact>,
-    /// Union-find parents of the sleep pass (scratch).
-    islands: Vec<u32>,
-    /// Each island's least rested time (scratch of the sleep pass).
-    least_rest: Vec<f32>,
-    /// Islands to wake (scratch).
-    to_wake: Vec<u32>,
-    /// Which bodies size the waking pass's grid: the dynamic ones, asleep or not (scratch).
-    wake_sized: Vec<bool>,
-    pub(crate) joints: Vec<Joint>,
-    /// Joints whose bodies all sleep (or do not move), with their index, taken out of
-    /// `joints` for the solve of one step (see `park_sleeping_joints`).
-    parked: Vec<(usize, Joint)>,
-    /// The joints that stay in the solve (scratch of the parking).
-    joints_scratch: Vec<Joint>,
-    pub(crate) mouse: Option<MouseJoint>,
-    /// Body pairs joined by a joint that must not collide, sorted.
-    no_collide: Vec<(u32, u32)>,
-    /// Whether any body has a filter other than the default (else the broad phase skips
-    /// the check).
-    filtered: bool,
-    /// Whether any body is a sensor (else the narrow phase skips the check).
-    has_sensors: bool,
+    /// The collide stage's state (broad phase, boxes, the cache, no-collide pairs).
+    pub(crate) collider: Collider,
+    /// The sleeping islands' contacts and parked joints.
+    pub(crate) sleep: Sleep,
     /// Whether any body has linear or angular damping (then the forces are not
     /// [`World::plain_forces`]).
     damped: bool,
@@ -143,13 +102,8 @@ pub struct World {
     motions: Vec<spawn::Motion>,
     /// The scene's timed spawns ([`crate::defs::SpawnDef`]) and what each has made.
     spawners: Vec<spawn::Spawner>,
-    /// Whether this step's collide found no body asleep and no sleeping contact (then
-    /// none is asleep at the step's end either: only `update_sleep` puts bodies to
-    /// sleep), so the end of the step need not look again.
-    none_asleep: bool,
-    /// Whether this step's collide found `dynamic` for every body with none asleep: it
-    /// then says which bodies are dynamic ([`World::bodies_with_movers`]).
-    movers_found: bool,
+    pub(crate) joints: Vec<Joint>,
+    pub(crate) mouse: Option<MouseJoint>,
     /// Set by a solver whose last pass over the bodies did the end of the step (cleared
     /// the forces and checked the state): whether some body's state is not finite.
     /// `World::step` then skips its own pass ([`World::end_step`]).
@@ -184,32 +138,10 @@ pub struct World {
     /// Keys of the bodies and joints, by index ([`World::body_key`]).
     body_keys: edit::Keys,
     joint_keys: edit::Keys,
-    /// Per block of pairs: the contacts the narrow phase found (scratch).
-    narrow_out: NarrowScratch,
-    /// Each block's first contact (scratch).
-    narrow_starts: Vec<usize>,
-}
-
-/// Per-thread narrow-phase output buffers; a clone starts with none.
-#[derive(Default)]
-struct NarrowScratch(Vec<Mutex<Vec<Contact>>>);
-
-impl Clone for NarrowScratch {
-    fn clone(&self) -> Self {
-        NarrowScratch::default()
-    }
-}
-
-impl std::fmt::Debug for NarrowScratch {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.write_str("NarrowScratch")
-    }
 }
 
 /// Fewest bodies for which a world starts its worker threads.
 const MIN_BODIES_FOR_THREADS: usize = 256;
-/// Body pairs a thread claims at a time in the narrow phase.
-const PAIR_BLOCK: usize = 256;
 
 impl World {
     /// An empty world with the given gravity and solver settings.
@@ -220,29 +152,14 @@ impl World {
             drag: None,
             settings,
             forces: Vec::new(),
-            broad: BroadPhase::default(),
-            aabbs: Vec::new(),
-            dynamic: Vec::new(),
-            reach: Vec::new(),
             contacts: Vec::new(),
-            old_contacts: Vec::new(),
-            sleeping_contacts: Vec::new(),
-            islands: Vec::new(),
-            least_rest: Vec::new(),
-            to_wake: Vec::new(),
-            wake_sized: Vec::new(),
+            collider: Collider::default(),
+            sleep: Sleep::default(),
             joints: Vec::new(),
-            parked: Vec::new(),
-            joints_scratch: Vec::new(),
             mouse: None,
-            no_collide: Vec::new(),
-            filtered: false,
-            has_sensors: false,
             damped: false,
             motions: Vec::new(),
             spawners: Vec::new(),
-            none_asleep: false,
-            movers_found: false,
             ended: None,
             record_events: false,
             events: Vec::new(),
@@ -260,8 +177,6 @@ impl World {
             pool: None,
             body_keys: edit::Keys::default(),
             joint_keys: edit::Keys::default(),
-            narrow_out: NarrowScratch::default(),
-            narrow_starts: Vec::new(),
         }
     }
 
@@ -441,17 +356,28 @@ impl World {
         self.step_many = !tune || self.tuner.choose();
         let started = tune.then(std::time::Instant::now);
         // until collide finds otherwise
-        self.none_asleep = false;
-        self.movers_found = false;
+        self.sleep.none_asleep = false;
+        self.collider.movers_found = false;
         let mut clock = StageClock::start();
         // only this step's solver may say it ended the step
         self.ended = None;
         let mut stats = stepper.step(self, &cx, &mut clock);
-        self.unpark_joints();
+        self.sleep.unpark_joints(&mut self.joints);
+        if std::mem::take(&mut self.collider.heard_sensors) {
+            // a sensor is there to be heard
+            self.record_events = true;
+        }
         clock.fill(&mut stats);
         self.stats = stats;
         self.stepper = Some(stepper);
-        self.update_sleep();
+        self.sleep.update(
+            &mut self.bodies,
+            &mut self.contacts,
+            &self.joints,
+            &self.forces,
+            self.mouse.as_ref(),
+            &self.settings,
+        );
         if self.record_events {
             self.update_events();
         }
@@ -560,27 +486,13 @@ impl World {
     pub(crate) fn bodies_with_movers(
         &mut self,
     ) -> (&mut [Body], &[Contact], &[Joint], Option<&[bool]>) {
-        let movers = (self.movers_found && self.dynamic.len() == self.bodies.len())
-            .then_some(&self.dynamic[..]);
+        let movers = self.collider.movers(self.bodies.len());
         (&mut self.bodies, &self.contacts, &self.joints, movers)
     }
 
-    /// Whether some body is asleep: a pass over the bodies (large), split between the
-    /// threads.
-    fn any_asleep(&mut self) -> bool {
-        let pool = self.pool();
-        let bodies = &self.bodies;
-        parallel::ranges_max(pool.as_deref(), bodies.len(), BODY_PASS_BLOCK, &|_, r| {
-            if bodies[r].iter().any(|b| b.asleep) {
-                1.0
-            } else {
-                0.0
-            }
-        }) > 0.0
-    }
-
-    /// Broad and narrow phase; returns the deepest overlap found (m, >= 0). How far out
-    /// a pair keeps points is `speculative`'s choice (see [`Speculative`]).
+    /// The collide stage: wakes what the movers reach (if anything sleeps), then the
+    /// broad and narrow phases; returns the deepest overlap found (m, >= 0). How far
+    /// out a pair keeps points is `speculative`'s choice (see [`Speculative`]).
     pub(crate) fn collide(
         &mut self,
         h: f32,
@@ -588,215 +500,41 @@ impl World {
         speculative: Speculative,
         clock: &mut StageClock,
     ) -> f32 {
-        if self.sleeping_contacts.is_empty() && !self.any_asleep() {
-            self.none_asleep = true;
-            return self.collide_awake(h, margin, speculative, clock);
-        }
-        // wake every island an awake body (or a moving kinematic one) reaches, then every
-        // island those reach, and so on: a woken island's own pairs were not looked for
-        self.wake_reached(h, margin);
-        self.park_sleeping_joints();
-        if !self.bodies.iter().any(is_mover) {
-            // all at rest: last step's contacts are kept aside, nothing is looked for
-            self.sleeping_contacts.append(&mut self.contacts);
-            clock.lap(Stage::Broad);
-            clock.lap(Stage::Narrow);
-            return 0.0;
-        }
-        self.collide_awake(h, margin, speculative, clock)
-    }
-
-    fn collide_awake(
-        &mut self,
-        h: f32,
-        margin: f32,
-        speculative: Speculative,
-        clock: &mut StageClock,
-    ) -> f32 {
-        // sized, not cleared: the pass below writes every body's entry
-        let n = self.bodies.len();
-        self.aabbs.resize(
-            n,
-            Aabb {
-                min: Vec2::ZERO,
-                max: Vec2::ZERO,
-            },
-        );
-        self.dynamic.resize(n, false);
-        self.reach.resize(n, 0.0);
-        // the flags are read off the bodies each step, so bodies pushed straight into
-        // `bodies` (the CLI's build, tools) count as well as those added one by one
-        const ASLEEP: u32 = 1;
-        const FILTERED: u32 = 2;
-        const SENSORS: u32 = 4;
-        // the broad phase's kept boxes still hold every body (checked in the same pass)
-        const LEFT: u32 = 8;
-        let flags = AtomicU32::new(0);
         let pool = self.pool();
-        let (bodies, broad) = (&self.bodies, &self.broad);
-        let kept = broad.kept_count() == n;
-        parallel::chunks_mut3(
-            pool.as_deref(),
-            &mut self.aabbs,
-            &mut self.reach,
-            &mut self.dynamic,
-            BODY_PASS_BLOCK,
-            &|_, offset, aabbs, reach, dynamic| {
-                let bodies = &bodies[offset..];
-                let mut f = 0u32;
-                for (i, ((bx, re), dy)) in aabbs.iter_mut().zip(reach).zip(dynamic).enumerate() {
-                    // the box reads the shape too
-                    prefetch(bodies, i + BODY_AHEAD, SHAPE_BYTES);
-                    let b = &bodies[i];
-                    f |= if b.asleep { ASLEEP } else { 0 };
-                    f |= if b.filter != crate::defs::Filter::default() {
-                        FILTERED
-                    } else {
-                        0
-                    };
-                    f |= if b.has_sensor() { SENSORS } else { 0 };
-                    let bb = b.aabb();
-                    // the most any point of the body moves in h: h (|v| + |w| r)
-                    let r = 0.5 * (bb.max - bb.min).length();
-                    *re = h * (b.velocity.length() + b.angular_velocity.abs() * r);
-                    *bx = swept_box(b, bb, h, margin);
-                    // a sleeping body is found only by the awake bodies near it, as a
-                    // static one
-                    *dy = b.is_dynamic() && !b.asleep;
-                    if kept
-                        && !(broad.kept_holds(offset + i, bx, b.is_dynamic())
-                            && broad.kept_filter_holds(offset + i, &b.filter))
-                    {
-                        f |= LEFT;
-                    }
-                }
-                flags.fetch_or(f, Ordering::Relaxed);
-                0.0
-            },
-        );
-        let flags = flags.into_inner();
-        let (filtered, sensors) = (flags & FILTERED != 0, flags & SENSORS != 0);
-        let any_asleep = flags & ASLEEP != 0;
-        // (with none asleep, `dynamic` is whether each body is dynamic)
-        self.movers_found = !any_asleep;
-        let holds = kept && flags & LEFT == 0;
-        self.filtered = filtered;
-        self.has_sensors = sensors;
-        // a sensor is there to be heard
-        self.record_events |= sensors;
-        let bodies = &self.bodies;
-        // without sensors (which read the pairs after the step) the narrow phase filters
-        // the kept pairs itself, split between the threads: no list of this step's pairs
-        let fused = !sensors;
-        // with filters, the kept pairs are only those the filters let touch
-        let filter_of = |i: usize| bodies[i].filter;
-        let filter_of = filtered.then_some(&filter_of as &dyn Fn(usize) -> crate::defs::Filter);
-        if fused {
-            self.broad
-                .refresh_kept(&self.aabbs, holds, |i| bodies[i].is_dynamic(), filter_of);
+        let pool = pool.as_deref();
+        if self.sleep.contacts.is_empty() && !sleep::any_asleep(&self.bodies, pool) {
+            self.sleep.none_asleep = true;
         } else {
-            let test = PairTest {
-                bodies,
-                aabbs: &[],
-                dynamic: &[],
-                filtered,
-                no_collide: &self.no_collide,
-            };
-            self.broad.find_pairs_kept_checked(
-                &self.aabbs,
-                &self.dynamic,
-                holds,
-                |i| bodies[i].is_dynamic(),
-                filter_of,
-                |a, b| test.may_collide(a, b),
+            // wake every island an awake body (or a moving kinematic one) reaches, then
+            // every island those reach, and so on: a woken island's own pairs were not
+            // looked for
+            self.sleep.wake_reached(
+                &mut self.bodies,
+                &mut self.contacts,
+                &self.joints,
+                &mut self.collider,
+                h,
+                margin,
             );
-        }
-        clock.lap(Stage::Broad);
-
-        std::mem::swap(&mut self.contacts, &mut self.old_contacts);
-        self.contacts.clear();
-        if any_asleep {
-            // contacts within sleeping islands (and of them with static bodies) are kept
-            // aside with their impulses until the island wakes
-            let bodies = &self.bodies;
-            let asleep_pair = |c: &Contact| {
-                let (a, b) = (&bodies[c.a as usize], &bodies[c.b as usize]);
-                // neither awake and dynamic, one of them asleep
-                !is_mover(a) && !is_mover(b) && (a.asleep || b.asleep)
-            };
-            let sleeping = &mut self.sleeping_contacts;
-            self.old_contacts.retain(|c| {
-                let keep = !asleep_pair(c);
-                if !keep {
-                    sleeping.push(*c);
-                }
-                keep
-            });
-        }
-        let pool = self.pool();
-        let narrow = Narrow {
-            bodies: &self.bodies,
-            pairs: if fused {
-                self.broad.kept_pairs()
-            } else {
-                &self.broad.pairs
-            },
-            test: fused.then_some(PairTest {
-                bodies: &self.bodies,
-                aabbs: &self.aabbs,
-                dynamic: &self.dynamic,
-                filtered,
-                no_collide: &self.no_collide,
-            }),
-            old: &self.old_contacts,
-            reach: &self.reach,
-            has_sensors: self.has_sensors,
-            speculative,
-            margin,
-        };
-        let pairs = narrow.pairs.len();
-        let deepest = match pool.as_deref() {
-            Some(pool) if pairs > PAIR_BLOCK => {
-                // the caller writes the blocks it takes in order from the first straight
-                // into the contact list (it takes its own share first, in order); every
-                // other block goes into its own buffer, and the buffers are appended in
-                // pair order, so the contacts are those of one thread
-                let blocks = pairs.div_ceil(PAIR_BLOCK);
-                let outs = &mut self.narrow_out.0;
-                if outs.len() < blocks {
-                    // room for a contact a pair from the start: a block the caller
-                    // usually writes in place may go through its buffer in any step,
-                    // and a steady step allocates nothing
-                    outs.resize_with(blocks, || Mutex::new(Vec::with_capacity(PAIR_BLOCK)));
-                }
-                let outs = &outs[..blocks];
-                // (the list, and the blocks written into it)
-                let direct = Mutex::new((&mut self.contacts, 0usize));
-                let deepest = parallel::ranges_max(Some(pool), pairs, PAIR_BLOCK, &|t, range| {
-                    let b = range.start / PAIR_BLOCK;
-                    if t == 0 {
-                        let mut d = direct.lock().unwrap_or_else(|e| e.into_inner());
-                        if d.1 == b {
-                            d.1 += 1;
-                            return narrow.run(range, d.0);
-                        }
-                    }
-                    let mut out = outs[b].lock().unwrap_or_else(|e| e.into_inner());
-                    out.clear();
-                    narrow.run(range, &mut out)
-                });
-                let (contacts, written) = direct.into_inner().unwrap_or_else(|e| e.into_inner());
-                parallel::concat(
-                    Some(pool),
-                    &mut self.narrow_out.0[..blocks],
-                    written,
-                    &mut self.narrow_starts,
-                    contacts,
-                );
-                deepest
+            self.sleep.park_joints(&self.bodies, &mut self.joints);
+            if !self.bodies.iter().any(Body::is_mover) {
+                // all at rest: last step's contacts are kept aside, nothing is looked for
+                self.sleep.contacts.append(&mut self.contacts);
+                clock.lap(Stage::Broad);
+                clock.lap(Stage::Narrow);
+                return 0.0;
             }
-            _ => narrow.run(0..narrow.pairs.len(), &mut self.contacts),
-        };
+        }
+        self.collider.broad_phase(&self.bodies, h, margin, pool);
+        clock.lap(Stage::Broad);
+        let deepest = self.collider.narrow_phase(
+            &self.bodies,
+            &mut self.contacts,
+            &mut self.sleep.contacts,
+            margin,
+            speculative,
+            pool,
+        );
         clock.lap(Stage::Narrow);
         deepest
     }
@@ -807,325 +545,8 @@ impl World {
             && b.asleep
         {
             let island = b.island;
-            self.wake_island(island);
-        }
-    }
-
-    /// Wakes the sleeping islands labelled in `islands` (any order, repeats allowed) in
-    /// one pass over the bodies and the kept contacts, as [`World::wake_island`] would
-    /// one by one.
-    pub(crate) fn wake_islands(&mut self, islands: &mut Vec<u32>) {
-        islands.sort_unstable();
-        islands.dedup();
-        if islands.is_empty() {
-            return;
-        }
-        for b in &mut self.bodies {
-            if b.asleep && islands.binary_search(&b.island).is_ok() {
-                b.asleep = false;
-                b.sleep_time = 0.0;
-            }
-        }
-        let bodies = &self.bodies;
-        let (mut back, mut kept) = (Vec::new(), Vec::new());
-        for c in self.sleeping_contacts.drain(..) {
-            if bodies[c.a as usize].asleep || bodies[c.b as usize].asleep {
-                kept.push(c);
-            } else {
-                back.push(c);
-            }
-        }
-        self.sleeping_contacts = kept;
-        if !back.is_empty() {
-            // the cache is read as one list sorted by pair
-            self.contacts.extend(back);
-            self.contacts.sort_by_key(|c| (c.a, c.b));
-        }
-    }
-
-    /// Wakes every sleeping body of `island` and puts its kept contacts back in the
-    /// cache, so they start warm.
-    fn wake_island(&mut self, island: u32) {
-        for b in &mut self.bodies {
-            if b.asleep && b.island == island {
-                b.asleep = false;
-                b.sleep_time = 0.0;
-            }
-        }
-        let bodies = &self.bodies;
-        let (mut back, mut kept) = (Vec::new(), Vec::new());
-        for c in self.sleeping_contacts.drain(..) {
-            if bodies[c.a as usize].asleep || bodies[c.b as usize].asleep {
-                kept.push(c);
-            } else {
-                back.push(c);
-            }
-        }
-        self.sleeping_contacts = kept;
-        if !back.is_empty() {
-            // the cache is read as one list sorted by pair
-            self.contacts.extend(back);
-            self.contacts.sort_by_key(|c| (c.a, c.b));
-        }
-    }
-
-    /// Takes the joints whose bodies all sleep or do not move out of `joints` for this
-    /// step's solve: a sleeping island's joints cost nothing, and their warm-started
-    /// impulses (which balanced a gravity the sleeping bodies no longer get) do not push
-    /// the island awake. Called after the wake passes; `unpark_joints` puts them back in
-    /// order after the solve.
-    fn park_sleeping_joints(&mut self) {
-        let bodies = &self.bodies;
-        let resting = |i: usize| {
-            let b = &bodies[i];
-            b.asleep || b.body_type == BodyType::Static || (!b.is_dynamic() && !is_mover(b))
-        };
-        if !self.joints.iter().any(|j| resting(j.a) && resting(j.b)) {
-            return;
-        }
-        let mut keep = std::mem::take(&mut self.joints_scratch);
-        keep.clear();
-        for (i, j) in self.joints.drain(..).enumerate() {
-            if resting(j.a) && resting(j.b) {
-                self.parked.push((i, j));
-            } else {
-                keep.push(j);
-            }
-        }
-        self.joints_scratch = std::mem::replace(&mut self.joints, keep);
-    }
-
-    /// Puts the parked joints back where they were.
-    fn unpark_joints(&mut self) {
-        if self.parked.is_empty() {
-            return;
-        }
-        let mut all = std::mem::take(&mut self.joints_scratch);
-        all.clear();
-        let mut awake = self.joints.drain(..);
-        let mut parked = self.parked.drain(..).peekable();
-        let total = awake.len() + parked.len();
-        for i in 0..total {
-            match parked.peek() {
-                Some((at, _)) if *at == i => all.push(parked.next().unwrap().1),
-                _ => all.extend(awake.next()),
-            }
-        }
-        drop(awake);
-        self.joints_scratch = std::mem::replace(&mut self.joints, all);
-    }
-
-    /// Waking: every sleeping island that an awake dynamic body's (or a moving kinematic
-    /// body's) box reaches, or whose body was pushed, set moving or given a force since
-    /// it fell asleep; then every island those reach, and so on until none wakes.
-    ///
-    /// Each round looks only from the bodies the round before woke (the others' reach
-    /// was looked at already), through one grid of every body's box (boxes do not
-    /// change while waking), and wakes that round's islands in one pass
-    /// ([`World::wake_islands`]): the same bodies wake, with the same contacts in the
-    /// same order, as round after round of looking from every awake body.
-    fn wake_reached(&mut self, h: f32, margin: f32) {
-        let mut wake = std::mem::take(&mut self.to_wake);
-        wake.clear();
-        let mut movers = false;
-        for b in &self.bodies {
-            if b.asleep
-                && (b.velocity != Vec2::ZERO
-                    || b.angular_velocity != 0.0
-                    || b.force != Vec2::ZERO
-                    || b.torque != 0.0)
-            {
-                wake.push(b.island);
-            }
-            movers |= is_mover(b);
-        }
-        // nothing awake moves: nothing can reach a sleeping island
-        if movers {
-            self.aabbs.clear();
-            self.dynamic.clear();
-            self.wake_sized.clear();
-            for b in &self.bodies {
-                self.aabbs.push(swept_box(b, b.aabb(), h, margin));
-                // the movers look for sleepers; sleepers and static bodies are looked up
-                self.dynamic.push(is_mover(b));
-                // the grid's cells fit the dynamic bodies, asleep or not: a few large
-                // movers must not put many small sleepers in one cell
-                self.wake_sized.push(b.is_dynamic());
-            }
-        }
-        let mut first = true;
-        loop {
-            if movers {
-                let bodies = &self.bodies;
-                let (aabbs, look, sized) = (&self.aabbs, &self.dynamic, &self.wake_sized);
-                self.broad.find_pairs_sized(aabbs, look, sized, |a, b| {
-                    let (ba, bb) = (&bodies[a as usize], &bodies[b as usize]);
-                    (ba.asleep && is_mover(bb)) || (bb.asleep && is_mover(ba))
-                });
-                for &(a, b) in &self.broad.pairs {
-                    for i in [a, b] {
-                        let body = &self.bodies[i as usize];
-                        if body.asleep {
-                            wake.push(body.island);
-                        }
-                    }
-                }
-                // a joint to a body that moves (one to a static anchor keeps it asleep)
-                for j in &self.joints {
-                    let (ba, bb) = (&self.bodies[j.a], &self.bodies[j.b]);
-                    if ba.asleep && is_mover(bb) && (first || self.dynamic[j.b]) {
-                        wake.push(ba.island);
-                    }
-                    if bb.asleep && is_mover(ba) && (first || self.dynamic[j.a]) {
-                        wake.push(bb.island);
-                    }
-                }
-            }
-            first = false;
-            wake.sort_unstable();
-            wake.dedup();
-            if wake.is_empty() {
-                break;
-            }
-            // the next round looks from the bodies this one wakes
-            if movers {
-                for (look, b) in self.dynamic.iter_mut().zip(&self.bodies) {
-                    *look = b.asleep && wake.binary_search(&b.island).is_ok();
-                }
-            }
-            self.wake_islands(&mut wake);
-            movers = true;
-            if self.aabbs.len() != self.bodies.len() {
-                // the first round had no mover (a pushed sleeper woke): the boxes now
-                self.aabbs.clear();
-                self.wake_sized.clear();
-                self.dynamic.clear();
-                for b in &self.bodies {
-                    self.aabbs.push(swept_box(b, b.aabb(), h, margin));
-                    self.wake_sized.push(b.is_dynamic());
-                    self.dynamic.push(is_mover(b));
-                }
-            }
-            wake.clear();
-        }
-        self.to_wake = wake;
-    }
-
-    /// After a step: a dynamic body slower than its sleep threshold (0.05 m/s unless it
-    /// sets its own) and 2 degrees/s (Box2D's thresholds) for 0.5 s is at rest; an island of bodies joined by touching contacts
-    /// and joints falls asleep when all of its bodies are. Bodies held by the mouse, with
-    /// a constant force, on a joint with a turning motor or a drive, or touching a
-    /// moving kinematic body stay awake.
-    fn update_sleep(&mut self) {
-        const ANGULAR: f32 = 2.0 * std::f32::consts::PI / 180.0;
-        const TIME_TO_SLEEP: f32 = 0.5;
-        if !self.settings.sleep {
-            if !self.none_asleep
-                && (self.bodies.iter().any(|b| b.asleep) || !self.sleeping_contacts.is_empty())
-            {
-                let islands: Vec<u32> = self
-                    .bodies
-                    .iter()
-                    .filter(|b| b.asleep)
-                    .map(|b| b.island)
-                    .collect();
-                for i in islands {
-                    self.wake_island(i);
-                }
-            }
-            return;
-        }
-        let dt = self.settings.dt;
-        let n = self.bodies.len();
-        for b in &mut self.bodies {
-            if !b.is_dynamic() || b.asleep {
-                continue;
-            }
-            let r = b.shape.radius();
-            let linear = b.sleep_threshold;
-            let slow = b.velocity.length_squared() < linear * linear
-                && (b.angular_velocity * b.angular_velocity < ANGULAR * ANGULAR)
-                && (b.angular_velocity * r).abs() < linear;
-            b.sleep_time = if slow { b.sleep_time + dt } else { 0.0 };
-        }
-        // what keeps a body awake whatever its speed
-        for f in &self.forces {
-            self.bodies[f.body].sleep_time = 0.0;
-        }
-        if let Some(m) = self.mouse {
-            self.bodies[m.body].sleep_time = 0.0;
-        }
-        // a joint that drives its bodies keeps them awake: a turning motor, a drive
-        // force or torque (a servo at its target rests, and may sleep)
-        for j in &self.joints {
-            if j.drive != 0.0 || j.motor.is_some_and(|m| m.speed != 0.0) {
-                self.bodies[j.a].sleep_time = 0.0;
-                self.bodies[j.b].sleep_time = 0.0;
-            }
-        }
-        for c in &self.contacts {
-            let (ba, bb) = (&self.bodies[c.a as usize], &self.bodies[c.b as usize]);
-            let kinematic_moving = |b: &Body| {
-                b.body_type == BodyType::Kinematic
-                    && (b.velocity != Vec2::ZERO || b.angular_velocity != 0.0)
-            };
-            if kinematic_moving(ba) {
-                self.bodies[c.b as usize].sleep_time = 0.0;
-            } else if kinematic_moving(bb) {
-                self.bodies[c.a as usize].sleep_time = 0.0;
-            }
-        }
-        if self
-            .bodies
-            .iter()
-            .all(|b| !b.is_dynamic() || b.asleep || b.sleep_time < TIME_TO_SLEEP)
-        {
-            return;
-        }
-        // islands: union-find over awake dynamic bodies joined by touching contacts and
-        // joints
-        let parent = &mut self.islands;
-        parent.clear();
-        parent.extend(0..n as u32);
-        let bodies = &self.bodies;
-        let joins = |a: usize, b: usize| bodies[a].is_dynamic() && bodies[b].is_dynamic();
-        let union =
-            |parent: &mut Vec<u32>, a: usize, b: usize| uf_union(parent, a as u32, b as u32);
-        let touch = self.settings.slop.max(0.005);
-        for c in &self.contacts {
-            let (a, b) = (c.a as usize, c.b as usize);
-            if joins(a, b) && c.manifold.points().iter().any(|p| p.separation < touch) {
-                union(parent, a, b);
-            }
-        }
-        for j in &self.joints {
-            if joins(j.a, j.b) {
-                union(parent, j.a, j.b);
-            }
-        }
-        // an island sleeps when its least rested body has rested long enough
-        let least = &mut self.least_rest;
-        least.clear();
-        least.resize(n, f32::INFINITY);
-        for (i, b) in bodies.iter().enumerate() {
-            if b.is_dynamic() && !b.asleep {
-                let r = uf_root(parent, i as u32) as usize;
-                least[r] = least[r].min(b.sleep_time);
-            }
-        }
-        for i in 0..n {
-            let b = &self.bodies[i];
-            if !b.is_dynamic() || b.asleep {
-                continue;
-            }
-            let r = uf_root(&mut self.islands, i as u32);
-            if least[r as usize] >= TIME_TO_SLEEP {
-                let b = &mut self.bodies[i];
-                b.asleep = true;
-                b.island = r;
-                b.velocity = Vec2::ZERO;
-                b.angular_velocity = 0.0;
-            }
+            self.sleep
+                .wake_island(&mut self.bodies, &mut self.contacts, island);
         }
     }
 
@@ -1176,168 +597,6 @@ impl World {
         }
         h
     }
-}
-
-/// The broad phase's box of a body whose shape's box is `bb`: grown by its motion over
-/// `h` (a moving body's, so that fast bodies find their pairs) and by half the margin.
-fn swept_box(b: &Body, bb: Aabb, h: f32, margin: f32) -> Aabb {
-    let bb = if b.body_type != BodyType::Static {
-        let d = b.velocity * h;
-        Aabb {
-            min: bb.min + d.min(Vec2::ZERO),
-            max: bb.max + d.max(Vec2::ZERO),
-        }
-    } else {
-        bb
-    };
-    bb.fattened(0.5 * margin)
-}
-
-/// How many pairs ahead the narrow phase asks for the bodies it will read.
-const PAIR_AHEAD: usize = 4;
-
-/// What the narrow phase reads: the pairs of the broad phase and last step's contacts.
-/// Whether a candidate pair is a pair this step: the broad phase's test (one body
-/// moves, the boxes overlap) where `aabbs` is given, then the filters and the
-/// no-collide list.
-struct PairTest<'a> {
-    bodies: &'a [Body],
-    /// This step's boxes and movers; empty when the broad phase has tested them.
-    aabbs: &'a [Aabb],
-    dynamic: &'a [bool],
-    /// Some body has a collision filter other than the default.
-    filtered: bool,
-    no_collide: &'a [(u32, u32)],
-}
-
-impl PairTest<'_> {
-    /// The filters and the no-collide list (the broad phase's own test aside).
-    #[inline]
-    fn may_collide(&self, a: u32, b: u32) -> bool {
-        (!self.filtered
-            || self.bodies[a as usize]
-                .filter
-                .collides(&self.bodies[b as usize].filter))
-            && (self.no_collide.is_empty()
-                || self
-                    .no_collide
-                    .binary_search(&(a.min(b), a.max(b)))
-                    .is_err())
-    }
-
-    /// The whole test, for a kept pair.
-    #[inline]
-    fn holds(&self, a: u32, b: u32) -> bool {
-        BroadPhase::kept_pair_holds(self.aabbs, self.dynamic, a, b) && self.may_collide(a, b)
-    }
-}
-
-struct Narrow<'a> {
-    bodies: &'a [Body],
-    /// The pairs to collide: this step's, or (with `test`) the broad phase's kept pairs,
-    /// which `test` filters.
-    pairs: &'a [(u32, u32)],
-    test: Option<PairTest<'a>>,
-    /// Last step's contacts, sorted by pair (the cache).
-    old: &'a [Contact],
-    reach: &'a [f32],
-    has_sensors: bool,
-    speculative: Speculative,
-    margin: f32,
-}
-
-impl Narrow<'_> {
-    /// Collides the pairs of `range` (in order) and pushes the touching ones to `out`;
-    /// returns the deepest overlap found (m, >= 0).
-    fn run(&self, range: std::ops::Range<usize>, out: &mut Vec<Contact>) -> f32 {
-        let pairs = &self.pairs[range];
-        let Some(&first) = pairs.first() else {
-            return 0.0;
-        };
-        // the cache from the first pair of the run on
-        let from = self.old.partition_point(|c| (c.a, c.b) < first);
-        let mut cache = CacheCursor::new(&self.old[from..]);
-        let mut deepest = 0.0f32;
-        for (i, &(a, b)) in pairs.iter().enumerate() {
-            if let Some(t) = &self.test
-                && !t.holds(a, b)
-            {
-                continue;
-            }
-            if let Some(&(na, nb)) = pairs.get(i + PAIR_AHEAD) {
-                prefetch(self.bodies, na as usize, SHAPE_BYTES);
-                prefetch(self.bodies, nb as usize, SHAPE_BYTES);
-            }
-            let (ba, bb) = (&self.bodies[a as usize], &self.bodies[b as usize]);
-            if self.has_sensors && (ba.sensor || bb.sensor) {
-                // heard (World::events), never resolved
-                continue;
-            }
-            let (ra, rb) = (self.reach[a as usize], self.reach[b as usize]);
-            let pair_margin = match self.speculative {
-                Speculative::MarginPlusMotion => self.margin + ra + rb,
-                Speculative::MarginOrMotion => self.margin.max(ra + rb),
-            };
-            if !(ba.parts.is_empty() && bb.parts.is_empty()) {
-                // a compound: one manifold per pair of touching parts
-                let old = cache.find_all(a, b);
-                crate::compound::collide_bodies(
-                    ba,
-                    bb,
-                    pair_margin,
-                    |mut m, friction, restitution| {
-                        for o in old {
-                            match_points(&o.manifold, &mut m);
-                        }
-                        for p in m.points() {
-                            deepest = deepest.max(-p.separation);
-                        }
-                        out.push(Contact {
-                            a,
-                            b,
-                            manifold: m,
-                            friction,
-                            restitution,
-                        });
-                    },
-                );
-                continue;
-            }
-            let mut m = sat::collide(
-                &ba.shape,
-                &ba.transform(),
-                &bb.shape,
-                &bb.transform(),
-                pair_margin,
-            );
-            if m.count == 0 {
-                continue;
-            }
-            if let Some(old) = cache.find(a, b) {
-                match_points(old, &mut m);
-            }
-            for p in m.points() {
-                deepest = deepest.max(-p.separation);
-            }
-            out.push(Contact {
-                a,
-                b,
-                manifold: m,
-                // mu = sqrt(mu_a mu_b), e = max(e_a, e_b)
-                friction: (ba.friction * bb.friction).sqrt(),
-                restitution: ba.restitution.max(bb.restitution),
-            });
-        }
-        deepest
-    }
-}
-
-/// An awake dynamic body, or a kinematic one that moves: what wakes a sleeping island
-/// it reaches.
-fn is_mover(b: &Body) -> bool {
-    (b.is_dynamic() && !b.asleep)
-        || (b.body_type == BodyType::Kinematic
-            && (b.velocity != Vec2::ZERO || b.angular_velocity != 0.0))
 }
 
 /// Checks a body as a saved state holds it the way the scene loader checks one it

@@ -14,6 +14,7 @@ use crate::world::{StepStats, World};
 
 pub(crate) mod integrate;
 pub mod pgs;
+pub(crate) mod sleep;
 pub mod soft;
 pub mod xpbd;
 

@@ -3,10 +3,11 @@
 //! position sweeps), integrate positions.
 
 use super::{Stage, StageClock, StepContext, Stepper, integrate};
+use crate::collision::collide::Speculative;
 use crate::defs::SolverKind;
 use crate::solver::joint_rows::JointRows;
 use crate::solver::pgs::{PgsSolver, SolveStats, SolverBody};
-use crate::world::{Speculative, StepStats, World};
+use crate::world::{StepStats, World};
 
 /// Classic projected Gauss-Seidel and its scratch.
 #[derive(Clone, Debug, Default)]

@@ -10,9 +10,10 @@
 //! velocities integrated before it.
 
 use super::{Stage, StageClock, StepContext, Stepper};
+use crate::collision::collide::Speculative;
 use crate::defs::SolverKind;
 use crate::solver::soft::SoftSolver;
-use crate::world::{Speculative, StepStats, World};
+use crate::world::{StepStats, World};
 
 /// The soft step and its scratch.
 #[derive(Clone, Debug, Default)]

@@ -3,13 +3,14 @@
 
 use super::{Stage, StageClock, StepContext, Stepper, integrate};
 use crate::body::Body;
+use crate::collision::collide::Speculative;
 use crate::defs::SolverKind;
 use crate::joint::{MouseJoint, SLOTS};
 use crate::math::cross;
 use crate::solver::joint_rows::{JointRows, xpbd_velocity_pass};
 use crate::solver::pgs::SolverBody;
 use crate::solver::xpbd::XpbdContacts;
-use crate::world::{Speculative, StepStats, World};
+use crate::world::{StepStats, World};
 
 /// Extended position-based dynamics and its scratch.
 #[derive(Clone, Debug, Default)]

@@ -172,8 +172,8 @@ impl World {
         self.sync_keys();
         if !def.collide_connected {
             let pair = (a.min(b) as u32, a.max(b) as u32);
-            if let Err(at) = self.no_collide.binary_search(&pair) {
-                self.no_collide.insert(at, pair);
+            if let Err(at) = self.collider.no_collide.binary_search(&pair) {
+                self.collider.no_collide.insert(at, pair);
             }
         }
         let (ia, ib) = (self.bodies[a].island, self.bodies[b].island);
@@ -207,7 +207,6 @@ impl World {
     /// (the caller has: a loader with a set of names), asleep on an island of its own if
     /// not `awake` and dynamic ([`BodyDef::awake`]).
     pub fn add_made_body(&mut self, mut body: Body, awake: bool) -> BodyId {
-        self.filtered |= body.filter != crate::defs::Filter::default();
         self.damped |= body.linear_damping != 0.0 || body.angular_damping != 0.0;
         if !awake && body.is_dynamic() {
             // an island's label is the index of one of its bodies: its own
@@ -216,7 +215,7 @@ impl World {
         }
         if body.has_sensor() {
             // a sensor is there to be heard: its scene records events
-            self.has_sensors = true;
+            self.collider.has_sensors = true;
             self.record_events = true;
         }
         self.bodies.push(body);
