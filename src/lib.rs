@@ -32,7 +32,7 @@ pub mod scene;
 pub mod shape;
 pub mod sim;
 pub mod solver;
-pub mod step;
+pub(crate) mod step;
 pub mod timeline;
 pub mod world;
 

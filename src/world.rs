@@ -5,14 +5,15 @@
 use crate::body::{Body, BodyId};
 use crate::collision::Contact;
 use crate::collision::broad_phase::BroadPhase;
-use crate::collision::collide::{Collider, Speculative};
+use crate::collision::collide::Collider;
 use crate::defs::{BodyModel, DragDef, SolverSettings};
 use crate::joint::{Joint, JointId, MouseJoint};
 use crate::math::{Aabb, Vec2, cross};
 use crate::parallel::{self, Pool};
+pub use crate::step::StepStats;
 use crate::step::integrate::{self, PointForce, body_finite};
-use crate::step::sleep::{self, Sleep};
-use crate::step::{Stage, StageClock, StepContext, Stepper, new_stepper};
+use crate::step::sleep::Sleep;
+use crate::step::{StageClock, StepContext, StepState, Stepper, new_stepper};
 use std::sync::Arc;
 
 mod build;
@@ -56,28 +57,6 @@ pub enum StepError {
     },
 }
 
-/// What one step did and cost.
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
-pub struct StepStats {
-    /// PGS velocity sweeps run (summed over substeps).
-    pub iterations: u32,
-    /// Largest |delta lambda| of the last sweep (N s).
-    pub residual: f32,
-    /// Split-impulse sweeps run.
-    pub position_iterations: u32,
-    /// Contact points (of the last substep).
-    pub contacts: usize,
-    /// Deepest overlap seen by the narrow phase this step (m, >= 0).
-    pub penetration: f32,
-    /// Time per stage (ms): forces and velocity integration, broad phase, narrow phase,
-    /// solver, position integration.
-    pub ms_forces: f32,
-    pub ms_broad: f32,
-    pub ms_narrow: f32,
-    pub ms_solve: f32,
-    pub ms_integrate: f32,
-}
-
 /// A physics world.
 #[derive(Clone, Debug)]
 pub struct World {
@@ -104,10 +83,6 @@ pub struct World {
     spawners: Vec<spawn::Spawner>,
     pub(crate) joints: Vec<Joint>,
     pub(crate) mouse: Option<MouseJoint>,
-    /// Set by a solver whose last pass over the bodies did the end of the step (cleared
-    /// the forces and checked the state): whether some body's state is not finite.
-    /// `World::step` then skips its own pass ([`World::end_step`]).
-    pub(crate) ended: Option<bool>,
     /// Record contact and sensor events each step ([`World::events`]); off unless asked
     /// for or a sensor exists, so a world that needs no events pays nothing for them.
     pub record_events: bool,
@@ -160,7 +135,6 @@ impl World {
             damped: false,
             motions: Vec::new(),
             spawners: Vec::new(),
-            ended: None,
             record_events: false,
             events: Vec::new(),
             touching: Vec::new(),
@@ -347,10 +321,9 @@ impl World {
         }
         self.sync_keys();
         let kind = self.settings.kind;
-        let mut stepper = match self.stepper.take() {
-            Some(st) if st.kind() == kind => st,
-            _ => new_stepper(kind),
-        };
+        if self.stepper.as_ref().is_none_or(|st| st.kind() != kind) {
+            self.stepper = Some(new_stepper(kind));
+        }
         let cx = StepContext::new(&self.settings);
         let tune = self.tunes_threads();
         self.step_many = !tune || self.tuner.choose();
@@ -359,9 +332,26 @@ impl World {
         self.sleep.none_asleep = false;
         self.collider.movers_found = false;
         let mut clock = StageClock::start();
-        // only this step's solver may say it ended the step
-        self.ended = None;
-        let mut stats = stepper.step(self, &cx, &mut clock);
+        let pool = self.pool();
+        let mut state = StepState {
+            bodies: &mut self.bodies,
+            contacts: &mut self.contacts,
+            joints: &mut self.joints,
+            mouse: self.mouse,
+            forces: &self.forces,
+            gravity: self.gravity,
+            drag: self.drag,
+            damped: self.damped,
+            settings: self.settings,
+            pool: pool.as_deref(),
+            collider: &mut self.collider,
+            sleep: &mut self.sleep,
+            // only this step's solver may say it ended the step
+            ended: None,
+        };
+        let stepper = self.stepper.as_mut().expect("a stepper of this kind");
+        let mut stats = stepper.step(&mut state, &cx, &mut clock);
+        let ended = state.ended;
         self.sleep.unpark_joints(&mut self.joints);
         if std::mem::take(&mut self.collider.heard_sensors) {
             // a sensor is there to be heard
@@ -369,7 +359,6 @@ impl World {
         }
         clock.fill(&mut stats);
         self.stats = stats;
-        self.stepper = Some(stepper);
         self.sleep.update(
             &mut self.bodies,
             &mut self.contacts,
@@ -383,7 +372,6 @@ impl World {
         }
         self.step_count += 1;
         self.time += self.settings.dt as f64;
-        let ended = self.ended.take();
         let result = match ended {
             Some(false) => Ok(()),
             Some(true) => Err(self.first_non_finite()),
@@ -442,101 +430,6 @@ impl World {
             velocity: b.velocity,
             angular_velocity: b.angular_velocity,
         }
-    }
-
-    /// What moves the bodies' velocities besides the solver's rows.
-    fn forces(&self) -> integrate::Forces<'_> {
-        integrate::Forces {
-            joints: &self.joints,
-            forces: &self.forces,
-            gravity: self.gravity,
-            drag: self.drag,
-            damped: self.damped,
-        }
-    }
-
-    /// Whether the forces change every substep's velocities by the same amount (see
-    /// [`integrate::Forces::uniform`]).
-    pub(crate) fn uniform_forces(&self) -> bool {
-        self.forces().uniform()
-    }
-
-    /// Whether the only forces are gravity and the bodies' own force and torque (see
-    /// [`integrate::Forces::plain`]).
-    pub(crate) fn plain_forces(&self) -> bool {
-        self.forces().plain()
-    }
-
-    /// Semi-implicit Euler, velocity half (see [`integrate::integrate_velocities`]).
-    pub(crate) fn integrate_velocities(&mut self, h: f32) {
-        let pool = self.pool();
-        let forces = integrate::Forces {
-            joints: &self.joints,
-            forces: &self.forces,
-            gravity: self.gravity,
-            drag: self.drag,
-            damped: self.damped,
-        };
-        integrate::integrate_velocities(&mut self.bodies, &forces, h, pool.as_deref());
-    }
-
-    /// The bodies and this step's contacts, with whether each body is dynamic where
-    /// this step's collide found it for every body (none was asleep).
-    #[allow(clippy::type_complexity)]
-    pub(crate) fn bodies_with_movers(
-        &mut self,
-    ) -> (&mut [Body], &[Contact], &[Joint], Option<&[bool]>) {
-        let movers = self.collider.movers(self.bodies.len());
-        (&mut self.bodies, &self.contacts, &self.joints, movers)
-    }
-
-    /// The collide stage: wakes what the movers reach (if anything sleeps), then the
-    /// broad and narrow phases; returns the deepest overlap found (m, >= 0). How far
-    /// out a pair keeps points is `speculative`'s choice (see [`Speculative`]).
-    pub(crate) fn collide(
-        &mut self,
-        h: f32,
-        margin: f32,
-        speculative: Speculative,
-        clock: &mut StageClock,
-    ) -> f32 {
-        let pool = self.pool();
-        let pool = pool.as_deref();
-        if self.sleep.contacts.is_empty() && !sleep::any_asleep(&self.bodies, pool) {
-            self.sleep.none_asleep = true;
-        } else {
-            // wake every island an awake body (or a moving kinematic one) reaches, then
-            // every island those reach, and so on: a woken island's own pairs were not
-            // looked for
-            self.sleep.wake_reached(
-                &mut self.bodies,
-                &mut self.contacts,
-                &self.joints,
-                &mut self.collider,
-                h,
-                margin,
-            );
-            self.sleep.park_joints(&self.bodies, &mut self.joints);
-            if !self.bodies.iter().any(Body::is_mover) {
-                // all at rest: last step's contacts are kept aside, nothing is looked for
-                self.sleep.contacts.append(&mut self.contacts);
-                clock.lap(Stage::Broad);
-                clock.lap(Stage::Narrow);
-                return 0.0;
-            }
-        }
-        self.collider.broad_phase(&self.bodies, h, margin, pool);
-        clock.lap(Stage::Broad);
-        let deepest = self.collider.narrow_phase(
-            &self.bodies,
-            &mut self.contacts,
-            &mut self.sleep.contacts,
-            margin,
-            speculative,
-            pool,
-        );
-        clock.lap(Stage::Narrow);
-        deepest
     }
 
     /// Wakes the island `body` sleeps in (nothing if it is awake).

@@ -378,14 +378,12 @@ impl Sleep {
                 least[r] = least[r].min(b.sleep_time);
             }
         }
-        for i in 0..n {
-            let b = &bodies[i];
+        for (i, b) in bodies.iter_mut().enumerate() {
             if !b.is_dynamic() || b.asleep {
                 continue;
             }
             let r = uf_root(&mut self.islands, i as u32);
             if least[r as usize] >= TIME_TO_SLEEP {
-                let b = &mut bodies[i];
                 b.asleep = true;
                 b.island = r;
                 b.velocity = Vec2::ZERO;

@@ -9,11 +9,11 @@
 //! forces change from substep to substep: then each substep is a plan of its own, the
 //! velocities integrated before it.
 
-use super::{Stage, StageClock, StepContext, Stepper};
+use super::{Stage, StageClock, StepContext, StepState, StepStats, Stepper};
+use crate::collision::Contact;
 use crate::collision::collide::Speculative;
 use crate::defs::SolverKind;
 use crate::solver::soft::SoftSolver;
-use crate::world::{StepStats, World};
 
 /// The soft step and its scratch.
 #[derive(Clone, Debug, Default)]
@@ -26,31 +26,35 @@ impl Stepper for SoftStepper {
         SolverKind::Soft
     }
 
-    fn step(&mut self, world: &mut World, cx: &StepContext, clock: &mut StageClock) -> StepStats {
-        let s = world.settings;
+    fn step(
+        &mut self,
+        state: &mut StepState,
+        cx: &StepContext,
+        clock: &mut StageClock,
+    ) -> StepStats {
+        let s = state.settings;
         let (n, h) = (cx.substeps, cx.h);
-        let pool = world.pool();
-        let pool = pool.as_deref();
+        let pool = state.pool;
         // points out to the distance each pair can close in the step (speculative
         // contacts): a fast body meets what it would pass through
-        let penetration = world.collide(cx.dt, cx.margin, Speculative::MarginOrMotion, clock);
+        let penetration = state.collide(cx.dt, cx.margin, Speculative::MarginOrMotion, clock);
         // without drag (or bodies' own damping) the forces change every substep's
         // velocities by the same amount: integrate once, and the solver adds that
         // increment in the later substeps
-        let uniform = world.uniform_forces();
+        let uniform = state.forces().uniform();
         // with only gravity and the bodies' own forces, the first substep's forces are
         // integrated in prepare's pass over the bodies
-        let fused = world.plain_forces();
+        let fused = state.plain_forces();
         if fused {
-            let g = world.gravity;
-            let mouse = world.mouse;
+            let g = state.gravity;
+            let mouse = state.mouse;
             // (this step's flags of the bodies the solver moves, where the collide found
             // them: the colouring need not wait for the solver's own pass over the bodies)
-            let (bodies, contacts, joints, movers) = world.bodies_with_movers();
+            let movers = state.collider.movers(state.bodies.len());
             self.soft.prepare_integrating(
-                bodies,
-                contacts,
-                joints,
+                state.bodies,
+                state.contacts,
+                state.joints,
                 mouse.as_ref(),
                 movers,
                 &s,
@@ -60,10 +64,10 @@ impl Stepper for SoftStepper {
             );
         } else {
             self.soft.prepare(
-                &world.bodies,
-                &world.contacts,
-                &world.joints,
-                world.mouse.as_ref(),
+                state.bodies,
+                state.contacts,
+                state.joints,
+                state.mouse.as_ref(),
                 &s,
                 h,
                 pool,
@@ -73,31 +77,31 @@ impl Stepper for SoftStepper {
         let residual;
         if uniform {
             if !fused {
-                world.integrate_velocities(h);
-                self.soft.take_increments(&world.bodies, pool);
+                state.integrate_velocities(h);
+                self.soft.take_increments(state.bodies, pool);
             }
             clock.lap(Stage::Forces);
-            residual = self.soft.run(&world.joints, n as usize, &s, h, pool);
+            residual = self.soft.run(state.joints, n as usize, &s, h, pool);
             clock.lap(Stage::Solve);
         } else {
             let mut last = 0.0;
             for _ in 0..n {
-                world.integrate_velocities(h);
-                self.soft.load_velocities(&world.bodies);
+                state.integrate_velocities(h);
+                self.soft.load_velocities(state.bodies);
                 clock.lap(Stage::Forces);
-                last = self.soft.run(&world.joints, 1, &s, h, pool);
-                self.soft.store_velocities(&mut world.bodies);
+                last = self.soft.run(state.joints, 1, &s, h, pool);
+                self.soft.store_velocities(state.bodies);
                 clock.lap(Stage::Solve);
             }
             residual = last;
         }
         let iterations = n * (s.iterations + 1);
         self.soft.apply_restitution(s.restitution_threshold);
-        self.soft.store_impulses(&mut world.contacts, pool);
-        self.soft.store_joints(&mut world.joints, pool);
+        self.soft.store_impulses(state.contacts, pool);
+        self.soft.store_joints(state.joints, pool);
         clock.lap(Stage::Solve);
         // velocities, then x = x0 + sum h v, theta = theta0 + sum h w
-        world.ended = Some(self.soft.finish(&mut world.bodies, pool));
+        state.ended = Some(self.soft.finish(state.bodies, pool));
         clock.lap(Stage::Integrate);
         StepStats {
             iterations,
@@ -109,7 +113,7 @@ impl Stepper for SoftStepper {
         }
     }
 
-    fn contact_lambdas(&self, _world: &World, out: &mut Vec<f32>) {
+    fn contact_lambdas(&self, _contacts: &[Contact], out: &mut Vec<f32>) {
         self.soft.lambdas(out);
     }
 
@@ -160,19 +164,22 @@ mod tests {
         assert!(w.settings.sleep);
         let all = Some(&[false, true, true][..]);
         w.step().unwrap();
-        assert_eq!(w.bodies_with_movers().3, all);
+        assert_eq!(w.collider.movers(w.bodies.len()), all);
         let mut asleep = false;
         for _ in 0..120 {
             // (asleep at the step's start, as its collide finds it)
             asleep = w.bodies[1].asleep;
             w.step().unwrap();
-            assert_eq!(w.bodies_with_movers().3, if asleep { None } else { all });
+            assert_eq!(
+                w.collider.movers(w.bodies.len()),
+                if asleep { None } else { all }
+            );
         }
         assert!(asleep, "the box falls asleep within 2 s");
         assert!(!w.bodies[2].asleep, "the ball falls");
         // woken, the next collide finds every flag again
         w.wake(1);
         w.step().unwrap();
-        assert_eq!(w.bodies_with_movers().3, all);
+        assert_eq!(w.collider.movers(w.bodies.len()), all);
     }
 }

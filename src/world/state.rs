@@ -31,7 +31,7 @@ use crate::defs::{DragDef, SolverSettings};
 use crate::joint::{Joint, MouseJoint};
 use crate::math::Vec2;
 use crate::shape::{MAX_POLYGON_VERTICES, Shape};
-use crate::world::StepStats;
+use crate::step::StepStats;
 
 /// The `format` field of a state file.
 pub const STATE_FORMAT: &str = "sandbox2d-state";
