@@ -402,8 +402,9 @@ impl World {
         Err(self.first_non_finite())
     }
 
-    /// The solver that ran the last step, as its own type (for tests and tools).
-    pub fn stepper_as<T: 'static>(&self) -> Option<&T> {
+    /// The solver that ran the last step, as its own type (for tests).
+    #[cfg(test)]
+    pub(crate) fn stepper_as<T: 'static>(&self) -> Option<&T> {
         self.stepper.as_ref()?.as_any().downcast_ref::<T>()
     }
 

@@ -48,6 +48,9 @@ pub struct StepStats {
     pub contacts: usize,
     /// Deepest overlap seen by the narrow phase this step (m, >= 0).
     pub penetration: f32,
+    /// Colours of the soft step's constraint graph (what its threads split); 0 under
+    /// the other solvers.
+    pub colors: usize,
     /// Time per stage (ms): forces and velocity integration, broad phase, narrow phase,
     /// solver, position integration.
     pub ms_forces: f32,
@@ -285,7 +288,8 @@ pub(crate) trait Stepper: std::fmt::Debug + Send + Sync {
     /// A boxed copy (worlds are cloned by the bench).
     fn box_clone(&self) -> Box<dyn Stepper>;
 
-    /// The stepper as `Any`, for `World::stepper_as`.
+    /// The stepper as `Any`, for `World::stepper_as` (unit tests).
+    #[cfg(test)]
     fn as_any(&self) -> &dyn std::any::Any;
 }
 

@@ -48,6 +48,7 @@ impl Stepper for PgsStepper {
         Box::new(self.clone())
     }
 
+    #[cfg(test)]
     fn as_any(&self) -> &dyn std::any::Any {
         self
     }

@@ -109,6 +109,7 @@ impl Stepper for SoftStepper {
             position_iterations: 0,
             contacts: self.soft.points(),
             penetration,
+            colors: self.soft.color_count(),
             ..Default::default()
         }
     }
@@ -121,6 +122,7 @@ impl Stepper for SoftStepper {
         Box::new(self.clone())
     }
 
+    #[cfg(test)]
     fn as_any(&self) -> &dyn std::any::Any {
         self
     }

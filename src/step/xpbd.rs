@@ -128,6 +128,7 @@ impl Stepper for XpbdStepper {
         Box::new(self.clone())
     }
 
+    #[cfg(test)]
     fn as_any(&self) -> &dyn std::any::Any {
         self
     }
