@@ -11,7 +11,7 @@ use crate::joint::{Joint, JointId, MouseJoint};
 use crate::math::{Aabb, Vec2, cross};
 use crate::parallel::{self, Pool};
 pub use crate::step::StepStats;
-use crate::step::integrate::{self, PointForce, body_finite};
+use crate::step::integrate::{self, PointForce};
 use crate::step::sleep::Sleep;
 use crate::step::{StageClock, StepContext, StepState, Stepper, new_stepper};
 use std::sync::Arc;
@@ -387,7 +387,7 @@ impl World {
 
     /// The error for the first body (by index) whose state is not finite.
     fn first_non_finite(&self) -> StepError {
-        let i = self.bodies.iter().position(|b| !body_finite(b));
+        let i = self.bodies.iter().position(|b| !b.is_finite());
         self.non_finite(i.unwrap_or(0))
     }
 

@@ -2,7 +2,7 @@
 //! half of semi-implicit Euler: joint drives, constant point forces, gravity, drag),
 //! velocities into positions, and the step's last pass over the bodies (forces cleared,
 //! state checked). The soft step folds the same arithmetic into its own passes over its
-//! bodies (`solver::soft`), through [`free_velocity`] and [`body_finite`].
+//! bodies (`solver::soft`), through [`Body::free_velocity`] and [`Body::is_finite`].
 
 use crate::body::{Body, HOT_BYTES};
 use crate::defs::{BodyModel, BodyType, DragDef};
@@ -88,13 +88,13 @@ fn integrate_velocities_of(
             continue;
         }
         let Some(d) = drag else {
-            (b.velocity, b.angular_velocity) = free_velocity(b, h, g);
+            (b.velocity, b.angular_velocity) = b.free_velocity(h, g);
             if damped {
                 damp(b, h);
             }
             continue;
         };
-        let (mut v, w) = free_velocity(b, h, g);
+        let (mut v, w) = b.free_velocity(h, g);
         // F = -(k1 + k2 |v|) v with k2 = quadratic + 1/2 rho Cd width; backward Euler in the factor
         let speed = v.length();
         let mut k = d.linear + d.quadratic * speed;
@@ -119,17 +119,6 @@ fn damp(b: &mut Body, h: f32) {
     if b.angular_damping != 0.0 {
         b.angular_velocity *= 1.0 / (1.0 + h * b.angular_damping);
     }
-}
-
-/// A dynamic body's velocities after `h` of gravity and its own force and torque,
-/// before drag: v + h (F / m + g), w + h tau / I.
-#[inline]
-pub(crate) fn free_velocity(b: &Body, h: f32, g: Option<Vec2>) -> (Vec2, f32) {
-    let mut v = b.velocity + h * b.inv_mass * b.force;
-    if let Some(g) = g {
-        v += h * g;
-    }
-    (v, b.angular_velocity + h * b.inv_inertia * b.torque)
 }
 
 /// Positions from velocities: x += h (v + dv), theta += h (w + dw) for every body that
@@ -197,16 +186,8 @@ pub(crate) fn end_step(bodies: &mut [Body], pool: Option<&Pool>) -> bool {
             let b = &mut bodies[i];
             b.force = Vec2::ZERO;
             b.torque = 0.0;
-            bad |= !body_finite(b);
+            bad |= !b.is_finite();
         }
         if bad { 1.0 } else { 0.0 }
     }) > 0.0
-}
-
-/// Whether a body's position, velocity, angle and spin are all finite.
-pub(crate) fn body_finite(b: &Body) -> bool {
-    b.position.is_finite()
-        && b.velocity.is_finite()
-        && b.angle.is_finite()
-        && b.angular_velocity.is_finite()
 }

@@ -496,8 +496,7 @@ impl SoftSolver {
                 let b = &mut bodies[i];
                 let (v0, w0) = (b.velocity, b.angular_velocity);
                 if b.is_dynamic() && !b.asleep {
-                    (b.velocity, b.angular_velocity) =
-                        crate::step::integrate::free_velocity(b, h, gravity);
+                    (b.velocity, b.angular_velocity) = b.free_velocity(h, gravity);
                 }
                 // the constraints are built from the velocities before the step (restitution
                 // keeps each point's approach speed): the new ones wait in `increments`
@@ -707,7 +706,7 @@ impl SoftSolver {
                             b.rot = Rot::from_angle(b.angle);
                         }
                     }
-                    bad |= !crate::step::integrate::body_finite(b);
+                    bad |= !b.is_finite();
                 }
                 if bad { 1.0 } else { 0.0 }
             },
@@ -717,7 +716,7 @@ impl SoftSolver {
         for b in &mut bodies[n..] {
             b.force = Vec2::ZERO;
             b.torque = 0.0;
-            rest_bad |= !crate::step::integrate::body_finite(b);
+            rest_bad |= !b.is_finite();
         }
         bad > 0.0 || rest_bad
     }
