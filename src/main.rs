@@ -2013,6 +2013,8 @@ fn bench(a: &BenchArgs) -> Result<(), Failure> {
             return Err(keep(partial, f));
         }
         drop(partial);
+        // an earlier run's unfinished rows are superseded
+        let _ = std::fs::remove_file(&partial_path);
         say!(
             "wrote {} (shard {p}: {} of {} cases)",
             path.display(),
@@ -2025,6 +2027,8 @@ fn bench(a: &BenchArgs) -> Result<(), Failure> {
         return Err(keep(partial, f));
     }
     drop(partial);
+    // an earlier run's unfinished rows are superseded
+    let _ = std::fs::remove_file(&partial_path);
     Ok(())
 }
 

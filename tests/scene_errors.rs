@@ -657,10 +657,11 @@ fn camera_pixels_per_meter_not_positive() {
 
 #[test]
 fn camera_size_with_a_zero() {
+    // at the element that is out of range
     check(
         "name = \"t\"\n[camera]\nsize = [1280, 0]\n",
         3,
-        8,
+        15,
         &["size", "[1280, 0]"],
     );
 }

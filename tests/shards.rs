@@ -377,7 +377,11 @@ fn a_rerun_task_replaces_its_shard_whole_or_leaves_it_as_it_was() {
         .stderr(std::process::Stdio::piped())
         .spawn()
         .unwrap();
-    let partial = dir.join("results.shard-1-of-2.partial.csv");
+    // the rows go to a temporary file until the suite stops
+    let partial = dir.join(format!(
+        ".results.shard-1-of-2.partial.csv.{}.tmp",
+        child.id()
+    ));
     let t = std::time::Instant::now();
     while !std::fs::read_to_string(&partial).is_ok_and(|s| s.lines().count() >= 3)
         && t.elapsed().as_secs() < 60
