@@ -98,7 +98,7 @@ pub struct World {
     step_count: u64,
     time: f64,
     /// Where this world's (0, 0) is (m): positions in it are relative to this
-    /// ([`WorldDef::origin`]); [`World::world_position`] adds it back.
+    /// ([`crate::defs::WorldDef::origin`]); [`World::world_position`] adds it back.
     pub origin: glam::DVec2,
     /// Threads the step may use ([`World::set_threads`]), and whether the step measures
     /// if they pay and uses one while they do not ([`World::set_thread_policy`]).
