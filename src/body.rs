@@ -117,6 +117,39 @@ impl Body {
         self.body_type == BodyType::Dynamic
     }
 
+    /// Its velocities after `h` of gravity `g` and its own force and torque, before
+    /// drag: v + h (F / m + g), w + h tau / I (semi-implicit Euler's velocity half; see
+    /// `step::integrate`).
+    #[inline]
+    pub(crate) fn free_velocity(&self, h: f32, g: Option<Vec2>) -> (Vec2, f32) {
+        let mut v = self.velocity + h * self.inv_mass * self.force;
+        if let Some(g) = g {
+            v += h * g;
+        }
+        (
+            v,
+            self.angular_velocity + h * self.inv_inertia * self.torque,
+        )
+    }
+
+    /// Whether its position, velocity, angle and spin are all finite.
+    #[inline]
+    pub(crate) fn is_finite(&self) -> bool {
+        self.position.is_finite()
+            && self.velocity.is_finite()
+            && self.angle.is_finite()
+            && self.angular_velocity.is_finite()
+    }
+
+    /// An awake dynamic body, or a kinematic one that moves: what wakes a sleeping
+    /// island it reaches.
+    #[inline]
+    pub(crate) fn is_mover(&self) -> bool {
+        (self.is_dynamic() && !self.asleep)
+            || (self.body_type == BodyType::Kinematic
+                && (self.velocity != Vec2::ZERO || self.angular_velocity != 0.0))
+    }
+
     /// World position of the shape origin the scene gave (equal to the centre of mass
     /// unless the polygon was not centred).
     pub fn origin(&self) -> Vec2 {

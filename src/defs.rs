@@ -460,7 +460,7 @@ pub struct DragDef {
     pub drag_coefficient: f32,
 }
 
-/// Which solver steps the world. Each kind is one [`crate::step::Stepper`].
+/// Which solver steps the world. Each kind is one stepper (`Stepper`, in `src/step/`).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Default, serde::Serialize, serde::Deserialize)]
 pub enum SolverKind {
     /// The soft step (the default): one collide per step, substeps that reuse its

@@ -4,7 +4,7 @@
 //!
 //! A joint is stored in its bodies' frames (anchors and axis relative to each body's
 //! centre of mass), so it follows the bodies. Both solvers read the same [`Joint`]:
-//! PGS builds velocity rows from it ([`crate::solver::joint_rows`]), XPBD projects
+//! PGS builds velocity rows from it (`solver::joint_rows`), XPBD projects
 //! positions with it (`Joint::project`, after Mueller et al. 2020 and the Ten Minute
 //! Physics joint notes).
 

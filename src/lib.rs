@@ -1,46 +1,78 @@
-//! sandbox2d: a 2D physics sandbox: particles and rigid bodies, SAT contacts, the
-//! contact MLCP solved by warm-started projected Gauss-Seidel with Baumgarte and slop.
+//! sandbox2d: a 2D physics sandbox: particles and rigid bodies, SAT contacts, and three
+//! solvers behind one [`World`]. The default, [`SolverSettings::soft`] (the soft step),
+//! takes substeps with soft contacts and a relax pass; [`SolverSettings::pgs`] is classic
+//! warm-started projected Gauss-Seidel with Baumgarte and slop; [`SolverSettings::xpbd`]
+//! is extended position-based dynamics.
 //!
 //! ```
 //! use sandbox2d::{BodyDef, BodyType, ShapeDef, SolverSettings, World};
 //! use glam::Vec2;
-//! let mut world = World::new(Some(Vec2::new(0.0, -10.0)), SolverSettings::pgs());
-//! world.add_body(&BodyDef { name: "ground".into(), body_type: BodyType::Static,
-//!     shape: ShapeDef::Box { width: 20.0, height: 1.0 }, position: Vec2::new(0.0, -0.5), ..Default::default() }).unwrap();
-//! let ball = world.add_body(&BodyDef { name: "ball".into(), shape: ShapeDef::Circle { radius: 0.5 },
-//!     position: Vec2::new(0.0, 3.0), ..Default::default() }).unwrap();
-//! for _ in 0..120 { world.step().unwrap(); }
-//! assert!((world.bodies[ball].position.y - 0.5).abs() < 0.02);
+//! for settings in [SolverSettings::default(), SolverSettings::pgs(), SolverSettings::xpbd()] {
+//!     let mut world = World::new(Some(Vec2::new(0.0, -10.0)), settings);
+//!     world.add_body(&BodyDef { name: "ground".into(), body_type: BodyType::Static,
+//!         shape: ShapeDef::Box { width: 20.0, height: 1.0 }, position: Vec2::new(0.0, -0.5), ..Default::default() }).unwrap();
+//!     let ball = world.add_body(&BodyDef { name: "ball".into(), shape: ShapeDef::Circle { radius: 0.5 },
+//!         position: Vec2::new(0.0, 3.0), ..Default::default() }).unwrap();
+//!     for _ in 0..120 { world.step().unwrap(); }
+//!     // at rest on the ground: its centre one radius above it
+//!     assert!((world.bodies[ball].position.y - 0.5).abs() < 0.02);
+//! }
+//! ```
+//!
+//! The solvers' internals (their scratch, the threads' passes) are not part of the
+//! API: a program steps a [`World`], and cannot reach a solver's buffers.
+//!
+//! ```compile_fail
+//! // the soft solver's buffers are the crate's own: this does not compile
+//! let s = sandbox2d::solver::soft::SoftSolver::default();
 //! ```
 
 // `!(x > 0.0)` is the crate's idiom for "reject NaN too"; the partial_cmp spelling
 // clippy suggests reads worse and is easy to get wrong.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
-pub mod bench;
 pub mod body;
 pub mod collision;
-pub mod compare;
 pub mod compound;
 pub mod defs;
 pub mod draw;
 pub mod joint;
 pub mod math;
-pub mod output;
-pub mod parallel;
+pub(crate) mod parallel;
 pub mod scene;
 pub mod shape;
-pub mod sim;
-pub mod solver;
-pub mod step;
+pub(crate) mod solver;
+pub(crate) mod step;
 pub mod timeline;
 pub mod world;
 
 #[cfg(feature = "render")]
 pub mod render;
 
+// The sandbox2d program's own parts (the lab, runs and their outputs, side-by-side
+// panes, the window): public for the binary and the tests, not part of the API a
+// program embeds.
 #[cfg(feature = "app")]
+#[doc(hidden)]
 pub mod app;
+#[doc(hidden)]
+pub mod bench;
+#[doc(hidden)]
+pub mod compare;
+#[doc(hidden)]
+pub mod output;
+#[doc(hidden)]
+pub mod sim;
+
+/// Threads: what a new world may use unless told otherwise, and what the machine has.
+/// Results are the same to the bit whatever the thread count.
+pub mod threads {
+    pub use crate::parallel::{
+        MAX_THREADS, available, core_round_trip_ns, default_adaptive, default_threads,
+        set_default_adaptive, set_default_threads,
+    };
+    pub use crate::world::{ThreadUse, Threads};
+}
 
 pub use body::{Body, BodyId};
 pub use defs::*;

@@ -751,19 +751,19 @@ fn main() -> ExitCode {
     install_interrupt_handler();
     let timing = matches!(cli.command, Some(Command::Bench(_) | Command::Tune(_)));
     match cli.threads {
-        Some(n) if !(1..=sandbox2d::parallel::MAX_THREADS).contains(&n) => {
+        Some(n) if !(1..=sandbox2d::threads::MAX_THREADS).contains(&n) => {
             eprintln!(
                 "error: --threads must be 1..={}, got {n}",
-                sandbox2d::parallel::MAX_THREADS
+                sandbox2d::threads::MAX_THREADS
             );
             return ExitCode::from(2);
         }
-        Some(n) => sandbox2d::parallel::set_default_threads(n),
+        Some(n) => sandbox2d::threads::set_default_threads(n),
         None if timing => {}
-        None => sandbox2d::parallel::set_default_threads(sandbox2d::parallel::available()),
+        None => sandbox2d::threads::set_default_threads(sandbox2d::threads::available()),
     }
     // (bench and tune time what they are told to: every step on the threads allowed)
-    sandbox2d::parallel::set_default_adaptive(!timing && !cli.fixed_threads);
+    sandbox2d::threads::set_default_adaptive(!timing && !cli.fixed_threads);
     let result = match cli.command {
         None => default_command(),
         Some(Command::Scenes) => list_scenes(),
@@ -986,7 +986,7 @@ fn simulate(a: &SimulateArgs) -> Result<(), Failure> {
     // world's workers start at its first step, so none is in the way; and before any
     // output file is opened, so none waits on it)
     let round_trip = (world.threads() > 1)
-        .then(sandbox2d::parallel::core_round_trip_ns)
+        .then(sandbox2d::threads::core_round_trip_ns)
         .flatten();
     // from here an interrupt stops the run cleanly (before the trace exists, so that no
     // interrupt can leave its temporary file behind)
@@ -2049,7 +2049,7 @@ fn bench_scaling(a: &BenchArgs, sharded: bool) -> Result<(), Failure> {
         )));
     }
     writable_dir(&a.out)?;
-    let cores = sandbox2d::parallel::available();
+    let cores = sandbox2d::threads::available();
     let threads = scaling::thread_counts(cores);
     let repeats = a.repeats.unwrap_or(scaling::REPEATS);
     let runs = scaling::runs(&sizes, &threads, repeats);
@@ -2123,7 +2123,7 @@ fn bench_contention(a: &BenchArgs, sharded: bool) -> Result<(), Failure> {
         )));
     }
     writable_dir(&a.out)?;
-    let cores = sandbox2d::parallel::available();
+    let cores = sandbox2d::threads::available();
     let rounds = a.repeats.unwrap_or(contention::ROUNDS);
     let runs = contention::runs(&scenes, rounds);
     let bar = bench_progress(runs.len());

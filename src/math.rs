@@ -186,6 +186,9 @@ pub(crate) fn uf_union(parent: &mut [u32], a: u32, b: u32) {
 /// hundreds of bytes, and the passes read its first cache line only.
 pub(crate) const BODY_AHEAD: usize = 8;
 
+/// Bodies per block of a parallel pass over the bodies.
+pub(crate) const BODY_PASS_BLOCK: usize = 256;
+
 /// Asks the cache for the first `bytes` bytes of `items[i]` (all of it for
 /// `usize::MAX`; nothing past the slice's end). A hint only: no result depends on it.
 #[inline(always)]

@@ -3,22 +3,21 @@
 //! -> solver -> integrate positions -> step stats.
 
 use crate::body::{Body, BodyId};
-use crate::body::{HOT_BYTES, SHAPE_BYTES};
+use crate::collision::Contact;
 use crate::collision::broad_phase::BroadPhase;
-use crate::collision::sat;
-use crate::defs::{
-    BodyDef, BodyModel, BodyType, DragDef, ForceDef, JointDef, ShapeDef, SolverSettings, WorldDef,
-};
+use crate::collision::collide::Collider;
+use crate::defs::{BodyModel, DragDef, SolverSettings};
 use crate::joint::{Joint, JointId, MouseJoint};
-use crate::math::{Aabb, BODY_AHEAD, Rot, Vec2, cross, prefetch, uf_root, uf_union};
+use crate::math::{Aabb, Vec2, cross};
 use crate::parallel::{self, Pool};
-use crate::shape::{Shape, ShapeError};
-use crate::solver::contact_cache::{CacheCursor, Contact, match_points};
-use crate::solver::joint_rows::apply_drives;
-use crate::step::{Stage, StageClock, StepContext, Stepper, new_stepper};
-use std::sync::atomic::{AtomicU32, Ordering};
-use std::sync::{Arc, Mutex};
+use crate::shape::Shape;
+pub use crate::step::StepStats;
+use crate::step::integrate::{self, PointForce};
+use crate::step::sleep::Sleep;
+use crate::step::{StageClock, StepContext, StepState, Stepper, new_stepper};
+use std::sync::Arc;
 
+mod build;
 mod edit;
 mod events;
 mod measure;
@@ -27,75 +26,15 @@ mod spawn;
 mod state;
 mod threads;
 
+use build::energy_problem;
+pub(crate) use build::joint_not_finite;
+pub use build::{BodyInput, BuildError};
 pub use edit::{BodyKey, JointKey, RemoveError};
 pub use events::{ContactEvent, EventKind};
 pub use measure::{FAR_FROM_ORIGIN, far_from_origin};
 pub use query::RayHit;
 pub use state::{STATE_FORMAT, STATE_VERSION, StateError, WorldState};
 pub use threads::{ThreadUse, Threads};
-
-/// How far out a pair keeps contact points (speculative contacts).
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub(crate) enum Speculative {
-    /// Up to the margin plus the distance the two bodies can close in h (classic PGS,
-    /// XPBD).
-    MarginPlusMotion,
-    /// Up to the larger of the margin and the distance the two bodies can close in h:
-    /// a gap beyond both cannot close in the step, and resting bodies keep no more
-    /// points than the margin gives (the soft step: the same protection against
-    /// tunnelling, 3 to 5% less time on the large pyramid than the sum).
-    MarginOrMotion,
-}
-
-/// Why a world could not be built from its description. Names are quoted with escapes
-/// (as Rust's `{:?}` writes them), so a name cannot break a message over lines.
-#[derive(Debug, Clone, PartialEq, thiserror::Error)]
-pub enum BuildError {
-    #[error("body {name:?}: {source}")]
-    Shape { name: String, source: ShapeError },
-    #[error("body {0:?}: a particle must have a circle shape")]
-    ParticleShape(String),
-    #[error("body {name:?}: {what} must be > 0, got {value}")]
-    NotPositive {
-        name: String,
-        what: &'static str,
-        value: f32,
-    },
-    #[error("body {name:?}: {what} is not a finite number")]
-    NotFinite { name: String, what: &'static str },
-    /// A quantity the world derives from the description (mass, inertia, centre of
-    /// mass, energy) is not finite or not usable; `input` says which given value made it.
-    #[error("body {name:?}: {what}")]
-    Derived {
-        name: String,
-        input: BodyInput,
-        what: String,
-    },
-    #[error("duplicate body name {0:?}")]
-    DuplicateName(String),
-    #[error("{what} names body #{index}, but the world has {count} bodies")]
-    NoSuchBody {
-        what: &'static str,
-        index: usize,
-        count: usize,
-    },
-    #[error("joint #{0}: {1}")]
-    Joint(usize, String),
-    #[error("solver: {0}")]
-    Settings(String),
-}
-
-/// Which value of a [`BodyDef`] a [`BuildError::Derived`] comes from.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum BodyInput {
-    /// The shape (its size gives the mass and inertia).
-    Shape,
-    /// `density` or `mass`.
-    Mass,
-    Position,
-    Velocity,
-    AngularVelocity,
-}
 
 /// Why a step failed.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
@@ -119,37 +58,6 @@ pub enum StepError {
     },
 }
 
-/// What one step did and cost.
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
-pub struct StepStats {
-    /// PGS velocity sweeps run (summed over substeps).
-    pub iterations: u32,
-    /// Largest |delta lambda| of the last sweep (N s).
-    pub residual: f32,
-    /// Split-impulse sweeps run.
-    pub position_iterations: u32,
-    /// Contact points (of the last substep).
-    pub contacts: usize,
-    /// Deepest overlap seen by the narrow phase this step (m, >= 0).
-    pub penetration: f32,
-    /// Time per stage (ms): forces and velocity integration, broad phase, narrow phase,
-    /// solver, position integration.
-    pub ms_forces: f32,
-    pub ms_broad: f32,
-    pub ms_narrow: f32,
-    pub ms_solve: f32,
-    pub ms_integrate: f32,
-}
-
-/// A constant force at a body point.
-#[derive(Clone, Copy, Debug, serde::Serialize, serde::Deserialize)]
-struct PointForce {
-    body: usize,
-    force: Vec2,
-    /// point relative to the centre of mass, body frame
-    local: Vec2,
-}
-
 /// A physics world.
 #[derive(Clone, Debug)]
 pub struct World {
@@ -162,48 +70,11 @@ pub struct World {
     /// The solver and its settings.
     pub settings: SolverSettings,
     forces: Vec<PointForce>,
-    broad: BroadPhase,
-    aabbs: Vec<Aabb>,
-    dynamic: Vec<bool>,
-    /// How far each body can move this step (the speculative margin's part per body).
-    reach: Vec<f32>,
     pub(crate) contacts: Vec<Contact>,
-    old_contacts: Vec<Contact>,
-    /// The contacts of sleeping islands, kept with their impulses for when they wake.
-    pub(crate) sleeping_contacts: Vec<Contact>,
-    /// Union-find parents of the sleep pass (scratch).
-    islands: Vec<u32>,
-    /// Each island's least rested time (scratch of the sleep pass).
-    least_rest: Vec<f32>,
-    /// Islands to wake (scratch).
-    to_wake: Vec<u32>,
-    /// Which bodies size the waking pass's grid: the dynamic ones, asleep or not (scratch).
-    wake_sized: Vec<bool>,
-    pub(crate) joints: Vec<Joint>,
-    /// Joints whose bodies all sleep (or do not move), with their index, taken out of
-    /// `joints` for the solve of one step (see `park_sleeping_joints`).
-    parked: Vec<(usize, Joint)>,
-    /// The joints that stay in the solve (scratch of the parking).
-    joints_scratch: Vec<Joint>,
-    pub(crate) mouse: Option<MouseJoint>,
-    /// Body pairs joined by a joint that must not collide, sorted.
-    no_collide: Vec<(u32, u32)>,
-    /// Whether any body has a filter other than the default (else the broad phase skips
-    /// the check).
-    filtered: bool,
-    /// Whether any body is a sensor (else the narrow phase skips the check).
-    has_sensors: bool,
-    /// Whether any body has linear or angular damping (then the forces are not
-    /// [`World::plain_forces`]).
-    damped: bool,
-    /// Kinematic bodies on a path, by key ([`crate::defs::MotionDef`]).
-    motions: Vec<spawn::Motion>,
-    /// The scene's timed spawns ([`crate::defs::SpawnDef`]) and what each has made.
-    spawners: Vec<spawn::Spawner>,
-    /// Whether this step's collide found no body asleep and no sleeping contact (then
-    /// none is asleep at the step's end either: only `update_sleep` puts bodies to
-    /// sleep), so the end of the step need not look again.
-    none_asleep: bool,
+    /// The collide stage's state (broad phase, boxes, the cache, no-collide pairs).
+    pub(crate) collider: Collider,
+    /// The sleeping islands' contacts and parked joints.
+    pub(crate) sleep: Sleep,
     /// Whether a static body is a one-sided segment, worked out for this many bodies
     /// ([`World::keep_in_front`] looks only when one is).
     one_sided: (usize, bool),
@@ -211,13 +82,15 @@ pub struct World {
     step_start: Vec<Vec2>,
     /// The static one-sided segments by grid cell ([`World::keep_in_front`]).
     walls: WallGrid,
-    /// Whether this step's collide found `dynamic` for every body with none asleep: it
-    /// then says which bodies are dynamic ([`World::bodies_with_movers`]).
-    movers_found: bool,
-    /// Set by a solver whose last pass over the bodies did the end of the step (cleared
-    /// the forces and checked the state): whether some body's state is not finite.
-    /// `World::step` then skips its own pass ([`World::end_step`]).
-    pub(crate) ended: Option<bool>,
+    /// Whether any body has linear or angular damping (then the forces are not
+    /// [`World::plain_forces`]).
+    damped: bool,
+    /// Kinematic bodies on a path, by key ([`crate::defs::MotionDef`]).
+    motions: Vec<spawn::Motion>,
+    /// The scene's timed spawns ([`crate::defs::SpawnDef`]) and what each has made.
+    spawners: Vec<spawn::Spawner>,
+    pub(crate) joints: Vec<Joint>,
+    pub(crate) mouse: Option<MouseJoint>,
     /// Record contact and sensor events each step ([`World::events`]); off unless asked
     /// for or a sensor exists, so a world that needs no events pays nothing for them.
     pub record_events: bool,
@@ -233,7 +106,7 @@ pub struct World {
     step_count: u64,
     time: f64,
     /// Where this world's (0, 0) is (m): positions in it are relative to this
-    /// ([`WorldDef::origin`]); [`World::world_position`] adds it back.
+    /// ([`crate::defs::WorldDef::origin`]); [`World::world_position`] adds it back.
     pub origin: glam::DVec2,
     /// Threads the step may use ([`World::set_threads`]), and whether the step measures
     /// if they pay and uses one while they do not ([`World::set_thread_policy`]).
@@ -248,34 +121,10 @@ pub struct World {
     /// Keys of the bodies and joints, by index ([`World::body_key`]).
     body_keys: edit::Keys,
     joint_keys: edit::Keys,
-    /// Per block of pairs: the contacts the narrow phase found (scratch).
-    narrow_out: NarrowScratch,
-    /// Each block's first contact (scratch).
-    narrow_starts: Vec<usize>,
-}
-
-/// Per-thread narrow-phase output buffers; a clone starts with none.
-#[derive(Default)]
-struct NarrowScratch(Vec<Mutex<Vec<Contact>>>);
-
-impl Clone for NarrowScratch {
-    fn clone(&self) -> Self {
-        NarrowScratch::default()
-    }
-}
-
-impl std::fmt::Debug for NarrowScratch {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.write_str("NarrowScratch")
-    }
 }
 
 /// Fewest bodies for which a world starts its worker threads.
 const MIN_BODIES_FOR_THREADS: usize = 256;
-/// Body pairs a thread claims at a time in the narrow phase.
-const PAIR_BLOCK: usize = 256;
-/// Bodies per block of a parallel pass over the bodies.
-const BODY_PASS_BLOCK: usize = 256;
 
 impl World {
     /// An empty world with the given gravity and solver settings.
@@ -286,33 +135,17 @@ impl World {
             drag: None,
             settings,
             forces: Vec::new(),
-            broad: BroadPhase::default(),
-            aabbs: Vec::new(),
-            dynamic: Vec::new(),
-            reach: Vec::new(),
             contacts: Vec::new(),
-            old_contacts: Vec::new(),
-            sleeping_contacts: Vec::new(),
-            islands: Vec::new(),
-            least_rest: Vec::new(),
-            to_wake: Vec::new(),
-            wake_sized: Vec::new(),
-            joints: Vec::new(),
-            parked: Vec::new(),
-            joints_scratch: Vec::new(),
-            mouse: None,
-            no_collide: Vec::new(),
-            filtered: false,
-            has_sensors: false,
-            damped: false,
-            motions: Vec::new(),
-            spawners: Vec::new(),
-            none_asleep: false,
+            collider: Collider::default(),
+            sleep: Sleep::default(),
             one_sided: (usize::MAX, false),
             step_start: Vec::new(),
             walls: WallGrid::default(),
-            movers_found: false,
-            ended: None,
+            joints: Vec::new(),
+            mouse: None,
+            damped: false,
+            motions: Vec::new(),
+            spawners: Vec::new(),
             record_events: false,
             events: Vec::new(),
             touching: Vec::new(),
@@ -329,8 +162,6 @@ impl World {
             pool: None,
             body_keys: edit::Keys::default(),
             joint_keys: edit::Keys::default(),
-            narrow_out: NarrowScratch::default(),
-            narrow_starts: Vec::new(),
         }
     }
 
@@ -401,138 +232,6 @@ impl World {
         ))
     }
 
-    /// Builds the world a description asks for, with these solver settings.
-    pub fn from_def(def: &WorldDef, settings: SolverSettings) -> Result<World, BuildError> {
-        settings.check().map_err(BuildError::Settings)?;
-        let mut w = World::new(def.gravity, settings);
-        w.drag = def.drag;
-        w.origin = def.origin;
-        for b in &def.bodies {
-            w.add_body(b)?;
-        }
-        for f in &def.forces {
-            w.add_force(f)?;
-        }
-        for j in &def.joints {
-            w.add_joint(j)?;
-        }
-        for m in &def.motions {
-            w.add_motion(m)?;
-        }
-        for s in &def.spawns {
-            w.add_spawn(s)?;
-        }
-        Ok(w)
-    }
-
-    /// Adds a joint between two existing, distinct bodies, anchored where the bodies are now.
-    pub fn add_joint(&mut self, def: &JointDef) -> Result<JointId, BuildError> {
-        let id = self.joints.len();
-        let count = self.bodies.len();
-        for &i in &def.bodies {
-            if i >= count {
-                return Err(BuildError::NoSuchBody {
-                    what: "joint",
-                    index: i,
-                    count,
-                });
-            }
-        }
-        let bad = |m: String| Err(BuildError::Joint(id, m));
-        let [a, b] = def.bodies;
-        if a == b {
-            return bad(format!("joins body {:?} to itself", self.bodies[a].name));
-        }
-        if let Some([lo, hi]) = def.limits
-            && !(lo <= hi)
-        {
-            return bad(format!("limits min {lo} > max {hi}"));
-        }
-        if let Some(ax) = def.axis
-            && (!ax.is_finite() || ax.length() <= 1e-6)
-        {
-            return bad("prismatic axis must have a non-zero length".into());
-        }
-        if !(def.compliance >= 0.0) || !def.compliance.is_finite() {
-            return bad(format!("compliance must be >= 0, got {}", def.compliance));
-        }
-        if let Some(l) = def.length
-            && (!(l >= 0.0) || !l.is_finite())
-        {
-            return bad(format!("length must be >= 0, got {l}"));
-        }
-        let finite = [def.anchor, def.axis, def.offset]
-            .iter()
-            .flatten()
-            .chain(def.anchors.iter().flatten())
-            .chain(def.ground_anchors.iter().flatten())
-            .all(|v| v.is_finite());
-        if !finite || !def.angle.is_none_or(f32::is_finite) {
-            return bad("anchors, axis, offset and angle must be finite".into());
-        }
-        if let Some(sp) = def.spring
-            && !(sp.hertz > 0.0 && sp.hertz.is_finite() && sp.damping_ratio >= 0.0)
-        {
-            return bad(format!(
-                "spring needs hertz > 0 and damping_ratio >= 0, got {} and {}",
-                sp.hertz, sp.damping_ratio
-            ));
-        }
-        match def.kind {
-            crate::defs::JointKind::Hinge if def.servo.is_some() && def.spring.is_some() => {
-                return bad("a hinge takes a servo or a spring, not both".into());
-            }
-            crate::defs::JointKind::Motor
-                if !(def.max_force >= 0.0
-                    && def.max_torque >= 0.0
-                    && (0.0..=1.0).contains(&def.correction)) =>
-            {
-                return bad(format!(
-                    "a motor joint needs max_force, max_torque >= 0 and correction in [0, 1], got {}, {}, {}",
-                    def.max_force, def.max_torque, def.correction
-                ));
-            }
-            crate::defs::JointKind::Pulley if def.ground_anchors.is_none() => {
-                return bad("a pulley needs ground anchors".into());
-            }
-            crate::defs::JointKind::Pulley if !(def.ratio > 0.0 && def.ratio.is_finite()) => {
-                return bad(format!("a pulley's ratio must be > 0, got {}", def.ratio));
-            }
-            _ => {}
-        }
-        let joint = Joint::from_def(def, &self.bodies);
-        if let Some(what) = joint_not_finite(&joint) {
-            return bad(format!(
-                "its {what} is not finite (the bodies {:?} and {:?} are too far apart for f32)",
-                self.bodies[a].name, self.bodies[b].name
-            ));
-        }
-        self.joints.push(joint);
-        self.sync_keys();
-        if !def.collide_connected {
-            let pair = (a.min(b) as u32, a.max(b) as u32);
-            if let Err(at) = self.no_collide.binary_search(&pair) {
-                self.no_collide.insert(at, pair);
-            }
-        }
-        let (ia, ib) = (self.bodies[a].island, self.bodies[b].island);
-        if self.bodies[a].asleep && self.bodies[b].asleep {
-            // a joint between two sleepers (bodies made asleep) joins their islands:
-            // they sleep on, and wake together
-            if ia != ib {
-                for body in &mut self.bodies {
-                    if body.asleep && body.island == ib {
-                        body.island = ia;
-                    }
-                }
-            }
-        } else {
-            self.wake(a);
-            self.wake(b);
-        }
-        Ok(id)
-    }
-
     /// The joints, in creation order.
     pub fn joints(&self) -> &[Joint] {
         &self.joints
@@ -585,259 +284,6 @@ impl World {
             .fold(0.0, f32::max)
     }
 
-    /// Adds a body; its mass and inertia come from the shape and density (or the given mass).
-    pub fn add_body(&mut self, def: &BodyDef) -> Result<BodyId, BuildError> {
-        if self.bodies.iter().any(|b| b.name == def.name) {
-            return Err(BuildError::DuplicateName(def.name.clone()));
-        }
-        let body = World::make_body(def, self.gravity)?;
-        Ok(self.add_made_body(body, def.awake))
-    }
-
-    /// Adds a body made by [`World::make_body`] without checking that its name is new
-    /// (the caller has: a loader with a set of names), asleep on an island of its own if
-    /// not `awake` and dynamic ([`BodyDef::awake`]).
-    pub fn add_made_body(&mut self, mut body: Body, awake: bool) -> BodyId {
-        self.filtered |= body.filter != crate::defs::Filter::default();
-        self.damped |= body.linear_damping != 0.0 || body.angular_damping != 0.0;
-        if !awake && body.is_dynamic() {
-            // an island's label is the index of one of its bodies: its own
-            body.asleep = true;
-            body.island = self.bodies.len() as u32;
-        }
-        if body.has_sensor() {
-            // a sensor is there to be heard: its scene records events
-            self.has_sensors = true;
-            self.record_events = true;
-        }
-        self.bodies.push(body);
-        self.sync_keys();
-        self.bodies.len() - 1
-    }
-
-    /// The body a description makes, as [`World::add_body`] would add it to a world with
-    /// this gravity, without adding it: every value it derives (centre of mass, mass,
-    /// inertia and their inverses, kinetic and potential energy) is checked to be finite.
-    pub fn make_body(def: &BodyDef, gravity: Option<Vec2>) -> Result<Body, BuildError> {
-        let name = def.name.clone();
-        let finite = |what: &'static str, ok: bool| {
-            if ok {
-                Ok(())
-            } else {
-                Err(BuildError::NotFinite {
-                    name: name.clone(),
-                    what,
-                })
-            }
-        };
-        finite("position", def.position.is_finite())?;
-        finite("angle", def.angle.is_finite())?;
-        finite("velocity", def.velocity.is_finite())?;
-        finite("angular_velocity", def.angular_velocity.is_finite())?;
-        finite("friction", def.friction.is_finite())?;
-        finite("restitution", def.restitution.is_finite())?;
-        for (what, v) in [
-            ("linear_damping", def.linear_damping),
-            ("angular_damping", def.angular_damping),
-            ("sleep_threshold", def.sleep_threshold),
-        ] {
-            finite(what, v.is_finite())?;
-            if v < 0.0 {
-                return Err(BuildError::NotPositive {
-                    name: name.clone(),
-                    what,
-                    value: v,
-                });
-            }
-        }
-        let shape_error = |source| BuildError::Shape {
-            name: name.clone(),
-            source,
-        };
-        // a compound's parts, and their mass data at the body's density
-        let compound = match &def.shape {
-            ShapeDef::Compound { parts } => Some(
-                crate::compound::build(
-                    parts,
-                    def.density,
-                    def.friction,
-                    def.restitution,
-                    def.filter,
-                )
-                .map_err(shape_error)?,
-            ),
-            _ => None,
-        };
-        let (shape, centroid) = match &compound {
-            Some((parts, md)) => (
-                Shape::Compound {
-                    radius: crate::compound::bounding_radius(parts),
-                },
-                md.center,
-            ),
-            None => Shape::from_def(&def.shape).map_err(shape_error)?,
-        };
-        let particle = def.model == BodyModel::Particle;
-        if particle && !matches!(shape, Shape::Circle { .. }) {
-            return Err(BuildError::ParticleShape(name));
-        }
-        let derived = |input: BodyInput, what: String| BuildError::Derived {
-            name: def.name.clone(),
-            input,
-            what,
-        };
-        let dynamic = def.body_type == BodyType::Dynamic;
-        let (mut mass, mut inertia) = (0.0, 0.0);
-        if dynamic {
-            // Which value to blame for a mass that is not usable: the given mass, else the
-            // shape when its area is what under- or overflows, else the density.
-            let unit = match &compound {
-                // the parts' own densities, scaled so the body's is 1
-                Some((_, md)) => crate::shape::MassData {
-                    mass: md.mass / def.density,
-                    center: md.center,
-                    inertia: md.inertia / def.density,
-                },
-                None => shape.mass_data(1.0),
-            };
-            let area_ok = unit.mass.is_finite() && unit.mass > 0.0 && unit.inertia.is_finite();
-            let md = match def.mass {
-                Some(m) => {
-                    if !(m > 0.0) || !m.is_finite() {
-                        return Err(BuildError::NotPositive {
-                            name,
-                            what: "mass",
-                            value: m,
-                        });
-                    }
-                    // scale the unit-density inertia to the given mass
-                    crate::shape::MassData {
-                        mass: m,
-                        center: unit.center,
-                        inertia: unit.inertia * m / unit.mass,
-                    }
-                }
-                None => {
-                    if !(def.density > 0.0) || !def.density.is_finite() {
-                        return Err(BuildError::NotPositive {
-                            name,
-                            what: "density",
-                            value: def.density,
-                        });
-                    }
-                    match &compound {
-                        Some((_, md)) => *md,
-                        None => shape.mass_data(def.density),
-                    }
-                }
-            };
-            let blame = if area_ok {
-                BodyInput::Mass
-            } else {
-                BodyInput::Shape
-            };
-            if !(md.mass.is_finite() && md.mass > 0.0 && (1.0 / md.mass).is_finite()) {
-                return Err(derived(
-                    blame,
-                    format!(
-                        "its mass is {} (area {} m^2): too large or too small to simulate",
-                        md.mass, unit.mass
-                    ),
-                ));
-            }
-            if !(particle
-                || (md.inertia.is_finite() && md.inertia > 0.0 && (1.0 / md.inertia).is_finite()))
-            {
-                return Err(derived(
-                    blame,
-                    format!(
-                        "its rotational inertia is {} kg m^2: too large or too small to simulate",
-                        md.inertia
-                    ),
-                ));
-            }
-            mass = md.mass;
-            inertia = if particle { 0.0 } else { md.inertia };
-        }
-        let angle = if particle { 0.0 } else { def.angle };
-        let rot = Rot::from_angle(angle);
-        let position = def.position + rot.rotate(centroid);
-        if !position.is_finite() {
-            return Err(derived(
-                BodyInput::Position,
-                "its centre of mass is not finite (the position is too large for f32)".into(),
-            ));
-        }
-        let body = Body {
-            name,
-            body_type: def.body_type,
-            model: def.model,
-            shape,
-            origin_offset: -centroid,
-            position,
-            angle,
-            rot,
-            velocity: def.velocity,
-            angular_velocity: if particle { 0.0 } else { def.angular_velocity },
-            mass,
-            inv_mass: if mass > 0.0 { 1.0 / mass } else { 0.0 },
-            inertia,
-            inv_inertia: if inertia > 0.0 { 1.0 / inertia } else { 0.0 },
-            friction: def.friction,
-            restitution: def.restitution,
-            color: def.color,
-            // a compound's parts filter pair by pair in the narrow phase; the broad phase
-            // sees their common filter, or lets every pair through when they differ
-            filter: match &compound {
-                Some((parts, _)) if parts.iter().any(|p| p.filter != parts[0].filter) => {
-                    crate::defs::Filter::default()
-                }
-                Some((parts, _)) => parts[0].filter,
-                None => def.filter,
-            },
-            sensor: def.sensor,
-            force: Vec2::ZERO,
-            torque: 0.0,
-            correction: Vec2::ZERO,
-            correction_angle: 0.0,
-            asleep: false,
-            sleep_time: 0.0,
-            island: 0,
-            parts: compound.map(|(parts, _)| parts).unwrap_or_default(),
-            linear_damping: def.linear_damping,
-            angular_damping: def.angular_damping,
-            sleep_threshold: def.sleep_threshold,
-        };
-        if dynamic && let Some((input, what)) = energy_problem(&body, gravity) {
-            return Err(derived(input, what));
-        }
-        Ok(body)
-    }
-
-    /// Adds a constant force at a body point (the point is in the body's shape frame).
-    pub fn add_force(&mut self, f: &ForceDef) -> Result<(), BuildError> {
-        let Some(b) = self.bodies.get(f.body) else {
-            return Err(BuildError::NoSuchBody {
-                what: "force",
-                index: f.body,
-                count: self.bodies.len(),
-            });
-        };
-        if !f.force.is_finite() || !f.point.is_finite() {
-            return Err(BuildError::NotFinite {
-                name: b.name.clone(),
-                what: "force",
-            });
-        }
-        let local = f.point + b.origin_offset;
-        self.forces.push(PointForce {
-            body: f.body,
-            force: f.force,
-            local,
-        });
-        Ok(())
-    }
-
     /// How many constant point forces the world has ([`World::add_force`]).
     pub fn force_count(&self) -> usize {
         self.forces.len()
@@ -886,41 +332,66 @@ impl World {
         }
         self.sync_keys();
         let kind = self.settings.kind;
-        let mut stepper = match self.stepper.take() {
-            Some(st) if st.kind() == kind => st,
-            _ => new_stepper(kind),
-        };
+        if self.stepper.as_ref().is_none_or(|st| st.kind() != kind) {
+            self.stepper = Some(new_stepper(kind));
+        }
         let cx = StepContext::new(&self.settings);
         let tune = self.tunes_threads();
         self.step_many = !tune || self.tuner.choose();
         let started = tune.then(std::time::Instant::now);
         // until collide finds otherwise
-        self.none_asleep = false;
-        self.movers_found = false;
+        self.sleep.none_asleep = false;
+        self.collider.movers_found = false;
         let mut clock = StageClock::start();
-        // only this step's solver may say it ended the step
-        self.ended = None;
         let one_sided = self.has_one_sided();
         if one_sided {
             self.step_start.clear();
             self.step_start
                 .extend(self.bodies.iter().map(|b| b.position));
         }
-        let mut stats = stepper.step(self, &cx, &mut clock);
-        self.unpark_joints();
+        let pool = self.pool();
+        let mut state = StepState {
+            bodies: &mut self.bodies,
+            contacts: &mut self.contacts,
+            joints: &mut self.joints,
+            mouse: self.mouse,
+            forces: &self.forces,
+            gravity: self.gravity,
+            drag: self.drag,
+            damped: self.damped,
+            settings: self.settings,
+            pool: pool.as_deref(),
+            collider: &mut self.collider,
+            sleep: &mut self.sleep,
+            // only this step's solver may say it ended the step
+            ended: None,
+        };
+        let stepper = self.stepper.as_mut().expect("a stepper of this kind");
+        let mut stats = stepper.step(&mut state, &cx, &mut clock);
+        let ended = state.ended;
+        self.sleep.unpark_joints(&mut self.joints);
         if one_sided {
             self.keep_in_front();
         }
+        if std::mem::take(&mut self.collider.heard_sensors) {
+            // a sensor is there to be heard
+            self.record_events = true;
+        }
         clock.fill(&mut stats);
         self.stats = stats;
-        self.stepper = Some(stepper);
-        self.update_sleep();
+        self.sleep.update(
+            &mut self.bodies,
+            &mut self.contacts,
+            &self.joints,
+            &self.forces,
+            self.mouse.as_ref(),
+            &self.settings,
+        );
         if self.record_events {
             self.update_events();
         }
         self.step_count += 1;
         self.time += self.settings.dt as f64;
-        let ended = self.ended.take();
         let result = match ended {
             Some(false) => Ok(()),
             Some(true) => Err(self.first_non_finite()),
@@ -1019,7 +490,7 @@ impl World {
 
     /// The error for the first body (by index) whose state is not finite.
     fn first_non_finite(&self) -> StepError {
-        let i = self.bodies.iter().position(|b| !body_finite(b));
+        let i = self.bodies.iter().position(|b| !b.is_finite());
         self.non_finite(i.unwrap_or(0))
     }
 
@@ -1027,31 +498,16 @@ impl World {
     /// the first body whose state is not finite (the step's error).
     fn end_step(&mut self) -> Result<(), StepError> {
         let pool = self.pool();
-        let bad = parallel::chunks_mut(
-            pool.as_deref(),
-            &mut self.bodies,
-            BODY_PASS_BLOCK,
-            &|_, _, bodies| {
-                let mut bad = false;
-                for i in 0..bodies.len() {
-                    prefetch(bodies, i + BODY_AHEAD, HOT_BYTES);
-                    let b = &mut bodies[i];
-                    b.force = Vec2::ZERO;
-                    b.torque = 0.0;
-                    bad |= !body_finite(b);
-                }
-                if bad { 1.0 } else { 0.0 }
-            },
-        );
-        if bad <= 0.0 {
+        if !integrate::end_step(&mut self.bodies, pool.as_deref()) {
             return Ok(());
         }
         // the first one, by index (rare: the step failed)
         Err(self.first_non_finite())
     }
 
-    /// The solver that ran the last step, as its own type (for tests and tools).
-    pub fn stepper_as<T: 'static>(&self) -> Option<&T> {
+    /// The solver that ran the last step, as its own type (for tests).
+    #[cfg(test)]
+    pub(crate) fn stepper_as<T: 'static>(&self) -> Option<&T> {
         self.stepper.as_ref()?.as_any().downcast_ref::<T>()
     }
 
@@ -1080,607 +536,14 @@ impl World {
         }
     }
 
-    /// Semi-implicit Euler, velocity half: v += h (g + F/m), w += h tau / I; drag taken
-    /// implicitly so it can only slow a body down, whatever the step.
-    pub(crate) fn integrate_velocities(&mut self, h: f32) {
-        if !self.joints.is_empty() {
-            apply_drives(&self.joints, &mut self.bodies, h);
-        }
-        // constant point forces: dv = h F / m, dw = h (r x F) / I
-        for f in &self.forces {
-            let b = &mut self.bodies[f.body];
-            if b.is_dynamic() {
-                let r = b.rot.rotate(f.local);
-                b.velocity += h * b.inv_mass * f.force;
-                b.angular_velocity += h * b.inv_inertia * cross(r, f.force);
-            }
-        }
-        let g = self.gravity;
-        let drag = self.drag;
-        let damped = self.damped;
-        let pool = self.pool();
-        parallel::chunks_mut(
-            pool.as_deref(),
-            &mut self.bodies,
-            BODY_PASS_BLOCK,
-            &|_, _, bodies| {
-                integrate_velocities_of(bodies, h, g, drag, damped);
-                0.0
-            },
-        );
-    }
-
-    /// The bodies and this step's contacts, with whether each body is dynamic where
-    /// this step's collide found it for every body (none was asleep).
-    #[allow(clippy::type_complexity)]
-    pub(crate) fn bodies_with_movers(
-        &mut self,
-    ) -> (&mut [Body], &[Contact], &[Joint], Option<&[bool]>) {
-        let movers = (self.movers_found && self.dynamic.len() == self.bodies.len())
-            .then_some(&self.dynamic[..]);
-        (&mut self.bodies, &self.contacts, &self.joints, movers)
-    }
-
-    /// Whether some body is asleep: a pass over the bodies (large), split between the
-    /// threads.
-    fn any_asleep(&mut self) -> bool {
-        let pool = self.pool();
-        let bodies = &self.bodies;
-        parallel::ranges_max(pool.as_deref(), bodies.len(), BODY_PASS_BLOCK, &|_, r| {
-            if bodies[r].iter().any(|b| b.asleep) {
-                1.0
-            } else {
-                0.0
-            }
-        }) > 0.0
-    }
-
-    /// Broad and narrow phase; returns the deepest overlap found (m, >= 0). How far out
-    /// a pair keeps points is `speculative`'s choice (see [`Speculative`]).
-    pub(crate) fn collide(
-        &mut self,
-        h: f32,
-        margin: f32,
-        speculative: Speculative,
-        clock: &mut StageClock,
-    ) -> f32 {
-        if self.sleeping_contacts.is_empty() && !self.any_asleep() {
-            self.none_asleep = true;
-            return self.collide_awake(h, margin, speculative, clock);
-        }
-        // wake every island an awake body (or a moving kinematic one) reaches, then every
-        // island those reach, and so on: a woken island's own pairs were not looked for
-        self.wake_reached(h, margin);
-        self.park_sleeping_joints();
-        if !self.bodies.iter().any(is_mover) {
-            // all at rest: last step's contacts are kept aside, nothing is looked for
-            self.sleeping_contacts.append(&mut self.contacts);
-            clock.lap(Stage::Broad);
-            clock.lap(Stage::Narrow);
-            return 0.0;
-        }
-        self.collide_awake(h, margin, speculative, clock)
-    }
-
-    fn collide_awake(
-        &mut self,
-        h: f32,
-        margin: f32,
-        speculative: Speculative,
-        clock: &mut StageClock,
-    ) -> f32 {
-        // sized, not cleared: the pass below writes every body's entry
-        let n = self.bodies.len();
-        self.aabbs.resize(
-            n,
-            Aabb {
-                min: Vec2::ZERO,
-                max: Vec2::ZERO,
-            },
-        );
-        self.dynamic.resize(n, false);
-        self.reach.resize(n, 0.0);
-        // the flags are read off the bodies each step, so bodies pushed straight into
-        // `bodies` (the CLI's build, tools) count as well as those added one by one
-        const ASLEEP: u32 = 1;
-        const FILTERED: u32 = 2;
-        const SENSORS: u32 = 4;
-        // the broad phase's kept boxes still hold every body (checked in the same pass)
-        const LEFT: u32 = 8;
-        let flags = AtomicU32::new(0);
-        let pool = self.pool();
-        let (bodies, broad) = (&self.bodies, &self.broad);
-        let kept = broad.kept_count() == n;
-        parallel::chunks_mut3(
-            pool.as_deref(),
-            &mut self.aabbs,
-            &mut self.reach,
-            &mut self.dynamic,
-            BODY_PASS_BLOCK,
-            &|_, offset, aabbs, reach, dynamic| {
-                let bodies = &bodies[offset..];
-                let mut f = 0u32;
-                for (i, ((bx, re), dy)) in aabbs.iter_mut().zip(reach).zip(dynamic).enumerate() {
-                    // the box reads the shape too
-                    prefetch(bodies, i + BODY_AHEAD, SHAPE_BYTES);
-                    let b = &bodies[i];
-                    f |= if b.asleep { ASLEEP } else { 0 };
-                    f |= if b.filter != crate::defs::Filter::default() {
-                        FILTERED
-                    } else {
-                        0
-                    };
-                    f |= if b.has_sensor() { SENSORS } else { 0 };
-                    let bb = b.aabb();
-                    // the most any point of the body moves in h: h (|v| + |w| r)
-                    let r = 0.5 * (bb.max - bb.min).length();
-                    *re = h * (b.velocity.length() + b.angular_velocity.abs() * r);
-                    *bx = swept_box(b, bb, h, margin);
-                    // a sleeping body is found only by the awake bodies near it, as a
-                    // static one
-                    *dy = b.is_dynamic() && !b.asleep;
-                    if kept
-                        && !(broad.kept_holds(offset + i, bx, b.is_dynamic())
-                            && broad.kept_filter_holds(offset + i, &b.filter))
-                    {
-                        f |= LEFT;
-                    }
-                }
-                flags.fetch_or(f, Ordering::Relaxed);
-                0.0
-            },
-        );
-        let flags = flags.into_inner();
-        let (filtered, sensors) = (flags & FILTERED != 0, flags & SENSORS != 0);
-        let any_asleep = flags & ASLEEP != 0;
-        // (with none asleep, `dynamic` is whether each body is dynamic)
-        self.movers_found = !any_asleep;
-        let holds = kept && flags & LEFT == 0;
-        self.filtered = filtered;
-        self.has_sensors = sensors;
-        // a sensor is there to be heard
-        self.record_events |= sensors;
-        let bodies = &self.bodies;
-        // without sensors (which read the pairs after the step) the narrow phase filters
-        // the kept pairs itself, split between the threads: no list of this step's pairs
-        let fused = !sensors;
-        // with filters, the kept pairs are only those the filters let touch
-        let filter_of = |i: usize| bodies[i].filter;
-        let filter_of = filtered.then_some(&filter_of as &dyn Fn(usize) -> crate::defs::Filter);
-        if fused {
-            self.broad
-                .refresh_kept(&self.aabbs, holds, |i| bodies[i].is_dynamic(), filter_of);
-        } else {
-            let test = PairTest {
-                bodies,
-                aabbs: &[],
-                dynamic: &[],
-                filtered,
-                no_collide: &self.no_collide,
-            };
-            self.broad.find_pairs_kept_checked(
-                &self.aabbs,
-                &self.dynamic,
-                holds,
-                |i| bodies[i].is_dynamic(),
-                filter_of,
-                |a, b| test.may_collide(a, b),
-            );
-        }
-        clock.lap(Stage::Broad);
-
-        std::mem::swap(&mut self.contacts, &mut self.old_contacts);
-        self.contacts.clear();
-        if any_asleep {
-            // contacts within sleeping islands (and of them with static bodies) are kept
-            // aside with their impulses until the island wakes
-            let bodies = &self.bodies;
-            let asleep_pair = |c: &Contact| {
-                let (a, b) = (&bodies[c.a as usize], &bodies[c.b as usize]);
-                // neither awake and dynamic, one of them asleep
-                !is_mover(a) && !is_mover(b) && (a.asleep || b.asleep)
-            };
-            let sleeping = &mut self.sleeping_contacts;
-            self.old_contacts.retain(|c| {
-                let keep = !asleep_pair(c);
-                if !keep {
-                    sleeping.push(*c);
-                }
-                keep
-            });
-        }
-        let pool = self.pool();
-        let narrow = Narrow {
-            bodies: &self.bodies,
-            pairs: if fused {
-                self.broad.kept_pairs()
-            } else {
-                &self.broad.pairs
-            },
-            test: fused.then_some(PairTest {
-                bodies: &self.bodies,
-                aabbs: &self.aabbs,
-                dynamic: &self.dynamic,
-                filtered,
-                no_collide: &self.no_collide,
-            }),
-            old: &self.old_contacts,
-            reach: &self.reach,
-            has_sensors: self.has_sensors,
-            speculative,
-            margin,
-        };
-        let pairs = narrow.pairs.len();
-        let deepest = match pool.as_deref() {
-            Some(pool) if pairs > PAIR_BLOCK => {
-                // the caller writes the blocks it takes in order from the first straight
-                // into the contact list (it takes its own share first, in order); every
-                // other block goes into its own buffer, and the buffers are appended in
-                // pair order, so the contacts are those of one thread
-                let blocks = pairs.div_ceil(PAIR_BLOCK);
-                let outs = &mut self.narrow_out.0;
-                if outs.len() < blocks {
-                    // room for a contact a pair from the start: a block the caller
-                    // usually writes in place may go through its buffer in any step,
-                    // and a steady step allocates nothing
-                    outs.resize_with(blocks, || Mutex::new(Vec::with_capacity(PAIR_BLOCK)));
-                }
-                let outs = &outs[..blocks];
-                // (the list, and the blocks written into it)
-                let direct = Mutex::new((&mut self.contacts, 0usize));
-                let deepest = parallel::ranges_max(Some(pool), pairs, PAIR_BLOCK, &|t, range| {
-                    let b = range.start / PAIR_BLOCK;
-                    if t == 0 {
-                        let mut d = direct.lock().unwrap_or_else(|e| e.into_inner());
-                        if d.1 == b {
-                            d.1 += 1;
-                            return narrow.run(range, d.0);
-                        }
-                    }
-                    let mut out = outs[b].lock().unwrap_or_else(|e| e.into_inner());
-                    out.clear();
-                    narrow.run(range, &mut out)
-                });
-                let (contacts, written) = direct.into_inner().unwrap_or_else(|e| e.into_inner());
-                parallel::concat(
-                    Some(pool),
-                    &mut self.narrow_out.0[..blocks],
-                    written,
-                    &mut self.narrow_starts,
-                    contacts,
-                );
-                deepest
-            }
-            _ => narrow.run(0..narrow.pairs.len(), &mut self.contacts),
-        };
-        clock.lap(Stage::Narrow);
-        deepest
-    }
-
     /// Wakes the island `body` sleeps in (nothing if it is awake).
     pub fn wake(&mut self, body: BodyId) {
         if let Some(b) = self.bodies.get(body)
             && b.asleep
         {
             let island = b.island;
-            self.wake_island(island);
-        }
-    }
-
-    /// Wakes the sleeping islands labelled in `islands` (any order, repeats allowed) in
-    /// one pass over the bodies and the kept contacts, as [`World::wake_island`] would
-    /// one by one.
-    pub(crate) fn wake_islands(&mut self, islands: &mut Vec<u32>) {
-        islands.sort_unstable();
-        islands.dedup();
-        if islands.is_empty() {
-            return;
-        }
-        for b in &mut self.bodies {
-            if b.asleep && islands.binary_search(&b.island).is_ok() {
-                b.asleep = false;
-                b.sleep_time = 0.0;
-            }
-        }
-        let bodies = &self.bodies;
-        let (mut back, mut kept) = (Vec::new(), Vec::new());
-        for c in self.sleeping_contacts.drain(..) {
-            if bodies[c.a as usize].asleep || bodies[c.b as usize].asleep {
-                kept.push(c);
-            } else {
-                back.push(c);
-            }
-        }
-        self.sleeping_contacts = kept;
-        if !back.is_empty() {
-            // the cache is read as one list sorted by pair
-            self.contacts.extend(back);
-            self.contacts.sort_by_key(|c| (c.a, c.b));
-        }
-    }
-
-    /// Wakes every sleeping body of `island` and puts its kept contacts back in the
-    /// cache, so they start warm.
-    fn wake_island(&mut self, island: u32) {
-        for b in &mut self.bodies {
-            if b.asleep && b.island == island {
-                b.asleep = false;
-                b.sleep_time = 0.0;
-            }
-        }
-        let bodies = &self.bodies;
-        let (mut back, mut kept) = (Vec::new(), Vec::new());
-        for c in self.sleeping_contacts.drain(..) {
-            if bodies[c.a as usize].asleep || bodies[c.b as usize].asleep {
-                kept.push(c);
-            } else {
-                back.push(c);
-            }
-        }
-        self.sleeping_contacts = kept;
-        if !back.is_empty() {
-            // the cache is read as one list sorted by pair
-            self.contacts.extend(back);
-            self.contacts.sort_by_key(|c| (c.a, c.b));
-        }
-    }
-
-    /// Takes the joints whose bodies all sleep or do not move out of `joints` for this
-    /// step's solve: a sleeping island's joints cost nothing, and their warm-started
-    /// impulses (which balanced a gravity the sleeping bodies no longer get) do not push
-    /// the island awake. Called after the wake passes; `unpark_joints` puts them back in
-    /// order after the solve.
-    fn park_sleeping_joints(&mut self) {
-        let bodies = &self.bodies;
-        let resting = |i: usize| {
-            let b = &bodies[i];
-            b.asleep || b.body_type == BodyType::Static || (!b.is_dynamic() && !is_mover(b))
-        };
-        if !self.joints.iter().any(|j| resting(j.a) && resting(j.b)) {
-            return;
-        }
-        let mut keep = std::mem::take(&mut self.joints_scratch);
-        keep.clear();
-        for (i, j) in self.joints.drain(..).enumerate() {
-            if resting(j.a) && resting(j.b) {
-                self.parked.push((i, j));
-            } else {
-                keep.push(j);
-            }
-        }
-        self.joints_scratch = std::mem::replace(&mut self.joints, keep);
-    }
-
-    /// Puts the parked joints back where they were.
-    fn unpark_joints(&mut self) {
-        if self.parked.is_empty() {
-            return;
-        }
-        let mut all = std::mem::take(&mut self.joints_scratch);
-        all.clear();
-        let mut awake = self.joints.drain(..);
-        let mut parked = self.parked.drain(..).peekable();
-        let total = awake.len() + parked.len();
-        for i in 0..total {
-            match parked.peek() {
-                Some((at, _)) if *at == i => all.push(parked.next().unwrap().1),
-                _ => all.extend(awake.next()),
-            }
-        }
-        drop(awake);
-        self.joints_scratch = std::mem::replace(&mut self.joints, all);
-    }
-
-    /// Waking: every sleeping island that an awake dynamic body's (or a moving kinematic
-    /// body's) box reaches, or whose body was pushed, set moving or given a force since
-    /// it fell asleep; then every island those reach, and so on until none wakes.
-    ///
-    /// Each round looks only from the bodies the round before woke (the others' reach
-    /// was looked at already), through one grid of every body's box (boxes do not
-    /// change while waking), and wakes that round's islands in one pass
-    /// ([`World::wake_islands`]): the same bodies wake, with the same contacts in the
-    /// same order, as round after round of looking from every awake body.
-    fn wake_reached(&mut self, h: f32, margin: f32) {
-        let mut wake = std::mem::take(&mut self.to_wake);
-        wake.clear();
-        let mut movers = false;
-        for b in &self.bodies {
-            if b.asleep
-                && (b.velocity != Vec2::ZERO
-                    || b.angular_velocity != 0.0
-                    || b.force != Vec2::ZERO
-                    || b.torque != 0.0)
-            {
-                wake.push(b.island);
-            }
-            movers |= is_mover(b);
-        }
-        // nothing awake moves: nothing can reach a sleeping island
-        if movers {
-            self.aabbs.clear();
-            self.dynamic.clear();
-            self.wake_sized.clear();
-            for b in &self.bodies {
-                self.aabbs.push(swept_box(b, b.aabb(), h, margin));
-                // the movers look for sleepers; sleepers and static bodies are looked up
-                self.dynamic.push(is_mover(b));
-                // the grid's cells fit the dynamic bodies, asleep or not: a few large
-                // movers must not put many small sleepers in one cell
-                self.wake_sized.push(b.is_dynamic());
-            }
-        }
-        let mut first = true;
-        loop {
-            if movers {
-                let bodies = &self.bodies;
-                let (aabbs, look, sized) = (&self.aabbs, &self.dynamic, &self.wake_sized);
-                self.broad.find_pairs_sized(aabbs, look, sized, |a, b| {
-                    let (ba, bb) = (&bodies[a as usize], &bodies[b as usize]);
-                    (ba.asleep && is_mover(bb)) || (bb.asleep && is_mover(ba))
-                });
-                for &(a, b) in &self.broad.pairs {
-                    for i in [a, b] {
-                        let body = &self.bodies[i as usize];
-                        if body.asleep {
-                            wake.push(body.island);
-                        }
-                    }
-                }
-                // a joint to a body that moves (one to a static anchor keeps it asleep)
-                for j in &self.joints {
-                    let (ba, bb) = (&self.bodies[j.a], &self.bodies[j.b]);
-                    if ba.asleep && is_mover(bb) && (first || self.dynamic[j.b]) {
-                        wake.push(ba.island);
-                    }
-                    if bb.asleep && is_mover(ba) && (first || self.dynamic[j.a]) {
-                        wake.push(bb.island);
-                    }
-                }
-            }
-            first = false;
-            wake.sort_unstable();
-            wake.dedup();
-            if wake.is_empty() {
-                break;
-            }
-            // the next round looks from the bodies this one wakes
-            if movers {
-                for (look, b) in self.dynamic.iter_mut().zip(&self.bodies) {
-                    *look = b.asleep && wake.binary_search(&b.island).is_ok();
-                }
-            }
-            self.wake_islands(&mut wake);
-            movers = true;
-            if self.aabbs.len() != self.bodies.len() {
-                // the first round had no mover (a pushed sleeper woke): the boxes now
-                self.aabbs.clear();
-                self.wake_sized.clear();
-                self.dynamic.clear();
-                for b in &self.bodies {
-                    self.aabbs.push(swept_box(b, b.aabb(), h, margin));
-                    self.wake_sized.push(b.is_dynamic());
-                    self.dynamic.push(is_mover(b));
-                }
-            }
-            wake.clear();
-        }
-        self.to_wake = wake;
-    }
-
-    /// After a step: a dynamic body none of whose points moves faster than its sleep
-    /// threshold (0.05 m/s unless it sets its own: its speed plus its spin times its
-    /// reach, as Box2D v3 measures it) for 0.5 s is at rest; an island of bodies joined by contacts (boxes within the margin)
-    /// and joints falls asleep when all of its bodies are. Bodies held by the mouse, with
-    /// a constant force, on a joint with a turning motor or a drive, or touching a
-    /// moving kinematic body stay awake.
-    fn update_sleep(&mut self) {
-        const TIME_TO_SLEEP: f32 = 0.5;
-        if !self.settings.sleep {
-            if !self.none_asleep
-                && (self.bodies.iter().any(|b| b.asleep) || !self.sleeping_contacts.is_empty())
-            {
-                let islands: Vec<u32> = self
-                    .bodies
-                    .iter()
-                    .filter(|b| b.asleep)
-                    .map(|b| b.island)
-                    .collect();
-                for i in islands {
-                    self.wake_island(i);
-                }
-            }
-            return;
-        }
-        let dt = self.settings.dt;
-        let n = self.bodies.len();
-        for b in &mut self.bodies {
-            if !b.is_dynamic() || b.asleep {
-                continue;
-            }
-            let r = b.shape.radius();
-            let linear = b.sleep_threshold;
-            let slow = b.velocity.length() + (b.angular_velocity * r).abs() < linear;
-            b.sleep_time = if slow { b.sleep_time + dt } else { 0.0 };
-        }
-        // what keeps a body awake whatever its speed
-        for f in &self.forces {
-            self.bodies[f.body].sleep_time = 0.0;
-        }
-        if let Some(m) = self.mouse {
-            self.bodies[m.body].sleep_time = 0.0;
-        }
-        // a joint that drives its bodies keeps them awake: a turning motor, a drive
-        // force or torque (a servo at its target rests, and may sleep)
-        for j in &self.joints {
-            if j.drive != 0.0 || j.motor.is_some_and(|m| m.speed != 0.0) {
-                self.bodies[j.a].sleep_time = 0.0;
-                self.bodies[j.b].sleep_time = 0.0;
-            }
-        }
-        for c in &self.contacts {
-            let (ba, bb) = (&self.bodies[c.a as usize], &self.bodies[c.b as usize]);
-            let kinematic_moving = |b: &Body| {
-                b.body_type == BodyType::Kinematic
-                    && (b.velocity != Vec2::ZERO || b.angular_velocity != 0.0)
-            };
-            if kinematic_moving(ba) {
-                self.bodies[c.b as usize].sleep_time = 0.0;
-            } else if kinematic_moving(bb) {
-                self.bodies[c.a as usize].sleep_time = 0.0;
-            }
-        }
-        if self
-            .bodies
-            .iter()
-            .all(|b| !b.is_dynamic() || b.asleep || b.sleep_time < TIME_TO_SLEEP)
-        {
-            return;
-        }
-        // islands: union-find over awake dynamic bodies joined by contacts and joints
-        let parent = &mut self.islands;
-        parent.clear();
-        parent.extend(0..n as u32);
-        let bodies = &self.bodies;
-        let joins = |a: usize, b: usize| bodies[a].is_dynamic() && bodies[b].is_dynamic();
-        let union =
-            |parent: &mut Vec<u32>, a: usize, b: usize| uf_union(parent, a as u32, b as u32);
-        // every pair of the contact cache (boxes within the margin): a pair close
-        // enough that an awake body would wake the other is one island, or two such
-        // bodies could take turns waking each other forever
-        for c in &self.contacts {
-            let (a, b) = (c.a as usize, c.b as usize);
-            if joins(a, b) {
-                union(parent, a, b);
-            }
-        }
-        for j in &self.joints {
-            if joins(j.a, j.b) {
-                union(parent, j.a, j.b);
-            }
-        }
-        // an island sleeps when its least rested body has rested long enough
-        let least = &mut self.least_rest;
-        least.clear();
-        least.resize(n, f32::INFINITY);
-        for (i, b) in bodies.iter().enumerate() {
-            if b.is_dynamic() && !b.asleep {
-                let r = uf_root(parent, i as u32) as usize;
-                least[r] = least[r].min(b.sleep_time);
-            }
-        }
-        for i in 0..n {
-            let b = &self.bodies[i];
-            if !b.is_dynamic() || b.asleep {
-                continue;
-            }
-            let r = uf_root(&mut self.islands, i as u32);
-            if least[r as usize] >= TIME_TO_SLEEP {
-                let b = &mut self.bodies[i];
-                b.asleep = true;
-                b.island = r;
-                b.velocity = Vec2::ZERO;
-                b.angular_velocity = 0.0;
-            }
+            self.sleep
+                .wake_island(&mut self.bodies, &mut self.contacts, island);
         }
     }
 
@@ -1731,301 +594,6 @@ impl World {
         }
         h
     }
-}
-
-/// The broad phase's box of a body whose shape's box is `bb`: grown by its motion over
-/// `h` (a moving body's, so that fast bodies find their pairs) and by half the margin.
-fn swept_box(b: &Body, bb: Aabb, h: f32, margin: f32) -> Aabb {
-    let bb = if b.body_type != BodyType::Static {
-        let d = b.velocity * h;
-        Aabb {
-            min: bb.min + d.min(Vec2::ZERO),
-            max: bb.max + d.max(Vec2::ZERO),
-        }
-    } else {
-        bb
-    };
-    bb.fattened(0.5 * margin)
-}
-
-/// How many pairs ahead the narrow phase asks for the bodies it will read.
-const PAIR_AHEAD: usize = 4;
-
-/// What the narrow phase reads: the pairs of the broad phase and last step's contacts.
-/// Whether a candidate pair is a pair this step: the broad phase's test (one body
-/// moves, the boxes overlap) where `aabbs` is given, then the filters and the
-/// no-collide list.
-struct PairTest<'a> {
-    bodies: &'a [Body],
-    /// This step's boxes and movers; empty when the broad phase has tested them.
-    aabbs: &'a [Aabb],
-    dynamic: &'a [bool],
-    /// Some body has a collision filter other than the default.
-    filtered: bool,
-    no_collide: &'a [(u32, u32)],
-}
-
-impl PairTest<'_> {
-    /// The filters and the no-collide list (the broad phase's own test aside).
-    #[inline]
-    fn may_collide(&self, a: u32, b: u32) -> bool {
-        (!self.filtered
-            || self.bodies[a as usize]
-                .filter
-                .collides(&self.bodies[b as usize].filter))
-            && (self.no_collide.is_empty()
-                || self
-                    .no_collide
-                    .binary_search(&(a.min(b), a.max(b)))
-                    .is_err())
-    }
-
-    /// The whole test, for a kept pair.
-    #[inline]
-    fn holds(&self, a: u32, b: u32) -> bool {
-        BroadPhase::kept_pair_holds(self.aabbs, self.dynamic, a, b) && self.may_collide(a, b)
-    }
-}
-
-struct Narrow<'a> {
-    bodies: &'a [Body],
-    /// The pairs to collide: this step's, or (with `test`) the broad phase's kept pairs,
-    /// which `test` filters.
-    pairs: &'a [(u32, u32)],
-    test: Option<PairTest<'a>>,
-    /// Last step's contacts, sorted by pair (the cache).
-    old: &'a [Contact],
-    reach: &'a [f32],
-    has_sensors: bool,
-    speculative: Speculative,
-    margin: f32,
-}
-
-impl Narrow<'_> {
-    /// Collides the pairs of `range` (in order) and pushes the touching ones to `out`;
-    /// returns the deepest overlap found (m, >= 0).
-    fn run(&self, range: std::ops::Range<usize>, out: &mut Vec<Contact>) -> f32 {
-        let pairs = &self.pairs[range];
-        let Some(&first) = pairs.first() else {
-            return 0.0;
-        };
-        // the cache from the first pair of the run on
-        let from = self.old.partition_point(|c| (c.a, c.b) < first);
-        let mut cache = CacheCursor::new(&self.old[from..]);
-        let mut deepest = 0.0f32;
-        for (i, &(a, b)) in pairs.iter().enumerate() {
-            if let Some(t) = &self.test
-                && !t.holds(a, b)
-            {
-                continue;
-            }
-            if let Some(&(na, nb)) = pairs.get(i + PAIR_AHEAD) {
-                prefetch(self.bodies, na as usize, SHAPE_BYTES);
-                prefetch(self.bodies, nb as usize, SHAPE_BYTES);
-            }
-            let (ba, bb) = (&self.bodies[a as usize], &self.bodies[b as usize]);
-            if self.has_sensors && (ba.sensor || bb.sensor) {
-                // heard (World::events), never resolved
-                continue;
-            }
-            let (ra, rb) = (self.reach[a as usize], self.reach[b as usize]);
-            let pair_margin = match self.speculative {
-                Speculative::MarginPlusMotion => self.margin + ra + rb,
-                Speculative::MarginOrMotion => self.margin.max(ra + rb),
-            };
-            if !(ba.parts.is_empty() && bb.parts.is_empty()) {
-                // a compound: one manifold per pair of touching parts
-                let old = cache.find_all(a, b);
-                crate::compound::collide_bodies(
-                    ba,
-                    bb,
-                    pair_margin,
-                    |mut m, friction, restitution| {
-                        for o in old {
-                            match_points(&o.manifold, &mut m);
-                        }
-                        for p in m.points() {
-                            deepest = deepest.max(-p.separation);
-                        }
-                        out.push(Contact {
-                            a,
-                            b,
-                            manifold: m,
-                            friction,
-                            restitution,
-                        });
-                    },
-                );
-                continue;
-            }
-            let mut m = sat::collide(
-                &ba.shape,
-                &ba.transform(),
-                &bb.shape,
-                &bb.transform(),
-                pair_margin,
-            );
-            if m.count == 0 {
-                continue;
-            }
-            if let Some(old) = cache.find(a, b) {
-                match_points(old, &mut m);
-            }
-            for p in m.points() {
-                deepest = deepest.max(-p.separation);
-            }
-            out.push(Contact {
-                a,
-                b,
-                manifold: m,
-                // mu = sqrt(mu_a mu_b), e = max(e_a, e_b)
-                friction: (ba.friction * bb.friction).sqrt(),
-                restitution: ba.restitution.max(bb.restitution),
-            });
-        }
-        deepest
-    }
-}
-
-/// Whether a body's position, velocity, angle and spin are all finite.
-pub(crate) fn body_finite(b: &Body) -> bool {
-    b.position.is_finite()
-        && b.velocity.is_finite()
-        && b.angle.is_finite()
-        && b.angular_velocity.is_finite()
-}
-
-/// An awake dynamic body, or a kinematic one that moves: what wakes a sleeping island
-/// it reaches.
-fn is_mover(b: &Body) -> bool {
-    (b.is_dynamic() && !b.asleep)
-        || (b.body_type == BodyType::Kinematic
-            && (b.velocity != Vec2::ZERO || b.angular_velocity != 0.0))
-}
-
-/// The first derived value of a new joint that is not finite, by name.
-pub(crate) fn joint_not_finite(j: &Joint) -> Option<&'static str> {
-    if !j.length.is_finite() {
-        Some("length")
-    } else if !(j.local_a.is_finite() && j.local_b.is_finite()) {
-        Some("anchor offset")
-    } else if !(j.local_axis.is_finite() && j.ref_angle.is_finite()) {
-        Some("axis or reference angle")
-    } else {
-        None
-    }
-}
-
-/// The velocity half of semi-implicit Euler for `bodies` (see
-/// [`World::integrate_velocities`]): each dynamic, awake body on its own.
-fn integrate_velocities_of(
-    bodies: &mut [Body],
-    h: f32,
-    g: Option<Vec2>,
-    drag: Option<DragDef>,
-    damped: bool,
-) {
-    for i in 0..bodies.len() {
-        prefetch(bodies, i + BODY_AHEAD, HOT_BYTES);
-        let b = &mut bodies[i];
-        if !b.is_dynamic() || b.asleep {
-            continue;
-        }
-        let Some(d) = drag else {
-            (b.velocity, b.angular_velocity) = free_velocity(b, h, g);
-            if damped {
-                damp(b, h);
-            }
-            continue;
-        };
-        let (mut v, w) = free_velocity(b, h, g);
-        // F = -(k1 + k2 |v|) v with k2 = quadratic + 1/2 rho Cd width; backward Euler in the factor
-        let speed = v.length();
-        let mut k = d.linear + d.quadratic * speed;
-        if d.fluid_density > 0.0 && d.drag_coefficient > 0.0 && speed > 0.0 {
-            let width = b.shape.extent_across(&b.transform(), v / speed);
-            k += 0.5 * d.fluid_density * d.drag_coefficient * width * speed;
-        }
-        v /= 1.0 + h * k * b.inv_mass;
-        (b.velocity, b.angular_velocity) = (v, w);
-        if damped {
-            damp(b, h);
-        }
-    }
-}
-
-/// A body's own damping over h (Box2D's): v /= 1 + h c_linear, w /= 1 + h c_angular.
-#[inline]
-fn damp(b: &mut Body, h: f32) {
-    if b.linear_damping != 0.0 {
-        b.velocity *= 1.0 / (1.0 + h * b.linear_damping);
-    }
-    if b.angular_damping != 0.0 {
-        b.angular_velocity *= 1.0 / (1.0 + h * b.angular_damping);
-    }
-}
-
-/// A dynamic body's velocities after `h` of gravity and its own force and torque,
-/// before drag: v + h (F / m + g), w + h tau / I.
-#[inline]
-pub(crate) fn free_velocity(b: &Body, h: f32, g: Option<Vec2>) -> (Vec2, f32) {
-    let mut v = b.velocity + h * b.inv_mass * b.force;
-    if let Some(g) = g {
-        v += h * g;
-    }
-    (v, b.angular_velocity + h * b.inv_inertia * b.torque)
-}
-
-impl World {
-    /// Whether the forces change every substep's velocities by the same amount (no drag
-    /// and no body's own damping, which scale with the velocity).
-    pub(crate) fn uniform_forces(&self) -> bool {
-        self.drag.is_none() && !self.damped
-    }
-
-    /// Whether the only forces are gravity and the bodies' own force and torque (no
-    /// drag, joint drives or point forces), so that a solver may integrate them in a
-    /// pass of its own (see `SoftSolver::prepare_integrating`).
-    pub(crate) fn plain_forces(&self) -> bool {
-        self.drag.is_none() && self.joints.is_empty() && self.forces.is_empty() && !self.damped
-    }
-}
-
-/// Why a dynamic body's energy could not be summed ([`World::energy`]'s terms in the
-/// same precision): the value to blame and what went wrong; `None` when every term is
-/// finite.
-fn energy_problem(body: &Body, gravity: Option<Vec2>) -> Option<(BodyInput, String)> {
-    let linear = 0.5 * body.mass * body.velocity.length_squared();
-    if !linear.is_finite() {
-        return Some((
-            BodyInput::Velocity,
-            format!(
-                "its kinetic energy is not finite (mass {} kg, velocity {:?})",
-                body.mass, body.velocity
-            ),
-        ));
-    }
-    let angular = 0.5 * body.inertia * body.angular_velocity * body.angular_velocity;
-    if !angular.is_finite() || !(linear + angular).is_finite() {
-        return Some((
-            BodyInput::AngularVelocity,
-            format!(
-                "its rotational kinetic energy is not finite (inertia {} kg m^2, angular_velocity {})",
-                body.inertia, body.angular_velocity
-            ),
-        ));
-    }
-    let g = gravity.unwrap_or(Vec2::ZERO);
-    if !(body.mass * g.dot(body.position)).is_finite() {
-        return Some((
-            BodyInput::Position,
-            format!(
-                "its potential energy is not finite (mass {} kg at {:?} under gravity {:?})",
-                body.mass, body.position, g
-            ),
-        ));
-    }
-    None
 }
 
 /// Checks a body as a saved state holds it the way the scene loader checks one it

@@ -1,6 +1,6 @@
 //! Features otherwise untested, each against a closed form, a conservation law or an
-//! identity: the soft step's packed SIMD lanes against a one-by-one solve and its SSE
-//! build against its AVX2 build (bit for bit); drag (terminal velocity, the
+//! identity (the soft step's packed SIMD lanes and its SSE and AVX2 builds are compared
+//! bit for bit by the unit tests in src/step/soft.rs): drag (terminal velocity, the
 //! step-by-step closed form) under every solver, the soft step's drag path with
 //! contacts; the contact cache carrying friction impulses; weld joints; motor torque
 //! and force saturation, the prismatic motor; kinematic bodies; and determinism of
@@ -8,7 +8,6 @@
 
 use glam::Vec2;
 use sandbox2d::scene::load_str;
-use sandbox2d::solver::soft::{SoftSolver, testing};
 use sandbox2d::{SolverKind, SolverSettings, World};
 
 /// A scene from TOML text under `kind`'s defaults (dt 1/60).
@@ -28,112 +27,6 @@ fn id(w: &World, name: &str) -> usize {
 fn steps(w: &mut World, n: usize) {
     for _ in 0..n {
         w.step().expect("steps");
-    }
-}
-
-/// The built-in pyramid (base 20, 210 boxes) under the soft step, after `n` steps.
-fn soft_pyramid(n: usize) -> World {
-    let sc = sandbox2d::scene::load("pyramid").unwrap();
-    let mut w = World::from_def(&sc.world, SolverSettings::defaults(SolverKind::Soft)).unwrap();
-    steps(&mut w, n);
-    w
-}
-
-/// One soft substep of the world's current contacts, from scratch: prepare, warm start,
-/// four biased sweeps, positions and a relax sweep; returns the solver (velocities,
-/// lambdas).
-fn soft_solve(w: &World) -> SoftSolver {
-    let mut s = SoftSolver::default();
-    let h = w.settings.dt / w.settings.substeps as f32;
-    let settings = SolverSettings {
-        iterations: 4,
-        ..w.settings
-    };
-    s.prepare(&w.bodies, w.contacts(), &[], None, &settings, h, None);
-    s.run(&[], 1, &settings, h, None);
-    s
-}
-
-/// Every solved velocity and lambda, as bits.
-fn solve_bits(s: &SoftSolver) -> Vec<u32> {
-    let mut lam = Vec::new();
-    s.lambdas(&mut lam);
-    s.bodies
-        .iter()
-        .flat_map(|b| [b.v.x, b.v.y, b.w])
-        .chain(lam)
-        .map(f32::to_bits)
-        .collect()
-}
-
-#[test]
-fn soft_lanes_solve_what_one_by_one_solves() {
-    // Constraints of one colour share no moving body, so four in lock step are four one
-    // after another: the packed layout and one constraint per wide constraint (lane 0,
-    // the others empty) give the same bits, for one solve and for whole steps.
-    let w = soft_pyramid(30);
-    assert!(w.contacts().len() > 300, "{} contacts", w.contacts().len());
-    let packed = soft_solve(&w);
-    testing::one_lane(true);
-    let single = soft_solve(&w);
-    testing::one_lane(false);
-    assert!(packed.lanes_are_independent(w.contacts()));
-    assert!(
-        packed.wide_count() * 3 < single.wide_count(),
-        "packed into {} wide constraints, one by one {}",
-        packed.wide_count(),
-        single.wide_count()
-    );
-    assert_eq!(single.wide_count(), w.contacts().len());
-    assert!(
-        solve_bits(&packed) == solve_bits(&single),
-        "a solve differs"
-    );
-
-    let mut a = w.clone();
-    let mut b = w.clone();
-    testing::one_lane(true);
-    for k in 0..60 {
-        b.step().unwrap();
-        testing::one_lane(false);
-        a.step().unwrap();
-        testing::one_lane(true);
-        assert_eq!(a.state_hash(), b.state_hash(), "step {k}");
-    }
-    testing::one_lane(false);
-}
-
-#[test]
-fn soft_sse_and_avx2_builds_give_the_same_bits() {
-    if !testing::avx2_detected() {
-        eprintln!("SKIPPED: this CPU has no AVX2, only the SSE build runs");
-        return;
-    }
-    // the AVX2 build solves two wide constraints of a colour at once in eight lanes;
-    // with restitution the sweeps also keep each point's largest impulse
-    let plain = soft_pyramid(30);
-    let mut bouncy = plain.clone();
-    for b in &mut bouncy.bodies {
-        b.restitution = 0.5;
-    }
-    steps(&mut bouncy, 5);
-    assert!(bouncy.contacts().iter().any(|c| c.restitution > 0.0));
-    for w in [plain, bouncy] {
-        testing::force_sse(true);
-        let sse = soft_solve(&w);
-        testing::force_sse(false);
-        let avx2 = soft_solve(&w);
-        assert!(solve_bits(&sse) == solve_bits(&avx2), "a solve differs");
-
-        let mut a = w.clone();
-        let mut b = w.clone();
-        for k in 0..60 {
-            testing::force_sse(true);
-            a.step().unwrap();
-            testing::force_sse(false);
-            b.step().unwrap();
-            assert_eq!(a.state_hash(), b.state_hash(), "step {k}");
-        }
     }
 }
 
@@ -244,7 +137,7 @@ fn the_soft_step_with_drag_holds_a_resting_box() {
 #[test]
 fn the_contact_cache_carries_friction_impulses() {
     // Matching by feature id carries the friction lambda (checked point by point in
-    // solver::contact_cache's unit test); here the world's use of it.
+    // collision::contact_cache's unit test); here the world's use of it.
     // In a world: a box held by friction on a 20-degree ramp. The friction lambdas the
     // solve leaves in the contacts (the cache) carry m g sin(theta) h per (sub)step;
     // with one PGS sweep a step the box stays put because each step starts from them.

@@ -157,7 +157,7 @@ fn threads_are_clamped_and_default_to_one() {
     w.set_threads(0);
     assert_eq!(w.threads(), 1);
     w.set_threads(10_000);
-    assert_eq!(w.threads(), sandbox2d::parallel::MAX_THREADS);
+    assert_eq!(w.threads(), sandbox2d::threads::MAX_THREADS);
 }
 
 #[test]

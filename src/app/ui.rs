@@ -374,10 +374,9 @@ fn stats(ui: &mut Ui, s: &Session, others: &[Session], frame: FrameStats) {
             row("ms / step", format!("{:.3} (mean {mean_ms:.3})", last.ms));
             row("contacts", last.contacts.to_string());
             // the soft step's constraint colours (what its threads split)
-            if let Some(st) = s.world.stepper_as::<crate::step::soft::SoftStepper>()
-                && last.contacts > 0
-            {
-                row("colours", st.soft.color_count().to_string());
+            let colors = s.world.stats().colors;
+            if colors > 0 && last.contacts > 0 {
+                row("colours", colors.to_string());
             }
             row("sweeps / step", last.iterations.to_string());
             row("residual", format!("{:.2e}", last.residual));

@@ -245,6 +245,7 @@ impl BroadPhase {
     /// The result is the same list, to the order, as `find_pairs` gives: two boxes that
     /// overlap lie inside fattened boxes that overlap, so the kept pairs hold every pair
     /// of this step, and both lists are sorted.
+    #[cfg(test)]
     pub fn find_pairs_kept(
         &mut self,
         aabbs: &[Aabb],

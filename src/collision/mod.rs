@@ -1,8 +1,12 @@
 //! Collision detection: the broad phase finds pairs whose boxes overlap, the narrow phase
 //! (SAT) turns each pair into a contact manifold.
 
-pub mod broad_phase;
+pub(crate) mod broad_phase;
+pub(crate) mod collide;
+pub(crate) mod contact_cache;
 pub mod sat;
+
+pub use collide::Contact;
 
 use crate::math::Vec2;
 

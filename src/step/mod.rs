@@ -1,7 +1,9 @@
-//! The solvers' common shape. Each [`SolverKind`] is one [`Stepper`]: it owns its
-//! scratch, and its `step` is the order of stages and nothing else, calling the shared
-//! stages on the world (`World::collide`, `World::integrate_velocities`) and its own
-//! kernels in `crate::solver`. The world owns the state (bodies, joints, contacts).
+//! The step. Each [`SolverKind`] is one [`Stepper`]: it owns its scratch, and its
+//! `step` is the order of stages and nothing else, calling the shared stages on the
+//! [`StepState`] the world lends it ([`StepState::collide`],
+//! [`StepState::integrate_velocities`]; `integrate.rs`, `sleep.rs`) and its own
+//! kernels in `crate::solver`. The world owns the state (bodies, joints, contacts) and
+//! lends it for one step; nothing here reaches back to the world.
 //!
 //! Adding a solver: a file here with a type that implements [`Stepper`], its kernels
 //! under `src/solver/`, one variant in [`SolverKind`] (with its name, defaults and keys
@@ -9,12 +11,22 @@
 
 use std::time::Instant;
 
-use crate::defs::{SolverKind, SolverSettings};
-use crate::world::{StepStats, World};
+use crate::body::Body;
+use crate::collision::Contact;
+use crate::collision::collide::{Collider, Speculative};
+use crate::defs::{DragDef, SolverKind, SolverSettings};
+use crate::joint::{Joint, MouseJoint};
+use crate::math::Vec2;
+use crate::parallel::Pool;
 
+pub(crate) mod integrate;
 pub mod pgs;
+pub(crate) mod sleep;
 pub mod soft;
 pub mod xpbd;
+
+use integrate::{Forces, PointForce};
+use sleep::Sleep;
 
 pub use pgs::PgsStepper;
 pub use soft::SoftStepper;
@@ -22,6 +34,31 @@ pub use xpbd::XpbdStepper;
 
 /// Contact points are kept while the gap is below this many slops (speculative contacts).
 pub const SPECULATIVE_SLOPS: f32 = 4.0;
+
+/// What one step did and cost.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct StepStats {
+    /// PGS velocity sweeps run (summed over substeps).
+    pub iterations: u32,
+    /// Largest |delta lambda| of the last sweep (N s).
+    pub residual: f32,
+    /// Split-impulse sweeps run.
+    pub position_iterations: u32,
+    /// Contact points (of the last substep).
+    pub contacts: usize,
+    /// Deepest overlap seen by the narrow phase this step (m, >= 0).
+    pub penetration: f32,
+    /// Colours of the soft step's constraint graph (what its threads split); 0 under
+    /// the other solvers.
+    pub colors: usize,
+    /// Time per stage (ms): forces and velocity integration, broad phase, narrow phase,
+    /// solver, position integration.
+    pub ms_forces: f32,
+    pub ms_broad: f32,
+    pub ms_narrow: f32,
+    pub ms_solve: f32,
+    pub ms_integrate: f32,
+}
 
 /// What a step needs to know of time, computed once per step.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -109,24 +146,150 @@ impl StageClock {
     }
 }
 
+/// What a step reads and advances: the world's state, lent to the stepper for one
+/// step.
+pub(crate) struct StepState<'a> {
+    /// The bodies, in creation order.
+    pub bodies: &'a mut [Body],
+    /// This step's contacts, sorted by pair: what the collide finds, the solvers read
+    /// and store their impulses in.
+    pub contacts: &'a mut Vec<Contact>,
+    /// The joints in the solve (those of sleeping islands are parked for the step).
+    pub joints: &'a mut Vec<Joint>,
+    /// The mouse joint, if a body is held.
+    pub mouse: Option<MouseJoint>,
+    /// Constant point forces.
+    pub forces: &'a [PointForce],
+    /// m/s^2; `None` skips the gravity pass.
+    pub gravity: Option<Vec2>,
+    /// `None` = vacuum.
+    pub drag: Option<DragDef>,
+    /// Whether any body has linear or angular damping of its own.
+    pub damped: bool,
+    pub settings: SolverSettings,
+    /// The worker threads for this step (`None`: one thread).
+    pub pool: Option<&'a Pool>,
+    /// The collide stage's state.
+    pub collider: &'a mut Collider,
+    /// The sleeping islands' contacts and parked joints.
+    pub sleep: &'a mut Sleep,
+    /// Set by a solver whose last pass over the bodies did the end of the step (cleared
+    /// the forces and checked the state): whether some body's state is not finite. The
+    /// world then skips its own pass ([`integrate::end_step`]).
+    pub ended: Option<bool>,
+}
+
+impl StepState<'_> {
+    /// The collide stage: wakes what the movers reach (if anything sleeps), then the
+    /// broad and narrow phases; returns the deepest overlap found (m, >= 0). How far
+    /// out a pair keeps points is `speculative`'s choice (see [`Speculative`]).
+    pub fn collide(
+        &mut self,
+        h: f32,
+        margin: f32,
+        speculative: Speculative,
+        clock: &mut StageClock,
+    ) -> f32 {
+        if self.sleep.contacts.is_empty() && !sleep::any_asleep(self.bodies, self.pool) {
+            self.sleep.none_asleep = true;
+        } else {
+            // wake every island an awake body (or a moving kinematic one) reaches, then
+            // every island those reach, and so on: a woken island's own pairs were not
+            // looked for
+            self.sleep.wake_reached(
+                self.bodies,
+                self.contacts,
+                self.joints,
+                self.collider,
+                h,
+                margin,
+            );
+            self.sleep.park_joints(self.bodies, self.joints);
+            if !self.bodies.iter().any(Body::is_mover) {
+                // all at rest: last step's contacts are kept aside, nothing is looked for
+                self.sleep.contacts.append(self.contacts);
+                clock.lap(Stage::Broad);
+                clock.lap(Stage::Narrow);
+                return 0.0;
+            }
+        }
+        self.collider.broad_phase(self.bodies, h, margin, self.pool);
+        clock.lap(Stage::Broad);
+        let deepest = self.collider.narrow_phase(
+            self.bodies,
+            self.contacts,
+            &mut self.sleep.contacts,
+            margin,
+            speculative,
+            self.pool,
+        );
+        clock.lap(Stage::Narrow);
+        deepest
+    }
+
+    /// What moves the bodies' velocities besides the solver's rows.
+    pub fn forces(&self) -> Forces<'_> {
+        Forces {
+            joints: self.joints,
+            forces: self.forces,
+            gravity: self.gravity,
+            drag: self.drag,
+            damped: self.damped,
+        }
+    }
+
+    /// Whether the only forces are gravity and the bodies' own force and torque (see
+    /// [`Forces::plain`]).
+    pub fn plain_forces(&self) -> bool {
+        self.forces().plain()
+    }
+
+    /// Semi-implicit Euler, velocity half (see [`integrate::integrate_velocities`]).
+    pub fn integrate_velocities(&mut self, h: f32) {
+        let Self {
+            bodies,
+            joints,
+            forces,
+            gravity,
+            drag,
+            damped,
+            pool,
+            ..
+        } = self;
+        let forces = Forces {
+            joints,
+            forces,
+            gravity: *gravity,
+            drag: *drag,
+            damped: *damped,
+        };
+        integrate::integrate_velocities(bodies, &forces, h, *pool);
+    }
+}
+
 /// A solver: advances the world's state by one step.
-pub trait Stepper: std::fmt::Debug + Send + Sync {
+pub(crate) trait Stepper: std::fmt::Debug + Send + Sync {
     /// Which kind this is.
     fn kind(&self) -> SolverKind;
 
-    /// One step of `cx.dt`: the world's bodies, joints and contacts are advanced in
-    /// place; the returned stats hold the counts (the caller fills the stage times from
-    /// `clock`).
-    fn step(&mut self, world: &mut World, cx: &StepContext, clock: &mut StageClock) -> StepStats;
+    /// One step of `cx.dt`: the bodies, joints and contacts are advanced in place; the
+    /// returned stats hold the counts (the caller fills the stage times from `clock`).
+    fn step(
+        &mut self,
+        state: &mut StepState,
+        cx: &StepContext,
+        clock: &mut StageClock,
+    ) -> StepStats;
 
     /// The contact lambdas of the last solve, normal and friction of every point,
-    /// contact by contact in pair order (N s).
-    fn contact_lambdas(&self, world: &World, out: &mut Vec<f32>);
+    /// contact by contact in pair order (N s); `contacts` are the last step's.
+    fn contact_lambdas(&self, contacts: &[Contact], out: &mut Vec<f32>);
 
     /// A boxed copy (worlds are cloned by the bench).
     fn box_clone(&self) -> Box<dyn Stepper>;
 
-    /// The stepper as `Any`, for [`World::stepper_as`].
+    /// The stepper as `Any`, for `World::stepper_as` (unit tests).
+    #[cfg(test)]
     fn as_any(&self) -> &dyn std::any::Any;
 }
 
@@ -146,9 +309,9 @@ pub fn new_stepper(kind: SolverKind) -> Box<dyn Stepper> {
 }
 
 /// The lambdas the contacts hold (what the solver stored for the next warm start).
-pub(crate) fn stored_lambdas(world: &World, out: &mut Vec<f32>) {
+pub(crate) fn stored_lambdas(contacts: &[Contact], out: &mut Vec<f32>) {
     out.clear();
-    for c in world.contacts() {
+    for c in contacts {
         for p in c.manifold.points() {
             out.push(p.normal_impulse);
             out.push(p.tangent_impulse);

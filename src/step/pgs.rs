@@ -2,12 +2,12 @@
 //! contact MLCP (collisions, warm start, velocity sweeps with joints, split-impulse
 //! position sweeps), integrate positions.
 
-use super::{Stage, StageClock, StepContext, Stepper};
-use crate::defs::{BodyModel, BodyType, SolverKind};
-use crate::math::Rot;
+use super::{Stage, StageClock, StepContext, StepState, StepStats, Stepper, integrate};
+use crate::collision::Contact;
+use crate::collision::collide::Speculative;
+use crate::defs::SolverKind;
 use crate::solver::joint_rows::JointRows;
 use crate::solver::pgs::{PgsSolver, SolveStats, SolverBody};
-use crate::world::{Speculative, StepStats, World};
 
 /// Classic projected Gauss-Seidel and its scratch.
 #[derive(Clone, Debug, Default)]
@@ -22,10 +22,15 @@ impl Stepper for PgsStepper {
         SolverKind::Pgs
     }
 
-    fn step(&mut self, world: &mut World, cx: &StepContext, clock: &mut StageClock) -> StepStats {
+    fn step(
+        &mut self,
+        state: &mut StepState,
+        cx: &StepContext,
+        clock: &mut StageClock,
+    ) -> StepStats {
         let mut total = StepStats::default();
         for _ in 0..cx.substeps {
-            let s = self.substep(world, cx, clock);
+            let s = self.substep(state, cx, clock);
             total.iterations += s.iterations;
             total.position_iterations += s.position_iterations;
             total.residual = s.residual;
@@ -35,7 +40,7 @@ impl Stepper for PgsStepper {
         total
     }
 
-    fn contact_lambdas(&self, _world: &World, out: &mut Vec<f32>) {
+    fn contact_lambdas(&self, _contacts: &[Contact], out: &mut Vec<f32>) {
         self.pgs.lambdas(out);
     }
 
@@ -43,6 +48,7 @@ impl Stepper for PgsStepper {
         Box::new(self.clone())
     }
 
+    #[cfg(test)]
     fn as_any(&self) -> &dyn std::any::Any {
         self
     }
@@ -51,20 +57,20 @@ impl Stepper for PgsStepper {
 impl PgsStepper {
     fn substep(
         &mut self,
-        world: &mut World,
+        state: &mut StepState,
         cx: &StepContext,
         clock: &mut StageClock,
     ) -> StepStats {
         let h = cx.h;
-        let penetration = world.collide(h, cx.margin, Speculative::MarginPlusMotion, clock);
-        world.integrate_velocities(h);
+        let penetration = state.collide(h, cx.margin, Speculative::MarginPlusMotion, clock);
+        state.integrate_velocities(h);
         clock.lap(Stage::Forces);
-        let s = world.settings;
-        self.pgs.prepare(&world.bodies, &world.contacts, &s, h);
+        let s = state.settings;
+        self.pgs.prepare(state.bodies, state.contacts, &s, h);
         self.joint_rows.prepare(
-            &world.joints,
-            world.mouse.as_ref(),
-            &world.bodies,
+            state.joints,
+            state.mouse.as_ref(),
+            state.bodies,
             &self.pgs.bodies,
             &s,
             h,
@@ -92,7 +98,7 @@ impl PgsStepper {
         }
         if joints {
             self.joint_rows.damp(&mut self.pgs.bodies, h);
-            self.joint_rows.store(&mut world.joints);
+            self.joint_rows.store(state.joints);
         }
         let joint_positions = joints && self.joint_rows.has_position_rows();
         if s.split_impulse && (joint_positions || self.pgs.needs_position_solve()) {
@@ -122,38 +128,27 @@ impl PgsStepper {
                 }
             }
         }
-        self.pgs.store_impulses(&mut world.contacts);
+        self.pgs.store_impulses(state.contacts);
         clock.lap(Stage::Solve);
-        // positions: x += h (v + v_pseudo), theta += h (w + w_pseudo)
-        for (i, b) in world.bodies.iter_mut().enumerate() {
-            match b.body_type {
-                BodyType::Static => continue,
-                BodyType::Kinematic => {}
-                BodyType::Dynamic => {
-                    let sb = self.pgs.bodies[i];
-                    b.velocity = sb.v;
-                    b.angular_velocity = sb.w;
-                }
-            }
-            let (pv, pw) = if b.is_dynamic() {
-                // pseudo-velocities (split impulse) and collisions' time-of-impact shifts
-                let ((pv, pw), (iv, iw)) = (self.pgs.pseudo[i], self.pgs.impact[i]);
-                (pv + iv, pw + iw)
-            } else {
-                (crate::math::Vec2::ZERO, 0.0)
-            };
-            b.position += h * (b.velocity + pv);
-            if b.model == BodyModel::Rigid {
-                b.angle += h * (b.angular_velocity + pw);
-                b.rot = Rot::from_angle(b.angle);
+        // the solved velocities, then x += h (v + v_pseudo), theta += h (w + w_pseudo)
+        for (b, sb) in state.bodies.iter_mut().zip(&self.pgs.bodies) {
+            if b.is_dynamic() {
+                b.velocity = sb.v;
+                b.angular_velocity = sb.w;
             }
         }
+        let pgs = &self.pgs;
+        integrate::integrate_positions(state.bodies, h, |i| {
+            // pseudo-velocities (split impulse) and collisions' time-of-impact shifts
+            let ((pv, pw), (iv, iw)) = (pgs.pseudo[i], pgs.impact[i]);
+            (pv + iv, pw + iw)
+        });
         clock.lap(Stage::Integrate);
         StepStats {
             iterations: st.iterations,
             residual: st.residual,
             position_iterations: st.position_iterations,
-            contacts: world.contacts.iter().map(|c| c.manifold.count).sum(),
+            contacts: state.contacts.iter().map(|c| c.manifold.count).sum(),
             penetration,
             ..Default::default()
         }

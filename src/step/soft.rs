@@ -9,10 +9,11 @@
 //! forces change from substep to substep: then each substep is a plan of its own, the
 //! velocities integrated before it.
 
-use super::{Stage, StageClock, StepContext, Stepper};
+use super::{Stage, StageClock, StepContext, StepState, StepStats, Stepper};
+use crate::collision::Contact;
+use crate::collision::collide::Speculative;
 use crate::defs::SolverKind;
 use crate::solver::soft::SoftSolver;
-use crate::world::{Speculative, StepStats, World};
 
 /// The soft step and its scratch.
 #[derive(Clone, Debug, Default)]
@@ -25,31 +26,35 @@ impl Stepper for SoftStepper {
         SolverKind::Soft
     }
 
-    fn step(&mut self, world: &mut World, cx: &StepContext, clock: &mut StageClock) -> StepStats {
-        let s = world.settings;
+    fn step(
+        &mut self,
+        state: &mut StepState,
+        cx: &StepContext,
+        clock: &mut StageClock,
+    ) -> StepStats {
+        let s = state.settings;
         let (n, h) = (cx.substeps, cx.h);
-        let pool = world.pool();
-        let pool = pool.as_deref();
+        let pool = state.pool;
         // points out to the distance each pair can close in the step (speculative
         // contacts): a fast body meets what it would pass through
-        let penetration = world.collide(cx.dt, cx.margin, Speculative::MarginOrMotion, clock);
+        let penetration = state.collide(cx.dt, cx.margin, Speculative::MarginOrMotion, clock);
         // without drag (or bodies' own damping) the forces change every substep's
         // velocities by the same amount: integrate once, and the solver adds that
         // increment in the later substeps
-        let uniform = world.uniform_forces();
+        let uniform = state.forces().uniform();
         // with only gravity and the bodies' own forces, the first substep's forces are
         // integrated in prepare's pass over the bodies
-        let fused = world.plain_forces();
+        let fused = state.plain_forces();
         if fused {
-            let g = world.gravity;
-            let mouse = world.mouse;
+            let g = state.gravity;
+            let mouse = state.mouse;
             // (this step's flags of the bodies the solver moves, where the collide found
             // them: the colouring need not wait for the solver's own pass over the bodies)
-            let (bodies, contacts, joints, movers) = world.bodies_with_movers();
+            let movers = state.collider.movers(state.bodies.len());
             self.soft.prepare_integrating(
-                bodies,
-                contacts,
-                joints,
+                state.bodies,
+                state.contacts,
+                state.joints,
                 mouse.as_ref(),
                 movers,
                 &s,
@@ -59,10 +64,10 @@ impl Stepper for SoftStepper {
             );
         } else {
             self.soft.prepare(
-                &world.bodies,
-                &world.contacts,
-                &world.joints,
-                world.mouse.as_ref(),
+                state.bodies,
+                state.contacts,
+                state.joints,
+                state.mouse.as_ref(),
                 &s,
                 h,
                 pool,
@@ -72,31 +77,31 @@ impl Stepper for SoftStepper {
         let residual;
         if uniform {
             if !fused {
-                world.integrate_velocities(h);
-                self.soft.take_increments(&world.bodies, pool);
+                state.integrate_velocities(h);
+                self.soft.take_increments(state.bodies, pool);
             }
             clock.lap(Stage::Forces);
-            residual = self.soft.run(&world.joints, n as usize, &s, h, pool);
+            residual = self.soft.run(state.joints, n as usize, &s, h, pool);
             clock.lap(Stage::Solve);
         } else {
             let mut last = 0.0;
             for _ in 0..n {
-                world.integrate_velocities(h);
-                self.soft.load_velocities(&world.bodies);
+                state.integrate_velocities(h);
+                self.soft.load_velocities(state.bodies);
                 clock.lap(Stage::Forces);
-                last = self.soft.run(&world.joints, 1, &s, h, pool);
-                self.soft.store_velocities(&mut world.bodies);
+                last = self.soft.run(state.joints, 1, &s, h, pool);
+                self.soft.store_velocities(state.bodies);
                 clock.lap(Stage::Solve);
             }
             residual = last;
         }
         let iterations = n * (s.iterations + 1);
         self.soft.apply_restitution(s.restitution_threshold);
-        self.soft.store_impulses(&mut world.contacts, pool);
-        self.soft.store_joints(&mut world.joints, pool);
+        self.soft.store_impulses(state.contacts, pool);
+        self.soft.store_joints(state.joints, pool);
         clock.lap(Stage::Solve);
         // velocities, then x = x0 + sum h v, theta = theta0 + sum h w
-        world.ended = Some(self.soft.finish(&mut world.bodies, pool));
+        state.ended = Some(self.soft.finish(state.bodies, pool));
         clock.lap(Stage::Integrate);
         StepStats {
             iterations,
@@ -104,11 +109,12 @@ impl Stepper for SoftStepper {
             position_iterations: 0,
             contacts: self.soft.points(),
             penetration,
+            colors: self.soft.color_count(),
             ..Default::default()
         }
     }
 
-    fn contact_lambdas(&self, _world: &World, out: &mut Vec<f32>) {
+    fn contact_lambdas(&self, _contacts: &[Contact], out: &mut Vec<f32>) {
         self.soft.lambdas(out);
     }
 
@@ -116,6 +122,7 @@ impl Stepper for SoftStepper {
         Box::new(self.clone())
     }
 
+    #[cfg(test)]
     fn as_any(&self) -> &dyn std::any::Any {
         self
     }
@@ -123,7 +130,8 @@ impl Stepper for SoftStepper {
 
 #[cfg(test)]
 mod tests {
-    use crate::defs::SolverSettings;
+    use crate::defs::{SolverKind, SolverSettings};
+    use crate::solver::soft::{SoftSolver, testing};
     use crate::step::soft::SoftStepper;
     use crate::world::World;
 
@@ -159,19 +167,132 @@ mod tests {
         assert!(w.settings.sleep);
         let all = Some(&[false, true, true][..]);
         w.step().unwrap();
-        assert_eq!(w.bodies_with_movers().3, all);
+        assert_eq!(w.collider.movers(w.bodies.len()), all);
         let mut asleep = false;
         for _ in 0..120 {
             // (asleep at the step's start, as its collide finds it)
             asleep = w.bodies[1].asleep;
             w.step().unwrap();
-            assert_eq!(w.bodies_with_movers().3, if asleep { None } else { all });
+            assert_eq!(
+                w.collider.movers(w.bodies.len()),
+                if asleep { None } else { all }
+            );
         }
         assert!(asleep, "the box falls asleep within 2 s");
         assert!(!w.bodies[2].asleep, "the ball falls");
         // woken, the next collide finds every flag again
         w.wake(1);
         w.step().unwrap();
-        assert_eq!(w.bodies_with_movers().3, all);
+        assert_eq!(w.collider.movers(w.bodies.len()), all);
+    }
+
+    /// The built-in pyramid (base 20, 210 boxes) under the soft step, after `n` steps.
+    fn soft_pyramid(n: usize) -> World {
+        let sc = crate::scene::load("pyramid").unwrap();
+        let mut w = World::from_def(&sc.world, SolverSettings::defaults(SolverKind::Soft)).unwrap();
+        for _ in 0..n {
+            w.step().expect("steps");
+        }
+        w
+    }
+
+    /// One soft substep of the world's current contacts, from scratch: prepare, warm start,
+    /// four biased sweeps, positions and a relax sweep; returns the solver (velocities,
+    /// lambdas).
+    fn soft_solve(w: &World) -> SoftSolver {
+        let mut s = SoftSolver::default();
+        let h = w.settings.dt / w.settings.substeps as f32;
+        let settings = SolverSettings {
+            iterations: 4,
+            ..w.settings
+        };
+        s.prepare(&w.bodies, w.contacts(), &[], None, &settings, h, None);
+        s.run(&[], 1, &settings, h, None);
+        s
+    }
+
+    /// Every solved velocity and lambda, as bits.
+    fn solve_bits(s: &SoftSolver) -> Vec<u32> {
+        let mut lam = Vec::new();
+        s.lambdas(&mut lam);
+        s.solved_bodies()
+            .iter()
+            .flat_map(|b| [b.v.x, b.v.y, b.w])
+            .chain(lam)
+            .map(f32::to_bits)
+            .collect()
+    }
+
+    #[test]
+    fn soft_lanes_solve_what_one_by_one_solves() {
+        // Constraints of one colour share no moving body, so four in lock step are four one
+        // after another: the packed layout and one constraint per wide constraint (lane 0,
+        // the others empty) give the same bits, for one solve and for whole steps.
+        let w = soft_pyramid(30);
+        assert!(w.contacts().len() > 300, "{} contacts", w.contacts().len());
+        let packed = soft_solve(&w);
+        testing::one_lane(true);
+        let single = soft_solve(&w);
+        testing::one_lane(false);
+        assert!(packed.lanes_are_independent(w.contacts()));
+        assert!(
+            packed.wide_count() * 3 < single.wide_count(),
+            "packed into {} wide constraints, one by one {}",
+            packed.wide_count(),
+            single.wide_count()
+        );
+        assert_eq!(single.wide_count(), w.contacts().len());
+        assert!(
+            solve_bits(&packed) == solve_bits(&single),
+            "a solve differs"
+        );
+
+        let mut a = w.clone();
+        let mut b = w.clone();
+        testing::one_lane(true);
+        for k in 0..60 {
+            b.step().unwrap();
+            testing::one_lane(false);
+            a.step().unwrap();
+            testing::one_lane(true);
+            assert_eq!(a.state_hash(), b.state_hash(), "step {k}");
+        }
+        testing::one_lane(false);
+    }
+
+    #[test]
+    fn soft_sse_and_avx2_builds_give_the_same_bits() {
+        if !testing::avx2_detected() {
+            eprintln!("SKIPPED: this CPU has no AVX2, only the SSE build runs");
+            return;
+        }
+        // the AVX2 build solves two wide constraints of a colour at once in eight lanes;
+        // with restitution the sweeps also keep each point's largest impulse
+        let plain = soft_pyramid(30);
+        let mut bouncy = plain.clone();
+        for b in &mut bouncy.bodies {
+            b.restitution = 0.5;
+        }
+        for _ in 0..5 {
+            bouncy.step().expect("steps");
+        }
+        assert!(bouncy.contacts().iter().any(|c| c.restitution > 0.0));
+        for w in [plain, bouncy] {
+            testing::force_sse(true);
+            let sse = soft_solve(&w);
+            testing::force_sse(false);
+            let avx2 = soft_solve(&w);
+            assert!(solve_bits(&sse) == solve_bits(&avx2), "a solve differs");
+
+            let mut a = w.clone();
+            let mut b = w.clone();
+            for k in 0..60 {
+                testing::force_sse(true);
+                a.step().unwrap();
+                testing::force_sse(false);
+                b.step().unwrap();
+                assert_eq!(a.state_hash(), b.state_hash(), "step {k}");
+            }
+        }
     }
 }

@@ -1,15 +1,16 @@
 //! XPBD (Mueller et al. 2020): contacts found once per step, then per substep predict,
 //! project joints and contacts, derive velocities, and a velocity pass.
 
-use super::{Stage, StageClock, StepContext, Stepper};
+use super::{Stage, StageClock, StepContext, StepState, StepStats, Stepper, integrate};
 use crate::body::Body;
-use crate::defs::{BodyModel, BodyType, SolverKind};
+use crate::collision::Contact;
+use crate::collision::collide::Speculative;
+use crate::defs::SolverKind;
 use crate::joint::{MouseJoint, SLOTS};
-use crate::math::{Rot, Vec2, cross};
+use crate::math::cross;
 use crate::solver::joint_rows::{JointRows, xpbd_velocity_pass};
 use crate::solver::pgs::SolverBody;
 use crate::solver::xpbd::XpbdContacts;
-use crate::world::{Speculative, StepStats, World};
 
 /// Extended position-based dynamics and its scratch.
 #[derive(Clone, Debug, Default)]
@@ -29,33 +30,29 @@ impl Stepper for XpbdStepper {
     /// One XPBD step: contacts found once, then per substep h = dt / n: predict
     /// (v += h a, x += h v), project the joints and contacts `iterations` times, derive
     /// v = (x - x_prev) / h, and a velocity pass (friction, restitution, motors, damping).
-    fn step(&mut self, world: &mut World, cx: &StepContext, clock: &mut StageClock) -> StepStats {
-        let s = world.settings;
+    fn step(
+        &mut self,
+        state: &mut StepState,
+        cx: &StepContext,
+        clock: &mut StageClock,
+    ) -> StepStats {
+        let s = state.settings;
         let (n, h) = (cx.substeps, cx.h);
-        let mut deepest = world.collide(cx.dt, cx.margin, Speculative::MarginPlusMotion, clock);
-        self.xpbd.prepare(&world.bodies, &world.contacts);
+        let mut deepest = state.collide(cx.dt, cx.margin, Speculative::MarginPlusMotion, clock);
+        self.xpbd.prepare(state.bodies, state.contacts);
         self.xpbd.block = s.block_solve;
         self.lambdas.clear();
-        self.lambdas.resize(world.joints.len(), [0.0; SLOTS]);
+        self.lambdas.resize(state.joints.len(), [0.0; SLOTS]);
         let mut normal_sum = std::mem::take(&mut self.normal_sum);
         normal_sum.clear();
         normal_sum.resize(self.xpbd.points.len(), 0.0);
         clock.lap(Stage::Solve);
         for _ in 0..n {
-            world.integrate_velocities(h);
+            state.integrate_velocities(h);
             clock.lap(Stage::Forces);
-            self.xpbd.begin_substep(&world.bodies, h, s.max_push_speed);
+            self.xpbd.begin_substep(state.bodies, h, s.max_push_speed);
             // predict: x += h v, theta += h w
-            for b in &mut world.bodies {
-                if b.body_type == BodyType::Static {
-                    continue;
-                }
-                b.position += h * b.velocity;
-                if b.model == BodyModel::Rigid && b.angular_velocity != 0.0 {
-                    b.angle += h * b.angular_velocity;
-                    b.rot = Rot::from_angle(b.angle);
-                }
-            }
+            integrate::predict_positions(state.bodies, h);
             clock.lap(Stage::Integrate);
             // lambda is a substep's multiplier: alpha~ lambda is the spring's force over
             // this substep only (carried over the substeps, a compliance of alpha acted as
@@ -64,45 +61,38 @@ impl Stepper for XpbdStepper {
                 *l = [0.0; SLOTS];
             }
             for _ in 0..s.iterations.max(1) {
-                for (j, lam) in world.joints.iter().zip(self.lambdas.iter_mut()) {
-                    j.project(&mut world.bodies, &self.xpbd.prev_rot, h, lam);
+                for (j, lam) in state.joints.iter().zip(self.lambdas.iter_mut()) {
+                    j.project(state.bodies, &self.xpbd.prev_rot, h, lam);
                 }
-                if let Some(m) = world.mouse {
-                    project_mouse(&m, &mut world.bodies, h);
+                if let Some(m) = state.mouse {
+                    project_mouse(&m, state.bodies, h);
                 }
-                let d = self.xpbd.project(&mut world.bodies);
+                let d = self.xpbd.project(state.bodies);
                 deepest = deepest.max(d);
             }
-            // v = (x - x_prev) / h, w = (theta - theta_prev) / h, as v += dx / h
-            for b in &mut world.bodies {
-                if b.is_dynamic() {
-                    b.velocity += b.correction / h;
-                    b.angular_velocity += b.correction_angle / h;
-                }
-                b.correction = Vec2::ZERO;
-                b.correction_angle = 0.0;
-            }
+            // v = (x - x_prev) / h, w = (theta - theta_prev) / h
+            integrate::derive_velocities(state.bodies, h);
             // velocity pass
             self.bodies.clear();
-            self.bodies.extend(world.bodies.iter().map(|b| SolverBody {
+            self.bodies.extend(state.bodies.iter().map(|b| SolverBody {
                 v: b.velocity,
                 w: b.angular_velocity,
                 inv_m: b.inv_mass,
                 inv_i: b.inv_inertia,
             }));
             self.xpbd
-                .velocity_pass(&world.bodies, &mut self.bodies, h, s.restitution_threshold);
+                .velocity_pass(state.bodies, &mut self.bodies, h, s.restitution_threshold);
             xpbd_velocity_pass(
-                &world.joints,
-                &world.bodies,
+                state.joints,
+                state.bodies,
                 &mut self.bodies,
                 (h, cx.dt),
                 &mut self.joint_rows,
             );
-            if let Some(m) = world.mouse {
-                damp_mouse(&m, &world.bodies, &mut self.bodies, h);
+            if let Some(m) = state.mouse {
+                damp_mouse(&m, state.bodies, &mut self.bodies, h);
             }
-            for (b, sb) in world.bodies.iter_mut().zip(&self.bodies) {
+            for (b, sb) in state.bodies.iter_mut().zip(&self.bodies) {
                 if b.is_dynamic() {
                     b.velocity = sb.v;
                     b.angular_velocity = sb.w;
@@ -115,7 +105,7 @@ impl Stepper for XpbdStepper {
             clock.lap(Stage::Solve);
         }
         for (p, &sum) in self.xpbd.points.iter().zip(&normal_sum) {
-            let m = &mut world.contacts[p.contact as usize].manifold;
+            let m = &mut state.contacts[p.contact as usize].manifold;
             m.points[p.index as usize].normal_impulse = sum;
         }
         self.normal_sum = normal_sum;
@@ -130,14 +120,15 @@ impl Stepper for XpbdStepper {
         }
     }
 
-    fn contact_lambdas(&self, world: &World, out: &mut Vec<f32>) {
-        super::stored_lambdas(world, out);
+    fn contact_lambdas(&self, contacts: &[Contact], out: &mut Vec<f32>) {
+        super::stored_lambdas(contacts, out);
     }
 
     fn box_clone(&self) -> Box<dyn Stepper> {
         Box::new(self.clone())
     }
 
+    #[cfg(test)]
     fn as_any(&self) -> &dyn std::any::Any {
         self
     }

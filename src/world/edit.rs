@@ -172,7 +172,7 @@ impl World {
         let touching: Vec<usize> = self
             .contacts
             .iter()
-            .chain(&self.sleeping_contacts)
+            .chain(&self.sleep.contacts)
             .filter(|c| c.a as usize == gone || c.b as usize == gone)
             .map(|c| if c.a as usize == gone { c.b } else { c.a } as usize)
             .collect();
@@ -202,8 +202,8 @@ impl World {
         let shift32 = |i: u32| if i > g { i - 1 } else { i };
         for list in [
             &mut self.contacts,
-            &mut self.old_contacts,
-            &mut self.sleeping_contacts,
+            &mut self.collider.old_contacts,
+            &mut self.sleep.contacts,
         ] {
             list.retain(|c| c.a != g && c.b != g);
             for c in list.iter_mut() {
@@ -211,7 +211,11 @@ impl World {
                 c.b = shift32(c.b);
             }
         }
-        for list in [&mut self.no_collide, &mut self.touching, &mut self.sensed] {
+        for list in [
+            &mut self.collider.no_collide,
+            &mut self.touching,
+            &mut self.sensed,
+        ] {
             list.retain(|&(a, b)| a != g && b != g);
             for p in list.iter_mut() {
                 *p = (shift32(p.0), shift32(p.1));
@@ -243,10 +247,6 @@ impl World {
                 }
             }
         }
-        self.filtered = self
-            .bodies
-            .iter()
-            .any(|b| b.filter != crate::defs::Filter::default());
         Ok(body)
     }
 
@@ -288,7 +288,7 @@ impl World {
         for &i in gone.iter() {
             note(&self.bodies[i]);
         }
-        for c in self.contacts.iter().chain(&self.sleeping_contacts) {
+        for c in self.contacts.iter().chain(&self.sleep.contacts) {
             let (a, b) = (c.a as usize, c.b as usize);
             if is_gone[a] {
                 note(&self.bodies[b]);
@@ -303,7 +303,8 @@ impl World {
                 note(&self.bodies[j.a]);
             }
         }
-        self.wake_islands(&mut islands);
+        self.sleep
+            .wake_islands(&mut self.bodies, &mut self.contacts, &mut islands);
         // the new index of each body that stays
         let mut map = vec![u32::MAX; n];
         let mut next = 0u32;
@@ -351,8 +352,8 @@ impl World {
         }
         for list in [
             &mut self.contacts,
-            &mut self.old_contacts,
-            &mut self.sleeping_contacts,
+            &mut self.collider.old_contacts,
+            &mut self.sleep.contacts,
         ] {
             list.retain(|c| !is_gone[c.a as usize] && !is_gone[c.b as usize]);
             for c in list.iter_mut() {
@@ -360,7 +361,11 @@ impl World {
                 c.b = map[c.b as usize];
             }
         }
-        for list in [&mut self.no_collide, &mut self.touching, &mut self.sensed] {
+        for list in [
+            &mut self.collider.no_collide,
+            &mut self.touching,
+            &mut self.sensed,
+        ] {
             list.retain(|&(a, b)| !is_gone[a as usize] && !is_gone[b as usize]);
             for p in list.iter_mut() {
                 *p = (map[p.0 as usize], map[p.1 as usize]);
@@ -379,10 +384,6 @@ impl World {
         });
         self.body_keys.remove_many(gone);
         self.relabel_islands();
-        self.filtered = self
-            .bodies
-            .iter()
-            .any(|b| b.filter != crate::defs::Filter::default());
         self.damped = self
             .bodies
             .iter()
@@ -420,8 +421,8 @@ impl World {
             .joints
             .iter()
             .any(|o| !o.collide_connected && (o.a.min(o.b) as u32, o.a.max(o.b) as u32) == pair);
-        if !still && let Ok(at) = self.no_collide.binary_search(&pair) {
-            self.no_collide.remove(at);
+        if !still && let Ok(at) = self.collider.no_collide.binary_search(&pair) {
+            self.collider.no_collide.remove(at);
         }
         j
     }

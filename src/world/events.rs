@@ -91,7 +91,7 @@ impl World {
         // touching pairs now, with their summed normal impulse
         let mut now: Vec<((u32, u32), f32)> = Vec::new();
         // a sleeping island's contacts still touch
-        for c in self.contacts.iter().chain(&self.sleeping_contacts) {
+        for c in self.contacts.iter().chain(&self.sleep.contacts) {
             let points = c.manifold.points();
             let impulse: f32 = points.iter().map(|p| p.normal_impulse).sum();
             // overlapping, or pushed apart by the solve (a speculative point the solver
@@ -136,8 +136,8 @@ impl World {
         // sensors: the broad phase's sensor pairs (its boxes hold each body's motion over
         // the step), tested at the positions after the step
         let mut sensing: Vec<(u32, u32)> = Vec::new();
-        if self.has_sensors {
-            for &(a, b) in &self.broad.pairs {
+        if self.collider.has_sensors {
+            for &(a, b) in &self.collider.broad.pairs {
                 let (ba, bb) = (&self.bodies[a as usize], &self.bodies[b as usize]);
                 if !(ba.has_sensor() || bb.has_sensor()) {
                     continue;

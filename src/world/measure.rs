@@ -9,8 +9,8 @@ impl World {
     /// line up row by row.
     pub fn contact_lambdas(&self, out: &mut Vec<f32>) {
         match &self.stepper {
-            Some(s) => s.contact_lambdas(self, out),
-            None => crate::step::stored_lambdas(self, out),
+            Some(s) => s.contact_lambdas(&self.contacts, out),
+            None => crate::step::stored_lambdas(&self.contacts, out),
         }
     }
 }

@@ -26,13 +26,12 @@ use serde::{Deserialize, Serialize};
 use super::spawn::{MotionState, SpawnProgress};
 use super::{PointForce, World};
 use crate::body::Body;
-use crate::collision::broad_phase::BroadPhase;
+use crate::collision::Contact;
 use crate::defs::{DragDef, SolverSettings};
 use crate::joint::{Joint, MouseJoint};
 use crate::math::Vec2;
 use crate::shape::{MAX_POLYGON_VERTICES, Shape};
-use crate::solver::contact_cache::Contact;
-use crate::world::StepStats;
+use crate::step::StepStats;
 
 /// The `format` field of a state file.
 pub const STATE_FORMAT: &str = "sandbox2d-state";
@@ -409,9 +408,9 @@ impl World {
         state_size(
             &self.bodies,
             self.joints.len(),
-            self.contacts.len() + self.sleeping_contacts.len(),
+            self.contacts.len() + self.sleep.contacts.len(),
             self.forces.len(),
-            self.no_collide.len() + self.touching.len() + self.sensed.len(),
+            self.collider.no_collide.len() + self.touching.len() + self.sensed.len(),
         )
     }
 
@@ -431,12 +430,12 @@ impl World {
             bodies: self.bodies.clone(),
             joints: self.joints.clone(),
             contacts: self.contacts.clone(),
-            sleeping_contacts: self.sleeping_contacts.clone(),
+            sleeping_contacts: self.sleep.contacts.clone(),
             mouse: self.mouse,
             record_events: self.record_events,
             origin: self.origin,
             forces: self.forces.clone(),
-            no_collide: self.no_collide.clone(),
+            no_collide: self.collider.no_collide.clone(),
             touching: self.touching.clone(),
             sensed: self.sensed.clone(),
             motions,
@@ -458,24 +457,16 @@ impl World {
         self.settings = s.settings;
         self.origin = s.origin;
         self.forces = s.forces.clone();
-        self.broad = BroadPhase::default();
-        self.aabbs.clear();
-        self.dynamic.clear();
-        self.reach.clear();
+        self.collider.restart();
         self.contacts = s.contacts.clone();
-        self.sleeping_contacts = s.sleeping_contacts.clone();
-        self.old_contacts.clear();
+        self.sleep.contacts = s.sleeping_contacts.clone();
         self.joints = s.joints.clone();
         // keys from before the restore name nothing in it
         self.body_keys.renew(self.bodies.len());
         self.joint_keys.renew(self.joints.len());
         self.mouse = s.mouse;
-        self.no_collide = s.no_collide.clone();
-        self.filtered = self
-            .bodies
-            .iter()
-            .any(|b| b.filter != crate::defs::Filter::default());
-        self.has_sensors = self.bodies.iter().any(|b| b.has_sensor());
+        self.collider.no_collide = s.no_collide.clone();
+        self.collider.has_sensors = self.bodies.iter().any(|b| b.has_sensor());
         self.damped = self
             .bodies
             .iter()

@@ -74,17 +74,20 @@ pub mod testing {
 
     /// `true`: the joints are coloured and laid out anew every step, never kept from
     /// the step before (which gives the same bits: a test compares them).
+    #[cfg(test)]
     pub fn fresh_joint_layout(on: bool) {
         FRESH_JOINT_LAYOUT.with(|c| c.set(on));
     }
 
     /// `true`: every hinge is solved by the scalar joint rows, none in a wide hinge's
     /// lanes (the lanes give the same bits: a test compares them).
+    #[cfg(test)]
     pub fn no_hinge_lanes(on: bool) {
         NO_HINGE_LANES.with(|c| c.set(on));
     }
 
     /// `true`: the sweeps and the warm start run their SSE build even on a CPU with AVX2.
+    #[cfg(test)]
     pub fn force_sse(on: bool) {
         FORCE_SSE.with(|c| c.set(on));
     }
@@ -92,6 +95,7 @@ pub mod testing {
     /// `true`: every contact gets a wide constraint of its own (lane 0, the rest empty),
     /// as the overflow colour does: a one-by-one solve, colour by colour, in the order
     /// the packed lanes take.
+    #[cfg(test)]
     pub fn one_lane(on: bool) {
         ONE_LANE.with(|c| c.set(on));
     }
@@ -322,7 +326,7 @@ impl BodyPtr {
 pub struct SoftSolver {
     /// Every body's state, by body index; then slots of the solver's own: a body at rest
     /// that empty lanes read, and one sink per thread that writes of unmoved bodies go to.
-    pub bodies: Vec<SoftBody>,
+    bodies: Vec<SoftBody>,
     /// The first sink's index.
     sink: u32,
     /// Each colour's wide constraints, [start, end), in order; the overflow group follows
@@ -496,7 +500,7 @@ impl SoftSolver {
                 let b = &mut bodies[i];
                 let (v0, w0) = (b.velocity, b.angular_velocity);
                 if b.is_dynamic() && !b.asleep {
-                    (b.velocity, b.angular_velocity) = crate::world::free_velocity(b, h, gravity);
+                    (b.velocity, b.angular_velocity) = b.free_velocity(h, gravity);
                 }
                 // the constraints are built from the velocities before the step (restitution
                 // keeps each point's approach speed): the new ones wait in `increments`
@@ -706,7 +710,7 @@ impl SoftSolver {
                             b.rot = Rot::from_angle(b.angle);
                         }
                     }
-                    bad |= !crate::world::body_finite(b);
+                    bad |= !b.is_finite();
                 }
                 if bad { 1.0 } else { 0.0 }
             },
@@ -716,7 +720,7 @@ impl SoftSolver {
         for b in &mut bodies[n..] {
             b.force = Vec2::ZERO;
             b.torque = 0.0;
-            rest_bad |= !crate::world::body_finite(b);
+            rest_bad |= !b.is_finite();
         }
         bad > 0.0 || rest_bad
     }
@@ -788,8 +792,16 @@ impl SoftSolver {
         }
     }
 
+    /// The solved bodies' state, by body index, then the solver's own slots (for
+    /// tests: the bodies are the solver's to size, never a caller's).
+    #[cfg(test)]
+    pub(crate) fn solved_bodies(&self) -> &[SoftBody] {
+        &self.bodies
+    }
+
     /// Checks the layout: every contact's slot holds its pair, and no moving body appears
     /// in two lanes of one wide constraint (for tests).
+    #[cfg(test)]
     pub fn lanes_are_independent(&self, contacts: &[Contact]) -> bool {
         let sink = self.sink;
         let pairs_ok = contacts.iter().zip(&self.slot).all(|(c, &at)| {
@@ -814,6 +826,7 @@ impl SoftSolver {
 
     /// Wide (four-lane) constraints in this step's layout (for tests).
     #[doc(hidden)]
+    #[cfg(test)]
     pub fn wide_count(&self) -> usize {
         self.wide.len()
     }

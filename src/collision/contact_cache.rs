@@ -4,23 +4,11 @@
 //! Both steps' contacts are sorted by body pair, so matching is one merge pass: no hash
 //! map, no search, and the result does not depend on anything but the pairs.
 
-use crate::collision::Manifold;
-
-/// A touching pair of bodies and its manifold. `a < b`; the normal points from a to b.
-#[derive(Clone, Copy, Debug, Default, serde::Serialize, serde::Deserialize)]
-pub struct Contact {
-    pub a: u32,
-    pub b: u32,
-    pub manifold: Manifold,
-    /// Mixed friction coefficient: sqrt(mu_a mu_b).
-    pub friction: f32,
-    /// Mixed restitution: max(e_a, e_b).
-    pub restitution: f32,
-}
+use super::{Contact, Manifold};
 
 /// Copies lambdas from `old` into the points of `new` with the same feature id.
 #[inline]
-pub fn match_points(old: &Manifold, new: &mut Manifold) {
+pub(crate) fn match_points(old: &Manifold, new: &mut Manifold) {
     for p in &mut new.points[..new.count] {
         if let Some(q) = old.points[..old.count].iter().find(|q| q.id == p.id) {
             p.normal_impulse = q.normal_impulse;
@@ -30,21 +18,21 @@ pub fn match_points(old: &Manifold, new: &mut Manifold) {
 }
 
 /// A cursor over last step's contacts, sorted by pair; ask for pairs in increasing order.
-pub struct CacheCursor<'a> {
+pub(crate) struct CacheCursor<'a> {
     old: &'a [Contact],
     at: usize,
 }
 
 impl<'a> CacheCursor<'a> {
     /// Starts at the beginning of `old` (sorted by (a, b)).
-    pub fn new(old: &'a [Contact]) -> Self {
+    pub(crate) fn new(old: &'a [Contact]) -> Self {
         Self { old, at: 0 }
     }
 
     /// Last step's manifold of the pair (a, b), if it touched. Pairs must be asked in
     /// increasing order.
     #[inline]
-    pub fn find(&mut self, a: u32, b: u32) -> Option<&'a Manifold> {
+    pub(crate) fn find(&mut self, a: u32, b: u32) -> Option<&'a Manifold> {
         while self.at < self.old.len() && (self.old[self.at].a, self.old[self.at].b) < (a, b) {
             self.at += 1;
         }
@@ -57,7 +45,7 @@ impl<'a> CacheCursor<'a> {
     /// Every manifold of last step's pair (a, b): one per pair of touching parts when a
     /// body is a compound. Pairs must be asked in increasing order.
     #[inline]
-    pub fn find_all(&mut self, a: u32, b: u32) -> &'a [Contact] {
+    pub(crate) fn find_all(&mut self, a: u32, b: u32) -> &'a [Contact] {
         while self.at < self.old.len() && (self.old[self.at].a, self.old[self.at].b) < (a, b) {
             self.at += 1;
         }

@@ -1,0 +1,393 @@
+//! Sleeping and islands. After a step, a dynamic body none of whose points moves faster
+//! than its sleep threshold (0.05 m/s unless it sets its own: its speed plus its spin
+//! times its reach, as Box2D v3 measures it) for 0.5 s is at rest; an island (bodies
+//! joined by joints and by contacts whose boxes are within the margin, found by
+//! union-find) falls asleep when all of its
+//! bodies are. A sleeping body is left out of the step: its contacts are kept aside with
+//! their impulses, and its joints are parked out of the solve. Before each collide,
+//! every sleeping island an awake body's (or a moving kinematic body's) box reaches
+//! wakes, with its kept contacts put back in the cache so they start warm.
+
+use crate::body::Body;
+use crate::collision::Contact;
+use crate::collision::collide::{Collider, swept_box};
+use crate::defs::{BodyType, SolverSettings};
+use crate::joint::{Joint, MouseJoint};
+use crate::math::{BODY_PASS_BLOCK, Vec2, uf_root, uf_union};
+use crate::parallel::{self, Pool};
+use crate::step::integrate::PointForce;
+
+/// Below this spin (rad/s) a body rests.
+/// An island that rested this long (s) falls asleep.
+const TIME_TO_SLEEP: f32 = 0.5;
+
+/// The sleeping islands' contacts and parked joints, and the sleep pass's scratch.
+#[derive(Clone, Debug, Default)]
+pub(crate) struct Sleep {
+    /// The contacts of sleeping islands, kept with their impulses for when they wake.
+    pub(crate) contacts: Vec<Contact>,
+    /// Union-find parents of the sleep pass (scratch).
+    islands: Vec<u32>,
+    /// Each island's least rested time (scratch of the sleep pass).
+    least_rest: Vec<f32>,
+    /// Islands to wake (scratch).
+    to_wake: Vec<u32>,
+    /// Which bodies size the waking pass's grid: the dynamic ones, asleep or not (scratch).
+    wake_sized: Vec<bool>,
+    /// Joints whose bodies all sleep (or do not move), with their index, taken out of
+    /// the world's joints for the solve of one step (see [`Sleep::park_joints`]).
+    parked: Vec<(usize, Joint)>,
+    /// The joints that stay in the solve (scratch of the parking).
+    joints_scratch: Vec<Joint>,
+    /// Whether this step's collide found no body asleep and no sleeping contact (then
+    /// none is asleep at the step's end either: only [`Sleep::update`] puts bodies to
+    /// sleep), so the end of the step need not look again.
+    pub(crate) none_asleep: bool,
+}
+
+/// Whether some body is asleep: a pass over the bodies (large), split between the
+/// threads.
+pub(crate) fn any_asleep(bodies: &[Body], pool: Option<&Pool>) -> bool {
+    parallel::ranges_max(pool, bodies.len(), BODY_PASS_BLOCK, &|_, r| {
+        if bodies[r].iter().any(|b| b.asleep) {
+            1.0
+        } else {
+            0.0
+        }
+    }) > 0.0
+}
+
+impl Sleep {
+    /// Wakes every sleeping body of `island` and puts its kept contacts back in
+    /// `contacts` (the cache), so they start warm.
+    pub(crate) fn wake_island(
+        &mut self,
+        bodies: &mut [Body],
+        contacts: &mut Vec<Contact>,
+        island: u32,
+    ) {
+        for b in bodies.iter_mut() {
+            if b.asleep && b.island == island {
+                b.asleep = false;
+                b.sleep_time = 0.0;
+            }
+        }
+        let (mut back, mut kept) = (Vec::new(), Vec::new());
+        for c in self.contacts.drain(..) {
+            if bodies[c.a as usize].asleep || bodies[c.b as usize].asleep {
+                kept.push(c);
+            } else {
+                back.push(c);
+            }
+        }
+        self.contacts = kept;
+        if !back.is_empty() {
+            // the cache is read as one list sorted by pair
+            contacts.extend(back);
+            contacts.sort_by_key(|c| (c.a, c.b));
+        }
+    }
+
+    /// Wakes the sleeping islands labelled in `islands` (any order, repeats allowed) in
+    /// one pass over the bodies and the kept contacts, as [`Sleep::wake_island`] would
+    /// one by one.
+    pub(crate) fn wake_islands(
+        &mut self,
+        bodies: &mut [Body],
+        contacts: &mut Vec<Contact>,
+        islands: &mut Vec<u32>,
+    ) {
+        islands.sort_unstable();
+        islands.dedup();
+        if islands.is_empty() {
+            return;
+        }
+        for b in bodies.iter_mut() {
+            if b.asleep && islands.binary_search(&b.island).is_ok() {
+                b.asleep = false;
+                b.sleep_time = 0.0;
+            }
+        }
+        let (mut back, mut kept) = (Vec::new(), Vec::new());
+        for c in self.contacts.drain(..) {
+            if bodies[c.a as usize].asleep || bodies[c.b as usize].asleep {
+                kept.push(c);
+            } else {
+                back.push(c);
+            }
+        }
+        self.contacts = kept;
+        if !back.is_empty() {
+            // the cache is read as one list sorted by pair
+            contacts.extend(back);
+            contacts.sort_by_key(|c| (c.a, c.b));
+        }
+    }
+
+    /// Waking: every sleeping island that an awake dynamic body's (or a moving kinematic
+    /// body's) box reaches, or whose body was pushed, set moving or given a force since
+    /// it fell asleep; then every island those reach, and so on until none wakes. The
+    /// broad phase's pairs and the collider's boxes are its scratch.
+    ///
+    /// Each round looks only from the bodies the round before woke (the others' reach
+    /// was looked at already), through one grid of every body's box (boxes do not
+    /// change while waking), and wakes that round's islands in one pass
+    /// ([`Sleep::wake_islands`]): the same bodies wake, with the same contacts in the
+    /// same order, as round after round of looking from every awake body.
+    pub(crate) fn wake_reached(
+        &mut self,
+        bodies: &mut [Body],
+        contacts: &mut Vec<Contact>,
+        joints: &[Joint],
+        collider: &mut Collider,
+        h: f32,
+        margin: f32,
+    ) {
+        let mut wake = std::mem::take(&mut self.to_wake);
+        wake.clear();
+        let mut movers = false;
+        for b in bodies.iter() {
+            if b.asleep
+                && (b.velocity != Vec2::ZERO
+                    || b.angular_velocity != 0.0
+                    || b.force != Vec2::ZERO
+                    || b.torque != 0.0)
+            {
+                wake.push(b.island);
+            }
+            movers |= b.is_mover();
+        }
+        // nothing awake moves: nothing can reach a sleeping island
+        if movers {
+            collider.aabbs.clear();
+            collider.dynamic.clear();
+            self.wake_sized.clear();
+            for b in bodies.iter() {
+                collider.aabbs.push(swept_box(b, b.aabb(), h, margin));
+                // the movers look for sleepers; sleepers and static bodies are looked up
+                collider.dynamic.push(b.is_mover());
+                // the grid's cells fit the dynamic bodies, asleep or not: a few large
+                // movers must not put many small sleepers in one cell
+                self.wake_sized.push(b.is_dynamic());
+            }
+        }
+        let mut first = true;
+        loop {
+            if movers {
+                let bs = &*bodies;
+                let (aabbs, look, sized) = (&collider.aabbs, &collider.dynamic, &self.wake_sized);
+                collider.broad.find_pairs_sized(aabbs, look, sized, |a, b| {
+                    let (ba, bb) = (&bs[a as usize], &bs[b as usize]);
+                    (ba.asleep && bb.is_mover()) || (bb.asleep && ba.is_mover())
+                });
+                for &(a, b) in &collider.broad.pairs {
+                    for i in [a, b] {
+                        let body = &bodies[i as usize];
+                        if body.asleep {
+                            wake.push(body.island);
+                        }
+                    }
+                }
+                // a joint to a body that moves (one to a static anchor keeps it asleep)
+                for j in joints {
+                    let (ba, bb) = (&bodies[j.a], &bodies[j.b]);
+                    if ba.asleep && bb.is_mover() && (first || collider.dynamic[j.b]) {
+                        wake.push(ba.island);
+                    }
+                    if bb.asleep && ba.is_mover() && (first || collider.dynamic[j.a]) {
+                        wake.push(bb.island);
+                    }
+                }
+            }
+            first = false;
+            wake.sort_unstable();
+            wake.dedup();
+            if wake.is_empty() {
+                break;
+            }
+            // the next round looks from the bodies this one wakes
+            if movers {
+                for (look, b) in collider.dynamic.iter_mut().zip(bodies.iter()) {
+                    *look = b.asleep && wake.binary_search(&b.island).is_ok();
+                }
+            }
+            self.wake_islands(bodies, contacts, &mut wake);
+            movers = true;
+            if collider.aabbs.len() != bodies.len() {
+                // the first round had no mover (a pushed sleeper woke): the boxes now
+                collider.aabbs.clear();
+                self.wake_sized.clear();
+                collider.dynamic.clear();
+                for b in bodies.iter() {
+                    collider.aabbs.push(swept_box(b, b.aabb(), h, margin));
+                    self.wake_sized.push(b.is_dynamic());
+                    collider.dynamic.push(b.is_mover());
+                }
+            }
+            wake.clear();
+        }
+        self.to_wake = wake;
+    }
+
+    /// Takes the joints whose bodies all sleep or do not move out of `joints` for this
+    /// step's solve: a sleeping island's joints cost nothing, and their warm-started
+    /// impulses (which balanced a gravity the sleeping bodies no longer get) do not push
+    /// the island awake. Called after the wake passes; [`Sleep::unpark_joints`] puts
+    /// them back in order after the solve.
+    pub(crate) fn park_joints(&mut self, bodies: &[Body], joints: &mut Vec<Joint>) {
+        let resting = |i: usize| {
+            let b = &bodies[i];
+            b.asleep || b.body_type == BodyType::Static || (!b.is_dynamic() && !b.is_mover())
+        };
+        if !joints.iter().any(|j| resting(j.a) && resting(j.b)) {
+            return;
+        }
+        let mut keep = std::mem::take(&mut self.joints_scratch);
+        keep.clear();
+        for (i, j) in joints.drain(..).enumerate() {
+            if resting(j.a) && resting(j.b) {
+                self.parked.push((i, j));
+            } else {
+                keep.push(j);
+            }
+        }
+        self.joints_scratch = std::mem::replace(joints, keep);
+    }
+
+    /// Puts the parked joints back where they were.
+    pub(crate) fn unpark_joints(&mut self, joints: &mut Vec<Joint>) {
+        if self.parked.is_empty() {
+            return;
+        }
+        let mut all = std::mem::take(&mut self.joints_scratch);
+        all.clear();
+        let mut awake = joints.drain(..);
+        let mut parked = self.parked.drain(..).peekable();
+        let total = awake.len() + parked.len();
+        for i in 0..total {
+            match parked.peek() {
+                Some((at, _)) if *at == i => all.push(parked.next().unwrap().1),
+                _ => all.extend(awake.next()),
+            }
+        }
+        drop(awake);
+        self.joints_scratch = std::mem::replace(joints, all);
+    }
+
+    /// After a step: a dynamic body none of whose points moves faster than its sleep
+    /// threshold for 0.5 s is at rest; an island of bodies joined by contacts (boxes
+    /// within the margin) and joints falls asleep when all of its bodies are. Bodies held by the mouse, with
+    /// a constant force, on a joint with a turning motor or a drive, or touching a
+    /// moving kinematic body stay awake. With sleeping off, every sleeping island wakes.
+    #[allow(clippy::too_many_arguments)]
+    pub(crate) fn update(
+        &mut self,
+        bodies: &mut [Body],
+        contacts: &mut Vec<Contact>,
+        joints: &[Joint],
+        forces: &[PointForce],
+        mouse: Option<&MouseJoint>,
+        settings: &SolverSettings,
+    ) {
+        if !settings.sleep {
+            if !self.none_asleep && (bodies.iter().any(|b| b.asleep) || !self.contacts.is_empty()) {
+                let islands: Vec<u32> = bodies
+                    .iter()
+                    .filter(|b| b.asleep)
+                    .map(|b| b.island)
+                    .collect();
+                for i in islands {
+                    self.wake_island(bodies, contacts, i);
+                }
+            }
+            return;
+        }
+        let dt = settings.dt;
+        let n = bodies.len();
+        for b in bodies.iter_mut() {
+            if !b.is_dynamic() || b.asleep {
+                continue;
+            }
+            let r = b.shape.radius();
+            let linear = b.sleep_threshold;
+            let slow = b.velocity.length() + (b.angular_velocity * r).abs() < linear;
+            b.sleep_time = if slow { b.sleep_time + dt } else { 0.0 };
+        }
+        // what keeps a body awake whatever its speed
+        for f in forces {
+            bodies[f.body].sleep_time = 0.0;
+        }
+        if let Some(m) = mouse {
+            bodies[m.body].sleep_time = 0.0;
+        }
+        // a joint that drives its bodies keeps them awake: a turning motor, a drive
+        // force or torque (a servo at its target rests, and may sleep)
+        for j in joints {
+            if j.drive != 0.0 || j.motor.is_some_and(|m| m.speed != 0.0) {
+                bodies[j.a].sleep_time = 0.0;
+                bodies[j.b].sleep_time = 0.0;
+            }
+        }
+        for c in contacts.iter() {
+            let (ba, bb) = (&bodies[c.a as usize], &bodies[c.b as usize]);
+            let kinematic_moving = |b: &Body| {
+                b.body_type == BodyType::Kinematic
+                    && (b.velocity != Vec2::ZERO || b.angular_velocity != 0.0)
+            };
+            if kinematic_moving(ba) {
+                bodies[c.b as usize].sleep_time = 0.0;
+            } else if kinematic_moving(bb) {
+                bodies[c.a as usize].sleep_time = 0.0;
+            }
+        }
+        if bodies
+            .iter()
+            .all(|b| !b.is_dynamic() || b.asleep || b.sleep_time < TIME_TO_SLEEP)
+        {
+            return;
+        }
+        // islands: union-find over awake dynamic bodies joined by contacts and joints
+        let parent = &mut self.islands;
+        parent.clear();
+        parent.extend(0..n as u32);
+        let joins = |a: usize, b: usize| bodies[a].is_dynamic() && bodies[b].is_dynamic();
+        let union =
+            |parent: &mut Vec<u32>, a: usize, b: usize| uf_union(parent, a as u32, b as u32);
+        // every pair of the contact cache (boxes within the margin): a pair close
+        // enough that an awake body would wake the other is one island, or two such
+        // bodies could take turns waking each other forever
+        for c in contacts.iter() {
+            let (a, b) = (c.a as usize, c.b as usize);
+            if joins(a, b) {
+                union(parent, a, b);
+            }
+        }
+        for j in joints {
+            if joins(j.a, j.b) {
+                union(parent, j.a, j.b);
+            }
+        }
+        // an island sleeps when its least rested body has rested long enough
+        let least = &mut self.least_rest;
+        least.clear();
+        least.resize(n, f32::INFINITY);
+        for (i, b) in bodies.iter().enumerate() {
+            if b.is_dynamic() && !b.asleep {
+                let r = uf_root(parent, i as u32) as usize;
+                least[r] = least[r].min(b.sleep_time);
+            }
+        }
+        for (i, b) in bodies.iter_mut().enumerate() {
+            if !b.is_dynamic() || b.asleep {
+                continue;
+            }
+            let r = uf_root(&mut self.islands, i as u32);
+            if least[r as usize] >= TIME_TO_SLEEP {
+                b.asleep = true;
+                b.island = r;
+                b.velocity = Vec2::ZERO;
+                b.angular_velocity = 0.0;
+            }
+        }
+    }
+}
