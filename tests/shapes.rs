@@ -37,7 +37,19 @@ fn body(name: &str, shape: ShapeDef, at: Vec2, angle: f32, static_: bool) -> Bod
 /// A ramp tilted by `theta` (a static 30 m x 1 m box through the origin) and `shape`
 /// resting on it; returns the speed along the slope after `t` seconds.
 fn speed_down_ramp(shape: ShapeDef, rest_height: f32, theta: f32, mu: f32, t: f32) -> f32 {
-    let mut w = World::new(Some(Vec2::new(0.0, -G)), settings(SolverKind::Soft));
+    speed_down_ramp_under(SolverKind::Soft, shape, rest_height, theta, mu, t)
+}
+
+/// [`speed_down_ramp`] under `kind`'s defaults.
+fn speed_down_ramp_under(
+    kind: SolverKind,
+    shape: ShapeDef,
+    rest_height: f32,
+    theta: f32,
+    mu: f32,
+    t: f32,
+) -> f32 {
+    let mut w = World::new(Some(Vec2::new(0.0, -G)), settings(kind));
     let mut ramp = body(
         "ramp",
         ShapeDef::Box {
@@ -98,6 +110,34 @@ fn a_capsule_slides_down_a_ramp_where_a_disk_rolls() {
         roll > 1.2 * slide,
         "the two must differ for the test to mean anything"
     );
+}
+
+#[test]
+fn a_disk_rolls_down_a_slope_at_two_thirds_g_sin_under_every_solver() {
+    // Rolling without slipping (mu = 0.3 > tan(30 deg) / 3): a = g sin / (1 + I / (m r^2))
+    // = 2/3 g sin, so v = 2/3 g sin t and s = 1/3 g sin t^2. The speed is checked (the
+    // distance carries the integrator's O(dt) lag, 1/n of it after n steps) within 0.3%,
+    // at 1 and 2 s, for a small and a large disk. Measured: soft step within 0.22%, PGS
+    // and XPBD within 0.01%. XPBD gained 1.9% while it held a rolling disk's contact at
+    // the material point the step's collide found: turned with the disk during the
+    // substeps, that point rose off the slope and the contact, and its friction, were
+    // lost for part of each step.
+    let theta = 30f32.to_radians();
+    for kind in SolverKind::ALL {
+        for (t, r) in [(1.0f32, 0.25f32), (2.0, 0.25), (1.0, 0.1), (1.0, 1.0)] {
+            let roll = 2.0 / 3.0 * G * theta.sin() * t;
+            let v = speed_down_ramp_under(kind, ShapeDef::Circle { radius: r }, r, theta, 0.3, t);
+            let err = (v - roll) / roll;
+            eprintln!(
+                "{kind:?}: disk of r {r} after {t} s: {v:.4} m/s, rolling {roll:.4} ({:+.3}%)",
+                100.0 * err
+            );
+            assert!(
+                err.abs() < 0.003,
+                "{kind:?}: disk of radius {r} at {v} m/s after {t} s, rolling gives {roll}"
+            );
+        }
+    }
 }
 
 #[test]
