@@ -134,9 +134,17 @@ fn pendulum_keeps_its_amplitude() {
 
 /// A built-in scene under the given solver, with the settings the scene declares.
 fn builtin(name: &str, kind: SolverKind) -> World {
-    let sc = sandbox2d::scene::builtin(name)
+    builtin_with(name, kind, None)
+}
+
+/// [`builtin`], with the scene's gravity replaced by `gravity` where given.
+fn builtin_with(name: &str, kind: SolverKind, gravity: Option<Vec2>) -> World {
+    let mut sc = sandbox2d::scene::builtin(name)
         .expect("exists")
         .expect("parses");
+    if gravity.is_some() {
+        sc.world.gravity = gravity;
+    }
     let settings = sandbox2d::SolverOverrides {
         kind: Some(kind),
         ..sc.world.solver
@@ -181,31 +189,52 @@ fn servo_holds_its_target_against_gravity() {
 
 #[test]
 fn hinge_and_prismatic_limits_hold() {
+    // Each limit loaded: under the scene's gravity the arm hangs on its lower limit and
+    // the slider sits on its own; with gravity turned up the other way the arm rests on
+    // its upper limit and the slider on its upper stop. Neither passes a limit by more
+    // than 0.01 (rad, m) at any step, and each ends on the limit that is loaded.
+    use std::f32::consts::FRAC_PI_4;
     for kind in SolverKind::ALL {
-        let mut w = builtin("joints", kind);
-        let (arm, slider) = (id(&w, "limit_arm"), id(&w, "slider"));
-        let (mut worst_angle, mut worst_offset) = (0.0f32, 0.0f32);
-        let mut lowest = f32::INFINITY;
-        for _ in 0..300 {
-            w.step().unwrap();
-            // the hinge's limits are [-45, 45] degrees about its start angle 0
+        for up in [false, true] {
+            let mut w = builtin_with("joints", kind, up.then_some(Vec2::new(0.0, 9.81)));
+            let (arm, slider) = (id(&w, "limit_arm"), id(&w, "slider"));
+            let (mut worst_angle, mut worst_offset) = (0.0f32, 0.0f32);
+            let (mut lowest, mut highest) = (f32::INFINITY, f32::NEG_INFINITY);
+            for _ in 0..300 {
+                w.step().unwrap();
+                // the hinge's limits are [-45, 45] degrees about its start angle 0
+                let a = w.bodies[arm].angle;
+                worst_angle = worst_angle.max((a.abs() - FRAC_PI_4).max(0.0));
+                // the slider's offset along +y from 3.5 is limited to [-1.5, 0.5]
+                let off = w.bodies[slider].position.y - 3.5;
+                worst_offset = worst_offset
+                    .max((-1.5 - off).max(0.0))
+                    .max((off - 0.5).max(0.0));
+                lowest = lowest.min(off);
+                highest = highest.max(off);
+            }
+            eprintln!(
+                "{kind:?} (gravity {}): hinge limit overshoot {worst_angle:.2e} rad, prismatic {worst_offset:.2e} m",
+                if up { "up" } else { "down" }
+            );
+            assert!(worst_angle <= 0.01, "{kind:?} up {up}: hinge {worst_angle}");
+            assert!(
+                worst_offset <= 0.01,
+                "{kind:?} up {up}: prismatic {worst_offset}"
+            );
+            // and the loaded limits are reached
+            let (limit, stop, reached) = if up {
+                (FRAC_PI_4, 0.5, highest)
+            } else {
+                (-FRAC_PI_4, -1.5, lowest)
+            };
             let a = w.bodies[arm].angle;
-            worst_angle = worst_angle.max((-std::f32::consts::FRAC_PI_4 - a).max(0.0));
-            // the slider's offset along +y from 3.5 is limited to [-1.5, 0.5]
-            let off = w.bodies[slider].position.y - 3.5;
-            worst_offset = worst_offset
-                .max((-1.5 - off).max(0.0))
-                .max((off - 0.5).max(0.0));
-            lowest = lowest.min(off);
+            assert!((a - limit).abs() < 0.01, "{kind:?} up {up}: arm at {a}");
+            assert!(
+                (reached - stop).abs() < 0.01,
+                "{kind:?} up {up}: slider reached {reached}"
+            );
         }
-        eprintln!(
-            "{kind:?}: hinge limit overshoot {worst_angle:.2e} rad, prismatic {worst_offset:.2e} m"
-        );
-        assert!(worst_angle <= 0.01, "{kind:?}: hinge {worst_angle}");
-        assert!(worst_offset <= 0.01, "{kind:?}: prismatic {worst_offset}");
-        // and they are reached: the arm hangs on its lower limit, the slider sits on its own
-        assert!((w.bodies[arm].angle + std::f32::consts::FRAC_PI_4).abs() < 0.01);
-        assert!((lowest + 1.5).abs() < 0.01, "{kind:?}: slider at {lowest}");
     }
 }
 
@@ -920,7 +949,12 @@ fn a_pulley_moves_its_bodies_by_the_ratio() {
             "{kind:?}: b rose {db} m, a fell {da} m: want {} (ratio {r})",
             da / r
         );
-        assert!(w.bodies[0].position.x.abs() - 1.0 < 1e-3 && w.bodies[1].position.x - 1.0 < 1e-3);
+        // each hangs straight below its own pulley wheel (a at x = -1, b at x = 1)
+        let (xa, xb) = (w.bodies[0].position.x, w.bodies[1].position.x);
+        assert!(
+            (xa + 1.0).abs() < 1e-3 && (xb - 1.0).abs() < 1e-3,
+            "{kind:?}: a at x = {xa}, b at x = {xb}"
+        );
     }
 }
 
