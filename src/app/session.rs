@@ -1421,6 +1421,55 @@ mod tests {
     }
 
     #[test]
+    fn any_part_of_a_compound_body_is_grabbed() {
+        // `compound`'s table: a top (3 x 0.2 at +1.0 over its frame at (-6, 1.2)) and
+        // two legs (0.2 x 1 at -1.3 and +1.3, +0.4); under the top between the legs is
+        // air
+        let mut s =
+            Session::new(scene::load("compound").unwrap(), SolverOverrides::default()).unwrap();
+        let table = s
+            .world
+            .bodies
+            .iter()
+            .position(|b| b.name == "table")
+            .unwrap();
+        for (what, p) in [
+            ("top", (-6.0, 2.2)),
+            ("left leg", (-7.3, 1.6)),
+            ("right leg", (-4.7, 1.3)),
+        ] {
+            assert!(s.grab(Vec2::new(p.0, p.1)), "the table's {what}");
+            assert_eq!(s.drag.map(|d| d.body), Some(table), "the table's {what}");
+        }
+        s.drag = None;
+        assert!(
+            !s.grab(Vec2::new(-6.0, 1.5)),
+            "between the legs, under the top"
+        );
+        // held by its top and lifted 1 m, it rises
+        assert!(s.grab(Vec2::new(-6.0, 2.2)));
+        let y0 = s.world.bodies[table].position.y;
+        s.drag.as_mut().unwrap().target = Vec2::new(-6.0, 3.2);
+        for _ in 0..60 {
+            assert!(s.step_once(), "{:?}", s.error);
+        }
+        let y1 = s.world.bodies[table].position.y;
+        assert!(y1 > y0 + 0.5, "the table rose from {y0} to {y1}");
+        // the car's chassis, by its hull and by its cabin (then C follows it)
+        let mut s = Session::new(scene::load("car").unwrap(), SolverOverrides::default()).unwrap();
+        let chassis = s
+            .world
+            .bodies
+            .iter()
+            .position(|b| b.name == "chassis")
+            .unwrap();
+        for p in [Vec2::new(0.0, 1.2), Vec2::new(-0.3, 1.55)] {
+            assert!(s.grab(p), "{p}");
+            assert_eq!(s.drag.map(|d| d.body), Some(chassis), "{p}");
+        }
+    }
+
+    #[test]
     fn save_and_reload_the_state_with_spawned_bodies() {
         let dir = std::env::temp_dir().join(format!("sandbox2d-session-{}", std::process::id()));
         std::fs::create_dir_all(&dir).unwrap();
