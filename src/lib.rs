@@ -1,5 +1,8 @@
-//! sandbox2d: a 2D physics sandbox: particles and rigid bodies, SAT contacts, the
-//! contact MLCP solved by warm-started projected Gauss-Seidel with Baumgarte and slop.
+//! sandbox2d: a 2D physics sandbox: particles and rigid bodies, SAT contacts and joints,
+//! three solvers behind one interface ([`SolverKind`]): the soft step (the default:
+//! substeps with soft contact and joint rows and a rigid relax sweep), classic PGS (the
+//! contact MLCP by warm-started projected Gauss-Seidel with Baumgarte or split impulse
+//! and slop) and XPBD.
 //!
 //! ```
 //! use sandbox2d::{BodyDef, BodyType, ShapeDef, SolverSettings, World};
