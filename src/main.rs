@@ -41,7 +41,7 @@ fn stdout_failure(e: std::io::Error) -> Failure {
 }
 
 /// The scene the plain `sandbox2d` command shows.
-const DEFAULT_SCENE: &str = "pyramid";
+const DEFAULT_SCENE: &str = "pyramid_throw";
 
 #[derive(Parser)]
 #[command(

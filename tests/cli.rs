@@ -384,6 +384,63 @@ fn render_writes_numbered_pngs_and_a_gif() {
     assert_eq!(gif_frames[0].buffer().dimensions(), (320, 180));
 }
 
+/// GIF counts delays in centiseconds: at every `--every` each frame's delay is the
+/// scene's `dt * every` to within 1 cs, and the animation's length is `frames * dt *
+/// every` to within 1 cs (so it plays at the simulated speed, not 1.7 x too fast).
+#[cfg(feature = "render")]
+#[test]
+fn gif_delays_are_the_simulated_interval_in_centiseconds() {
+    use image::AnimationDecoder;
+    let scene = sandbox2d::scene::load("bounce").unwrap();
+    let dt = scene.world.solver.resolve().dt as f64;
+    let dir = fresh_dir("render-gif-delays");
+    let frames = 7;
+    for every in [1u32, 2, 3] {
+        let gif = dir.join(format!("every{every}.gif"));
+        let out = sandbox2d()
+            .args(["render", "bounce", "--frames", &frames.to_string()])
+            .args(["--every", &every.to_string(), "--size", "64x36"])
+            .arg("--out")
+            .arg(dir.join(format!("f{every}")))
+            .arg("--gif")
+            .arg(&gif)
+            .output()
+            .unwrap();
+        if skipped_for_no_adapter(&out) {
+            return;
+        }
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        let decoded = image::codecs::gif::GifDecoder::new(std::io::BufReader::new(
+            std::fs::File::open(&gif).unwrap(),
+        ))
+        .unwrap()
+        .into_frames()
+        .collect_frames()
+        .unwrap();
+        assert_eq!(decoded.len(), frames);
+        let interval_cs = dt * f64::from(every) * 100.0;
+        let mut total = 0.0;
+        for (k, f) in decoded.iter().enumerate() {
+            let (num, den) = f.delay().numer_denom_ms();
+            let cs = f64::from(num) / f64::from(den) / 10.0;
+            assert!(
+                (cs - interval_cs).abs() <= 1.0,
+                "--every {every}: frame {k} shown {cs} cs, the interval is {interval_cs:.2} cs"
+            );
+            total += cs;
+        }
+        let want = interval_cs * frames as f64;
+        assert!(
+            (total - want).abs() <= 1.0,
+            "--every {every}: {frames} frames last {total} cs, simulated {want:.2} cs"
+        );
+    }
+}
+
 #[cfg(feature = "render")]
 #[test]
 fn render_refuses_bad_input_with_exit_2() {

@@ -346,8 +346,8 @@ fn every_solver_is_deterministic_with_pinned_hashes() {
     // output: they check sameness over time, not correctness, which the physics tests
     // check against closed forms). The bits depend on the platform's libm (sin, cos),
     // so a pin holds for x86_64 Linux as CI runs it.
-    // Re-pinned (session 5): PGS for the regularised hinge points, XPBD for the
-    // multipliers reset every substep and the regularised hinge points.
+    // Pinned with PGS's regularised hinge points, and XPBD's multipliers reset every
+    // substep and regularised hinge points.
     let pinned = [
         (SolverKind::Soft, 0x0e88_40f1_6ba5_98bb_u64),
         (SolverKind::Pgs, 0x6c23_c00d_cb3d_8e1d_u64),

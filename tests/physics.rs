@@ -696,7 +696,7 @@ fn elastic_ball_keeps_its_height_bounce_after_bounce() {
 }
 
 /// The soft step at 4 substeps of 2 soft sweeps, 60 Hz, slop 1 mm (the large pyramid's
-/// setting until session 18, which takes 1 sweep at damping ratio 0.7: with it a lone
+/// setting before it took 1 sweep at damping ratio 0.7: with it a lone
 /// box tilts up to 1.1e-4 rad while it sinks into the slop, then rests without creep).
 fn soft_settings() -> SolverSettings {
     let mut s = SolverSettings::soft();

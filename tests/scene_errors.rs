@@ -815,6 +815,7 @@ fn every_builtin_parses_and_has_a_description() {
         "particles",
         "pendulum",
         "pyramid",
+        "pyramid_throw",
         "ragdoll",
         "rope",
         "sensor_gate",

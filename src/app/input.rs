@@ -102,9 +102,17 @@ pub fn body_at(world: &World, p: Vec2) -> Option<BodyId> {
     hit(true).or_else(|| hit(false))
 }
 
-/// Whether the world point `p` lies inside the body's shape.
+/// Whether the world point `p` lies inside the body's shape, or inside any part of a
+/// compound body.
 pub fn contains(body: &crate::body::Body, p: Vec2) -> bool {
-    body.shape.contains_local(body.transform().inv_apply(p))
+    let local = body.transform().inv_apply(p);
+    if body.parts.is_empty() {
+        return body.shape.contains_local(local);
+    }
+    body.parts.iter().any(|part| {
+        part.shape
+            .contains_local(part.rot.inv_rotate(local - part.offset))
+    })
 }
 
 /// What a click spawns.

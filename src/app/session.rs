@@ -298,9 +298,13 @@ impl Session {
         }
     }
 
-    /// ctrl+L: puts back a state saved from this scene (bodies spawned since the scene
-    /// loaded may be in it), with the settings it was saved with. On failure the world
-    /// is kept and the panel says why.
+    /// ctrl+L: puts back a saved state, with the settings it was saved with. A state
+    /// carries its world whole (bodies, joints, contacts, spawn progress), so the world
+    /// is rebuilt from the state, not from the scene: a world edited before it was saved
+    /// (bodies deleted, spawned or dragged) reloads as it was saved, and the note says
+    /// when its bodies are not the scene's (R still resets to the scene). On failure
+    /// (unreadable, damaged, spawn tables other than the scene's) the world is kept and
+    /// the panel says why.
     pub fn load_state(&mut self, path: &Path) {
         let loaded = std::fs::read(path)
             .map_err(|e| format!("cannot read: {e}"))
@@ -308,11 +312,15 @@ impl Session {
             .and_then(|state| {
                 let scene =
                     World::from_def(&self.scene.world, self.settings).map_err(|e| e.to_string())?;
-                state.check_scene(&scene, true).map_err(|e| e.to_string())?;
-                self.world.restore(&state).map_err(|e| e.to_string())
+                let edited = match state.check_scene(&scene, true) {
+                    Ok(()) => None,
+                    Err(_) => Some((state.bodies.len(), scene.bodies.len())),
+                };
+                self.world.restore(&state).map_err(|e| e.to_string())?;
+                Ok(edited)
             });
         match loaded {
-            Ok(()) => {
+            Ok(edited) => {
                 self.settings = self.world.settings;
                 self.energy_start = self.world.energy();
                 self.drag = None;
@@ -322,11 +330,17 @@ impl Session {
                 self.residual_at = f64::NEG_INFINITY;
                 self.accumulator = 0.0;
                 self.error = None;
-                self.note = Some(format!(
+                let mut note = format!(
                     "reloaded step {} from {}",
                     self.world.step_count(),
                     path.display()
-                ));
+                );
+                if let Some((saved, scene)) = edited {
+                    note += &format!(
+                        " (an edited world: {saved} bodies, not the scene's {scene}; R resets to the scene)"
+                    );
+                }
+                self.note = Some(note);
             }
             Err(e) => self.error = Some(format!("{}: {e}", path.display())),
         }
@@ -1407,6 +1421,55 @@ mod tests {
     }
 
     #[test]
+    fn any_part_of_a_compound_body_is_grabbed() {
+        // `compound`'s table: a top (3 x 0.2 at +1.0 over its frame at (-6, 1.2)) and
+        // two legs (0.2 x 1 at -1.3 and +1.3, +0.4); under the top between the legs is
+        // air
+        let mut s =
+            Session::new(scene::load("compound").unwrap(), SolverOverrides::default()).unwrap();
+        let table = s
+            .world
+            .bodies
+            .iter()
+            .position(|b| b.name == "table")
+            .unwrap();
+        for (what, p) in [
+            ("top", (-6.0, 2.2)),
+            ("left leg", (-7.3, 1.6)),
+            ("right leg", (-4.7, 1.3)),
+        ] {
+            assert!(s.grab(Vec2::new(p.0, p.1)), "the table's {what}");
+            assert_eq!(s.drag.map(|d| d.body), Some(table), "the table's {what}");
+        }
+        s.drag = None;
+        assert!(
+            !s.grab(Vec2::new(-6.0, 1.5)),
+            "between the legs, under the top"
+        );
+        // held by its top and lifted 1 m, it rises
+        assert!(s.grab(Vec2::new(-6.0, 2.2)));
+        let y0 = s.world.bodies[table].position.y;
+        s.drag.as_mut().unwrap().target = Vec2::new(-6.0, 3.2);
+        for _ in 0..60 {
+            assert!(s.step_once(), "{:?}", s.error);
+        }
+        let y1 = s.world.bodies[table].position.y;
+        assert!(y1 > y0 + 0.5, "the table rose from {y0} to {y1}");
+        // the car's chassis, by its hull and by its cabin (then C follows it)
+        let mut s = Session::new(scene::load("car").unwrap(), SolverOverrides::default()).unwrap();
+        let chassis = s
+            .world
+            .bodies
+            .iter()
+            .position(|b| b.name == "chassis")
+            .unwrap();
+        for p in [Vec2::new(0.0, 1.2), Vec2::new(-0.3, 1.55)] {
+            assert!(s.grab(p), "{p}");
+            assert_eq!(s.drag.map(|d| d.body), Some(chassis), "{p}");
+        }
+    }
+
+    #[test]
     fn save_and_reload_the_state_with_spawned_bodies() {
         let dir = std::env::temp_dir().join(format!("sandbox2d-session-{}", std::process::id()));
         std::fs::create_dir_all(&dir).unwrap();
@@ -1433,15 +1496,79 @@ mod tests {
         assert!(s.note.as_deref().unwrap().contains("reloaded step 10"));
         assert_eq!((s.world.state_hash(), s.world.step_count()), (hash, steps));
         assert_eq!(s.settings, s.world.settings);
-        // another scene's state is refused and the world kept
-        s.load_scene("pyramid").unwrap();
-        s.load_state(&path);
-        assert!(
-            s.error.as_deref().unwrap().contains("different scene"),
-            "{:?}",
-            s.error
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+
+    /// Saves `s` to a fresh file, steps on, resets to the scene, reloads: the world is
+    /// the saved one, bit for bit, at the saved step.
+    fn saved_world_reloads(s: &mut Session, name: &str) {
+        let dir =
+            std::env::temp_dir().join(format!("sandbox2d-session-{name}-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let path = dir.join("state.json");
+        for _ in 0..10 {
+            assert!(s.step_once());
+        }
+        s.save_state(&path);
+        assert!(s.error.is_none(), "{:?}", s.error);
+        let saved = (
+            s.world.state_hash(),
+            s.world.step_count(),
+            s.world.bodies.len(),
         );
-        assert_eq!(s.world.step_count(), 0);
+        for _ in 0..5 {
+            assert!(s.step_once());
+        }
+        s.reset();
+        assert_ne!(s.world.bodies.len(), saved.2, "the scene has other bodies");
+        s.load_state(&path);
+        assert!(s.error.is_none(), "{:?}", s.error);
+        let note = s.note.clone().unwrap();
+        assert!(note.contains("reloaded step 10"), "{note}");
+        assert!(note.contains("an edited world"), "{note}");
+        let now = (
+            s.world.state_hash(),
+            s.world.step_count(),
+            s.world.bodies.len(),
+        );
+        assert_eq!(now, saved);
+        // and it runs on
+        assert!(s.step_once(), "{:?}", s.error);
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+
+    #[test]
+    fn a_world_with_a_body_deleted_saves_and_reloads() {
+        let mut s = session();
+        let bottom = s.world.bodies[1].position;
+        assert!(s.delete_at(bottom));
+        saved_world_reloads(&mut s, "delete");
+    }
+
+    #[test]
+    fn a_world_with_bodies_spawned_and_deleted_saves_and_reloads() {
+        let mut s = session();
+        s.spawn(SpawnKind::Box, Vec2::new(8.0, 3.0));
+        s.spawn(SpawnKind::Circle, Vec2::new(10.0, 3.0));
+        let top = s.world.bodies[s.world.bodies.len() - 3].position;
+        assert!(s.delete_at(top));
+        saved_world_reloads(&mut s, "spawn");
+    }
+
+    #[test]
+    fn a_damaged_state_is_refused_and_the_world_kept() {
+        let dir =
+            std::env::temp_dir().join(format!("sandbox2d-session-damaged-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let path = dir.join("state.json");
+        std::fs::write(&path, b"{\"format\": \"sandbox2d-state\", \"version\": 1}").unwrap();
+        let mut s = session();
+        assert!(s.step_once());
+        let hash = s.world.state_hash();
+        s.load_state(&path);
+        assert!(s.error.is_some());
+        assert_eq!(s.world.state_hash(), hash);
+        assert_eq!(s.world.step_count(), 1);
         let _ = std::fs::remove_dir_all(&dir);
     }
 

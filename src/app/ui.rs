@@ -1,7 +1,8 @@
-//! The egui side panel: scene picker, solver settings, run controls, overlay toggles,
-//! live figures and a plot of the last seconds (drawn with egui's painter).
+//! The egui side panel: scene picker, run controls, and sections that fold (controls,
+//! solver settings, timeline, overlays, live figures, plots of the last seconds drawn
+//! with `egui_plot`, and the time of a step and a frame by part).
 
-use egui::{Color32, Pos2, Rect, Sense, Stroke, Ui, Vec2 as EVec2};
+use egui::{Color32, Pos2, Rect, Sense, Ui, Vec2 as EVec2};
 
 use super::session::{HISTORY_SECONDS, Sample, Session, reachable};
 use crate::defs::SolverKind;
@@ -61,8 +62,9 @@ pub fn scene_label(source: &str) -> String {
     }
 }
 
-/// Default panel width (points).
-pub const PANEL_WIDTH: f32 = 260.0;
+/// The panel's width (points), margins included. Fixed whatever the solver's settings
+/// show, so that the panes right of it never move under it.
+pub const PANEL_WIDTH: f32 = 300.0;
 
 /// Draws the panel on the left of `ui`; returns what the window should do.
 ///
@@ -71,12 +73,15 @@ pub const PANEL_WIDTH: f32 = 260.0;
 pub fn panel(ui: &mut Ui, s: &mut Session, others: &[Session], frame: FrameStats) -> PanelActions {
     let mut actions = PanelActions::default();
     egui::Panel::left("sandbox2d_panel")
-        .default_size(PANEL_WIDTH)
+        .exact_size(PANEL_WIDTH)
         .resizable(false)
         .show(ui, |ui| {
-            egui::ScrollArea::vertical().show(ui, |ui| {
-                contents(ui, s, others, frame, &mut actions);
-            });
+            // the scroll bar always shown: what is below the fold is there to scroll to
+            egui::ScrollArea::vertical()
+                .scroll_bar_visibility(egui::scroll_area::ScrollBarVisibility::AlwaysVisible)
+                .show(ui, |ui| {
+                    contents(ui, s, others, frame, &mut actions);
+                });
         });
     actions
 }
@@ -111,6 +116,8 @@ fn contents(
             ui.small("T: ray tool on / off: a ray from the cursor to where it goes");
             ui.small("space: pause, S: step, R: reset, H: hide this panel");
             ui.small("F: fit the view, C: follow the grabbed body, Esc / Q: quit");
+            ui.small("V: tint by speed, then by constraint error, then off");
+            ui.small("Z: sleeping bodies dimmed or not");
             ui.small("ctrl+S: save the state to sandbox2d_state.json, ctrl+L: reload it");
             ui.small(
                 "Left / Right: a step back / on, shift: a second; Home / End: oldest / newest kept",
@@ -166,11 +173,52 @@ fn contents(
         ui.small(note.as_str());
     }
 
-    ui.separator();
-    ui.label(format!(
-        "solver: {} (running)",
+    let state = if s.paused { "paused" } else { "running" };
+    egui::CollapsingHeader::new(format!(
+        "solver: {} ({state})",
         s.world.settings.kind.label()
-    ));
+    ))
+    .id_salt("solver")
+    .default_open(true)
+    .show(ui, |ui| solver(ui, s, actions));
+
+    egui::CollapsingHeader::new("timeline")
+        .default_open(false)
+        .show(ui, |ui| timeline(ui, s, others, actions));
+
+    egui::CollapsingHeader::new("overlays")
+        .default_open(false)
+        .show(ui, |ui| overlays(ui, s));
+
+    if let Some(text) = s.ray_text() {
+        ui.separator();
+        ui.label(text);
+    }
+
+    egui::CollapsingHeader::new("figures")
+        .default_open(true)
+        .show(ui, |ui| figures(ui, s, frame));
+    egui::CollapsingHeader::new(format!("plots, last {HISTORY_SECONDS:.0} s"))
+        .id_salt("plots")
+        .default_open(true)
+        .show(ui, |ui| plots(ui, s, others));
+    egui::CollapsingHeader::new("time by stage and phase")
+        .id_salt("stages")
+        .default_open(false)
+        .show(ui, |ui| {
+            let last = s.last().copied().unwrap_or_default();
+            profiler(ui, &last.stage_ms);
+            stacked_bar(
+                ui,
+                "a frame by phase, recent mean",
+                &FRAME_PHASES,
+                &frame.phase_ms,
+            );
+        });
+}
+
+/// The solver section: the kind, its own settings, the time scale.
+fn solver(ui: &mut Ui, s: &mut Session, actions: &mut PanelActions) {
     let mut kind = s.settings.kind;
     ui.horizontal(|ui| {
         for k in SolverKind::ALL {
@@ -186,9 +234,9 @@ fn contents(
     let has = |k: &str| keys.contains(&k);
     let st = &mut s.settings;
     let (it_label, it_max) = match st.kind {
-        SolverKind::Soft => ("soft sweeps / substep", 8),
+        SolverKind::Soft => ("sweeps/substep", 8),
         SolverKind::Pgs => ("PGS sweeps", 100),
-        SolverKind::Xpbd => ("XPBD iterations / substep", 8),
+        SolverKind::Xpbd => ("iterations/substep", 8),
     };
     ui.add(egui::Slider::new(&mut st.iterations, 1..=it_max).text(it_label));
     ui.add(egui::Slider::new(&mut st.substeps, 1..=64).text("substeps"));
@@ -247,11 +295,10 @@ fn contents(
             .logarithmic(true)
             .text("time scale"),
     );
+}
 
-    timeline(ui, s, others, actions);
-
-    ui.separator();
-    ui.label("overlays");
+/// The overlays section.
+fn overlays(ui: &mut Ui, s: &mut Session) {
     ui.checkbox(&mut s.overlays.contacts, "contacts (normal ~ lambda)");
     ui.checkbox(&mut s.overlays.aabbs, "bounding boxes");
     ui.checkbox(&mut s.overlays.velocities, "velocities");
@@ -267,20 +314,11 @@ fn contents(
             ui.selectable_value(&mut s.overlays.tint, t, name);
         }
     });
-
-    if let Some(text) = s.ray_text() {
-        ui.separator();
-        ui.label(text);
-    }
-
-    ui.separator();
-    stats(ui, s, others, frame);
 }
 
 /// The timeline: a scrubber over the steps every pane keeps, buttons to step back and
 /// on, "branch here", and what the keyframes take in memory.
 fn timeline(ui: &mut Ui, s: &Session, others: &[Session], actions: &mut PanelActions) {
-    ui.separator();
     let now = s.world.step_count();
     let dt = f64::from(s.world.settings.dt);
     let t_now = s.world.time();
@@ -351,7 +389,8 @@ fn timeline(ui: &mut Ui, s: &Session, others: &[Session], actions: &mut PanelAct
     }
 }
 
-fn stats(ui: &mut Ui, s: &Session, others: &[Session], frame: FrameStats) {
+/// The live figures of the last step.
+fn figures(ui: &mut Ui, s: &Session, frame: FrameStats) {
     let last = s.last().copied().unwrap_or_default();
     let n = s.history.len().max(1) as f32;
     let mean_ms = s.history.iter().map(|x| x.ms).fold(0.0f32, |a, b| a + b) / n;
@@ -382,56 +421,51 @@ fn stats(ui: &mut Ui, s: &Session, others: &[Session], frame: FrameStats) {
             row("residual", format!("{:.2e}", last.residual));
             row("penetration", format!("{:.4} m", last.penetration));
         });
-    profiler(ui, &last.stage_ms);
-    stacked_bar(
-        ui,
-        "a frame by phase, recent mean",
-        &FRAME_PHASES,
-        &frame.phase_ms,
-    );
-    // one line per pane: this panel's pane first, then the others left to right
+}
+
+/// The plots of the last seconds: one line per pane (this panel's pane first).
+fn plots(ui: &mut Ui, s: &Session, others: &[Session]) {
     let panes: Vec<&Session> = std::iter::once(s).chain(others).collect();
-    let series = |f: &dyn Fn(&Sample) -> Option<f32>| -> Vec<Vec<f32>> {
+    let now = s.world.time();
+    // (seconds before now, value) of each pane's samples
+    let series = |f: &dyn Fn(&Sample) -> Option<f64>| -> Vec<Vec<[f64; 2]>> {
         panes
             .iter()
-            .map(|p| p.history.iter().filter_map(f).collect())
+            .map(|p| {
+                p.history
+                    .iter()
+                    .filter_map(|x| Some([x.t - now, f(x)?]))
+                    .collect()
+            })
             .collect()
     };
-    if panes.len() > 1 {
-        ui.horizontal_wrapped(|ui| {
-            ui.small("lines, pane by pane:");
-            for (k, c) in PANE_COLORS.iter().enumerate().take(panes.len()) {
-                ui.colored_label(*c, format!("{}", k + 1));
-            }
-        });
-    }
     plot(
         ui,
         "ms / step",
-        &series(&|x| Some(x.ms)),
+        &series(&|x| Some(f64::from(x.ms))),
         Color32::from_rgb(90, 200, 255),
     );
     if panes.iter().any(|p| !p.world.joints().is_empty()) {
         plot(
             ui,
             "joint error (m)",
-            &series(&|x| Some(x.joint_error)),
+            &series(&|x| Some(f64::from(x.joint_error))),
             Color32::from_rgb(230, 200, 70),
         );
     }
     plot(
         ui,
         "|energy drift| (relative)",
-        &series(&|x| Some(x.energy_drift.abs() as f32)),
+        &series(&|x| Some(x.energy_drift.abs())),
         Color32::from_rgb(200, 120, 255),
     );
     plot(
         ui,
         "deepest penetration (m)",
-        &series(&|x| Some(x.penetration)),
+        &series(&|x| Some(f64::from(x.penetration))),
         Color32::from_rgb(255, 170, 80),
     );
-    let residual = series(&|x| x.mlcp_residual);
+    let residual = series(&|x| x.mlcp_residual.map(f64::from));
     if residual.iter().any(|r| !r.is_empty()) {
         plot(
             ui,
@@ -495,41 +529,88 @@ fn shares<const N: usize>(parts: &[f32; N]) -> [f32; N] {
     parts.map(|v| v.max(0.0) / total)
 }
 
-/// A small line plot of each of `lines` (oldest first), all scaled from 0 to their
-/// common maximum, under a label with the maximum: one line in `color`, or with several
-/// (one per pane) each in its pane's colour.
-fn plot(ui: &mut Ui, label: &str, lines: &[Vec<f32>], color: Color32) {
-    let width = ui.available_width().max(120.0);
-    let max = lines.iter().flatten().copied().fold(0.0f32, f32::max);
-    ui.small(format!(
-        "{label}, last {HISTORY_SECONDS:.0} s (max {max:.3})"
-    ));
-    let (response, painter) = ui.allocate_painter(EVec2::new(width, 48.0), Sense::hover());
-    let rect: Rect = response.rect;
-    painter.rect_filled(rect, 2.0, Color32::from_gray(28));
-    if max <= 0.0 {
-        return;
+/// A line plot of each of `lines` (points of (seconds before now, value)) with axes:
+/// one line in `color`, or with several (one per pane) each in its pane's colour, with
+/// a legend. The y axis starts at 0; the title gives the latest value and the maximum.
+fn plot(ui: &mut Ui, label: &str, lines: &[Vec<[f64; 2]>], color: Color32) {
+    let max = lines.iter().flatten().map(|p| p[1]).fold(0.0f64, f64::max);
+    let latest = lines.first().and_then(|l| l.last()).map_or(0.0, |p| p[1]);
+    ui.label(format!("{label}: {latest:.3} (max {max:.3})"));
+    let mut p = egui_plot::Plot::new(label)
+        .height(100.0)
+        .include_x(-HISTORY_SECONDS)
+        .include_x(0.0)
+        .include_y(0.0)
+        .include_y(if max > 0.0 { max } else { 1e-3 })
+        .allow_zoom(false)
+        .allow_drag(false)
+        .allow_scroll(false)
+        .allow_boxed_zoom(false)
+        .allow_double_click_reset(false)
+        .show_grid(true)
+        // a label each second (s before now) and three or four on the y axis
+        .custom_x_axes(vec![
+            egui_plot::AxisHints::new_x()
+                .label_spacing(30.0..=40.0)
+                .formatter(|m, _| format!("{:.0} s", m.value)),
+        ])
+        // three or four labelled lines on the y axis, at a round step
+        .y_grid_spacer(egui_plot::uniform_grid_spacer(|g| {
+            let step = nice_step((g.bounds.1 - g.bounds.0) / 3.0);
+            [step, 5.0 * step, 10.0 * step]
+        }))
+        .custom_y_axes(vec![
+            egui_plot::AxisHints::new_y()
+                .label_spacing(14.0..=20.0)
+                .min_thickness(40.0)
+                .formatter(|m, _| short_number(m.value)),
+        ]);
+    if lines.len() > 1 {
+        p = p.legend(egui_plot::Legend::default().position(egui_plot::Corner::LeftTop));
     }
-    for (k, values) in lines.iter().enumerate() {
-        let n = values.len();
-        if n < 2 {
-            continue;
+    p.show(ui, |pu| {
+        for (k, points) in lines.iter().enumerate() {
+            let (name, c) = if lines.len() == 1 {
+                (label.to_string(), color)
+            } else {
+                (
+                    format!("pane {}", k + 1),
+                    PANE_COLORS[k % PANE_COLORS.len()],
+                )
+            };
+            pu.line(
+                egui_plot::Line::new(name, points.clone())
+                    .color(c)
+                    .width(1.5),
+            );
         }
-        let points: Vec<Pos2> = values
-            .iter()
-            .enumerate()
-            .map(|(i, v)| {
-                let x = rect.left() + rect.width() * i as f32 / (n - 1) as f32;
-                let y = rect.bottom() - (rect.height() - 4.0) * (v / max).clamp(0.0, 1.0) - 2.0;
-                Pos2::new(x, y)
-            })
-            .collect();
-        let c = if lines.len() == 1 {
-            color
-        } else {
-            PANE_COLORS[k % PANE_COLORS.len()]
-        };
-        painter.line(points, Stroke::new(1.5, c));
+    });
+}
+
+/// The smallest of 1, 2 and 5 times a power of ten that is at least `x` (> 0).
+fn nice_step(x: f64) -> f64 {
+    if !(x.is_finite() && x > 0.0) {
+        return 1.0;
+    }
+    let p = 10f64.powf(x.log10().floor());
+    [1.0, 2.0, 5.0, 10.0]
+        .into_iter()
+        .map(|m| m * p)
+        .find(|&s| s >= x * (1.0 - 1e-9))
+        .unwrap_or(10.0 * p)
+}
+
+/// A tick label in at most about five characters: 0, 0.25, 1.5e-3, 120.
+fn short_number(v: f64) -> String {
+    let a = v.abs();
+    if a == 0.0 {
+        "0".into()
+    } else if !(1e-2..1e4).contains(&a) {
+        format!("{v:.0e}")
+    } else {
+        let s = format!("{v:.3}");
+        let s = s.trim_end_matches('0').trim_end_matches('.');
+        s.chars().take(6).collect()
     }
 }
 
@@ -564,6 +645,26 @@ mod tests {
             shares(&[f32::NAN, 1.0, 0.0, 0.0, 0.0]),
             [0.0, 1.0, 0.0, 0.0, 0.0]
         );
+    }
+
+    #[test]
+    fn plot_grid_steps_are_round() {
+        assert!((nice_step(0.18) - 0.2).abs() < 1e-12, "0.18");
+        assert!((nice_step(0.2) - 0.2).abs() < 1e-12, "0.2");
+        assert!((nice_step(0.03) - 0.05).abs() < 1e-12, "0.03");
+        assert!((nice_step(7.0) - 10.0).abs() < 1e-12, "7.0");
+        assert!((nice_step(1.0) - 1.0).abs() < 1e-12, "1.0");
+        assert!((nice_step(0.0) - 1.0).abs() < 1e-12, "0.0");
+    }
+
+    #[test]
+    fn plot_tick_labels_are_short() {
+        assert_eq!(short_number(0.0), "0");
+        assert_eq!(short_number(0.25), "0.25");
+        assert_eq!(short_number(120.0), "120");
+        assert_eq!(short_number(0.1000001), "0.1");
+        assert_eq!(short_number(0.004), "4e-3");
+        assert_eq!(short_number(-0.5), "-0.5");
     }
 
     #[test]

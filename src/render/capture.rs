@@ -42,8 +42,14 @@ pub fn save_png(path: impl AsRef<Path>, image: &RgbaImage) -> Result<(), RenderE
 /// # Ok::<(), RenderError>(())
 /// ```
 ///
-/// GIF stores delays in hundredths of a second and 256 colours a frame (quantised by
-/// the encoder), so it suits previews rather than measurements.
+/// GIF stores delays in whole hundredths of a second (centiseconds) and 256 colours a
+/// frame (quantised by the encoder), so it suits previews rather than measurements. A
+/// frame interval that is not a whole number of centiseconds (1/60 s is 1.67 cs) is kept
+/// on average: frame `k` is shown from `round(k * interval)` to `round((k + 1) *
+/// interval)` centiseconds, so each delay is within 1 cs of the interval and the whole
+/// animation's length is within 1 cs of `frames * interval`. Browsers show delays under
+/// 2 cs as 10 cs; an interval of 2 cs or more (e.g. `--every 2` at 60 Hz) plays right
+/// everywhere.
 ///
 /// The file is written to a temporary name beside `path` and renamed to `path` by
 /// [`GifWriter::finish`] once the trailer is written; dropped unfinished (an error, an
@@ -55,7 +61,8 @@ pub struct GifWriter {
     error: Arc<Mutex<Option<std::io::Error>>>,
     path: PathBuf,
     temp: PathBuf,
-    delay: Delay,
+    /// The interval between frames in centiseconds (GIF's unit), not rounded.
+    interval_cs: f64,
     size: Option<[u32; 2]>,
     frames: usize,
 }
@@ -97,13 +104,12 @@ impl GifWriter {
         } else {
             30.0
         };
-        let delay = Delay::from_numer_denom_ms((1000.0 / fps).round() as u32, 1);
         Ok(Self {
             encoder: Some(encoder),
             error,
             path,
             temp,
-            delay,
+            interval_cs: 100.0 / f64::from(fps),
             size: None,
             frames: 0,
         })
@@ -118,18 +124,31 @@ impl GifWriter {
             }
             _ => self.size = Some(got),
         }
+        let delay = self.next_delay();
         let encoder = self
             .encoder
             .as_mut()
             .ok_or(RenderError::Gpu("GIF writer already finished".into()))?;
         encoder
-            .encode_frame(Frame::from_parts(frame, 0, 0, self.delay))
+            .encode_frame(Frame::from_parts(frame, 0, 0, delay))
             .map_err(|e| RenderError::Io {
                 path: self.path.clone(),
                 source: std::io::Error::other(e),
             })?;
         self.frames += 1;
         Ok(())
+    }
+
+    /// The delay of the next frame: the centiseconds from its start to the next frame's,
+    /// both rounded on the animation's timeline so that rounding errors do not add up.
+    /// (The encoder stores a delay's milliseconds divided by 10, so it is given whole
+    /// centiseconds times 10.)
+    fn next_delay(&self) -> Delay {
+        let k = self.frames as f64;
+        let start = (k * self.interval_cs).round();
+        let end = ((k + 1.0) * self.interval_cs).round();
+        let cs = (end - start).clamp(1.0, f64::from(u16::MAX)) as u32;
+        Delay::from_numer_denom_ms(cs * 10, 1)
     }
 
     /// Frames written so far.

@@ -58,6 +58,10 @@ const SCENES: &[(&str, &str)] = &[
         include_str!("../../assets/scenes/pendulum.toml"),
     ),
     ("pyramid", include_str!("../../assets/scenes/pyramid.toml")),
+    (
+        "pyramid_throw",
+        include_str!("../../assets/scenes/pyramid_throw.toml"),
+    ),
     ("ragdoll", include_str!("../../assets/scenes/ragdoll.toml")),
     ("rope", include_str!("../../assets/scenes/rope.toml")),
     (
@@ -92,6 +96,7 @@ const NAMES: &[&str] = &[
     "particles",
     "pendulum",
     "pyramid",
+    "pyramid_throw",
     "ragdoll",
     "rope",
     "sensor_gate",
