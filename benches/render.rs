@@ -4,7 +4,7 @@
 //! adapter it prints why and measures nothing.
 //!
 //! Measured (llvmpipe via GL, 2 CPU cores shared with other builds, load average 3.5 to
-//! 3.8, release), medians, before issue 16 -> after (boxes as one instanced SDF quad
+//! 3.8, release), medians, before -> after (boxes as one instanced SDF quad
 //! each): 210 boxes single-sampled (the default on a CPU rasteriser) 8.5 -> 5.8 ms, 4x
 //! MSAA 34.3 -> 24.2 ms; 5050 boxes single-sampled 42.7 -> 13.2 ms, 4x MSAA 144.6 ->
 //! 66.8 ms. Earlier, at load average about 2: 210 boxes 7.9 ms single-sampled, 32.0 ms

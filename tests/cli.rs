@@ -583,7 +583,7 @@ fn plain_command_without_a_display_exits_0_with_frames() {
 }
 
 // ---------------------------------------------------------------------------
-// Issue 13: no panics, no preallocation from a count, outputs written in full or not
+// No panics, no preallocation from a count, outputs written in full or not
 // at all, interrupts that say what was kept, outputs that would overwrite an input.
 
 /// Starts `args`, waits `secs`, and returns whether it is still running (then kills

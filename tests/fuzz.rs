@@ -1,4 +1,4 @@
-//! Fuzzing the inputs (issue 13): the built-in scenes, mutated, and random command-line
+//! Fuzzing the inputs: the built-in scenes, mutated, and random command-line
 //! flags. Every outcome must be a clean one: a scene that loads builds, has finite
 //! figures and runs (or stops on a non-finite state with one line naming the scene);
 //! a scene that is refused is refused with one line `FILE:LINE:COL: ...` and exit 2.

@@ -1285,7 +1285,7 @@ fn load_takes_a_builtin_name_or_a_path() {
 }
 
 // ---------------------------------------------------------------------------
-// Issue 13: what the world derives at build time is checked at load, and refused at
+// What the world derives at build time is checked at load, and refused at
 // the value that caused it; names are quoted with escapes; limits are per file.
 
 #[test]

@@ -684,7 +684,7 @@ fn compare_two_panes() {
 
 #[test]
 fn the_feature_scenes_draw_each_moving_body_where_the_physics_puts_it() {
-    // Issue 15's scenes, stepped 1 s under the default solver (the joint grid 0.25 s) and
+    // The extreme scenes, stepped 1 s under the default solver (the joint grid 0.25 s) and
     // rendered through their own camera: every moving body whose centre of mass lies
     // inside its shape and on screen, at least 1.5 px across, has a pixel at that centre
     // that is not the background; and some background shows, so a frame painted all

@@ -1254,7 +1254,7 @@ mod tests {
         for _ in 0..20 {
             chain.step_once();
         }
-        // issue 10's bound for the ball and chain: the joints hold within 0.05 m
+        // the ball and chain's bound: the joints hold within 0.05 m
         let j = chain.figures().joint_error.expect("a chain has joints");
         assert!((0.0..0.05).contains(&j), "joint error {j}");
     }
