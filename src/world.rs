@@ -32,7 +32,7 @@ pub use build::{BodyInput, BuildError};
 pub use edit::{BodyKey, JointKey, RemoveError};
 pub use events::{ContactEvent, EventKind};
 pub use measure::{FAR_FROM_ORIGIN, far_from_origin};
-pub use query::RayHit;
+pub use query::{QUERY_MARGIN, QueryShape, RayHit, SHAPE_CAST_TOLERANCE, ShapeCastHit};
 pub use state::{STATE_FORMAT, STATE_VERSION, StateError, WorldState};
 pub use threads::{ThreadUse, Threads};
 
@@ -121,6 +121,11 @@ pub struct World {
     /// Keys of the bodies and joints, by index ([`World::body_key`]).
     body_keys: edit::Keys,
     joint_keys: edit::Keys,
+    /// Changes made between steps through the world's methods (bodies added, removed,
+    /// moved): the query index is made again after one.
+    edits: u64,
+    /// The queries' tree, made at the first query ([`World::query_point`] and the rest).
+    queries: query::QueryCache,
 }
 
 /// Fewest bodies for which a world starts its worker threads.
@@ -161,6 +166,8 @@ impl World {
             step_many: true,
             pool: None,
             body_keys: edit::Keys::default(),
+            edits: 0,
+            queries: Default::default(),
             joint_keys: edit::Keys::default(),
         }
     }
@@ -392,6 +399,7 @@ impl World {
         }
         self.step_count += 1;
         self.time += self.settings.dt as f64;
+        self.refresh_queries();
         let result = match ended {
             Some(false) => Ok(()),
             Some(true) => Err(self.first_non_finite()),
