@@ -17,6 +17,7 @@ use crate::step::sleep::Sleep;
 use crate::step::{StageClock, StepContext, StepState, Stepper, new_stepper};
 use std::sync::Arc;
 
+mod body_api;
 mod build;
 mod edit;
 mod events;
@@ -26,11 +27,12 @@ mod spawn;
 mod state;
 mod threads;
 
+pub use body_api::EditError;
 use build::energy_problem;
 pub(crate) use build::joint_not_finite;
 pub use build::{BodyInput, BuildError};
 pub use edit::{BodyKey, JointKey, RemoveError};
-pub use events::{ContactEvent, EventKind};
+pub use events::{ContactEvent, DEFAULT_HIT_SPEED, EventKind, HitEvent};
 pub use measure::{FAR_FROM_ORIGIN, far_from_origin};
 pub use query::{QUERY_MARGIN, QueryShape, RayHit, SHAPE_CAST_TOLERANCE, ShapeCastHit};
 pub use state::{STATE_FORMAT, STATE_VERSION, StateError, WorldState};
@@ -96,6 +98,12 @@ pub struct World {
     pub record_events: bool,
     /// The last step's events.
     events: Vec<ContactEvent>,
+    /// Hit events are made for touching pairs that approach faster than this (m/s).
+    pub hit_speed: f32,
+    /// The last step's hit events.
+    hits: Vec<HitEvent>,
+    /// With events on: each body's (velocity, angular velocity) when the step began.
+    step_start_velocity: Vec<(Vec2, f32)>,
     /// Pairs touching (a contact point with separation <= 0) after the last step, sorted.
     touching: Vec<(u32, u32)>,
     /// Sensor pairs overlapping after the last step, sorted.
@@ -152,6 +160,9 @@ impl World {
             motions: Vec::new(),
             spawners: Vec::new(),
             record_events: false,
+            hit_speed: DEFAULT_HIT_SPEED,
+            hits: Vec::new(),
+            step_start_velocity: Vec::new(),
             events: Vec::new(),
             touching: Vec::new(),
             sensed: Vec::new(),
@@ -355,6 +366,11 @@ impl World {
             self.step_start.clear();
             self.step_start
                 .extend(self.bodies.iter().map(|b| b.position));
+        }
+        if self.record_events {
+            self.step_start_velocity.clear();
+            self.step_start_velocity
+                .extend(self.bodies.iter().map(|b| (b.velocity, b.angular_velocity)));
         }
         let pool = self.pool();
         let mut state = StepState {
