@@ -31,6 +31,11 @@
 // clippy suggests reads worse and is easy to get wrong.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
+// The README's Rust example is compiled and run with the doc tests.
+#[cfg(doctest)]
+#[doc = include_str!("../README.md")]
+struct ReadmeExample;
+
 pub mod body;
 pub mod collision;
 pub mod compound;
