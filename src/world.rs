@@ -32,7 +32,7 @@ use build::energy_problem;
 pub(crate) use build::joint_not_finite;
 pub use build::{BodyInput, BuildError};
 pub use edit::{BodyKey, JointKey, RemoveError};
-pub use events::{ContactEvent, DEFAULT_HIT_SPEED, EventKind, HitEvent};
+pub use events::{ContactEvent, DEFAULT_HIT_SPEED, EventKind, HitEvent, SleepEvent};
 pub use measure::{FAR_FROM_ORIGIN, far_from_origin};
 pub use query::{QUERY_MARGIN, QueryShape, RayHit, SHAPE_CAST_TOLERANCE, ShapeCastHit};
 pub use state::{STATE_FORMAT, STATE_VERSION, StateError, WorldState};
@@ -102,6 +102,11 @@ pub struct World {
     pub hit_speed: f32,
     /// The last step's hit events.
     hits: Vec<HitEvent>,
+    /// The last step's bodies that fell asleep or woke.
+    sleep_events: Vec<SleepEvent>,
+    /// Each body's asleep flag after the last step with events on, and the edits count
+    /// then (a flag list of another world's bodies is not compared).
+    was_asleep: (Vec<bool>, u64),
     /// With events on: each body's (velocity, angular velocity) when the step began.
     step_start_velocity: Vec<(Vec2, f32)>,
     /// Pairs touching (a contact point with separation <= 0) after the last step, sorted.
@@ -129,9 +134,11 @@ pub struct World {
     /// Keys of the bodies and joints, by index ([`World::body_key`]).
     body_keys: edit::Keys,
     joint_keys: edit::Keys,
-    /// Changes made between steps through the world's methods (bodies added, removed,
-    /// moved): the query index is made again after one.
+    /// Bodies added, removed or restored through the world's methods: the query index
+    /// is made again after one, and the sleep events start over.
     edits: u64,
+    /// Bodies moved by [`World::set_transform`]: the query index is made again.
+    moves: u64,
     /// The queries' tree, made at the first query ([`World::query_point`] and the rest).
     queries: query::QueryCache,
 }
@@ -162,6 +169,8 @@ impl World {
             record_events: false,
             hit_speed: DEFAULT_HIT_SPEED,
             hits: Vec::new(),
+            sleep_events: Vec::new(),
+            was_asleep: (Vec::new(), 0),
             step_start_velocity: Vec::new(),
             events: Vec::new(),
             touching: Vec::new(),
@@ -178,6 +187,7 @@ impl World {
             pool: None,
             body_keys: edit::Keys::default(),
             edits: 0,
+            moves: 0,
             queries: Default::default(),
             joint_keys: edit::Keys::default(),
         }

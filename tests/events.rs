@@ -360,3 +360,42 @@ fn a_ball_thrown_at_a_wall_hits_it_at_its_speed_and_slow_touches_make_no_hit() {
         );
     }
 }
+
+#[test]
+fn a_box_that_falls_asleep_and_is_woken_says_so_once_each() {
+    let mut w = World::new(Some(Vec2::new(0.0, -G)), SolverSettings::default());
+    w.record_events = true;
+    w.add_body(&ground()).unwrap();
+    let i = w
+        .add_body(&BodyDef {
+            name: "box".into(),
+            shape: ShapeDef::Box {
+                width: 1.0,
+                height: 1.0,
+            },
+            position: Vec2::new(0.0, 1.0),
+            ..BodyDef::default()
+        })
+        .unwrap();
+    let key = w.body_key(i).unwrap();
+    let mut seen = Vec::new();
+    for k in 0..300 {
+        if k == 200 {
+            // a push between steps wakes it: reported with the next step
+            assert!(w.bodies[i].asleep, "asleep by 200 steps");
+            w.set_velocity(key, Vec2::new(3.0, 0.0), 0.0).unwrap();
+        }
+        w.step().unwrap();
+        for e in w.sleep_events() {
+            seen.push((k, *e));
+        }
+    }
+    // asleep once, woken once (at step 200), asleep again; the ground never changes
+    let flags: Vec<bool> = seen.iter().map(|(_, e)| e.asleep).collect();
+    assert_eq!(flags, [true, false, true], "{seen:?}");
+    assert!(seen.iter().all(|(_, e)| e.body == i));
+    assert!(
+        seen[0].0 < 200 && seen[1].0 == 200 && seen[2].0 > 200,
+        "{seen:?}"
+    );
+}

@@ -84,7 +84,7 @@ impl World {
         b.angle = angle;
         b.rot = Rot::from_angle(angle);
         b.position = position - b.rot.rotate(b.origin_offset);
-        self.edits += 1;
+        self.moves += 1;
         self.wake(i);
         Ok(())
     }

@@ -70,6 +70,16 @@ pub struct HitEvent {
     pub approach_speed: f32,
 }
 
+/// A body that fell asleep or woke in the last step (or, for a wake, between the
+/// steps: a setter, a removal, [`World::wake`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct SleepEvent {
+    /// The body.
+    pub body: BodyId,
+    /// True: it fell asleep; false: it woke.
+    pub asleep: bool,
+}
+
 /// Walks two sorted pair lists and calls `began` for each pair only in `now` and
 /// `ended` for each only in `before`.
 fn diff(
@@ -113,6 +123,32 @@ impl World {
     /// point). Empty unless [`World::record_events`] is on.
     pub fn hits(&self) -> &[HitEvent] {
         &self.hits
+    }
+
+    /// The bodies that fell asleep or woke in the last step, in body order. Empty unless
+    /// [`World::record_events`] is on. Bodies added or removed between two steps reset
+    /// the comparison: that step reports none.
+    pub fn sleep_events(&self) -> &[SleepEvent] {
+        &self.sleep_events
+    }
+
+    /// Compares each body's asleep flag with the last step's.
+    fn update_sleep_events(&mut self) {
+        self.sleep_events.clear();
+        let (before, edits) = &mut self.was_asleep;
+        if before.len() == self.bodies.len() && *edits == self.edits {
+            for (i, (b, was)) in self.bodies.iter().zip(before.iter()).enumerate() {
+                if b.asleep != *was {
+                    self.sleep_events.push(SleepEvent {
+                        body: i,
+                        asleep: b.asleep,
+                    });
+                }
+            }
+        }
+        before.clear();
+        before.extend(self.bodies.iter().map(|b| b.asleep));
+        *edits = self.edits;
     }
 
     /// The pairs that began touching in this step (`begins`, sorted) and approached
@@ -175,6 +211,7 @@ impl World {
 
     /// Compares the pairs touching after this step with those after the last one.
     pub(crate) fn update_events(&mut self) {
+        self.update_sleep_events();
         self.events.clear();
         // touching pairs now, with their summed normal impulse
         let mut now: Vec<((u32, u32), f32)> = Vec::new();

@@ -109,6 +109,9 @@ fn sees(filter: &Filter, body: &Body) -> bool {
     filter.mask & body.filter.category != 0
 }
 
+/// What a query index was made for: (bodies, edits, moves, steps) of its world.
+type Stamp = (usize, u64, u64, u64);
+
 /// The queries' tree over the bodies, and what it was made for.
 #[derive(Clone, Debug, Default)]
 pub(crate) struct QueryIndex {
@@ -118,13 +121,13 @@ pub(crate) struct QueryIndex {
     /// Bodies whose box left their fattened box since the tree was built.
     moved: Vec<u32>,
     is_moved: Vec<bool>,
-    /// (bodies, edits, steps) of the world the index holds.
-    stamp: (usize, u64, u64),
+    /// What the index was made for.
+    stamp: Stamp,
 }
 
 impl QueryIndex {
     /// The tree over every body, afresh.
-    fn build(&mut self, bodies: &[Body], stamp: (usize, u64, u64)) {
+    fn build(&mut self, bodies: &[Body], stamp: Stamp) {
         self.fat.clear();
         self.fat.extend(bodies.iter().map(fat_box));
         self.bvh.build(&self.fat, |_| true);
@@ -136,8 +139,9 @@ impl QueryIndex {
 
     /// After a step: bodies that may have moved (awake, not static) whose box left their
     /// fattened one join the moved list; a long list builds the tree again.
-    fn refresh(&mut self, bodies: &[Body], stamp: (usize, u64, u64)) {
-        if self.stamp.0 != bodies.len() || self.stamp.1 != stamp.1 {
+    fn refresh(&mut self, bodies: &[Body], stamp: Stamp) {
+        // made for the world before this step, or made again
+        if (self.stamp.0, self.stamp.1, self.stamp.2, self.stamp.3 + 1) != stamp {
             return self.build(bodies, stamp);
         }
         for (i, b) in bodies.iter().enumerate() {
@@ -205,8 +209,8 @@ impl QueryCache {
 
 impl World {
     /// What the query index must have been made for to answer for this world.
-    fn query_stamp(&self) -> (usize, u64, u64) {
-        (self.bodies.len(), self.edits, self.step_count)
+    fn query_stamp(&self) -> Stamp {
+        (self.bodies.len(), self.edits, self.moves, self.step_count)
     }
 
     /// The query index for the world as it is (made or brought up to date here).
