@@ -84,12 +84,10 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         }
         // the laser sweeps up the wall: the first thing it meets
         let height = 0.2 + (frame % 60) as f32 * 0.12;
-        if let Some(h) =
-            world.ray_cast_closest(Vec2::new(-10.0, height), Vec2::new(40.0, 0.0), &everything)
-        {
-            if h.body != 0 && world.bodies[h.body].name.starts_with("crate") {
-                lasered += 1;
-            }
+        let laser =
+            world.ray_cast_closest(Vec2::new(-10.0, height), Vec2::new(40.0, 0.0), &everything);
+        if laser.is_some_and(|h| world.bodies[h.body].name.starts_with("crate")) {
+            lasered += 1;
         }
     }
     let fallen = crates
