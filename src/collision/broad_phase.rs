@@ -52,6 +52,30 @@ pub struct BroadPhase {
 /// so that small bodies keep few extra pairs.
 const KEEP_MARGIN: f32 = 0.1;
 
+/// Whether some two of `filters` (two entries, not one with itself) let their bodies
+/// touch. Looks at the distinct filters only; with more than a few of them it answers
+/// yes without looking further (then the grid decides, pair by pair).
+fn any_pair_may_touch(filters: &[Filter]) -> bool {
+    const FEW: usize = 8;
+    // each distinct filter and whether it is there more than once
+    let mut seen: [(Filter, bool); FEW] = [(Filter::default(), false); FEW];
+    let mut n = 0;
+    for f in filters {
+        match seen[..n].iter_mut().find(|(g, _)| g == f) {
+            Some((_, twice)) => *twice = true,
+            None if n == FEW => return true,
+            None => {
+                seen[n] = (*f, false);
+                n += 1;
+            }
+        }
+    }
+    let seen = &seen[..n];
+    seen.iter().enumerate().any(|(i, (f, twice))| {
+        (*twice && f.collides(f)) || seen[i + 1..].iter().any(|(g, _)| f.collides(g))
+    })
+}
+
 /// A box spanning more cells than this per axis is tested against all bodies instead.
 const MAX_CELLS_PER_AXIS: i64 = 4;
 
@@ -334,9 +358,15 @@ impl BroadPhase {
             match filter_of {
                 Some(f) => {
                     filters.extend((0..aabbs.len()).map(f));
-                    self.find_pairs(&fat, &fat_moves, |a, b| {
-                        filters[a as usize].collides(&filters[b as usize])
-                    });
+                    if any_pair_may_touch(&filters) {
+                        self.find_pairs(&fat, &fat_moves, |a, b| {
+                            filters[a as usize].collides(&filters[b as usize])
+                        });
+                    } else {
+                        // no two of the filters let their bodies touch (a grid whose
+                        // bodies share a negative group): there is no pair to find
+                        self.pairs.clear();
+                    }
                 }
                 None => self.find_pairs(&fat, &fat_moves, |_, _| true),
             }
@@ -723,6 +753,38 @@ mod tests {
             "{} rebuilds",
             kept.rebuilds
         );
+    }
+
+    #[test]
+    fn filters_that_let_no_two_bodies_touch_are_seen_as_such() {
+        let group = |g: i32| Filter {
+            group: g,
+            ..Filter::default()
+        };
+        let only = |category: u32, mask: u32| Filter {
+            category,
+            mask,
+            ..Filter::default()
+        };
+        // one negative group: nothing; a body outside it touches them
+        assert!(!any_pair_may_touch(&[group(-1); 5]));
+        assert!(any_pair_may_touch(&[
+            group(-1),
+            group(-1),
+            Filter::default()
+        ]));
+        // one default body alone touches nothing; two do
+        assert!(!any_pair_may_touch(&[Filter::default()]));
+        assert!(any_pair_may_touch(&[Filter::default(); 2]));
+        // categories that leave each other out, and one that takes the other in
+        assert!(!any_pair_may_touch(&[only(1, 2), only(4, 8), only(4, 8)]));
+        assert!(!any_pair_may_touch(&[only(1, 2), only(2, 2)]));
+        assert!(any_pair_may_touch(&[only(1, 2), only(2, 1)]));
+        // a positive group always touches itself
+        assert!(any_pair_may_touch(&[group(3), group(3)]));
+        // many distinct filters: the grid decides
+        let many: Vec<Filter> = (1..=12).map(|k| only(1 << k, 0)).collect();
+        assert!(any_pair_may_touch(&many));
     }
 
     /// Bodies whose filters keep them apart cost no kept pairs however much their boxes
