@@ -41,6 +41,9 @@ pub struct BroadPhase {
     /// (a filtered grid of large circles) cost no memory for their pairs.
     kept_filters: Vec<Filter>,
     kept_pairs: Vec<Pair>,
+    /// The last rebuild's filters let no two bodies touch: the kept pairs (none) hold
+    /// while the filters do.
+    no_pair_by_filters: bool,
     /// Rebuilds of the kept pairs so far.
     pub rebuilds: u64,
     /// Candidate pairs from the last [`BroadPhase::find_pairs`], sorted.
@@ -294,7 +297,10 @@ impl BroadPhase {
     /// `b`, with `may_move` as it was.
     #[inline]
     pub fn kept_holds(&self, i: usize, b: &Aabb, may_move: bool) -> bool {
-        self.kept_boxes[i].contains(b) && self.kept_moves[i] == may_move
+        // filters that let no two bodies touch: no pair wherever the boxes go (while the
+        // filters stay, which the caller checks with `kept_filter_holds`)
+        self.no_pair_by_filters
+            || (self.kept_boxes[i].contains(b) && self.kept_moves[i] == may_move)
     }
 
     /// Whether body `i`'s filter is the one the kept pairs were filtered with (always,
@@ -355,6 +361,7 @@ impl BroadPhase {
             fat_moves.extend((0..aabbs.len()).map(&may_move));
             let mut filters = std::mem::take(&mut self.kept_filters);
             filters.clear();
+            self.no_pair_by_filters = false;
             match filter_of {
                 Some(f) => {
                     filters.extend((0..aabbs.len()).map(f));
@@ -366,6 +373,7 @@ impl BroadPhase {
                         // no two of the filters let their bodies touch (a grid whose
                         // bodies share a negative group): there is no pair to find
                         self.pairs.clear();
+                        self.no_pair_by_filters = true;
                     }
                 }
                 None => self.find_pairs(&fat, &fat_moves, |_, _| true),
