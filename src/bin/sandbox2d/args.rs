@@ -121,6 +121,7 @@ fn parse_size(s: &str) -> Result<[u32; 2], String> {
     Ok([side(w)?, side(h)?])
 }
 
+#[cfg(feature = "lab")]
 #[derive(Clone, Copy, ValueEnum)]
 pub enum SuiteArg {
     Quick,
@@ -132,6 +133,7 @@ pub enum SuiteArg {
     Box2d,
 }
 
+#[cfg(feature = "lab")]
 #[derive(Args)]
 pub struct BenchArgs {
     /// Which scenes: quick (a couple of minutes), standard (under 15), extremes (the
@@ -202,12 +204,14 @@ pub struct BenchArgs {
 }
 
 /// The errors `bench --metric` adds.
+#[cfg(feature = "lab")]
 #[derive(Clone, Copy, ValueEnum)]
 pub enum BenchMetricArg {
     /// Distance from the true motion, body by body, over the run.
     Trajectory,
 }
 
+#[cfg(feature = "lab")]
 #[derive(Clone, Copy, ValueEnum)]
 pub enum MetricArg {
     /// The worst of the measures that apply, each divided by the best any setting reached.
@@ -230,6 +234,7 @@ pub enum MetricArg {
     Trajectory,
 }
 
+#[cfg(feature = "lab")]
 #[derive(Args)]
 pub struct TuneArgs {
     /// A scene file, or the name of a built-in scene (see `sandbox2d scenes`).

@@ -39,6 +39,7 @@ impl Failure {
         }
     }
     /// A command interrupted before it wrote anything.
+    #[cfg(feature = "lab")]
     pub fn nothing_written() -> Failure {
         Failure::interrupted("interrupted: nothing was written")
     }

@@ -13,9 +13,11 @@ use std::process::ExitCode;
 use clap::{Parser, Subcommand};
 use sandbox2d::output;
 
-use args::{BenchArgs, SimulateArgs, SolverFlags, TuneArgs};
+#[cfg(feature = "lab")]
+use args::{BenchArgs, TuneArgs};
 #[cfg(feature = "render")]
 use args::{RenderArgs, RunArgs};
+use args::{SimulateArgs, SolverFlags};
 use failure::{Failure, install_interrupt_handler, one_line};
 
 /// Log levels unless RUST_LOG says otherwise: warnings, minus two harmless ones that
@@ -33,6 +35,7 @@ macro_rules! say {
 }
 
 /// `print!`, as [`say!`].
+#[cfg(feature = "lab")]
 macro_rules! say_part {
     ($($arg:tt)*) => {{
         use std::io::Write as _;
@@ -41,6 +44,7 @@ macro_rules! say_part {
 }
 
 mod args;
+#[cfg(feature = "lab")]
 mod bench;
 mod failure;
 mod load;
@@ -51,8 +55,10 @@ mod render;
 #[cfg(feature = "render")]
 mod run;
 mod scenes;
+#[cfg(feature = "lab")]
 mod shard;
 mod simulate;
+#[cfg(feature = "lab")]
 mod tune;
 
 /// The scene the plain `sandbox2d` command shows.
@@ -80,6 +86,8 @@ struct Cli {
     fixed_threads: bool,
 }
 
+// (parsed once: a large variant costs nothing)
+#[allow(clippy::large_enum_variant)]
 #[derive(Subcommand)]
 enum Command {
     /// List the built-in scenes, one line each.
@@ -95,12 +103,15 @@ enum Command {
     /// Measure what each solver setting costs and how right it is: results.csv,
     /// results.md and one plot per scene (or stability.md for --suite extremes, scaling.csv,
     /// scaling.md and scaling.svg for --suite scaling) in --out.
+    #[cfg(feature = "lab")]
     Bench(BenchArgs),
     /// Pick the most accurate solver setting that fits a budget in ms per step: runs the
     /// bench's grid on the scene, then a finer pass around each solver's best, and prints the
     /// pick, the cheapest setting nearly as good, and the Pareto front.
+    #[cfg(feature = "lab")]
     Tune(TuneArgs),
     /// Spins on one core until its parent is gone (the contention suite's busy process).
+    #[cfg(feature = "lab")]
     #[command(hide = true)]
     BusyLoop,
 }
@@ -111,7 +122,10 @@ fn main() -> ExitCode {
     let cli = Cli::parse();
     output::ignore_file_size_signal();
     install_interrupt_handler();
+    #[cfg(feature = "lab")]
     let timing = matches!(cli.command, Some(Command::Bench(_) | Command::Tune(_)));
+    #[cfg(not(feature = "lab"))]
+    let timing = false;
     match cli.threads {
         Some(n) if !(1..=sandbox2d::threads::MAX_THREADS).contains(&n) => {
             eprintln!(
@@ -134,8 +148,11 @@ fn main() -> ExitCode {
         Some(Command::Render(a)) => render::render(&a),
         #[cfg(feature = "render")]
         Some(Command::Run(a)) => run::run(&a),
+        #[cfg(feature = "lab")]
         Some(Command::Bench(a)) => bench::bench(&a),
+        #[cfg(feature = "lab")]
         Some(Command::Tune(a)) => tune::tune(&a),
+        #[cfg(feature = "lab")]
         Some(Command::BusyLoop) => bench::contention::busy_loop(),
     };
     match result {

@@ -3,7 +3,9 @@
 
 use std::path::{Path, PathBuf};
 
-use sandbox2d::output::{self, AtomicFile};
+use sandbox2d::output;
+#[cfg(feature = "lab")]
+use sandbox2d::output::AtomicFile;
 use sandbox2d::scene;
 
 use crate::failure::Failure;
@@ -33,6 +35,7 @@ pub fn check_distinct(outputs: &[(&str, &Path)], inputs: &[(&str, &Path)]) -> Re
 /// Refuses a run whose writes into the folder `dir` would replace one of its inputs:
 /// `writes(name)` says whether the run writes a file of that name there (`what`, the
 /// flag that names the folder, goes into the message).
+#[cfg(any(feature = "render", feature = "lab"))]
 pub fn check_folder_outputs(
     what: &str,
     dir: &Path,
@@ -78,10 +81,12 @@ pub fn scene_file(name: &str) -> Option<PathBuf> {
 }
 
 /// Writes a result file in full or not at all.
+#[cfg(feature = "lab")]
 pub fn write_file(path: &Path, text: &str) -> Result<(), Failure> {
     output::write_atomic(path, text.as_bytes()).map_err(Failure::run)
 }
 
+#[cfg(feature = "lab")]
 /// Creates the results folder and checks that a file can be written in it, before any
 /// case runs (rather than after minutes of measuring).
 pub fn writable_dir(dir: &Path) -> Result<(), Failure> {

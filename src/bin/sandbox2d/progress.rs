@@ -26,6 +26,7 @@ pub fn progress(len: Option<u64>, template: &str) -> indicatif::ProgressBar {
 }
 
 /// A progress bar on a terminal; hidden when stdout is not one.
+#[cfg(feature = "lab")]
 pub fn bench_progress(total: usize) -> indicatif::ProgressBar {
     if !std::io::stdout().is_terminal() {
         return indicatif::ProgressBar::hidden();
