@@ -31,6 +31,11 @@
 // clippy suggests reads worse and is easy to get wrong.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
+// The README's Rust example is compiled and run with the doc tests.
+#[cfg(doctest)]
+#[doc = include_str!("../README.md")]
+struct ReadmeExample;
+
 pub mod body;
 pub mod collision;
 pub mod compound;
@@ -79,6 +84,7 @@ pub use defs::*;
 pub use draw::{Camera, DrawList};
 pub use joint::{Joint, JointId, MouseJoint};
 pub use world::{
-    BodyKey, BuildError, ContactEvent, EventKind, JointKey, RayHit, RemoveError, StateError,
-    StepError, StepStats, ThreadUse, Threads, World, WorldState,
+    BodyKey, BuildError, ContactEvent, DEFAULT_HIT_SPEED, EditError, EventKind, HitEvent, JointKey,
+    QUERY_MARGIN, QueryShape, RayHit, RemoveError, SHAPE_CAST_TOLERANCE, ShapeCastHit, SleepEvent,
+    StateError, StepError, StepStats, ThreadUse, Threads, World, WorldState,
 };

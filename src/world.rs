@@ -17,6 +17,7 @@ use crate::step::sleep::Sleep;
 use crate::step::{StageClock, StepContext, StepState, Stepper, new_stepper};
 use std::sync::Arc;
 
+mod body_api;
 mod build;
 mod edit;
 mod events;
@@ -26,13 +27,14 @@ mod spawn;
 mod state;
 mod threads;
 
+pub use body_api::EditError;
 use build::energy_problem;
 pub(crate) use build::joint_not_finite;
 pub use build::{BodyInput, BuildError};
 pub use edit::{BodyKey, JointKey, RemoveError};
-pub use events::{ContactEvent, EventKind};
+pub use events::{ContactEvent, DEFAULT_HIT_SPEED, EventKind, HitEvent, SleepEvent};
 pub use measure::{FAR_FROM_ORIGIN, far_from_origin};
-pub use query::RayHit;
+pub use query::{QUERY_MARGIN, QueryShape, RayHit, SHAPE_CAST_TOLERANCE, ShapeCastHit};
 pub use state::{STATE_FORMAT, STATE_VERSION, StateError, WorldState};
 pub use threads::{ThreadUse, Threads};
 
@@ -96,6 +98,17 @@ pub struct World {
     pub record_events: bool,
     /// The last step's events.
     events: Vec<ContactEvent>,
+    /// Hit events are made for touching pairs that approach faster than this (m/s).
+    pub hit_speed: f32,
+    /// The last step's hit events.
+    hits: Vec<HitEvent>,
+    /// The last step's bodies that fell asleep or woke.
+    sleep_events: Vec<SleepEvent>,
+    /// Each body's asleep flag after the last step with events on, and the edits count
+    /// then (a flag list of another world's bodies is not compared).
+    was_asleep: (Vec<bool>, u64),
+    /// With events on: each body's (velocity, angular velocity) when the step began.
+    step_start_velocity: Vec<(Vec2, f32)>,
     /// Pairs touching (a contact point with separation <= 0) after the last step, sorted.
     touching: Vec<(u32, u32)>,
     /// Sensor pairs overlapping after the last step, sorted.
@@ -121,6 +134,13 @@ pub struct World {
     /// Keys of the bodies and joints, by index ([`World::body_key`]).
     body_keys: edit::Keys,
     joint_keys: edit::Keys,
+    /// Bodies added, removed or restored through the world's methods: the query index
+    /// is made again after one, and the sleep events start over.
+    edits: u64,
+    /// Bodies moved by [`World::set_transform`]: the query index is made again.
+    moves: u64,
+    /// The queries' tree, made at the first query ([`World::query_point`] and the rest).
+    queries: query::QueryCache,
 }
 
 /// Fewest bodies for which a world starts its worker threads.
@@ -147,6 +167,11 @@ impl World {
             motions: Vec::new(),
             spawners: Vec::new(),
             record_events: false,
+            hit_speed: DEFAULT_HIT_SPEED,
+            hits: Vec::new(),
+            sleep_events: Vec::new(),
+            was_asleep: (Vec::new(), 0),
+            step_start_velocity: Vec::new(),
             events: Vec::new(),
             touching: Vec::new(),
             sensed: Vec::new(),
@@ -161,6 +186,9 @@ impl World {
             step_many: true,
             pool: None,
             body_keys: edit::Keys::default(),
+            edits: 0,
+            moves: 0,
+            queries: Default::default(),
             joint_keys: edit::Keys::default(),
         }
     }
@@ -349,6 +377,11 @@ impl World {
             self.step_start
                 .extend(self.bodies.iter().map(|b| b.position));
         }
+        if self.record_events {
+            self.step_start_velocity.clear();
+            self.step_start_velocity
+                .extend(self.bodies.iter().map(|b| (b.velocity, b.angular_velocity)));
+        }
         let pool = self.pool();
         let mut state = StepState {
             bodies: &mut self.bodies,
@@ -392,6 +425,7 @@ impl World {
         }
         self.step_count += 1;
         self.time += self.settings.dt as f64;
+        self.refresh_queries();
         let result = match ended {
             Some(false) => Ok(()),
             Some(true) => Err(self.first_non_finite()),

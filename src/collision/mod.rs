@@ -2,6 +2,7 @@
 //! (SAT) turns each pair into a contact manifold.
 
 pub(crate) mod broad_phase;
+pub(crate) mod bvh;
 pub(crate) mod collide;
 pub(crate) mod contact_cache;
 pub mod sat;

@@ -220,6 +220,7 @@ impl World {
         }
         self.bodies.push(body);
         self.sync_keys();
+        self.edits += 1;
         self.bodies.len() - 1
     }
 

@@ -167,6 +167,7 @@ impl World {
     pub fn remove_body(&mut self, key: BodyKey) -> Result<Body, RemoveError> {
         self.sync_keys();
         let gone = self.body_of_key(key).ok_or(RemoveError::NoSuchBody)?;
+        self.edits += 1;
         // what rests on it falls: wake its island, and the islands of what it touches
         self.wake(gone);
         let touching: Vec<usize> = self
@@ -273,6 +274,7 @@ impl World {
         if gone.is_empty() {
             return 0;
         }
+        self.edits += 1;
         let n = self.bodies.len();
         let mut is_gone = vec![false; n];
         for &i in gone.iter() {

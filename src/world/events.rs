@@ -7,6 +7,7 @@
 
 use super::World;
 use crate::body::BodyId;
+use crate::math::{Vec2, cross_sv};
 
 /// What happened to a pair.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
@@ -44,6 +45,39 @@ pub struct ContactEvent {
     /// contact (N s, summed over its points, as the solver keeps it for warm starting:
     /// for sounds and damage); 0 for the other kinds.
     pub impulse: f32,
+}
+
+/// Box2D's default for [`World::hit_speed`] (m/s): slower approaches make no hit event.
+pub const DEFAULT_HIT_SPEED: f32 = 1.0;
+
+/// Two bodies that began touching in the last step ([`EventKind::Begin`]) while
+/// approaching faster than [`World::hit_speed`]: an impact, for sounds, damage and
+/// effects. One per touch: a pair that stays in touch (a box tipping from one edge onto
+/// the other) makes no second hit until it parts and meets again.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct HitEvent {
+    /// The pair, lower index first.
+    pub a: BodyId,
+    /// The other body.
+    pub b: BodyId,
+    /// Where they met (world frame): the contact point of the fastest approach.
+    pub point: Vec2,
+    /// The contact normal there, from `a` to `b`.
+    pub normal: Vec2,
+    /// How fast the two surfaces closed along the normal at that point when the step
+    /// began (m/s), before the solve stopped them: for a body dropped from rest through a
+    /// height h onto the ground, sqrt(2 g h) less at most g dt.
+    pub approach_speed: f32,
+}
+
+/// A body that fell asleep or woke in the last step (or, for a wake, between the
+/// steps: a setter, a removal, [`World::wake`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct SleepEvent {
+    /// The body.
+    pub body: BodyId,
+    /// True: it fell asleep; false: it woke.
+    pub asleep: bool,
 }
 
 /// Walks two sorted pair lists and calls `began` for each pair only in `now` and
@@ -85,8 +119,99 @@ impl World {
         &self.events
     }
 
+    /// The hit events of the last step, in pair order, one per pair (its fastest
+    /// point). Empty unless [`World::record_events`] is on.
+    pub fn hits(&self) -> &[HitEvent] {
+        &self.hits
+    }
+
+    /// The bodies that fell asleep or woke in the last step, in body order. Empty unless
+    /// [`World::record_events`] is on. Bodies added or removed between two steps reset
+    /// the comparison: that step reports none.
+    pub fn sleep_events(&self) -> &[SleepEvent] {
+        &self.sleep_events
+    }
+
+    /// Compares each body's asleep flag with the last step's.
+    fn update_sleep_events(&mut self) {
+        self.sleep_events.clear();
+        let (before, edits) = &mut self.was_asleep;
+        if before.len() == self.bodies.len() && *edits == self.edits {
+            for (i, (b, was)) in self.bodies.iter().zip(before.iter()).enumerate() {
+                if b.asleep != *was {
+                    self.sleep_events.push(SleepEvent {
+                        body: i,
+                        asleep: b.asleep,
+                    });
+                }
+            }
+        }
+        before.clear();
+        before.extend(self.bodies.iter().map(|b| b.asleep));
+        *edits = self.edits;
+    }
+
+    /// The pairs that began touching in this step (`begins`, sorted) and approached
+    /// faster than the hit speed.
+    fn update_hits(&mut self, begins: &[((u32, u32), f32)]) {
+        self.hits.clear();
+        if begins.is_empty() {
+            return;
+        }
+        if self.step_start_velocity.len() != self.bodies.len() {
+            // bodies added in the step (a spawn): no start velocity to compare
+            return;
+        }
+        for c in &self.contacts {
+            let points = c.manifold.points();
+            if !points
+                .iter()
+                .any(|p| p.normal_impulse > 0.0 || p.separation <= 0.0)
+            {
+                continue;
+            }
+            let (a, b) = (c.a as usize, c.b as usize);
+            let pair = (c.a.min(c.b), c.a.max(c.b));
+            if begins.binary_search_by_key(&pair, |(p, _)| *p).is_err() {
+                continue;
+            }
+            let (va, wa) = self.step_start_velocity[a];
+            let (vb, wb) = self.step_start_velocity[b];
+            let (pa, pb) = (self.bodies[a].position, self.bodies[b].position);
+            let n = c.manifold.normal;
+            let mut best: Option<(f32, Vec2)> = None;
+            for p in points {
+                let dv = vb + cross_sv(wb, p.point - pb) - va - cross_sv(wa, p.point - pa);
+                let speed = -dv.dot(n);
+                if best.is_none_or(|(s, _)| speed > s) {
+                    best = Some((speed, p.point));
+                }
+            }
+            let Some((speed, point)) = best else { continue };
+            if speed <= self.hit_speed {
+                continue;
+            }
+            let (lo, hi, normal) = if a < b { (a, b, n) } else { (b, a, -n) };
+            self.hits.push(HitEvent {
+                a: lo,
+                b: hi,
+                point,
+                normal,
+                approach_speed: speed,
+            });
+        }
+        // a compound meets a body through several parts: one event, the fastest
+        self.hits.sort_unstable_by(|x, y| {
+            (x.a, x.b)
+                .cmp(&(y.a, y.b))
+                .then(y.approach_speed.total_cmp(&x.approach_speed))
+        });
+        self.hits.dedup_by_key(|h| (h.a, h.b));
+    }
+
     /// Compares the pairs touching after this step with those after the last one.
     pub(crate) fn update_events(&mut self) {
+        self.update_sleep_events();
         self.events.clear();
         // touching pairs now, with their summed normal impulse
         let mut now: Vec<((u32, u32), f32)> = Vec::new();
@@ -132,6 +257,7 @@ impl World {
                 .map(|&(p, imp)| event(EventKind::Begin, p, imp)),
         );
         self.touching = pairs;
+        self.update_hits(&begins);
 
         // sensors: the broad phase's sensor pairs (its boxes hold each body's motion over
         // the step), tested at the positions after the step

@@ -452,6 +452,7 @@ impl World {
         self.check_events_state(s.bodies.len(), &s.motions, &s.spawns)
             .map_err(StateError::Mismatch)?;
         self.bodies = s.bodies.clone();
+        self.edits += 1;
         self.gravity = s.gravity;
         self.drag = s.drag;
         self.settings = s.settings;

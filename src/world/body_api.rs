@@ -1,0 +1,178 @@
+//! A body through its key: reading it, moving it, setting its velocity, pushing it.
+//! Each change is checked (a key of a removed body, a value that is not finite, a
+//! velocity for a static body, a turn for a particle are refused, and the body is left
+//! as it was) and wakes the body's island, as Box2D's setters do.
+
+use super::{BodyKey, World};
+use crate::body::Body;
+use crate::defs::{BodyModel, BodyType};
+use crate::math::{Rot, Vec2, cross};
+
+/// What a change to a body refuses.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum EditError {
+    /// The key is stale or from another world.
+    #[error("the key names no body of this world (removed, or from another world)")]
+    NoSuchBody,
+    /// A value given is NaN or infinite.
+    #[error("body {name:?}: the {what} must be finite, got {value}")]
+    NotFinite {
+        /// The body's name.
+        name: String,
+        /// Which value.
+        what: &'static str,
+        /// It, as written.
+        value: String,
+    },
+    /// The change does not apply to this kind of body.
+    #[error("body {name:?}: {why}")]
+    NotApplicable {
+        /// The body's name.
+        name: String,
+        /// Why not.
+        why: &'static str,
+    },
+}
+
+impl World {
+    /// The body of `key`, or None if it was removed.
+    pub fn body(&self, key: BodyKey) -> Option<&Body> {
+        self.bodies.get(self.body_of_key(key)?)
+    }
+
+    /// The index of `key`'s body, checking `values` are finite.
+    fn edit_index(&self, key: BodyKey, values: &[(&'static str, f32)]) -> Result<usize, EditError> {
+        let i = self.body_of_key(key).ok_or(EditError::NoSuchBody)?;
+        if let Some((what, v)) = values.iter().find(|(_, v)| !v.is_finite()) {
+            return Err(EditError::NotFinite {
+                name: self.bodies[i].name.clone(),
+                what,
+                value: v.to_string(),
+            });
+        }
+        Ok(i)
+    }
+
+    fn not_applicable(&self, i: usize, why: &'static str) -> EditError {
+        EditError::NotApplicable {
+            name: self.bodies[i].name.clone(),
+            why,
+        }
+    }
+
+    /// Puts the body's origin (the point its definition's `position` names) at
+    /// `position`, turned by `angle` (rad), and wakes it. Its velocities are kept. A
+    /// particle refuses an angle other than 0.
+    pub fn set_transform(
+        &mut self,
+        key: BodyKey,
+        position: Vec2,
+        angle: f32,
+    ) -> Result<(), EditError> {
+        let i = self.edit_index(
+            key,
+            &[
+                ("position x", position.x),
+                ("position y", position.y),
+                ("angle", angle),
+            ],
+        )?;
+        if self.bodies[i].model == BodyModel::Particle && angle != 0.0 {
+            return Err(self.not_applicable(i, "a particle has no angle"));
+        }
+        let b = &mut self.bodies[i];
+        b.angle = angle;
+        b.rot = Rot::from_angle(angle);
+        b.position = position - b.rot.rotate(b.origin_offset);
+        self.moves += 1;
+        self.wake(i);
+        Ok(())
+    }
+
+    /// Sets the body's velocity (m/s, of its centre of mass) and angular velocity
+    /// (rad/s), and wakes it. A static body refuses; a particle refuses a spin.
+    pub fn set_velocity(
+        &mut self,
+        key: BodyKey,
+        velocity: Vec2,
+        angular_velocity: f32,
+    ) -> Result<(), EditError> {
+        let i = self.edit_index(
+            key,
+            &[
+                ("velocity x", velocity.x),
+                ("velocity y", velocity.y),
+                ("angular velocity", angular_velocity),
+            ],
+        )?;
+        let b = &self.bodies[i];
+        if b.body_type == BodyType::Static {
+            return Err(self.not_applicable(i, "a static body does not move"));
+        }
+        if b.model == BodyModel::Particle && angular_velocity != 0.0 {
+            return Err(self.not_applicable(i, "a particle does not turn"));
+        }
+        let b = &mut self.bodies[i];
+        b.velocity = velocity;
+        b.angular_velocity = angular_velocity;
+        self.wake(i);
+        Ok(())
+    }
+
+    /// Applies an impulse (N s) at a world point: the velocity changes at once by
+    /// impulse / m, the spin by (r x impulse) / I. Wakes the body. Only a dynamic body
+    /// takes one.
+    pub fn apply_impulse(
+        &mut self,
+        key: BodyKey,
+        impulse: Vec2,
+        world_point: Vec2,
+    ) -> Result<(), EditError> {
+        let i = self.edit_index(
+            key,
+            &[
+                ("impulse x", impulse.x),
+                ("impulse y", impulse.y),
+                ("point x", world_point.x),
+                ("point y", world_point.y),
+            ],
+        )?;
+        if !self.bodies[i].is_dynamic() {
+            return Err(self.not_applicable(i, "only a dynamic body takes an impulse"));
+        }
+        let b = &mut self.bodies[i];
+        b.velocity += impulse * b.inv_mass;
+        b.angular_velocity += cross(world_point - b.position, impulse) * b.inv_inertia;
+        self.wake(i);
+        Ok(())
+    }
+
+    /// Adds a force (N) at a world point and a torque (N m) for the next step only, and
+    /// wakes the body. Only a dynamic body takes them.
+    pub fn apply_force_at(
+        &mut self,
+        key: BodyKey,
+        force: Vec2,
+        world_point: Vec2,
+        torque: f32,
+    ) -> Result<(), EditError> {
+        let i = self.edit_index(
+            key,
+            &[
+                ("force x", force.x),
+                ("force y", force.y),
+                ("point x", world_point.x),
+                ("point y", world_point.y),
+                ("torque", torque),
+            ],
+        )?;
+        if !self.bodies[i].is_dynamic() {
+            return Err(self.not_applicable(i, "only a dynamic body takes a force"));
+        }
+        let b = &mut self.bodies[i];
+        b.force += force;
+        b.torque += cross(world_point - b.position, force) + torque;
+        self.wake(i);
+        Ok(())
+    }
+}

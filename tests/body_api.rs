@@ -1,0 +1,205 @@
+//! A body through its key: keys against a model over random adds and removes (a
+//! removed body's key is refused and never names a later body), and the setters: they
+//! check what they are given, leave the body as it was when they refuse, wake a
+//! sleeping body, and move it as mechanics says (an impulse changes momentum by itself).
+
+use glam::Vec2;
+use proptest::prelude::*;
+use sandbox2d::{
+    BodyDef, BodyKey, BodyType, EditError, RemoveError, ShapeDef, SolverSettings, World,
+};
+
+fn crate_body(name: String, x: f32) -> BodyDef {
+    BodyDef {
+        name,
+        shape: ShapeDef::Box {
+            width: 1.0,
+            height: 1.0,
+        },
+        position: Vec2::new(x, 0.5),
+        ..BodyDef::default()
+    }
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 64, ..ProptestConfig::default() })]
+
+    /// Random adds and removes against a model (name of each live key): every live
+    /// key names its own body, every removed key is refused everywhere, and no key is
+    /// ever handed out twice.
+    #[test]
+    fn keys_follow_a_model_of_adds_and_removes(
+        ops in proptest::collection::vec((any::<bool>(), any::<prop::sample::Index>()), 1..80),
+    ) {
+        let mut w = World::new(None, SolverSettings::default());
+        let mut live: Vec<(BodyKey, String)> = Vec::new();
+        let mut dead: Vec<BodyKey> = Vec::new();
+        let mut every: Vec<BodyKey> = Vec::new();
+        for (k, (add, pick)) in ops.iter().enumerate() {
+            if *add || live.is_empty() {
+                let name = format!("b{k}");
+                let i = w.add_body(&crate_body(name.clone(), k as f32 * 2.0)).unwrap();
+                let key = w.body_key(i).unwrap();
+                prop_assert!(!every.contains(&key), "key {key:?} handed out twice");
+                every.push(key);
+                live.push((key, name));
+            } else {
+                let (key, _) = live.remove(pick.index(live.len()));
+                prop_assert!(w.remove_body(key).is_ok());
+                dead.push(key);
+            }
+            // every few operations a step: keys live across steps as well
+            if k % 7 == 0 {
+                w.step().unwrap();
+            }
+            prop_assert_eq!(w.bodies.len(), live.len());
+            for (key, name) in &live {
+                prop_assert_eq!(&w.body(*key).unwrap().name, name);
+            }
+            for key in &dead {
+                prop_assert!(w.body(*key).is_none());
+                prop_assert_eq!(w.body_of_key(*key), None);
+                prop_assert_eq!(w.remove_body(*key).unwrap_err(), RemoveError::NoSuchBody);
+                prop_assert_eq!(
+                    w.set_velocity(*key, Vec2::X, 0.0).unwrap_err(),
+                    EditError::NoSuchBody
+                );
+            }
+        }
+    }
+}
+
+/// A box at rest on the ground, asleep.
+fn sleeping_box() -> (World, BodyKey) {
+    let mut w = World::new(Some(Vec2::new(0.0, -10.0)), SolverSettings::default());
+    w.add_body(&BodyDef {
+        name: "ground".into(),
+        body_type: BodyType::Static,
+        shape: ShapeDef::Box {
+            width: 20.0,
+            height: 1.0,
+        },
+        position: Vec2::new(0.0, -0.5),
+        ..BodyDef::default()
+    })
+    .unwrap();
+    let i = w.add_body(&crate_body("box".into(), 0.0)).unwrap();
+    let key = w.body_key(i).unwrap();
+    for _ in 0..240 {
+        w.step().unwrap();
+    }
+    assert!(w.body(key).unwrap().asleep, "the box fell asleep");
+    (w, key)
+}
+
+#[test]
+fn every_setter_wakes_a_sleeping_body() {
+    type Setter = fn(&mut World, BodyKey) -> Result<(), EditError>;
+    let setters: [(&str, Setter); 4] = [
+        ("set_transform", |w, k| {
+            w.set_transform(k, Vec2::new(0.0, 3.0), 0.2)
+        }),
+        ("set_velocity", |w, k| {
+            w.set_velocity(k, Vec2::new(1.0, 0.0), 0.0)
+        }),
+        ("apply_impulse", |w, k| {
+            w.apply_impulse(k, Vec2::new(0.0, 5.0), Vec2::new(0.0, 0.5))
+        }),
+        ("apply_force_at", |w, k| {
+            w.apply_force_at(k, Vec2::new(0.0, 500.0), Vec2::new(0.2, 0.5), 0.0)
+        }),
+    ];
+    for (name, set) in setters {
+        let (mut w, key) = sleeping_box();
+        let before = w.body(key).unwrap().position;
+        set(&mut w, key).unwrap();
+        assert!(!w.body(key).unwrap().asleep, "{name} woke it");
+        for _ in 0..5 {
+            w.step().unwrap();
+        }
+        assert!(
+            w.body(key).unwrap().position != before,
+            "{name}: the woken box moved"
+        );
+    }
+}
+
+#[test]
+fn an_impulse_changes_momentum_and_spin_by_itself() {
+    let mut w = World::new(None, SolverSettings::default());
+    let i = w.add_body(&crate_body("box".into(), 0.0)).unwrap();
+    let key = w.body_key(i).unwrap();
+    let (m, inertia) = (w.bodies[i].mass, w.bodies[i].inertia);
+    // 1 kg/m^2 box of 1 m: m = 1, I = m (w^2 + h^2) / 12 = 1/6
+    assert!((m - 1.0).abs() < 1e-6 && (inertia - 1.0 / 6.0).abs() < 1e-6);
+    // 2 N s upwards at the box's right edge (0.5 m from its centre)
+    let centre = w.bodies[i].position;
+    w.apply_impulse(key, Vec2::new(0.0, 2.0), centre + Vec2::new(0.5, 0.0))
+        .unwrap();
+    let b = w.body(key).unwrap();
+    assert!((b.velocity - Vec2::new(0.0, 2.0)).length() < 1e-6);
+    // r x J = 0.5 * 2 = 1 N m s, over I = 1/6
+    assert!(
+        (b.angular_velocity - 6.0).abs() < 1e-5,
+        "{}",
+        b.angular_velocity
+    );
+}
+
+#[test]
+fn setters_refuse_what_does_not_apply_and_change_nothing() {
+    let (mut w, key) = sleeping_box();
+    let ground = w.body_key(0).unwrap();
+    let before = w.state_hash();
+    let refusals = [
+        w.set_transform(key, Vec2::new(f32::NAN, 0.0), 0.0),
+        w.set_velocity(key, Vec2::ZERO, f32::INFINITY),
+        w.set_velocity(ground, Vec2::X, 0.0),
+        w.apply_impulse(ground, Vec2::Y, Vec2::ZERO),
+        w.apply_force_at(key, Vec2::Y, Vec2::new(f32::NAN, 0.0), 0.0),
+    ];
+    for r in &refusals {
+        let e = r.as_ref().unwrap_err();
+        let text = e.to_string();
+        assert!(
+            text.contains("\"box\"") || text.contains("\"ground\""),
+            "{text}"
+        );
+    }
+    assert!(matches!(
+        refusals[0],
+        Err(EditError::NotFinite {
+            what: "position x",
+            ..
+        })
+    ));
+    assert!(matches!(refusals[2], Err(EditError::NotApplicable { .. })));
+    assert_eq!(w.state_hash(), before, "a refused change changes nothing");
+    assert!(w.body(key).unwrap().asleep, "and wakes nothing");
+}
+
+#[test]
+fn set_transform_places_the_definitions_origin() {
+    // a triangle whose centroid is not its origin: the origin goes where it is put
+    let mut w = World::new(None, SolverSettings::default());
+    let i = w
+        .add_body(&BodyDef {
+            name: "tri".into(),
+            shape: ShapeDef::Polygon {
+                points: vec![Vec2::ZERO, Vec2::new(3.0, 0.0), Vec2::new(0.0, 3.0)],
+            },
+            ..BodyDef::default()
+        })
+        .unwrap();
+    let key = w.body_key(i).unwrap();
+    w.set_transform(key, Vec2::new(5.0, -2.0), std::f32::consts::FRAC_PI_2)
+        .unwrap();
+    let b = w.body(key).unwrap();
+    assert!((b.origin() - Vec2::new(5.0, -2.0)).length() < 1e-5);
+    // the centroid (1, 1) in the body frame, turned a quarter: (-1, 1) from the origin
+    assert!(
+        (b.position - Vec2::new(4.0, -1.0)).length() < 1e-5,
+        "{}",
+        b.position
+    );
+}
