@@ -153,6 +153,7 @@ fn bad_flags_are_refused_with_exit_2() {
     }
 }
 
+#[cfg(feature = "lab")]
 #[test]
 fn bench_writes_csv_markdown_and_plots_quietly() {
     let dir = tmp("bench-out");
@@ -227,6 +228,7 @@ fn bench_writes_csv_markdown_and_plots_quietly() {
     assert!(svg.starts_with("<svg") && svg.contains("PGS warm+split"));
 }
 
+#[cfg(feature = "lab")]
 #[test]
 fn bench_refuses_bad_input_with_one_line_and_exit_2() {
     let dir = tmp("bench-bad");
@@ -255,6 +257,7 @@ fn bench_refuses_bad_input_with_one_line_and_exit_2() {
     assert_eq!(out.status.code(), Some(2));
 }
 
+#[cfg(feature = "lab")]
 #[test]
 fn bench_extremes_writes_the_stability_table() {
     let dir = tmp("bench-ext");
@@ -763,6 +766,7 @@ fn a_trace_that_cannot_be_written_in_full_is_not_left_and_the_error_names_it() {
 }
 
 #[cfg(unix)]
+#[cfg(feature = "lab")]
 #[test]
 fn bench_results_that_cannot_be_written_in_full_are_not_left() {
     let dir = fresh_tmp("full-bench");
@@ -875,6 +879,9 @@ fn every_output_past_the_file_size_limit_is_one_line_naming_it() {
         if !cfg!(feature = "render") && args[0] == "render" {
             continue;
         }
+        if !cfg!(feature = "lab") && args[0] == "tune" {
+            continue;
+        }
         let dir = fresh_tmp("size-limit");
         let out = with_file_limit(*kib, args, &dir);
         let err = String::from_utf8_lossy(&out.stderr);
@@ -969,6 +976,7 @@ fn stdout_that_cannot_be_written_is_one_line_not_a_panic() {
 }
 
 #[cfg(target_os = "linux")]
+#[cfg(feature = "lab")]
 #[test]
 fn bench_checks_its_folder_before_measuring() {
     let t = std::time::Instant::now();
@@ -1039,6 +1047,7 @@ fn an_interrupted_simulation_leaves_no_trace_and_says_so() {
 }
 
 #[cfg(unix)]
+#[cfg(feature = "lab")]
 #[test]
 fn an_interrupted_bench_keeps_the_cases_it_finished_and_says_so() {
     let dir = fresh_tmp("interrupt-bench");
@@ -1180,6 +1189,9 @@ fn no_output_of_any_command_replaces_an_input() {
             ),
         ]);
     }
+    if !cfg!(feature = "lab") {
+        cases.retain(|(_, args)| args[0] != "tune");
+    }
     for (input, args) in &cases {
         let path = dir.join(input);
         std::fs::create_dir_all(path.parent().unwrap()).unwrap();
@@ -1212,21 +1224,24 @@ fn no_output_of_any_command_replaces_an_input() {
         std::fs::remove_file(&path).unwrap();
     }
     // a shard read by --merge is not replaced by the report of the same name
-    let shard = dir.join("m").join("results.md");
-    std::fs::create_dir_all(shard.parent().unwrap()).unwrap();
-    std::fs::write(&shard, "{}").unwrap();
-    let out = sandbox2d()
-        .args(["bench", "--merge", "m/results.md", "--out", "m"])
-        .current_dir(&dir)
-        .output()
-        .unwrap();
-    let err = String::from_utf8_lossy(&out.stderr);
-    assert_eq!(out.status.code(), Some(2), "{err}");
-    assert!(
-        err.contains("--out would overwrite the shard file"),
-        "{err}"
-    );
-    assert_eq!(std::fs::read_to_string(&shard).unwrap(), "{}");
+    #[cfg(feature = "lab")]
+    {
+        let shard = dir.join("m").join("results.md");
+        std::fs::create_dir_all(shard.parent().unwrap()).unwrap();
+        std::fs::write(&shard, "{}").unwrap();
+        let out = sandbox2d()
+            .args(["bench", "--merge", "m/results.md", "--out", "m"])
+            .current_dir(&dir)
+            .output()
+            .unwrap();
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(out.status.code(), Some(2), "{err}");
+        assert!(
+            err.contains("--out would overwrite the shard file"),
+            "{err}"
+        );
+        assert_eq!(std::fs::read_to_string(&shard).unwrap(), "{}");
+    }
     // a hard link to the scene is the scene
     #[cfg(unix)]
     {

@@ -13,17 +13,28 @@
 //! [`extremes`] the one-thing-at-a-time stability sweeps behind `stability.md`;
 //! [`scaling`] times the benchmark pyramid from 1k to 80k boxes on 1 and 2 threads.
 
+// The suites, reports, plots, shards and tuner are the lab's (feature `lab`); the
+// scenes, the extremes' worlds and the truth a case is measured against are not.
+#[cfg(feature = "lab")]
 pub mod box2d;
+#[cfg(feature = "lab")]
 pub mod contention;
+#[cfg(feature = "lab")]
 pub mod convergence;
 pub mod extremes;
+#[cfg(feature = "lab")]
 pub mod plot;
+#[cfg(feature = "lab")]
 pub mod report;
+#[cfg(feature = "lab")]
 pub mod scaling;
 pub mod scenes;
+#[cfg(feature = "lab")]
 pub mod shard;
+#[cfg(feature = "lab")]
 pub mod slurm;
 pub mod truth;
+#[cfg(feature = "lab")]
 pub mod tune;
 
 use std::time::Instant;
