@@ -39,13 +39,17 @@ pub struct Body {
     pub angle: f32,
     /// rad/s; always 0 for a particle.
     pub angular_velocity: f32,
+    /// 1 / `mass` (1/kg); 0 for static and kinematic bodies.
     pub inv_mass: f32,
+    /// 1 / `inertia` (1/(kg m^2)); 0 for particles, static and kinematic bodies.
     pub inv_inertia: f32,
     /// Force (N) accumulated for the next step by [`crate::World::apply_force`]; cleared by the step.
     pub force: Vec2,
     /// Torque (N m) accumulated for the next step.
     pub torque: f32,
+    /// Static, dynamic or kinematic.
     pub body_type: BodyType,
+    /// Rigid or particle (translation only).
     pub model: BodyModel,
     /// Overlaps are reported, never resolved.
     pub sensor: bool,
@@ -54,7 +58,9 @@ pub struct Body {
     /// something touches, pulls or pushes the island ([`crate::World`]'s sleep).
     #[serde(default)]
     pub asleep: bool,
+    /// Coulomb friction coefficient; a contact uses sqrt(mu_a mu_b) of its two bodies.
     pub friction: f32,
+    /// Coefficient of restitution; a contact uses the larger of its two bodies'.
     pub restitution: f32,
     /// kg (0 for static and kinematic bodies).
     pub mass: f32,
@@ -77,6 +83,7 @@ pub struct Body {
     /// Where the scene's shape origin lies in the body frame (minus the centroid of the
     /// shape as described); zero for circles, boxes and centred polygons.
     pub origin_offset: Vec2,
+    /// Drawing colour; `None` lets the renderer choose.
     pub color: Option<Color>,
     /// Unique name.
     pub name: String,
@@ -90,6 +97,7 @@ pub struct Body {
     /// velocity by 1 + h c ([`crate::defs::BodyDef::linear_damping`]).
     #[serde(default)]
     pub linear_damping: f32,
+    /// Angular damping (1/s), as `linear_damping` for the spin.
     #[serde(default)]
     pub angular_damping: f32,
     /// The speed (m/s) below which it counts as at rest for sleeping.

@@ -26,8 +26,11 @@ pub struct Part {
     pub offset: Vec2,
     /// The part's rotation in the body frame.
     pub rot: Rot,
+    /// The part's Coulomb friction coefficient (its own, or the body's).
     pub friction: f32,
+    /// The part's coefficient of restitution (its own, or the body's).
     pub restitution: f32,
+    /// Which other bodies' parts this part may touch (its own, or the body's).
     pub filter: Filter,
     /// A sensor part: its overlaps are heard ([`crate::World::events`]), never resolved.
     #[serde(default)]
@@ -195,10 +198,16 @@ pub fn part_feature_bits(i: usize, j: usize) -> u32 {
 /// What a body collides with: its one shape placed by its transform, or each of its
 /// parts, with the material of each.
 pub struct Collider {
+    /// The shape, centred on its own frame's origin.
     pub shape: Shape,
+    /// Where that frame lies in the world: the body's transform, composed with the
+    /// part's place in the body for a compound.
     pub xf: Transform,
+    /// Coulomb friction coefficient (the body's, or the part's).
     pub friction: f32,
+    /// Coefficient of restitution (the body's, or the part's).
     pub restitution: f32,
+    /// The collision filter (the body's, or the part's).
     pub filter: Filter,
     /// The body is a sensor, or this part is.
     pub sensor: bool,

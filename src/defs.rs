@@ -30,44 +30,82 @@ pub enum BodyModel {
 #[derive(Clone, Debug, PartialEq)]
 pub enum ShapeDef {
     /// A circle of the given radius (m) centred on the body origin.
-    Circle { radius: f32 },
+    Circle {
+        /// Radius (m), > 0.
+        radius: f32,
+    },
     /// A box of full width and height (m) centred on the body origin.
-    Box { width: f32, height: f32 },
+    Box {
+        /// Full size along the body's local x axis (m), > 0.
+        width: f32,
+        /// Full size along the body's local y axis (m), > 0.
+        height: f32,
+    },
     /// A convex polygon: the convex hull of these local points (m).
-    Polygon { points: Vec<Vec2> },
+    Polygon {
+        /// Local points (m), in any order; their hull has at most
+        /// [`crate::shape::MAX_POLYGON_VERTICES`] vertices and an area.
+        points: Vec<Vec2>,
+    },
     /// A capsule along the body's local x axis: `length` end to end (m, more than
     /// `2 radius`), half circles of `radius` at its ends.
-    Capsule { length: f32, radius: f32 },
+    Capsule {
+        /// End to end along the local x axis (m), more than `2 radius`.
+        length: f32,
+        /// Radius of the end caps and half the capsule's thickness (m), > 0.
+        radius: f32,
+    },
     /// A box of outer size `width` x `height` (m) whose corners are rounded by `radius`
     /// (0: sharp; less than half the smaller side).
     RoundedBox {
+        /// Outer size along the local x axis (m), > 0.
         width: f32,
+        /// Outer size along the local y axis (m), > 0.
         height: f32,
+        /// Corner radius (m): 0 for sharp corners, else less than half the smaller side.
         radius: f32,
     },
     /// The convex hull of `points` (m) with its outline moved out by `radius` (m) and
     /// its corners rounded.
-    RoundedPolygon { points: Vec<Vec2>, radius: f32 },
+    RoundedPolygon {
+        /// Local points (m) whose convex hull is the core, as [`ShapeDef::Polygon`]'s.
+        points: Vec<Vec2>,
+        /// How far the outline lies out from the core (m), >= 0 (0: the plain polygon).
+        radius: f32,
+    },
     /// A segment between two local points (m), of no thickness: it has no area, so only
     /// a static or kinematic body can have one (terrain, walls).
-    Segment { a: Vec2, b: Vec2 },
+    Segment {
+        /// One end, in the body's local frame (m).
+        a: Vec2,
+        /// The other end (m), distinct from `a`.
+        b: Vec2,
+    },
     /// One segment `a`-`b` of a polyline (terrain), with the far ends of its neighbours
     /// (`prev` before `a`, `next` after `b`; `None` at an open end): shapes slide
     /// across its joints without catching on them. `one_sided`: only shapes on the left
     /// of `a` -> `b` collide with it (above, for a polyline drawn left to right). Static
     /// or kinematic bodies only; the scene file's `[[polyline]]` makes a row of them.
     ChainSegment {
+        /// The segment's start, in the body's local frame (m).
         a: Vec2,
+        /// The segment's end (m), distinct from `a`.
         b: Vec2,
+        /// The previous segment's start (m); `None`: `a` is an open end.
         prev: Option<Vec2>,
+        /// The next segment's end (m); `None`: `b` is an open end.
         next: Option<Vec2>,
+        /// Only shapes on the left of `a` -> `b` collide with it.
         one_sided: bool,
     },
     /// A compound body: several convex parts (circles, boxes, polygons, capsules, each
     /// optionally rounded) fixed in one rigid frame, at most [`MAX_PARTS`]. Its mass,
     /// centre of mass and inertia come from the parts (parallel axis theorem); each part
     /// collides on its own, with its own friction, restitution and filter.
-    Compound { parts: Vec<PartDef> },
+    Compound {
+        /// The parts, 1 to [`MAX_PARTS`] of them, each placed in the body's frame.
+        parts: Vec<PartDef>,
+    },
 }
 
 /// The most parts a compound body has.
@@ -121,8 +159,11 @@ pub type Color = [u8; 4];
 pub struct BodyDef {
     /// Unique within a world; joints, forces and traces name bodies by it.
     pub name: String,
+    /// Static, dynamic (the default) or kinematic.
     pub body_type: BodyType,
+    /// Rigid (the default) or a particle (translation only, a circle shape).
     pub model: BodyModel,
+    /// The collision shape, in the body's frame (default: a 1 m x 1 m box).
     pub shape: ShapeDef,
     /// World position of the shape's origin (m). The body's centre of mass is found from the shape.
     pub position: Vec2,
@@ -132,17 +173,17 @@ pub struct BodyDef {
     pub velocity: Vec2,
     /// rad/s.
     pub angular_velocity: f32,
-    /// kg/m^2; ignored when `mass` is set.
+    /// kg/m^2; ignored when `mass` is set. Default 1.
     pub density: f32,
     /// kg; overrides the density.
     pub mass: Option<f32>,
-    /// Coulomb friction coefficient.
+    /// Coulomb friction coefficient. Default 0.6.
     pub friction: f32,
-    /// Coefficient of restitution in [0, 1].
+    /// Coefficient of restitution in [0, 1]. Default 0 (no bounce).
     pub restitution: f32,
     /// Drawing colour; `None` lets the renderer choose.
     pub color: Option<Color>,
-    /// Which other bodies it may touch.
+    /// Which other bodies it may touch (default: all).
     pub filter: Filter,
     /// A sensor: its overlaps with other (non-static, non-sensor) bodies are reported as
     /// events ([`crate::World::events`]) and never resolved.
@@ -244,9 +285,15 @@ pub struct ForceDef {
 /// The kinds of joint.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 pub enum JointKind {
+    /// Keeps an anchor on each body at a fixed distance (its `length`), or within a
+    /// range (its `limits`: a rope).
     Distance,
+    /// Pins the two bodies together at one anchor; they turn freely about it (a
+    /// revolute joint), within `limits` if given.
     Hinge,
+    /// b slides along an axis fixed in a and does not turn relative to a.
     Prismatic,
+    /// Holds b fixed relative to a (position and angle), rigidly or with `compliance`.
     Weld,
     /// b (a wheel) slides along an axis fixed in a (a chassis) on a suspension spring,
     /// turns freely (or by a motor) and stays on the axis's line.
@@ -287,13 +334,18 @@ pub struct ServoDef {
 /// Velocity-level damping of a joint's relative motion.
 #[derive(Clone, Copy, Debug, PartialEq, Default, serde::Serialize, serde::Deserialize)]
 pub struct DampingDef {
+    /// 1/s: each (sub)step of h removes min(h c, 1) of the relative velocity along the
+    /// joint's free direction (distance, prismatic and wheel joints). 0: none (default).
     pub linear: f32,
+    /// 1/s: as `linear`, for the relative spin (hinge, prismatic and weld joints).
+    /// 0: none (default).
     pub angular: f32,
 }
 
 /// Everything needed to create one joint.
 #[derive(Clone, Debug, PartialEq)]
 pub struct JointDef {
+    /// What the joint holds (see [`JointKind`]).
     pub kind: JointKind,
     /// Indices of the two bodies in creation order.
     pub bodies: [usize; 2],
@@ -307,11 +359,18 @@ pub struct JointDef {
     pub axis: Option<Vec2>,
     /// [min, max]: radians (hinge), metres (prismatic) or a length range (distance).
     pub limits: Option<[f32; 2]>,
+    /// Hinge, prismatic and wheel: drive the joint's speed with a bounded force or
+    /// torque; `None` = no motor.
     pub motor: Option<MotorDef>,
+    /// Hinge and prismatic: hold the joint's angle (from its zero) or offset (along the
+    /// axis, from where it was at creation) at a target; `None` = none. Not with a
+    /// hinge's `spring`.
     pub servo: Option<ServoDef>,
     /// m/N (rad/(N m) for angles); 0 = rigid.
     pub compliance: f32,
+    /// Damping of the joint's free relative motion; none by default.
     pub damping: DampingDef,
+    /// Whether the two joined bodies still collide with each other (default `false`).
     pub collide_connected: bool,
     /// The wheel joint's suspension along its axis; a hinge's torsion spring, which pulls
     /// the hinge angle towards 0 (Box2D's revolute spring).
@@ -326,6 +385,7 @@ pub struct JointDef {
     pub angle: Option<f32>,
     /// Motor joint: largest force (N) and torque (N m) it applies.
     pub max_force: f32,
+    /// Motor joint: largest torque (N m) it applies, >= 0.
     pub max_torque: f32,
     /// Motor joint: the share of the position error it corrects per step, in [0, 1].
     pub correction: f32,
@@ -457,6 +517,7 @@ pub struct DragDef {
     pub quadratic: f32,
     /// F = -1/2 * fluid_density * drag_coefficient * width * |v| * v
     pub fluid_density: f32,
+    /// The dimensionless drag coefficient of that term (0: the term is off).
     pub drag_coefficient: f32,
 }
 
@@ -515,6 +576,7 @@ fn yes() -> bool {
 /// [`crate::World::from_def`] all use.
 #[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct SolverSettings {
+    /// Which solver steps the world (default: the soft step).
     pub kind: SolverKind,
     /// Step (s).
     pub dt: f32,
@@ -734,22 +796,40 @@ impl Default for SolverSettings {
 /// Solver settings where each may be absent: a scene's `[solver]` table, or command-line flags.
 #[derive(Clone, Copy, Debug, PartialEq, Default)]
 pub struct SolverOverrides {
+    /// [`SolverSettings::kind`]; `None` = the soft step. The other fields left `None`
+    /// take this kind's defaults.
     pub kind: Option<SolverKind>,
+    /// [`SolverSettings::dt`] (s).
     pub dt: Option<f32>,
+    /// [`SolverSettings::substeps`].
     pub substeps: Option<u32>,
+    /// [`SolverSettings::iterations`].
     pub iterations: Option<u32>,
+    /// [`SolverSettings::tolerance`] (N s).
     pub tolerance: Option<f32>,
+    /// [`SolverSettings::warm_start`].
     pub warm_start: Option<bool>,
+    /// [`SolverSettings::baumgarte`].
     pub baumgarte: Option<f32>,
+    /// [`SolverSettings::slop`] (m).
     pub slop: Option<f32>,
+    /// [`SolverSettings::split_impulse`].
     pub split_impulse: Option<bool>,
+    /// [`SolverSettings::block_solve`].
     pub block_solve: Option<bool>,
+    /// [`SolverSettings::sleep`].
     pub sleep: Option<bool>,
+    /// [`SolverSettings::restitution_threshold`] (m/s).
     pub restitution_threshold: Option<f32>,
+    /// [`SolverSettings::contact_hertz`] (Hz).
     pub contact_hertz: Option<f32>,
+    /// [`SolverSettings::contact_damping_ratio`].
     pub contact_damping_ratio: Option<f32>,
+    /// [`SolverSettings::max_push_speed`] (m/s).
     pub max_push_speed: Option<f32>,
+    /// [`SolverSettings::joint_hertz`] (Hz).
     pub joint_hertz: Option<f32>,
+    /// [`SolverSettings::joint_damping_ratio`].
     pub joint_damping_ratio: Option<f32>,
 }
 
@@ -841,7 +921,9 @@ pub struct WorldDef {
     pub solver: SolverOverrides,
     /// In creation order (file order, generators expanded in place).
     pub bodies: Vec<BodyDef>,
+    /// Constant forces on bodies, applied every step.
     pub forces: Vec<ForceDef>,
+    /// Joints between the bodies (by index into `bodies`), made after the bodies.
     pub joints: Vec<JointDef>,
     /// Where the scene's (0, 0) is in the file's coordinates (m). Every position here
     /// (bodies, anchors, points, the camera) is relative to it, so a scene placed far

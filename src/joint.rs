@@ -18,8 +18,11 @@ pub type JointId = usize;
 /// A joint between bodies `a` and `b`.
 #[derive(Clone, Debug, serde::Serialize, serde::Deserialize)]
 pub struct Joint {
+    /// What the joint holds (see [`JointKind`]).
     pub kind: JointKind,
+    /// Index of the first body in the world.
     pub a: usize,
+    /// Index of the second body in the world.
     pub b: usize,
     /// Anchor on `a`, in a's frame, from its centre of mass (m).
     pub local_a: Vec2,
@@ -33,11 +36,16 @@ pub struct Joint {
     pub length: f32,
     /// [min, max]: hinge angle (rad), prismatic offset (m), distance length range (m).
     pub limits: Option<[f32; 2]>,
+    /// Drives the joint's speed with a bounded force or torque (hinge, prismatic,
+    /// wheel); `None` = none.
     pub motor: Option<MotorDef>,
+    /// Holds the hinge angle or prismatic offset at a target; `None` = none.
     pub servo: Option<ServoDef>,
     /// m/N (rad/(N m) for angles); 0 = rigid.
     pub compliance: f32,
+    /// Damping of the joint's free relative motion (see [`DampingDef`]).
     pub damping: DampingDef,
+    /// Whether the two joined bodies still collide with each other.
     pub collide_connected: bool,
     /// A force (N, prismatic and distance, along the axis) or torque (N m, hinge and
     /// weld) applied to b, and its reaction to a, every step: the seed's ApplyForce /
@@ -53,13 +61,17 @@ pub struct Joint {
     /// a's frame, from a's), its target angle `ref_angle`.
     #[serde(default)]
     pub max_force: f32,
+    /// Motor joint: largest torque (N m).
     #[serde(default)]
     pub max_torque: f32,
+    /// Motor joint: the share of the position error corrected per (sub)step, in [0, 1].
     #[serde(default)]
     pub correction: f32,
     /// Pulley: the ground points (world); `length` is length_a + ratio length_b at most.
     #[serde(default)]
     pub ground: [Vec2; 2],
+    /// Pulley: the factor on b's rope in the held sum length_a + ratio length_b
+    /// (> 0); 1 for the other kinds.
     #[serde(default = "one")]
     pub ratio: f32,
 }
@@ -86,6 +98,7 @@ pub(crate) mod slot {
 /// Drags one body's point towards a world target with a damped spring (the window's mouse).
 #[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct MouseJoint {
+    /// Index of the dragged body in the world.
     pub body: usize,
     /// The grabbed point, in the body's frame from its centre of mass (m).
     pub local: Vec2,

@@ -30,6 +30,8 @@
 // `!(x > 0.0)` is the crate's idiom for "reject NaN too"; the partial_cmp spelling
 // clippy suggests reads worse and is easy to get wrong.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
+// Every public item of the API says what it is: units, defaults, what it means.
+#![deny(missing_docs)]
 
 // The README's Rust example is compiled and run with the doc tests.
 #[cfg(doctest)]

@@ -7,7 +7,9 @@ pub use glam::Vec2;
 #[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 #[repr(C)]
 pub struct Rot {
+    /// cos(angle).
     pub c: f32,
+    /// sin(angle).
     pub s: f32,
 }
 
@@ -56,7 +58,9 @@ impl Rot {
 /// A rigid transform: x -> R x + p.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Transform {
+    /// The translation (m): where the frame's origin lies.
     pub p: Vec2,
+    /// The rotation.
     pub q: Rot,
 }
 
@@ -119,7 +123,9 @@ pub fn cross_vs(v: Vec2, s: f32) -> Vec2 {
 /// An axis-aligned bounding box.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Aabb {
+    /// The lower-left corner (smallest x and y, m).
     pub min: Vec2,
+    /// The upper-right corner (largest x and y, m).
     pub max: Vec2,
 }
 

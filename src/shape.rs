@@ -19,8 +19,13 @@ const WELD_DISTANCE: f32 = 1e-4;
 #[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 #[serde(into = "PolygonRepr", try_from = "PolygonRepr")]
 pub struct Polygon {
+    /// The core's vertices (m), counter-clockwise; the first `count` are used.
     pub vertices: [Vec2; MAX_POLYGON_VERTICES],
+    /// Unit outward normal of edge i (vertex i to vertex i + 1); the first `count`
+    /// are used.
     pub normals: [Vec2; MAX_POLYGON_VERTICES],
+    /// How many vertices are used: 2 (a segment or capsule) to
+    /// [`MAX_POLYGON_VERTICES`].
     pub count: usize,
     /// Rounding radius (m); 0 for sharp corners.
     pub radius: f32,
@@ -327,12 +332,19 @@ fn ray_circle(origin: Vec2, d: Vec2, center: Vec2, radius: f32) -> Option<f32> {
 /// Why a shape could not be built.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum ShapeError {
+    /// A polygon's points have fewer than 3 distinct points or enclose no area.
     #[error("polygon has fewer than 3 distinct points or no area")]
     Degenerate,
+    /// A polygon's convex hull has this many vertices, more than
+    /// [`MAX_POLYGON_VERTICES`].
     #[error("polygon hull has {0} vertices; at most {MAX_POLYGON_VERTICES} are supported")]
     TooManyVertices(usize),
+    /// A size that must be above 0 is not: which one (e.g. `"circle radius"`) and its
+    /// value.
     #[error("{0} must be > 0, got {1}")]
     NotPositive(&'static str, f32),
+    /// Any other problem (a capsule too short for its radius, a segment with equal
+    /// ends, a compound with no parts or too many, ...), said in full.
     #[error("{0}")]
     Invalid(String),
 }
@@ -377,7 +389,9 @@ fn convex_hull(points: &[Vec2]) -> Vec<Vec2> {
 /// between the two faces' are, and the joint's contact belongs to the segment before it.
 #[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct ChainSegment {
+    /// The segment's start, in the body's frame (m).
     pub a: Vec2,
+    /// The segment's end, in the body's frame (m).
     pub b: Vec2,
     /// The previous segment's start (`None`: `a` is an open end).
     pub prev: Option<Vec2>,
@@ -399,16 +413,21 @@ impl ChainSegment {
 #[allow(clippy::large_enum_variant)]
 #[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub enum Shape {
+    /// A circle centred on the centre of mass.
     Circle {
+        /// Radius (m).
         radius: f32,
     },
+    /// A convex polygon, possibly rounded: boxes, polygons, capsules, segments.
     Polygon(Polygon),
+    /// One segment of a polyline, with its neighbours' ends.
     Chain(ChainSegment),
     /// A compound body's marker: the parts are [`crate::Body::parts`]; `radius` bounds
     /// them all about the centre of mass. The shape's own queries answer for that disk
     /// (a box, an extent) or for nothing (area, mass, containment, rays); the body's
     /// ([`crate::Body::aabb`], `contains_local`, `ray_cast_local`) look at the parts.
     Compound {
+        /// Radius (m) of a disk about the centre of mass that holds every part.
         radius: f32,
     },
 }

@@ -42,7 +42,14 @@ pub struct Keyframe {
 pub enum SeekError {
     /// The step is not kept (before the oldest keyframe or after the newest step).
     #[error("step {step} is not kept: the timeline holds steps {oldest} to {newest}")]
-    OutOfRange { step: u64, oldest: u64, newest: u64 },
+    OutOfRange {
+        /// The step asked for.
+        step: u64,
+        /// The oldest keyframe's step.
+        oldest: u64,
+        /// The newest step kept.
+        newest: u64,
+    },
     /// Nothing is kept yet (or the world's state alone is over the memory bound).
     #[error("the timeline is empty")]
     Empty,
@@ -380,6 +387,7 @@ pub struct SavedRun {
     pub scene: String,
     /// The first and the last step of the run.
     pub first_step: u64,
+    /// The last step of the run (the world's step count when it ended).
     pub last_step: u64,
     /// Steps between keyframes.
     pub every: u64,
@@ -393,22 +401,38 @@ pub struct SavedRun {
 /// One keyframe of a [`SavedRun`].
 #[derive(Clone, Debug, serde::Serialize, serde::Deserialize)]
 pub struct RunKeyframe {
+    /// The step it was taken at (the world's step count).
     pub step: u64,
+    /// The world's state hash at that step, in hex.
     pub hash: String,
+    /// The whole state, to restore.
     pub state: WorldState,
 }
 
 /// Why a saved run could not be read or used. Each message is one line.
 #[derive(Debug, thiserror::Error)]
 pub enum RunFileError {
+    /// The text is not a run file (not JSON of its form, or not its format): why.
     #[error("not a sandbox2d run file: {0}")]
     Parse(String),
+    /// The file's format version, which this build does not read.
     #[error("run format version {0} is not supported (this build reads version {RUN_VERSION})")]
     Version(u32),
+    /// The file parses but does not hold together (no keyframe, a keyframe whose state
+    /// fails its checks or its recorded hash, steps out of order, ...): what is wrong.
     #[error("the run is damaged: {0}")]
     Invalid(String),
+    /// The step asked for is outside the run.
     #[error("step {step} is not in the run (it holds steps {first} to {last})")]
-    OutOfRange { step: u64, first: u64, last: u64 },
+    OutOfRange {
+        /// The step asked for.
+        step: u64,
+        /// The run's first step.
+        first: u64,
+        /// The run's last step.
+        last: u64,
+    },
+    /// A step taken to reach the one asked for failed.
     #[error(transparent)]
     Step(#[from] StepError),
 }

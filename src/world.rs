@@ -48,14 +48,24 @@ pub enum StepError {
         "body {name:?} (#{index}) has a non-finite state after step {step}: its {what} is {value} (position {position:?}, angle {angle}, velocity {velocity:?}, angular velocity {angular_velocity})"
     )]
     NonFinite {
+        /// The body's name.
         name: String,
+        /// The body's index in the world.
         index: usize,
+        /// The world's step count with the failed step counted (1: the first step).
         step: u64,
+        /// The first quantity that is not finite: `"velocity"`, `"angular velocity"`,
+        /// `"position"` or `"angle"`.
         what: &'static str,
+        /// That quantity's value, as written (`NaN`, `inf`, ...).
         value: String,
+        /// The body's centre of mass after the step (m).
         position: Vec2,
+        /// The body's angle after the step (rad).
         angle: f32,
+        /// The body's velocity after the step (m/s).
         velocity: Vec2,
+        /// The body's angular velocity after the step (rad/s).
         angular_velocity: f32,
     },
 }

@@ -22,8 +22,11 @@ use crate::parallel::{self, Pool};
 /// A touching pair of bodies and its manifold. `a < b`; the normal points from a to b.
 #[derive(Clone, Copy, Debug, Default, serde::Serialize, serde::Deserialize)]
 pub struct Contact {
+    /// Index of the first body (the lower one) in the world.
     pub a: u32,
+    /// Index of the second body in the world.
     pub b: u32,
+    /// The touching points and their shared normal.
     pub manifold: Manifold,
     /// Mixed friction coefficient: sqrt(mu_a mu_b).
     pub friction: f32,

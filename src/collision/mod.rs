@@ -39,7 +39,9 @@ pub struct ContactPoint {
 pub struct Manifold {
     /// Unit normal pointing from body A to body B, world frame.
     pub normal: Vec2,
+    /// The points; only the first `count` are in use (see [`Manifold::points`]).
     pub points: [ContactPoint; 2],
+    /// How many points are in use: 0, 1 or 2.
     pub count: usize,
 }
 

@@ -54,9 +54,13 @@ pub struct StepStats {
     /// Time per stage (ms): forces and velocity integration, broad phase, narrow phase,
     /// solver, position integration.
     pub ms_forces: f32,
+    /// Broad phase (ms): finding the pairs whose boxes overlap.
     pub ms_broad: f32,
+    /// Narrow phase (ms): the pairs' contact manifolds.
     pub ms_narrow: f32,
+    /// Solver (ms): contact and joint rows.
     pub ms_solve: f32,
+    /// Position integration (ms).
     pub ms_integrate: f32,
 }
 

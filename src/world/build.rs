@@ -15,36 +15,65 @@ use crate::shape::{Shape, ShapeError};
 /// (as Rust's `{:?}` writes them), so a name cannot break a message over lines.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum BuildError {
+    /// A body's shape (or a compound's part) could not be built.
     #[error("body {name:?}: {source}")]
-    Shape { name: String, source: ShapeError },
+    Shape {
+        /// The body's name.
+        name: String,
+        /// What is wrong with the shape.
+        source: ShapeError,
+    },
+    /// A particle body (named here) has a shape other than a circle.
     #[error("body {0:?}: a particle must have a circle shape")]
     ParticleShape(String),
+    /// A body's mass or density is not above 0, or its damping or sleep threshold is
+    /// negative.
     #[error("body {name:?}: {what} must be > 0, got {value}")]
     NotPositive {
+        /// The body's name.
         name: String,
+        /// Which value (`"mass"`, `"density"`, `"linear_damping"`, ...).
         what: &'static str,
+        /// The value given.
         value: f32,
     },
+    /// A body's given value (position, angle, velocity, friction, ...) or a force on it
+    /// is NaN or infinite.
     #[error("body {name:?}: {what} is not a finite number")]
-    NotFinite { name: String, what: &'static str },
+    NotFinite {
+        /// The body's name.
+        name: String,
+        /// Which value (`"position"`, `"velocity"`, `"force"`, ...).
+        what: &'static str,
+    },
     /// A quantity the world derives from the description (mass, inertia, centre of
     /// mass, energy) is not finite or not usable; `input` says which given value made it.
     #[error("body {name:?}: {what}")]
     Derived {
+        /// The body's name.
         name: String,
+        /// The given value to change.
         input: BodyInput,
+        /// What is wrong, in words.
         what: String,
     },
+    /// A body of this name is already in the world (names are unique).
     #[error("duplicate body name {0:?}")]
     DuplicateName(String),
+    /// A joint, force, motion or spawned joint names a body index that does not exist.
     #[error("{what} names body #{index}, but the world has {count} bodies")]
     NoSuchBody {
+        /// What names it (`"joint"`, `"force"`, `"motion"`, `"spawned joint"`).
         what: &'static str,
+        /// The index given.
         index: usize,
+        /// How many bodies there are to name (the world's, or the spawn group's).
         count: usize,
     },
+    /// The joint of this index (the one being added) is not valid: why, in words.
     #[error("joint #{0}: {1}")]
     Joint(usize, String),
+    /// The solver settings (or a spawn table's `every`) are out of range: what is wrong.
     #[error("solver: {0}")]
     Settings(String),
 }
@@ -56,8 +85,11 @@ pub enum BodyInput {
     Shape,
     /// `density` or `mass`.
     Mass,
+    /// `position` (its centre of mass or potential energy is not finite).
     Position,
+    /// `velocity` (its kinetic energy is not finite), or a kinematic body's path.
     Velocity,
+    /// `angular_velocity`.
     AngularVelocity,
 }
 

@@ -29,8 +29,10 @@ pub struct JointKey {
 /// What a removal refuses.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum RemoveError {
+    /// The body key names no body of this world: already removed, or from another world.
     #[error("the key names no body of this world (removed, or from another world)")]
     NoSuchBody,
+    /// The joint key names no joint of this world: already removed, or from another world.
     #[error("the key names no joint of this world (removed, or from another world)")]
     NoSuchJoint,
 }

@@ -37,9 +37,11 @@ impl EventKind {
 /// One event of the last step.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct ContactEvent {
+    /// Began or ended touching, or a sensor overlap began or ended.
     pub kind: EventKind,
     /// The pair, lower index first.
     pub a: BodyId,
+    /// The pair's other body (the higher index).
     pub b: BodyId,
     /// For [`EventKind::Begin`]: the normal impulse the step's solve put through the new
     /// contact (N s, summed over its points, as the solver keeps it for warm starting:

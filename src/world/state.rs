@@ -50,7 +50,9 @@ pub struct WorldState {
     pub step_count: u64,
     /// Simulated time (s).
     pub time: f64,
+    /// The world's gravity (m/s^2); `None` = no gravity pass.
     pub gravity: Option<Vec2>,
+    /// The world's fluid drag; `None` = vacuum.
     pub drag: Option<DragDef>,
     /// The solver settings the world stepped with.
     pub settings: SolverSettings,

@@ -50,6 +50,7 @@ const ALPHA: f64 = 1.0 / 8.0;
 pub struct ThreadUse {
     /// Steps run on one thread and on all the threads allowed.
     pub steps_on_one: u64,
+    /// Steps run on all the threads allowed.
     pub steps_on_many: u64,
     /// Times the choice changed.
     pub switches: u32,
