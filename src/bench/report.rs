@@ -317,6 +317,15 @@ pub fn non_dominated<'a>(scene: &BenchScene, rows: &'a [Row]) -> Vec<&'a Row> {
     front.into_iter().map(|(r, _)| r).collect()
 }
 
+/// Whether two rows measured the same on every measure of the scene (a mode that never
+/// acts here, such as split impulse on a stack that never overlaps deeply).
+fn same_figures(scene: &BenchScene, a: &Measured, b: &Measured) -> bool {
+    scene
+        .metrics
+        .iter()
+        .all(|&k| a.metric(k).to_bits() == b.metric(k).to_bits())
+}
+
 /// The row of the scene's own setting ([`Setting::of_scene`]), when it ran.
 pub fn own_row<'a>(scene: &BenchScene, rows: &'a [Row]) -> Option<&'a Row> {
     let own = Setting::of_scene(&scene.def);
@@ -627,17 +636,44 @@ fn scene_picks(s: &mut String, sc: &BenchScene, rows: &[Row]) {
         s,
         "The front (candidates, cheapest first; no other candidate is cheaper and at least as accurate):\n"
     );
-    for r in front {
-        if let Outcome::Ran(m) = &r.outcome {
-            let _ = writeln!(
-                s,
-                "- {}: {} ms/step, score {:.2}; {}",
-                r.setting.label(),
-                sig(m.ms_per_step),
-                score(norms, m),
-                accuracy_line(sc, m)
-            );
+    // settings that measured alike and cost alike make one line
+    let ran_front: Vec<(&Row, &Measured)> = front
+        .iter()
+        .filter_map(|r| match &r.outcome {
+            Outcome::Ran(m) => Some((*r, m)),
+            _ => None,
+        })
+        .collect();
+    let mut shown = vec![false; ran_front.len()];
+    for i in 0..ran_front.len() {
+        if shown[i] {
+            continue;
         }
+        let (r, m) = ran_front[i];
+        let mut same = Vec::new();
+        for j in i + 1..ran_front.len() {
+            let (r2, m2) = ran_front[j];
+            if !shown[j]
+                && same_figures(sc, m, m2)
+                && m2.ms_per_step <= m.ms_per_step * (1.0 + COST_NOISE)
+            {
+                shown[j] = true;
+                same.push(r2.setting.label());
+            }
+        }
+        let _ = writeln!(
+            s,
+            "- {}: {} ms/step, score {:.2}; {}{}",
+            r.setting.label(),
+            sig(m.ms_per_step),
+            score(norms, m),
+            accuracy_line(sc, m),
+            if same.is_empty() {
+                String::new()
+            } else {
+                format!(" (the same figures: {})", same.join(", "))
+            }
+        );
     }
     let _ = writeln!(s);
 }
@@ -875,6 +911,14 @@ mod tests {
         ] {
             assert!(md.contains(line), "missing {line:?} in:\n{md}");
         }
+        // a setting that measured the same at the same cost shares its line
+        let mut twins = rows.clone();
+        twins.push(row(Setting::pgs(8, true, false), m(1.8, 0.005, true)));
+        let md = markdown(Suite::Quick, std::slice::from_ref(&s), &twins, &[]);
+        assert!(
+            md.contains("- pgs 8 warm+split: 1.8000 ms/step, score 1.00; penetration_max 0.0050, penetration_mean 0.0025 (the same figures: pgs 8 warm)"),
+            "{md}"
+        );
         // a budget nothing fits says so
         let cheap_own = vec![
             row(Setting::soft(8, 1), m(0.2, 0.01, true)),

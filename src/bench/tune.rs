@@ -1227,5 +1227,10 @@ mod tests {
             ..report
         };
         assert!(markdown(&report).contains("- the pick is the scene's current setting: keep it"));
+        // a current setting within 10% of the pick's score, and cheaper, is worth keeping
+        let mut close = report.clone();
+        close.current = Some(0);
+        close.tried[0].score = Some(2.1);
+        assert!(markdown(&close).contains("keeping it costs little"));
     }
 }

@@ -242,8 +242,14 @@ fn verdict_text(report: &TuneReport, pick: usize) -> String {
                 ),
                 None => "the current setting has no score".into(),
             };
+            let close = match (p.score, t.score) {
+                (Some(a), Some(b)) if b <= 1.1 * a && t.ms_per_step <= p.ms_per_step => {
+                    "; the current setting is within 10% of the pick's score and no slower: keeping it costs little"
+                }
+                _ => "",
+            };
             format!(
-                "the pick differs from the scene's current setting: {score}, {:.4} against {:.4} ms/step",
+                "the pick differs from the scene's current setting: {score}, {:.4} against {:.4} ms/step{close}",
                 p.ms_per_step, t.ms_per_step
             )
         }
@@ -624,7 +630,7 @@ pub fn svg(report: &TuneReport) -> Result<String, String> {
                 });
         }
         chart
-            .draw_series(std::iter::once(Circle::new((x0, y0), 0, grey.filled())))
+            .draw_series(std::iter::empty::<Circle<(f64, f64), i32>>())
             .map_err(|x| e(&x))?
             .label("other candidates")
             .legend(move |(x, yy)| Circle::new((x + 10, yy), 3, grey.filled()));
