@@ -636,29 +636,27 @@ fn scene_picks(s: &mut String, sc: &BenchScene, rows: &[Row]) {
         s,
         "The front (candidates, cheapest first; no other candidate is cheaper and at least as accurate):\n"
     );
-    // settings that measured alike and cost alike make one line
-    let ran_front: Vec<(&Row, &Measured)> = front
-        .iter()
-        .filter_map(|r| match &r.outcome {
-            Outcome::Ran(m) => Some((*r, m)),
-            _ => None,
-        })
-        .collect();
-    let mut shown = vec![false; ran_front.len()];
-    for i in 0..ran_front.len() {
-        if shown[i] {
+    // settings that measured alike and cost alike (within the timing noise) make one
+    // line: which of them came out cheaper is noise
+    let cands = candidates(sc, rows);
+    let mut named: Vec<Setting> = Vec::new();
+    for r in front {
+        let Outcome::Ran(m) = &r.outcome else {
+            continue;
+        };
+        if named.contains(&r.setting) {
             continue;
         }
-        let (r, m) = ran_front[i];
+        named.push(r.setting);
         let mut same = Vec::new();
-        for j in i + 1..ran_front.len() {
-            let (r2, m2) = ran_front[j];
-            if !shown[j]
-                && same_figures(sc, m, m2)
-                && m2.ms_per_step <= m.ms_per_step * (1.0 + COST_NOISE)
+        for (c, cm, _) in &cands {
+            if c.setting != r.setting
+                && !named.contains(&c.setting)
+                && same_figures(sc, m, cm)
+                && (cm.ms_per_step / m.ms_per_step - 1.0).abs() <= COST_NOISE
             {
-                shown[j] = true;
-                same.push(r2.setting.label());
+                named.push(c.setting);
+                same.push(c.setting.label());
             }
         }
         let _ = writeln!(
@@ -911,9 +909,10 @@ mod tests {
         ] {
             assert!(md.contains(line), "missing {line:?} in:\n{md}");
         }
-        // a setting that measured the same at the same cost shares its line
+        // a setting that measured the same at a cost within the timing noise shares its
+        // line (it is dominated only by the noise)
         let mut twins = rows.clone();
-        twins.push(row(Setting::pgs(8, true, false), m(1.8, 0.005, true)));
+        twins.push(row(Setting::pgs(8, true, false), m(1.85, 0.005, true)));
         let md = markdown(Suite::Quick, std::slice::from_ref(&s), &twins, &[]);
         assert!(
             md.contains("- pgs 8 warm+split: 1.8000 ms/step, score 1.00; penetration_max 0.0050, penetration_mean 0.0025 (the same figures: pgs 8 warm)"),
