@@ -273,7 +273,8 @@ pub struct CoarseShards {
 pub enum TuneError {
     /// Every setting went unstable or could not run.
     NothingStable,
-    /// Even the cheapest stable setting costs more than the budget.
+    /// Even the cheapest stable setting within the error bound costs more than the
+    /// budget.
     OverBudget { cheapest: String, ms: f64 },
     /// Stopped by an interrupt before the search finished.
     Interrupted,
@@ -288,7 +289,7 @@ impl std::fmt::Display for TuneError {
             TuneError::NothingStable => write!(f, "no setting of the grid runs the scene stably"),
             TuneError::OverBudget { cheapest, ms } => write!(
                 f,
-                "no setting fits the budget: the cheapest stable one, {cheapest}, takes {ms:.4} ms/step"
+                "no setting fits the budget: the cheapest stable one within the error bound, {cheapest}, takes {ms:.4} ms/step"
             ),
             TuneError::Interrupted => write!(f, "interrupted before the search finished"),
             TuneError::NoTruth(why) => write!(
