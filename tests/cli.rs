@@ -223,9 +223,14 @@ fn bench_writes_csv_markdown_and_plots_quietly() {
         "rows timed {timed_ms} ms in a run of {wall_ms} ms"
     );
     let md = std::fs::read_to_string(dir.join("results.md")).unwrap();
-    assert!(md.contains("## stack") && md.contains("Not dominated"));
+    assert!(md.contains("## stack") && md.contains("**What to pick**"));
+    assert!(md.contains("- the scene's own setting: soft 8 substeps x 1"));
+    assert!(md.contains("- within 2x its time ("));
+    assert!(md.contains("The front (candidates"));
     let svg = std::fs::read_to_string(dir.join("stack.svg")).unwrap();
     assert!(svg.starts_with("<svg") && svg.contains("PGS warm+split"));
+    // the legend says what the marks mean
+    assert!(svg.contains("unstable or fell (X)") && svg.contains("own setting"));
 }
 
 #[cfg(feature = "lab")]

@@ -2,7 +2,7 @@
 //! refusals, and `--write`.
 
 use sandbox2d::bench::tune::{self, TuneMetric, TuneOptions};
-use sandbox2d::bench::{Budget, Outcome, run_case, settings_grid};
+use sandbox2d::bench::{Budget, Outcome, Setting, Verdict, run_case, settings_grid};
 
 mod common;
 use common::cli::{sandbox2d, tmp};
@@ -91,6 +91,87 @@ fn the_worst_score_counts_what_the_scene_has() {
         r.applies
     );
     assert!(!r.applies.penetration);
+}
+
+#[test]
+fn tune_flags_as_fallen_what_the_bench_finds_fallen_and_reports_the_current_setting() {
+    // the bench's stack (15 boxes, the tracked top may move 0.5 m) and tune's view of the
+    // same scene, over the same steps
+    let steps = 150;
+    let def = sandbox2d::scene::load("stack").unwrap().world;
+    let options = TuneOptions {
+        budget_ms: 1e9,
+        metric: TuneMetric::Worst,
+        steps,
+        rounds: 1,
+        jobs: 1,
+    };
+    let r = tune::tune("stack", &def, &options, |_, _, _| {}).unwrap();
+    let mut bench_scene = sandbox2d::bench::scenes::suite(sandbox2d::bench::Suite::Quick)
+        .into_iter()
+        .find(|s| s.name == "stack")
+        .unwrap();
+    bench_scene.budget.steps = steps;
+    bench_scene.budget.repeats = 1;
+    bench_scene.budget.residual_samples = 0;
+    let mut fell = 0;
+    for setting in settings_grid() {
+        let Outcome::Ran(b) = run_case(&bench_scene, &setting, &bench_scene.budget) else {
+            panic!("{} did not run", setting.label());
+        };
+        let t = r.tried.iter().find(|t| t.setting == setting).unwrap();
+        let bench_fell = matches!(&b.verdict, Verdict::Unstable(why) if why.contains("fell"));
+        let tune_fell = t.reason == Some(tune::DropReason::Fell);
+        assert_eq!(
+            bench_fell,
+            tune_fell,
+            "{}: the bench says {:?}, tune {:?}",
+            setting.label(),
+            b.verdict,
+            t.dropped
+        );
+        fell += usize::from(tune_fell);
+    }
+    assert!(
+        fell > 0,
+        "some setting of the grid lets 15 boxes fall in {steps} steps"
+    );
+    // the scene's own setting is tried and named, with its score
+    let cur = r.current.expect("the current setting is tried");
+    let c = &r.tried[cur];
+    assert_eq!(c.setting, Setting::soft(8, 1));
+    let md = tune::markdown(&r);
+    let line = format!(
+        "- the scene's current setting: soft 8 substeps x 1 ({:.4} ms/step, score {:.2})",
+        c.ms_per_step,
+        c.score.expect("the stack stands at its own setting")
+    );
+    assert!(md.contains(&line), "missing {line:?} in:\n{md}");
+    let verdict = if r.pick == r.current {
+        "- the pick is the scene's current setting"
+    } else {
+        "- the pick differs from the scene's current setting: score "
+    };
+    assert!(md.contains(verdict), "{md}");
+    // the count of fallen settings in the report's tally
+    assert!(md.contains(&format!(" {fell} fell")), "{md}");
+    // an error above the bound is more than 10 times the current setting's on a measure
+    let cm = c.measured().unwrap();
+    for t in r
+        .tried
+        .iter()
+        .filter(|t| t.reason == Some(tune::DropReason::FarAbove))
+    {
+        let m = t.measured().unwrap();
+        assert!(
+            r.normalisers
+                .iter()
+                .any(|&(k, _)| m.metric(k) > 10.0 * cm.metric(k).max(tune::floor(k))),
+            "{}: {:?}",
+            t.setting.label(),
+            t.dropped
+        );
+    }
 }
 
 #[test]

@@ -170,18 +170,41 @@ impl Setting {
         }
     }
 
-    /// The solver's own defaults (PGS: 10 sweeps, tolerance 1e-4, warm start, split
-    /// impulse; XPBD: 20 substeps of 1 iteration), as a user gets them.
+    /// The solver's own defaults (the soft step: 8 substeps of 1 sweep; PGS: 10 sweeps,
+    /// tolerance 1e-4, warm start, split impulse; XPBD: 20 substeps of 1 iteration), as
+    /// a user gets them.
     pub fn defaults(kind: SolverKind) -> Setting {
-        let d = SolverSettings::defaults(kind);
-        Setting {
-            kind,
-            iterations: d.iterations,
-            substeps: d.substeps,
-            warm_start: d.warm_start,
-            split_impulse: d.split_impulse,
-            tolerance: d.tolerance,
+        Setting::of(&SolverSettings::defaults(kind))
+    }
+
+    /// The grid's view of complete settings: the counts and, for PGS, the modes and
+    /// tolerance. The keys a kind does not read are set as the grid sets them (the soft
+    /// step reads neither split impulse nor tolerance; XPBD neither the modes nor the
+    /// tolerance), so a scene's own setting equals the grid's setting of the same counts.
+    pub fn of(s: &SolverSettings) -> Setting {
+        match s.kind {
+            SolverKind::Pgs => Setting {
+                kind: SolverKind::Pgs,
+                iterations: s.iterations,
+                substeps: s.substeps,
+                warm_start: s.warm_start,
+                split_impulse: s.split_impulse,
+                tolerance: s.tolerance,
+            },
+            SolverKind::Soft => Setting {
+                warm_start: s.warm_start,
+                ..Setting::soft(s.substeps, s.iterations)
+            },
+            SolverKind::Xpbd => Setting {
+                iterations: s.iterations,
+                ..Setting::xpbd(s.substeps)
+            },
         }
+    }
+
+    /// The setting a scene runs at by itself: its `[solver]` table over the defaults.
+    pub fn of_scene(def: &WorldDef) -> Setting {
+        Setting::of(&def.solver.resolve())
     }
 
     pub fn family(&self) -> Family {
@@ -238,7 +261,8 @@ impl Setting {
 pub const GRID_COUNTS: [u32; 6] = [1, 2, 4, 8, 16, 32];
 
 /// The settings grid: PGS at 1..32 sweeps x warm start on/off x split impulse on/off,
-/// then XPBD at 1..32 substeps, then the soft step at 1..32 substeps of 2 sweeps.
+/// then XPBD at 1..32 substeps, then the soft step at 1..32 substeps of 1 sweep (the
+/// scenes' own count: the default is 8 substeps of 1 sweep).
 pub fn settings_grid() -> Vec<Setting> {
     let mut v = Vec::new();
     for (warm, split) in [(true, true), (true, false), (false, true), (false, false)] {
@@ -250,7 +274,7 @@ pub fn settings_grid() -> Vec<Setting> {
         v.push(Setting::xpbd(n));
     }
     for n in GRID_COUNTS {
-        v.push(Setting::soft(n, 2));
+        v.push(Setting::soft(n, 1));
     }
     v
 }
@@ -620,9 +644,12 @@ impl Options {
         scenes::suite(suite)
             .into_iter()
             .filter(|s| {
-                self.filter
-                    .as_ref()
-                    .is_none_or(|f| s.name.contains(f.as_str()))
+                self.filter.as_ref().is_none_or(|f| {
+                    s.name.contains(f.as_str())
+                        || scenes::FORMER_NAMES
+                            .iter()
+                            .any(|&(old, now)| now == s.name && old.contains(f.as_str()))
+                })
             })
             .collect()
     }
@@ -632,13 +659,20 @@ impl Options {
 /// blown up (unstable is already a rise of `energy_gain`, at most a few scales).
 const BLOW_UP: f64 = 100.0;
 
-/// The (scene, setting) pairs a scene runs.
+/// The (scene, setting) pairs a scene runs: the grid (or, for the model comparisons,
+/// each solver's defaults), and the scene's own setting ([`Setting::of_scene`]) after
+/// them when it is not among them.
 pub fn scene_settings(scene: &BenchScene) -> Vec<Setting> {
-    if scene.full_grid {
+    let mut v = if scene.full_grid {
         settings_grid()
     } else {
         SolverKind::ALL.into_iter().map(Setting::defaults).collect()
+    };
+    let own = Setting::of_scene(&scene.def);
+    if !v.contains(&own) {
+        v.push(own);
     }
+    v
 }
 
 /// Runs every scene at every setting; `progress(done, total, what)` after each case.

@@ -883,6 +883,7 @@ pub fn merge_tune(files: &[(String, String)], run: Option<&str>) -> Result<Merge
                 samples,
                 score: None,
                 dropped: None,
+                reason: None,
             });
         }
     }

@@ -3,7 +3,7 @@
 //!
 //! The search runs the bench's grid ([`super::settings_grid`]: classic PGS at 1..32
 //! sweeps in its four modes, XPBD at 1..32 substeps, the soft step at 1..32 substeps of
-//! 2 sweeps), then a finer pass around each solver's best setting within the budget
+//! 1 sweep) and the scene's own setting, then a finer pass around each solver's best setting within the budget
 //! (the counts between its neighbours on the grid; for the soft step also 1 and 3
 //! sweeps a substep). Each setting's accuracy comes from one run ([`super::run_case`]: the runs
 //! are deterministic); its cost is the median of that run's ms/step and of further timing
@@ -167,8 +167,28 @@ pub struct Tried {
     pub ms_per_step: f64,
     /// The error `tune` minimises (smaller is better); `None` for a dropped setting.
     pub score: Option<f64>,
-    /// Why the setting can never be picked (unstable, could not run, not measured).
+    /// Why the setting can never be picked (unstable, fell, error far above the best,
+    /// could not run, not measured).
     pub dropped: Option<String>,
+    /// The kind of reason in `dropped`.
+    pub reason: Option<DropReason>,
+}
+
+/// Why a setting is never picked.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum DropReason {
+    /// The scene could not be built with it.
+    Failed,
+    /// It blew up or gained energy (the bench's verdict).
+    Unstable,
+    /// A pile meant to stand fell: its top body moved more than [`RESTING_DRIFT`] (the
+    /// bench's stack check, whose bound is the same 0.5 m).
+    Fell,
+    /// Its error is more than [`super::report::FAR`] times the scene's own setting's on
+    /// some measure scored (the best's, where the own setting is unstable).
+    FarAbove,
+    /// The named metric is not measured for it.
+    Unmeasured,
 }
 
 impl Tried {
@@ -223,6 +243,9 @@ pub struct TuneReport {
     /// For the default score: each counted measure and the value it is divided by (the
     /// best any stable setting reached, lifted to [`floor`]).
     pub normalisers: Vec<(Metric, f64)>,
+    /// The scene's own setting, its `[solver]` table (index into `tried`: the grid's
+    /// setting of the same counts, or one the fine pass adds).
+    pub current: Option<usize>,
     /// The most accurate setting within the budget (index into `tried`).
     pub pick: Option<usize>,
     /// The cheapest setting whose score is within 10% of the pick's.
@@ -250,7 +273,8 @@ pub struct CoarseShards {
 pub enum TuneError {
     /// Every setting went unstable or could not run.
     NothingStable,
-    /// Even the cheapest stable setting costs more than the budget.
+    /// Even the cheapest stable setting within the error bound costs more than the
+    /// budget.
     OverBudget { cheapest: String, ms: f64 },
     /// Stopped by an interrupt before the search finished.
     Interrupted,
@@ -265,7 +289,7 @@ impl std::fmt::Display for TuneError {
             TuneError::NothingStable => write!(f, "no setting of the grid runs the scene stably"),
             TuneError::OverBudget { cheapest, ms } => write!(
                 f,
-                "no setting fits the budget: the cheapest stable one, {cheapest}, takes {ms:.4} ms/step"
+                "no setting fits the budget: the cheapest stable one within the error bound, {cheapest}, takes {ms:.4} ms/step"
             ),
             TuneError::Interrupted => write!(f, "interrupted before the search finished"),
             TuneError::NoTruth(why) => write!(
@@ -325,7 +349,7 @@ fn energy_floor(def: &WorldDef) -> f32 {
 }
 
 /// What [`score_all`] needs to know of the scene itself.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq)]
 pub struct SceneFlags {
     /// Nothing in the scene adds or takes energy (no drag, forces, kinematic bodies,
     /// motors, servos or joint damping).
@@ -334,6 +358,8 @@ pub struct SceneFlags {
     /// (a chain or a pendulum swings from rest, so its top body's path is motion, not
     /// error).
     pub at_rest: bool,
+    /// The scene's own setting (its `[solver]` table), whose error sets the bound.
+    pub own: Option<Setting>,
 }
 
 impl SceneFlags {
@@ -341,6 +367,7 @@ impl SceneFlags {
         SceneFlags {
             closed: closed_system(def),
             at_rest: def.joints.is_empty() && starts_at_rest(def),
+            own: Some(Setting::of_scene(def)),
         }
     }
 }
@@ -415,6 +442,8 @@ fn median(v: &[f64]) -> f64 {
 /// many go at once, and the progress count.
 struct Search<P> {
     scene: BenchScene,
+    /// The scene's own setting.
+    own: Setting,
     accuracy: Budget,
     timing: Budget,
     jobs: usize,
@@ -463,6 +492,7 @@ impl<P: FnMut(usize, usize, &str)> Search<P> {
         };
         Ok(Search {
             scene,
+            own: Setting::of_scene(def),
             accuracy,
             timing,
             jobs: options.jobs.max(1),
@@ -499,6 +529,7 @@ impl<P: FnMut(usize, usize, &str)> Search<P> {
                     ms_per_step: ms,
                     score: None,
                     dropped: None,
+                    reason: None,
                 }
             })
             .collect())
@@ -563,6 +594,10 @@ impl<P: FnMut(usize, usize, &str)> Search<P> {
                 }
             }
         }
+        // the scene's own setting, to be scored beside the pick
+        if !tried.iter().any(|t| t.setting == self.own) && !fine.contains(&self.own) {
+            fine.push(self.own);
+        }
         self.total += fine.len() * self.rounds;
         let measured = self.measure(&fine, Pass::Fine)?;
         tried.extend(measured);
@@ -619,12 +654,14 @@ impl<P: FnMut(usize, usize, &str)> Search<P> {
                     .then(a.cmp(&b))
             });
         let pareto = pareto_front(&tried);
+        let current = tried.iter().position(|t| t.setting == self.own);
         Ok(TuneReport {
             scene: name.to_string(),
             options: *options,
             tried,
             applies,
             normalisers,
+            current,
             pick: Some(pick),
             cheapest_close,
             pareto,
@@ -822,28 +859,30 @@ pub fn score_all(
     flags: SceneFlags,
 ) -> (Applies, Vec<(Metric, f64)>) {
     for t in tried.iter_mut() {
-        t.dropped = match &t.outcome {
-            Outcome::Failed(e) => Some(format!("could not run: {e}")),
+        (t.reason, t.dropped) = match &t.outcome {
+            Outcome::Failed(e) => (
+                Some(DropReason::Failed),
+                Some(format!("could not run: {e}")),
+            ),
             Outcome::Ran(m) => match &m.verdict {
-                super::Verdict::Unstable(why) => Some(format!("unstable: {why}")),
-                super::Verdict::Stable => None,
+                super::Verdict::Unstable(why) => {
+                    (Some(DropReason::Unstable), Some(format!("unstable: {why}")))
+                }
+                super::Verdict::Stable => (None, None),
             },
         };
         t.score = None;
     }
     let ran = || tried.iter().filter_map(|t| t.measured());
-    let stable = || {
+    fn best_of(tried: &[Tried], m: Metric) -> f64 {
         tried
             .iter()
             .filter(|t| t.dropped.is_none())
             .filter_map(|t| t.measured())
-    };
-    let best = |m: Metric| {
-        stable()
             .map(|x| x.metric(m))
             .filter(|v| v.is_finite())
             .fold(f64::INFINITY, f64::min)
-    };
+    }
     let applies = Applies {
         penetration: ran().any(|m| m.penetration_max > 0.0),
         drift: false,
@@ -852,36 +891,85 @@ pub fn score_all(
     };
     let energy_possible = !applies.penetration && ran().any(|m| m.energy_drift.is_finite());
     let applies = Applies {
-        drift: flags.at_rest && best(Metric::Drift) <= RESTING_DRIFT,
+        drift: flags.at_rest && best_of(tried, Metric::Drift) <= RESTING_DRIFT,
         energy_drift: energy_possible && flags.closed,
         ..applies
     };
+    // a pile meant to stand (some setting kept it up) fell under the settings whose top
+    // body moved more than the bench's bound: unstable, as the bench says
+    if applies.drift {
+        for t in tried.iter_mut().filter(|t| t.dropped.is_none()) {
+            let d = t.measured().map_or(f64::NAN, |m| m.drift);
+            if d > RESTING_DRIFT {
+                t.reason = Some(DropReason::Fell);
+                t.dropped = Some(format!(
+                    "fell: the top body moved {d:.3} m (> {RESTING_DRIFT} m)"
+                ));
+            }
+        }
+    }
     let normalisers: Vec<(Metric, f64)> = applies
         .measures()
         .into_iter()
-        .map(|m| (m, best(m).max(floor(m))))
+        .map(|m| (m, best_of(tried, m).max(floor(m))))
         .collect();
+    // the error bound: FAR times the scene's own setting's error on each measure
+    // scored (at least FAR times the floor), or FAR times the best where the own
+    // setting is not among the stable ones
+    let far = super::report::FAR;
+    let own = tried
+        .iter()
+        .find(|t| Some(t.setting) == flags.own && t.dropped.is_none())
+        .and_then(|t| t.measured().cloned());
+    let scored: Vec<Metric> = match options.metric.measure() {
+        Some(m) => vec![m],
+        None => applies.measures(),
+    };
+    let bounds: Vec<(Metric, f64)> = scored
+        .iter()
+        .map(|&m| {
+            let base = own
+                .as_ref()
+                .map(|o| o.metric(m))
+                .filter(|v| v.is_finite())
+                .unwrap_or_else(|| best_of(tried, m));
+            (m, far * base.max(floor(m)))
+        })
+        .collect();
+    let whose = if own.is_some() {
+        "the current setting's error"
+    } else {
+        "the best error"
+    };
     for t in tried.iter_mut() {
         if t.dropped.is_some() {
             continue;
         }
         let Some(m) = t.measured() else { continue };
-        match options.metric.measure() {
+        let score = match options.metric.measure() {
             Some(metric) => {
                 let v = m.metric(metric);
-                if v.is_finite() {
-                    t.score = Some(v);
-                } else {
+                if !v.is_finite() {
+                    t.reason = Some(DropReason::Unmeasured);
                     t.dropped = Some(format!("{} is not measured here", options.metric.name()));
+                    continue;
                 }
+                v
             }
-            None => {
-                let s = normalisers
-                    .iter()
-                    .map(|&(metric, n)| m.metric(metric) / n)
-                    .fold(0.0f64, |a, v| if v.is_nan() { a } else { a.max(v) });
-                t.score = Some(s);
-            }
+            None => normalisers
+                .iter()
+                .map(|&(metric, n)| m.metric(metric) / n)
+                .fold(0.0f64, |a, v| if v.is_nan() { a } else { a.max(v) }),
+        };
+        if let Some((k, v)) = super::report::above_bound(&bounds, m) {
+            let b = bounds.iter().find(|b| b.0 == k).map_or(f64::NAN, |b| b.1);
+            t.reason = Some(DropReason::FarAbove);
+            t.dropped = Some(format!(
+                "error above the bound: {} {v:.3e} > {b:.3e} ({far} times {whose})",
+                k.name()
+            ));
+        } else {
+            t.score = Some(score);
         }
     }
     (applies, normalisers)
@@ -921,12 +1009,14 @@ mod tests {
             ms_per_step: ms,
             score: None,
             dropped: None,
+            reason: None,
         }
     }
 
     const RESTING: SceneFlags = SceneFlags {
         closed: false,
         at_rest: true,
+        own: None,
     };
 
     fn options(budget_ms: f64) -> TuneOptions {
@@ -991,6 +1081,7 @@ mod tests {
         let moving = SceneFlags {
             closed: false,
             at_rest: false,
+            own: None,
         };
         assert!(!score_all(&mut t, &options(10.0), moving).0.drift);
     }
@@ -1058,5 +1149,89 @@ mod tests {
             out.contains("[solver]\nkind = \"soft\"\nsubsteps = 4\niterations = 2\n"),
             "{out}"
         );
+    }
+
+    #[test]
+    fn the_report_states_the_current_setting_the_pick_and_why_others_were_dropped() {
+        let current = Setting::pgs(4, true, true);
+        let flags = SceneFlags {
+            own: Some(current),
+            ..RESTING
+        };
+        let mut t = vec![
+            // the current setting: 4 mm of overlap, 2 mm of drift
+            tried(4, 1.0, measured(0.004, 0.002, true)),
+            // the pick: more accurate, within the budget
+            tried(8, 1.5, measured(0.002, 0.002, true)),
+            // the most accurate, but over the budget
+            tried(16, 3.0, measured(0.001, 0.001, true)),
+            // above the bound: 50 mm of overlap is more than 10 times the current's 4
+            tried(2, 0.5, measured(0.05, 0.002, true)),
+            // the top fell 0.8 m: a fallen pile, as the bench says
+            tried(1, 0.3, measured(0.003, 0.8, true)),
+            // unstable
+            tried(3, 0.2, measured(0.001, 0.001, false)),
+        ];
+        let o = options(2.0);
+        let (applies, normalisers) = score_all(&mut t, &o, flags);
+        let reasons: Vec<Option<DropReason>> = t.iter().map(|t| t.reason).collect();
+        assert_eq!(
+            reasons,
+            [
+                None,
+                None,
+                None,
+                Some(DropReason::FarAbove),
+                Some(DropReason::Fell),
+                Some(DropReason::Unstable)
+            ]
+        );
+        assert!(t[3].dropped.as_deref().unwrap().contains("penetration_max"));
+        assert!(
+            t[4].dropped
+                .as_deref()
+                .unwrap()
+                .starts_with("fell: the top body moved 0.800 m")
+        );
+        let report = TuneReport {
+            scene: "s".into(),
+            options: o,
+            pick: best_within(&t, o.budget_ms),
+            current: Some(0),
+            cheapest_close: None,
+            pareto: pareto_front(&t),
+            tried: t,
+            applies,
+            normalisers,
+            truth: None,
+            shards: None,
+        };
+        assert_eq!(report.pick, Some(1));
+        let md = markdown(&report);
+        // scores: each measure over the best stable one (1 mm overlap, 1 mm drift)
+        for line in [
+            "- the scene's current setting: pgs 4 warm+split (1.0000 ms/step, score 4.00)",
+            "- most accurate within the budget: pgs 8 warm+split (1.5000 ms/step, score 2.00)",
+            "- the pick differs from the scene's current setting: score 2.00 against the current 4.00, 1.5000 against 1.0000 ms/step",
+            "Tried 6 settings; 4 could not be picked: 1 unstable, 1 fell, 1 error above the bound, 1 over the budget.",
+            "score = max(penetration_max / 1.00 mm, drift / 0.001 m)",
+        ] {
+            assert!(md.contains(line), "missing {line:?} in:\n{md}");
+        }
+        let j = json(&report);
+        assert_eq!(j["pick_is_current"], false);
+        assert_eq!(j["not_picked"]["over_the_budget"], 1);
+        assert_eq!(j["current"]["setting"]["label"], "pgs 4 warm+split");
+        // when the pick is the current setting, the report says to keep it
+        let report = TuneReport {
+            current: Some(1),
+            ..report
+        };
+        assert!(markdown(&report).contains("- the pick is the scene's current setting: keep it"));
+        // a current setting within 10% of the pick's score, and cheaper, is worth keeping
+        let mut close = report.clone();
+        close.current = Some(0);
+        close.tried[0].score = Some(2.1);
+        assert!(markdown(&close).contains("keeping it costs little"));
     }
 }

@@ -108,6 +108,9 @@ fn role(report: &TuneReport, i: usize) -> String {
     if report.pareto.contains(&i) {
         r.push("front");
     }
+    if report.current == Some(i) {
+        r.push("current");
+    }
     r.join(", ")
 }
 
@@ -118,13 +121,14 @@ pub fn metric_line(report: &TuneReport) -> String {
             "no error measure applies to this scene (no contact, joint, resting body or closed energy): every stable setting scores 0, so the cheapest wins".into()
         }
         TuneMetric::Worst => format!(
-            "score = the worst of {} (1 = as right as the best setting on every measure)",
+            "score = max({}): each measure that applies to the scene divided by the best value a stable setting reached (at least its floor), and the worst of those; 1 = as right as the best setting on every measure, 3 = three times as wrong on one of them. A setting whose error is more than {} times the scene's current setting's on some measure (the error bound) is dropped",
             report
                 .normalisers
                 .iter()
                 .map(|(m, n)| format!("{} / {}", m.name(), short_value(*m, *n)))
                 .collect::<Vec<_>>()
-                .join(", ")
+                .join(", "),
+            super::super::report::FAR
         ),
         TuneMetric::Trajectory => format!(
             "score = trajectory: the RMS distance of the bodies from their true places over the run (smaller is better), against the {}",
@@ -135,7 +139,11 @@ pub fn metric_line(report: &TuneReport) -> String {
                 .trim_start_matches("closed form: ")
                 .trim_start_matches("reference run: ")
         ),
-        m => format!("score = {} (smaller is better)", m.name()),
+        m => format!(
+            "score = {} (smaller is better). A setting whose error is more than {} times the scene's current setting's (the error bound) is dropped",
+            m.name(),
+            super::super::report::FAR
+        ),
     }
 }
 
@@ -147,6 +155,105 @@ fn short_value(m: Metric, v: f64) -> String {
         Metric::Drift => format!("{v:.3} m"),
         Metric::Trajectory => format!("{:.2} mm", v * 1e3),
         _ => format!("{v:.1e}"),
+    }
+}
+
+/// How many settings were tried and why each that is not the pick could not be: (kind,
+/// count) for unstable, fell, error above the bound, over the budget, could not run,
+/// not measured; kinds with none left out.
+pub fn drop_counts(report: &TuneReport) -> Vec<(&'static str, usize)> {
+    let mut c = [0usize; 6];
+    for t in &report.tried {
+        match t.reason {
+            Some(DropReason::Unstable) => c[0] += 1,
+            Some(DropReason::Fell) => c[1] += 1,
+            Some(DropReason::FarAbove) => c[2] += 1,
+            Some(DropReason::Failed) => c[4] += 1,
+            Some(DropReason::Unmeasured) => c[5] += 1,
+            None if t.score.is_some() && !(t.ms_per_step <= report.options.budget_ms) => c[3] += 1,
+            None => {}
+        }
+    }
+    [
+        "unstable",
+        "fell",
+        "error above the bound",
+        "over the budget",
+        "could not run",
+        "not measured",
+    ]
+    .into_iter()
+    .zip(c)
+    .filter(|&(_, n)| n > 0)
+    .collect()
+}
+
+/// One line: of the settings tried, how many could not be picked and why.
+fn dropped_line(report: &TuneReport) -> String {
+    let counts = drop_counts(report);
+    let n: usize = counts.iter().map(|c| c.1).sum();
+    let total = report.tried.len();
+    if n == 0 {
+        return format!("Tried {total} settings; every one fits the budget and was a candidate.");
+    }
+    format!(
+        "Tried {total} settings; {n} could not be picked: {}. Unstable: blew up or gained energy; fell: a pile meant to stand (some setting kept its top body within {RESTING_DRIFT} m) whose top body moved farther, as the bench's stack check; error above the bound: more than {} times the current setting's error (or the best, where the current setting is unstable) on some measure; over the budget: stable, but slower than {} ms/step.",
+        counts
+            .iter()
+            .map(|(k, c)| format!("{c} {k}"))
+            .collect::<Vec<_>>()
+            .join(", "),
+        super::super::report::FAR,
+        report.options.budget_ms
+    )
+}
+
+/// The scene's current setting as measured, or why it has no score.
+fn current_text(report: &TuneReport) -> String {
+    let Some(i) = report.current else {
+        return "not measured".into();
+    };
+    let t = &report.tried[i];
+    match (&t.dropped, t.score) {
+        (Some(why), _) => format!(
+            "{} ({:.4} ms/step; {why})",
+            t.setting.label(),
+            t.ms_per_step
+        ),
+        (None, Some(_)) if !(t.ms_per_step <= report.options.budget_ms) => {
+            format!("{}, over the budget", summary(report, i))
+        }
+        _ => summary(report, i),
+    }
+}
+
+/// Whether the pick is the scene's current setting, and if not how they compare.
+fn verdict_text(report: &TuneReport, pick: usize) -> String {
+    let p = &report.tried[pick];
+    match report.current {
+        Some(c) if c == pick => "the pick is the scene's current setting: keep it".into(),
+        Some(c) => {
+            let t = &report.tried[c];
+            let score = match t.score {
+                Some(v) => format!(
+                    "score {} against the current {}",
+                    p.score.map_or("-".into(), |s| score_text(report, s)),
+                    score_text(report, v)
+                ),
+                None => "the current setting has no score".into(),
+            };
+            let close = match (p.score, t.score) {
+                (Some(a), Some(b)) if b <= 1.1 * a && t.ms_per_step <= p.ms_per_step => {
+                    "; the current setting is within 10% of the pick's score and no slower: keeping it costs little"
+                }
+                _ => "",
+            };
+            format!(
+                "the pick differs from the scene's current setting: {score}, {:.4} against {:.4} ms/step{close}",
+                p.ms_per_step, t.ms_per_step
+            )
+        }
+        None => "the scene's current setting was not measured".into(),
     }
 }
 
@@ -191,11 +298,16 @@ pub fn markdown(report: &TuneReport) -> String {
                 .map_or(String::new(), |r| format!(", run {r}"))
         ));
     }
+    s.push_str(&format!(
+        "- the scene's current setting: {}\n",
+        current_text(report)
+    ));
     if let Some(p) = report.pick {
         s.push_str(&format!(
             "- most accurate within the budget: {}\n",
             summary(report, p)
         ));
+        s.push_str(&format!("- {}\n", verdict_text(report, p)));
     }
     if let Some(c) = report.cheapest_close {
         s.push_str(&format!(
@@ -250,6 +362,7 @@ pub fn markdown(report: &TuneReport) -> String {
         .iter()
         .filter(|t| t.dropped.is_some())
         .collect();
+    s.push_str(&format!("\n{}\n", dropped_line(report)));
     if !dropped.is_empty() {
         s.push_str("\n## Dropped (never picked)\n\n");
         for t in dropped {
@@ -303,6 +416,7 @@ pub fn json(report: &TuneReport) -> serde_json::Value {
                 "energy_drift": f(Metric::EnergyDrift),
                 "residual": f(Metric::Residual),
                 "dropped": t.dropped,
+                "current": report.current == Some(i),
                 "pareto": report.pareto.contains(&i),
             })
         })
@@ -326,7 +440,10 @@ pub fn json(report: &TuneReport) -> serde_json::Value {
         "metric": report.options.metric.name(),
         "truth": report.truth,
         "normalisers": report.normalisers.iter().map(|(m, n)| serde_json::json!({"measure": m.name(), "value": n})).collect::<Vec<_>>(),
+        "current": at(report.current),
+        "pick_is_current": report.pick.is_some() && report.pick == report.current,
         "pick": at(report.pick),
+        "not_picked": drop_counts(report).into_iter().map(|(k, n)| (k.replace(' ', "_"), serde_json::json!(n))).collect::<serde_json::Map<String, serde_json::Value>>(),
         "cheapest_within_10_percent": at(report.cheapest_close),
         "solver_table": report.pick.map(|p| solver_table(&report.tried[p].setting)),
         "shards": report.shards.as_ref().map(|s| s.count),
@@ -338,6 +455,8 @@ pub fn json(report: &TuneReport) -> serde_json::Value {
 /// The Pareto plot: every stable setting's score against its cost (log scales), the
 /// front joined, the budget as a vertical line, the pick ringed.
 pub fn svg(report: &TuneReport) -> Result<String, String> {
+    use crate::bench::plot::{MARK_R, PixelBox, log_ticks, mark_box, place_labels, tick_label};
+    use plotters::coord::combinators::BindKeyPoints;
     use plotters::prelude::*;
     let pts: Vec<(usize, f64, f64)> = report
         .tried
@@ -394,15 +513,18 @@ pub fn svg(report: &TuneReport) -> Result<String, String> {
             .margin(12)
             .x_label_area_size(45)
             .y_label_area_size(80)
-            .build_cartesian_2d((x0..x1).log_scale(), (y0..y1).log_scale())
+            .build_cartesian_2d(
+                (x0..x1).log_scale().with_key_points(log_ticks(x0, x1)),
+                (y0..y1).log_scale().with_key_points(log_ticks(y0, y1)),
+            )
             .map_err(|x| e(&x))?;
         chart
             .configure_mesh()
             .x_desc("ms per step (median)")
             .y_desc(format!("score ({})", report.options.metric.name()))
-            .x_labels(8)
-            .x_label_formatter(&|v| crate::bench::plot::short(*v))
-            .y_label_formatter(&|v| format!("{v:.1e}"))
+            .x_label_formatter(&|v| tick_label(*v))
+            .y_label_formatter(&|v| tick_label(*v))
+            .light_line_style(WHITE)
             .draw()
             .map_err(|x| e(&x))?;
         let grey = RGBColor(150, 150, 150);
@@ -424,20 +546,59 @@ pub fn svg(report: &TuneReport) -> Result<String, String> {
             .map_err(|x| e(&x))?
             .label("Pareto front")
             .legend(move |(x, yy)| PathElement::new(vec![(x, yy), (x + 20, yy)], blue));
+        let front_pts: Vec<(usize, (i32, i32))> = report
+            .pareto
+            .iter()
+            .filter_map(|&i| {
+                let p = pts.iter().find(|p| p.0 == i)?;
+                Some((i, chart.backend_coord(&(p.1, y(p.2)))))
+            })
+            .collect();
         chart
             .draw_series(report.pareto.iter().filter_map(|&i| {
                 let p = pts.iter().find(|p| p.0 == i)?;
-                Some(
-                    EmptyElement::at((p.1, y(p.2)))
-                        + Circle::new((0, 0), 4, blue.filled())
-                        + Text::new(
-                            report.tried[i].setting.label(),
-                            (6, -12),
-                            ("sans-serif", 11),
-                        ),
-                )
+                Some(Circle::new((p.1, y(p.2)), 4, blue.filled()))
             }))
             .map_err(|x| e(&x))?;
+        // the front's labels where they overlap nothing: the pick's first, then the
+        // current setting's, then the rest cheapest first
+        let mut order: Vec<usize> = (0..front_pts.len()).collect();
+        order.sort_by_key(|&k| {
+            let i = front_pts[k].0;
+            (report.pick != Some(i), report.current != Some(i), k)
+        });
+        let at: Vec<(i32, i32)> = order.iter().map(|&k| front_pts[k].1).collect();
+        let texts: Vec<String> = order
+            .iter()
+            .map(|&k| report.tried[front_pts[k].0].setting.label())
+            .collect();
+        let mut avoid: Vec<PixelBox> = pts
+            .iter()
+            .map(|p| mark_box(chart.backend_coord(&(p.1, y(p.2))), MARK_R))
+            .collect();
+        // the legend's corner (upper right)
+        let (px, py) = chart.plotting_area().get_pixel_range();
+        avoid.push(PixelBox {
+            x: px.end - 190,
+            y: py.start,
+            w: 190,
+            h: 130,
+        });
+        let area = PixelBox {
+            x: px.start,
+            y: py.start,
+            w: px.end - px.start,
+            h: py.end - py.start,
+        };
+        for (b, t) in place_labels(&at, &texts, 11, area, &avoid)
+            .into_iter()
+            .zip(&texts)
+        {
+            if let Some(b) = b {
+                root.draw(&Text::new(t.clone(), (b.x, b.y), ("sans-serif", 11)))
+                    .map_err(|x| e(&x))?;
+            }
+        }
         let red = RGBColor(214, 39, 40);
         let b = report.options.budget_ms;
         chart
@@ -456,6 +617,23 @@ pub fn svg(report: &TuneReport) -> Result<String, String> {
                 .label("pick")
                 .legend(move |(x, yy)| Circle::new((x + 10, yy), 5, red.stroke_width(2)));
         }
+        if let Some(p) = report.current.and_then(|i| pts.iter().find(|p| p.0 == i)) {
+            chart
+                .draw_series(std::iter::once(
+                    EmptyElement::at((p.1, y(p.2)))
+                        + Rectangle::new([(-8, -8), (8, 8)], BLACK.stroke_width(2)),
+                ))
+                .map_err(|x| e(&x))?
+                .label("current setting")
+                .legend(move |(x, yy)| {
+                    Rectangle::new([(x + 4, yy - 6), (x + 16, yy + 6)], BLACK.stroke_width(2))
+                });
+        }
+        chart
+            .draw_series(std::iter::empty::<Circle<(f64, f64), i32>>())
+            .map_err(|x| e(&x))?
+            .label("other candidates")
+            .legend(move |(x, yy)| Circle::new((x + 10, yy), 3, grey.filled()));
         chart
             .configure_series_labels()
             .position(SeriesLabelPosition::UpperRight)
