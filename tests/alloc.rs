@@ -1,34 +1,13 @@
 //! The step allocates nothing in steady state (counted by a global allocator; this file
 //! holds one test so no other test allocates on the same counter).
 
-use std::alloc::{GlobalAlloc, Layout, System};
-use std::cell::Cell;
-
 use sandbox2d::{SolverKind, SolverSettings, World, scene};
 
-struct Counting;
-
-thread_local! {
-    static ALLOCS: Cell<usize> = const { Cell::new(0) };
-}
-
-// SAFETY: forwards to the system allocator; only counts, per thread.
-unsafe impl GlobalAlloc for Counting {
-    unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
-        ALLOCS.with(|a| a.set(a.get() + 1));
-        unsafe { System.alloc(layout) }
-    }
-    unsafe fn dealloc(&self, ptr: *mut u8, layout: Layout) {
-        unsafe { System.dealloc(ptr, layout) }
-    }
-    unsafe fn realloc(&self, ptr: *mut u8, layout: Layout, new_size: usize) -> *mut u8 {
-        ALLOCS.with(|a| a.set(a.get() + 1));
-        unsafe { System.realloc(ptr, layout, new_size) }
-    }
-}
+#[path = "common/counting.rs"]
+mod counting;
 
 #[global_allocator]
-static COUNTING: Counting = Counting;
+static COUNTING: counting::Counting = counting::Counting;
 
 #[test]
 fn steady_steps_allocate_nothing() {
@@ -49,18 +28,18 @@ fn steady_steps_allocate_nothing() {
             sleep: false,
             ..SolverSettings::defaults(kind)
         };
-        let built = ALLOCS.with(|a| a.get());
+        let built = counting::allocations();
         let sc = scene::load(name).unwrap();
         let mut w = World::from_def(&sc.world, s).unwrap();
-        assert!(ALLOCS.with(|a| a.get()) > built, "the counter counts");
+        assert!(counting::allocations() > built, "the counter counts");
         for _ in 0..100 {
             w.step().unwrap();
         }
-        let before = ALLOCS.with(|a| a.get());
+        let before = counting::allocations();
         for _ in 0..100 {
             w.step().unwrap();
         }
-        let after = ALLOCS.with(|a| a.get());
+        let after = counting::allocations();
         assert_eq!(after - before, 0, "{kind:?} on {name}: allocations");
     }
 }
@@ -77,11 +56,11 @@ fn a_sleeping_pile_steps_without_allocating() {
         }
         let asleep = w.bodies.iter().filter(|b| b.asleep).count();
         assert!(asleep > 200, "{kind:?}: {asleep} of 211 asleep");
-        let before = ALLOCS.with(|a| a.get());
+        let before = counting::allocations();
         for _ in 0..100 {
             w.step().unwrap();
         }
-        let after = ALLOCS.with(|a| a.get());
+        let after = counting::allocations();
         assert_eq!(after - before, 0, "{kind:?}: allocations while asleep");
     }
 }

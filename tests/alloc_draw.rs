@@ -2,35 +2,14 @@
 //! list's buffers (counted by a global allocator; this file holds one test so no other
 //! test allocates on the same counter).
 
-use std::alloc::{GlobalAlloc, Layout, System};
-use std::cell::Cell;
-
 use sandbox2d::draw::{DrawList, Overlays, fill_world_draw_list};
 use sandbox2d::{SolverSettings, World, scene};
 
-struct Counting;
-
-thread_local! {
-    static ALLOCS: Cell<usize> = const { Cell::new(0) };
-}
-
-// SAFETY: forwards to the system allocator; only counts, per thread.
-unsafe impl GlobalAlloc for Counting {
-    unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
-        ALLOCS.with(|a| a.set(a.get() + 1));
-        unsafe { System.alloc(layout) }
-    }
-    unsafe fn dealloc(&self, ptr: *mut u8, layout: Layout) {
-        unsafe { System.dealloc(ptr, layout) }
-    }
-    unsafe fn realloc(&self, ptr: *mut u8, layout: Layout, new_size: usize) -> *mut u8 {
-        ALLOCS.with(|a| a.set(a.get() + 1));
-        unsafe { System.realloc(ptr, layout, new_size) }
-    }
-}
+#[path = "common/counting.rs"]
+mod counting;
 
 #[global_allocator]
-static COUNTING: Counting = Counting;
+static COUNTING: counting::Counting = counting::Counting;
 
 #[test]
 fn steady_frames_fill_the_draw_list_without_allocating() {
@@ -50,9 +29,9 @@ fn steady_frames_fill_the_draw_list_without_allocating() {
             let mut drawn = 0;
             for _ in 0..30 {
                 w.step().unwrap();
-                let before = ALLOCS.with(|a| a.get());
+                let before = counting::allocations();
                 fill_world_draw_list(&mut list, &w, &overlays);
-                allocs += ALLOCS.with(|a| a.get()) - before;
+                allocs += counting::allocations() - before;
                 drawn += list.boxes.len() + list.polygons.len() + list.circles.len();
             }
             // a compound body (the car's chassis) draws each of its parts

@@ -2,36 +2,15 @@
 //! closure forms of every query, and the step that keeps their tree (counted by a
 //! global allocator, per thread; this file holds one test).
 
-use std::alloc::{GlobalAlloc, Layout, System};
-use std::cell::Cell;
-
 use glam::Vec2;
 use sandbox2d::math::Aabb;
 use sandbox2d::{Filter, QueryShape, ShapeDef, SolverSettings, World, scene};
 
-struct Counting;
-
-thread_local! {
-    static ALLOCS: Cell<usize> = const { Cell::new(0) };
-}
-
-// SAFETY: forwards to the system allocator; only counts, per thread.
-unsafe impl GlobalAlloc for Counting {
-    unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
-        ALLOCS.with(|a| a.set(a.get() + 1));
-        unsafe { System.alloc(layout) }
-    }
-    unsafe fn dealloc(&self, ptr: *mut u8, layout: Layout) {
-        unsafe { System.dealloc(ptr, layout) }
-    }
-    unsafe fn realloc(&self, ptr: *mut u8, layout: Layout, new_size: usize) -> *mut u8 {
-        ALLOCS.with(|a| a.set(a.get() + 1));
-        unsafe { System.realloc(ptr, layout, new_size) }
-    }
-}
+#[path = "common/counting.rs"]
+mod counting;
 
 #[global_allocator]
-static COUNTING: Counting = Counting;
+static COUNTING: counting::Counting = counting::Counting;
 
 /// One frame of a game's questions; returns how many answers, so none is optimised out.
 fn ask(w: &World, probe: &QueryShape, x: f32) -> usize {
@@ -86,12 +65,12 @@ fn steady_queries_and_steps_allocate_nothing() {
         w.step().unwrap();
         answers += ask(&w, &probe, (k % 20) as f32 - 10.0);
     }
-    let before = ALLOCS.with(|a| a.get());
+    let before = counting::allocations();
     for k in 0..100 {
         w.step().unwrap();
         answers += ask(&w, &probe, (k % 20) as f32 - 10.0);
     }
-    let after = ALLOCS.with(|a| a.get());
+    let after = counting::allocations();
     assert!(answers > 1000, "the queries find the pyramid: {answers}");
     assert_eq!(
         after - before,
@@ -106,9 +85,9 @@ fn steady_queries_and_steps_allocate_nothing() {
     let (mut in_queries, mut answers) = (0, 0);
     for k in 0..240 {
         w.step().unwrap();
-        let before = ALLOCS.with(|a| a.get());
+        let before = counting::allocations();
         answers += ask(&w, &probe, (k % 20) as f32 - 10.0);
-        let made = ALLOCS.with(|a| a.get()) - before;
+        let made = counting::allocations() - before;
         if k == 0 {
             assert!(
                 made > 0,
