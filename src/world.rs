@@ -10,7 +10,6 @@ use crate::defs::{BodyModel, DragDef, SolverSettings};
 use crate::joint::{Joint, JointId, MouseJoint};
 use crate::math::{Aabb, Vec2, cross};
 use crate::parallel::{self, Pool};
-use crate::shape::Shape;
 pub use crate::step::StepStats;
 use crate::step::integrate::{self, PointForce};
 use crate::step::sleep::Sleep;
@@ -26,6 +25,7 @@ mod query;
 mod spawn;
 mod state;
 mod threads;
+mod walls;
 
 pub use body_api::EditError;
 use build::energy_problem;
@@ -37,6 +37,7 @@ pub use measure::{FAR_FROM_ORIGIN, far_from_origin};
 pub use query::{QUERY_MARGIN, QueryShape, RayHit, SHAPE_CAST_TOLERANCE, ShapeCastHit};
 pub use state::{STATE_FORMAT, STATE_VERSION, StateError, WorldState};
 pub use threads::{ThreadUse, Threads};
+use walls::WallGrid;
 
 /// Why a step failed.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
@@ -449,89 +450,6 @@ impl World {
         result
     }
 
-    /// A one-sided segment holds what meets it from the front however fast it comes: a
-    /// dynamic body whose centre this step carried across the line of a static one-sided
-    /// segment, from the front to behind and within the segment, is put back onto the
-    /// segment's line and its speed into the segment taken away; the contact pushes it
-    /// out from there. Without it a body driven hard along a curved wall (the spinner's
-    /// bodies at 100 m/s) sinks in a little each step until its centre slips behind the
-    /// wall and it is gone; Box2D's continuous step stops such a centre too.
-    fn keep_in_front(&mut self) {
-        let bodies = &mut self.bodies;
-        let walls = &self.walls;
-        for body in 0..bodies.len() {
-            let b = &bodies[body];
-            let start = self.step_start[body];
-            if !b.is_dynamic() || b.asleep || b.position == start {
-                continue;
-            }
-            let (c0, c1) = (
-                walls.cell(start.min(b.position)),
-                walls.cell(start.max(b.position)),
-            );
-            // a path over many cells (a body thrown far in one step) looks at every wall
-            let cells = (c1.0 as i64 - c0.0 as i64 + 1) * (c1.1 as i64 - c0.1 as i64 + 1);
-            let (c0, c1) = if cells > 64 {
-                ((0, 0), (0, 0))
-            } else {
-                (c0, c1)
-            };
-            for cx in c0.0..=c1.0 {
-                for cy in c0.1..=c1.1 {
-                    let list = if cells > 64 {
-                        &walls.all
-                    } else {
-                        match walls.cells.get(&(cx, cy)) {
-                            Some(list) => list,
-                            None => continue,
-                        }
-                    };
-                    for &wall in list {
-                        let wall = wall as usize;
-                        let Shape::Chain(seg) = bodies[wall].shape else {
-                            continue;
-                        };
-                        let xf = bodies[wall].transform();
-                        let end = xf.inv_apply(bodies[body].position);
-                        let from = xf.inv_apply(start);
-                        let left = seg.left_normal();
-                        let (before, after) = (left.dot(from - seg.a), left.dot(end - seg.a));
-                        if before < 0.0 || after >= 0.0 {
-                            continue;
-                        }
-                        // where the path crosses the line, along the segment
-                        let cross = from + (end - from) * (before / (before - after));
-                        let e = seg.b - seg.a;
-                        let t = e.dot(cross - seg.a) / e.length_squared();
-                        if !(0.0..=1.0).contains(&t) {
-                            continue;
-                        }
-                        let normal = xf.q.rotate(left);
-                        let moved = &mut bodies[body];
-                        // a tenth of a millimetre in front: on the line, rounding could
-                        // leave it behind
-                        moved.position += normal * (1.0e-4 - after);
-                        let into = moved.velocity.dot(normal);
-                        if into < 0.0 {
-                            moved.velocity -= normal * into;
-                        }
-                    }
-                }
-            }
-        }
-    }
-
-    /// Whether a static body is a one-sided segment (worked out again, with the grid of
-    /// them, when the body count changes).
-    fn has_one_sided(&mut self) -> bool {
-        let n = self.bodies.len();
-        if self.one_sided.0 != n {
-            self.walls = WallGrid::of(&self.bodies);
-            self.one_sided = (n, !self.walls.cells.is_empty());
-        }
-        self.one_sided.1
-    }
-
     /// The error for the first body (by index) whose state is not finite.
     fn first_non_finite(&self) -> StepError {
         let i = self.bodies.iter().position(|b| !b.is_finite());
@@ -772,49 +690,4 @@ pub fn count_start_pairs(
         max_start_pairs(boxes.len()),
     )
     .map_err(|(a, b)| (a as usize, b as usize))
-}
-
-/// The static one-sided segments in a grid of square cells, each segment in every cell
-/// its box touches: where a body's path through the step may cross one.
-#[derive(Clone, Debug, Default)]
-struct WallGrid {
-    /// The cells' side (m): twice the longest segment's box, at least 1 m.
-    side: f32,
-    cells: std::collections::HashMap<(i32, i32), Vec<u32>>,
-    /// Every one of them.
-    all: Vec<u32>,
-}
-
-impl WallGrid {
-    fn of(bodies: &[Body]) -> WallGrid {
-        let walls: Vec<(usize, Aabb)> = bodies
-            .iter()
-            .enumerate()
-            .filter(|(_, b)| !b.is_dynamic() && matches!(b.shape, Shape::Chain(c) if c.one_sided))
-            .map(|(i, b)| (i, b.aabb()))
-            .collect();
-        let longest = walls
-            .iter()
-            .map(|(_, bb)| (bb.max - bb.min).max_element())
-            .fold(0.0f32, f32::max);
-        let mut grid = WallGrid {
-            side: (2.0 * longest).max(1.0),
-            cells: Default::default(),
-            all: walls.iter().map(|&(i, _)| i as u32).collect(),
-        };
-        for (i, bb) in walls {
-            let (c0, c1) = (grid.cell(bb.min), grid.cell(bb.max));
-            for cx in c0.0..=c1.0 {
-                for cy in c0.1..=c1.1 {
-                    grid.cells.entry((cx, cy)).or_default().push(i as u32);
-                }
-            }
-        }
-        grid
-    }
-
-    fn cell(&self, p: Vec2) -> (i32, i32) {
-        let c = |x: f32| (x / self.side).floor().clamp(-1e9, 1e9) as i32;
-        (c(p.x), c(p.y))
-    }
 }
