@@ -70,6 +70,12 @@ pub fn untrack(temp: &Path) {
 /// exits. The record stays locked to the end, so no new temporary file appears
 /// meanwhile. For a second interrupt, which must not wait for a step to finish.
 pub fn abandon(code: i32, message: &str) -> ! {
+    if !claim_last_word() {
+        // the command is saying its own last line and ending: one line is enough
+        loop {
+            std::thread::park();
+        }
+    }
     let list = live();
     let mut removed = 0;
     let mut kept = Vec::new();
@@ -351,6 +357,16 @@ pub fn same_file(a: &Path, b: &Path) -> bool {
         (Some(x), Some(y)) => x == y,
         _ => false,
     }
+}
+
+/// Set by whoever says the process's last line: the command's own failure, or an
+/// interrupt that ends it at once ([`abandon`]). The other keeps quiet, so a second
+/// interrupt that comes while a stopped run says why it stopped adds no second line.
+static LAST_WORD: AtomicBool = AtomicBool::new(false);
+
+/// Claims the process's last line on stderr: true for the first caller only.
+pub fn claim_last_word() -> bool {
+    !LAST_WORD.swap(true, Ordering::SeqCst)
 }
 
 /// Set once an interrupt (SIGINT, SIGTERM) asks the current run to stop.

@@ -125,7 +125,10 @@ impl WorldState {
     }
 
     /// The state as JSON bytes (one line). Refused when a body's state is not finite
-    /// (JSON has no NaN; a world that blew up is not worth keeping).
+    /// (JSON has no NaN; a world that blew up is not worth keeping), or when the state
+    /// would not load back ([`WorldState::check`]: a finite velocity whose kinetic
+    /// energy is not, a speed past the limits a loaded state is held to): what is saved
+    /// always loads.
     pub fn to_json(&self) -> Result<Vec<u8>, StateError> {
         for (i, b) in self.bodies.iter().enumerate() {
             let ok = b.position.is_finite()
@@ -141,6 +144,15 @@ impl WorldState {
         }
         if !self.time.is_finite() {
             return Err(StateError::NotFinite("the time is not finite".into()));
+        }
+        if let Err(e) = self.check() {
+            let why = match e {
+                StateError::Invalid(m) | StateError::NotFinite(m) => m,
+                other => other.to_string(),
+            };
+            return Err(StateError::NotFinite(format!(
+                "it would not load back: {why}"
+            )));
         }
         serde_json::to_vec(self).map_err(|e| StateError::NotFinite(e.to_string()))
     }

@@ -158,6 +158,12 @@ fn main() -> ExitCode {
     match result {
         Ok(()) => ExitCode::SUCCESS,
         Err(f) => {
+            if !output::claim_last_word() {
+                // a second interrupt is ending the process with its own line
+                loop {
+                    std::thread::park();
+                }
+            }
             eprintln!("error: {}", one_line(&f.message));
             ExitCode::from(f.code)
         }
