@@ -3,7 +3,7 @@
 use std::process::Command;
 
 mod common;
-use common::cli::{sandbox2d, tmp};
+use common::cli::{limited, sandbox2d, temporaries, tmp};
 
 #[test]
 fn scenes_lists_every_builtin() {
@@ -737,17 +737,9 @@ fn fresh_tmp(name: &str) -> std::path::PathBuf {
     dir
 }
 
-/// Runs `cmd` under a file-size limit of `kib` KiB (bash's `ulimit -f`). The binary ignores
-/// SIGXFSZ itself, so a write past the limit fails with EFBIG, as a write to a full
-/// disk fails with ENOSPC, instead of ending it silently.
+/// Runs `args` under a file-size limit of `kib` KiB (bash's `ulimit -f`).
 fn with_file_limit(kib: u32, args: &[&str], cwd: &std::path::Path) -> std::process::Output {
-    let mut cmd = Command::new("bash");
-    cmd.arg("-c")
-        .arg(format!("ulimit -f {kib}; exec \"$0\" \"$@\""))
-        .arg(env!("CARGO_BIN_EXE_sandbox2d"))
-        .args(args)
-        .current_dir(cwd);
-    cmd.output().unwrap()
+    limited(&format!("ulimit -f {kib}"), args, cwd)
 }
 
 #[cfg(unix)]
@@ -805,20 +797,6 @@ fn bench_results_that_cannot_be_written_in_full_are_not_left() {
         let name = e.unwrap().file_name().to_string_lossy().into_owned();
         assert!(!name.ends_with(".tmp"), "temporary file {name} left");
     }
-}
-
-/// The files left in `dir` and below whose names end in `.tmp`.
-fn temporaries(dir: &std::path::Path) -> Vec<String> {
-    let mut out = Vec::new();
-    for e in std::fs::read_dir(dir).unwrap() {
-        let p = e.unwrap().path();
-        if p.is_dir() {
-            out.extend(temporaries(&p));
-        } else if p.to_string_lossy().ends_with(".tmp") {
-            out.push(p.display().to_string());
-        }
-    }
-    out
 }
 
 /// Under `ulimit -f` every command that writes a file stops with exit 1 and one line

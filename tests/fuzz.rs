@@ -10,6 +10,8 @@
 use std::path::PathBuf;
 use std::process::Command;
 
+mod common;
+use common::cli::{limited, sandbox2d, temporaries};
 use proptest::prelude::*;
 use proptest::test_runner::{Config, TestRunner};
 use sandbox2d::World;
@@ -314,10 +316,6 @@ fn mutated_builtin_scenes_load_build_and_run_or_are_refused_with_a_place() {
     assert!(saved.get() >= 10);
 }
 
-fn sandbox2d() -> Command {
-    Command::new(env!("CARGO_BIN_EXE_sandbox2d"))
-}
-
 /// The binary's outcome for `args` is clean: exit 0 with finite figures, exit 2 with
 /// one `error:` line (for a scene file: `error: FILE:LINE:COL: ...`), exit 1 with one
 /// line naming the scene (a run that blew up), or a usage error from the flag parser
@@ -507,20 +505,6 @@ fn case_dir(test: &str, case: u32) -> PathBuf {
     dir
 }
 
-/// The files left in `dir` and below whose names end in `.tmp`.
-fn temporaries(dir: &std::path::Path) -> Vec<String> {
-    let mut out = Vec::new();
-    for e in std::fs::read_dir(dir).unwrap() {
-        let p = e.unwrap().path();
-        if p.is_dir() {
-            out.extend(temporaries(&p));
-        } else if p.to_string_lossy().ends_with(".tmp") {
-            out.push(p.display().to_string());
-        }
-    }
-    out
-}
-
 /// Commands that write files, each with the files it writes when it ends well.
 fn writers() -> Vec<(Vec<&'static str>, Vec<&'static str>)> {
     let mut w: Vec<(Vec<&str>, Vec<&str>)> = vec![
@@ -627,20 +611,6 @@ fn check_write(
             unreachable!()
         }
     }
-}
-
-/// Runs `args` in `dir` under bash limits (`ulimit` options and values).
-fn limited(limits: &str, args: &[&str], dir: &std::path::Path) -> std::process::Output {
-    Command::new("bash")
-        .arg("-c")
-        .arg(format!("{limits}; exec \"$0\" \"$@\""))
-        .arg(env!("CARGO_BIN_EXE_sandbox2d"))
-        .args(args)
-        .current_dir(dir)
-        .env_remove("DISPLAY")
-        .env_remove("WAYLAND_DISPLAY")
-        .output()
-        .unwrap()
 }
 
 /// Under a random file-size limit (bash's `ulimit -f`: past it a write fails with

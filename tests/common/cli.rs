@@ -21,3 +21,34 @@ pub fn tmp(name: &str) -> PathBuf {
     std::fs::create_dir_all(&dir).unwrap();
     dir.join(name)
 }
+
+/// The files left in `dir` and below whose names end in `.tmp` (a command's temporary
+/// files: none may be left, whatever happened).
+pub fn temporaries(dir: &std::path::Path) -> Vec<String> {
+    let mut out = Vec::new();
+    for e in std::fs::read_dir(dir).unwrap() {
+        let p = e.unwrap().path();
+        if p.is_dir() {
+            out.extend(temporaries(&p));
+        } else if p.to_string_lossy().ends_with(".tmp") {
+            out.push(p.display().to_string());
+        }
+    }
+    out
+}
+
+/// Runs the binary with `args` in `cwd` under bash's limits (`limits`: e.g. `ulimit -f
+/// 4`; the binary ignores SIGXFSZ, so a write past a file-size limit fails with EFBIG as
+/// a write to a full disk fails with ENOSPC), with no display.
+pub fn limited(limits: &str, args: &[&str], cwd: &std::path::Path) -> std::process::Output {
+    Command::new("bash")
+        .arg("-c")
+        .arg(format!("{limits}; exec \"$0\" \"$@\""))
+        .arg(env!("CARGO_BIN_EXE_sandbox2d"))
+        .args(args)
+        .current_dir(cwd)
+        .env_remove("DISPLAY")
+        .env_remove("WAYLAND_DISPLAY")
+        .output()
+        .unwrap()
+}
