@@ -3,7 +3,7 @@
 use std::process::Command;
 
 mod common;
-use common::cli::{limited, sandbox2d, temporaries, tmp};
+use common::cli::{limited, sandbox2d, start_writing, temporaries, tmp};
 
 #[test]
 fn scenes_lists_every_builtin() {
@@ -888,8 +888,8 @@ fn two_interrupts_end_at_once_with_one_line_and_leave_nothing() {
     // steps of seconds each (10,000 PGS sweeps on 5050 boxes), so that the second
     // interrupt comes while the first waits for the step to end; apart by a moment, as
     // two signals sent at once may reach the process as one
-    let mut child = sandbox2d()
-        .args([
+    let (mut child, began) = start_writing(
+        &[
             "simulate",
             "large_pyramid",
             "--steps",
@@ -904,18 +904,11 @@ fn two_interrupts_end_at_once_with_one_line_and_leave_nothing() {
             "0",
             "--trace",
             "t.csv",
-        ])
-        .current_dir(&dir)
-        .stderr(std::process::Stdio::piped())
-        .stdout(std::process::Stdio::null())
-        .spawn()
-        .unwrap();
-    let temp = dir.join(format!(".t.csv.{}.tmp", child.id()));
-    let t = std::time::Instant::now();
-    while !temp.exists() && t.elapsed().as_secs() < 60 {
-        std::thread::sleep(std::time::Duration::from_millis(20));
-    }
-    assert!(temp.exists(), "the run started");
+        ],
+        &dir,
+        "t.csv",
+    );
+    assert!(began, "the run started");
     let pid = child.id().to_string();
     Command::new("sh")
         .arg("-c")

@@ -11,7 +11,7 @@ use std::path::PathBuf;
 use std::process::Command;
 
 mod common;
-use common::cli::{limited, sandbox2d, temporaries};
+use common::cli::{limited, sandbox2d, start_writing, temporaries};
 use proptest::prelude::*;
 use proptest::test_runner::{Config, TestRunner};
 use sandbox2d::World;
@@ -720,24 +720,17 @@ fn interrupts_at_random_moments_end_with_one_line_and_nothing_half_written() {
             |(wait_ms, signals, gap_ms)| {
                 case.set(case.get() + 1);
                 let dir = case_dir("interrupt", case.get());
-                let mut child = sandbox2d()
-                    .args([
-                        "simulate", "pyramid", "--steps", "1000000", "--trace", "t.csv",
-                    ])
-                    .current_dir(&dir)
-                    .stderr(std::process::Stdio::piped())
-                    .stdout(std::process::Stdio::null())
-                    .spawn()
-                    .unwrap();
                 // from the moment the run has begun (its trace's temporary file is
                 // there): a signal before the program set its handler ends it as any
                 // program
-                let temp = dir.join(format!(".t.csv.{}.tmp", child.id()));
-                let t = std::time::Instant::now();
-                while !temp.exists() && t.elapsed().as_secs() < 60 {
-                    std::thread::sleep(std::time::Duration::from_millis(5));
-                }
-                if !temp.exists() {
+                let (mut child, began) = start_writing(
+                    &[
+                        "simulate", "pyramid", "--steps", "1000000", "--trace", "t.csv",
+                    ],
+                    &dir,
+                    "t.csv",
+                );
+                if !began {
                     let _ = child.kill();
                     let _ = child.wait();
                     prop_assert!(false, "the run did not begin in a minute");

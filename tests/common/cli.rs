@@ -52,3 +52,26 @@ pub fn limited(limits: &str, args: &[&str], cwd: &std::path::Path) -> std::proce
         .output()
         .unwrap()
 }
+
+/// Starts the binary with `args` in `dir` (stderr kept, stdout dropped) and waits up to
+/// a minute for the temporary file of its output `name` to appear; whether it did (the
+/// run has begun writing).
+pub fn start_writing(
+    args: &[&str],
+    dir: &std::path::Path,
+    name: &str,
+) -> (std::process::Child, bool) {
+    let child = sandbox2d()
+        .args(args)
+        .current_dir(dir)
+        .stderr(std::process::Stdio::piped())
+        .stdout(std::process::Stdio::null())
+        .spawn()
+        .unwrap();
+    let temp = dir.join(format!(".{name}.{}.tmp", child.id()));
+    let t = std::time::Instant::now();
+    while !temp.exists() && t.elapsed().as_secs() < 60 {
+        std::thread::sleep(std::time::Duration::from_millis(5));
+    }
+    (child, temp.exists())
+}
