@@ -50,6 +50,14 @@ fn names_a_session(line: &str) -> bool {
     })
 }
 
+/// An issue's number: the word issue (or issues) followed by a number.
+fn names_an_issue(line: &str) -> bool {
+    let w = words(line);
+    w.windows(2).any(|p| {
+        (p[0] == "issue" || p[0] == "issues") && p[1].starts_with(|c: char| c.is_ascii_digit())
+    })
+}
+
 /// What in `line` reads as a work-log entry, if anything: a session's number, an
 /// issue's number, a date (2026-11-27), a commit hash (7 to 40 hex digits, letters and
 /// digits both, not one of [`PINNED`]).
@@ -57,13 +65,10 @@ fn work_log(line: &str) -> Option<String> {
     if names_a_session(line) {
         return Some("a work session's number".into());
     }
-    let w = words(line);
-    if w.windows(2).any(|p| {
-        (p[0] == "issue" || p[0] == "issues") && p[1].starts_with(|c: char| c.is_ascii_digit())
-    }) {
+    if names_an_issue(line) {
         return Some("an issue's number".into());
     }
-    for word in &w {
+    for word in &words(line) {
         let b = word.as_bytes();
         let is_date = b.len() == 10
             && b[4] == b'-'
@@ -124,12 +129,13 @@ fn outside(file: &Path, line: &str) -> Option<String> {
 #[test]
 fn the_detectors_find_work_log_entries_and_outside_paths() {
     let s = "session";
+    let i = "issue";
     for entry in [
         format!("measured in {s} 26 on a busy hour"),
         format!("### {s}s 23 and 24: a hang"),
         "the build before (8f1d684) took 3.1 ms".to_string(),
         "2026-11-27: tried the eight-lane sweep".to_string(),
-        "issue 16's target".to_string(),
+        format!("{i} 16's target"),
     ] {
         assert!(work_log(&entry).is_some(), "not found in {entry:?}");
     }
@@ -179,7 +185,7 @@ fn the_readme_has_no_work_log_and_no_path_outside_the_repository() {
 }
 
 #[test]
-fn no_document_comment_or_test_names_a_work_session_and_links_stay_inside() {
+fn no_document_comment_or_test_names_a_work_session_or_an_issue_and_links_stay_inside() {
     let root = repo();
     let mut found = Vec::new();
     let mut all = files(&root.join("docs"), &["md"]);
@@ -193,6 +199,8 @@ fn no_document_comment_or_test_names_a_work_session_and_links_stay_inside() {
             let md = rel.extension().is_some_and(|e| e == "md");
             let what = if names_a_session(line) {
                 Some("a work session's number".to_string())
+            } else if names_an_issue(line) {
+                Some("an issue's number".to_string())
             } else if md {
                 outside(rel, line)
             } else {

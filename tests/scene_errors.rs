@@ -795,7 +795,7 @@ use sandbox2d::{BodyModel, BodyType, JointKind, ShapeDef, SolverKind};
 #[test]
 fn every_builtin_parses_and_has_a_description() {
     let names = builtin_names();
-    // the scenes issues 2, 4 and 15 ask for, listed sorted
+    // the built-in scenes, listed sorted
     let wanted = [
         "ball_and_chain",
         "ball_stack",

@@ -598,13 +598,13 @@ fn png_and_gif_files_round_trip() {
 }
 
 /// `render --compare`'s frame: the pyramid in 2 panes (PGS with 4 sweeps, the soft
-/// step) after 20 steps in lock step, each labelled with its settings and figures in the
-/// bitmap font, a divider between them. The ms per step, a wall time, is pinned to
+/// step) after 20 steps in lock step, each labelled with its settings and figures in
+/// anti-aliased text over a dark box inside its pane, a divider between them. The ms per step, a wall time, is pinned to
 /// 0.25 so the golden image holds; the other figures are the run's own.
 #[test]
 fn compare_two_panes() {
     use sandbox2d::compare::{Pane, figure_lines};
-    use sandbox2d::render::compare::{PaneView, pane_width, render_panes};
+    use sandbox2d::render::compare::{PaneView, label_box, pane_width, render_panes};
     use sandbox2d::{SolverKind, SolverOverrides};
     let sc = sandbox2d::scene::load("pyramid").expect("the built-in pyramid");
     let settings = [
@@ -670,13 +670,39 @@ fn compare_two_panes() {
     .expect("render_panes");
     drop(r);
     assert_eq!(img.dimensions(), (640, 300));
-    // the labels: light text at each pane's top-left, the divider at the boundary
-    for x0 in [0u32, pane_w] {
-        let lit = (x0 + 2..x0 + 150)
-            .flat_map(|x| (2..26).map(move |y| (x, y)))
-            .filter(|&(x, y)| img.get_pixel(x, y).0[0] > 200)
-            .count();
-        assert!(lit > 150, "pane at x={x0}: {lit} label pixels");
+    // the labels: light text at each pane's top-left, its edges anti-aliased (many
+    // shades between the box and the text), over a box that lies inside the pane and
+    // darkens what is under it; the divider at the boundary
+    for (k, view) in views.iter().enumerate() {
+        let x0 = k as u32 * pane_w;
+        let [bw, bh] = label_box(&view.lines, [pane_w, size[1]]);
+        assert!(bw + 2 < pane_w && bh < size[1] / 2, "box {bw}x{bh}");
+        let text: Vec<u8> = (x0 + 1..x0 + bw - 1)
+            .flat_map(|x| (1..bh - 1).map(move |y| (x, y)))
+            .map(|(x, y)| img.get_pixel(x, y).0[0])
+            .collect();
+        let lit = text.iter().filter(|&&r| r > 200).count();
+        assert!(lit > 60, "pane {k}: {lit} label pixels");
+        let mut shades: Vec<u8> = text.iter().copied().filter(|&r| r > 40).collect();
+        shades.sort_unstable();
+        shades.dedup();
+        assert!(
+            shades.len() > 16,
+            "pane {k}: {} shades of text",
+            shades.len()
+        );
+        // the sky just inside the box's right edge is darker than just outside it
+        let sum = |x: u32| {
+            img.get_pixel(x, 1).0[..3]
+                .iter()
+                .map(|&c| u32::from(c))
+                .sum::<u32>()
+        };
+        let (inside, outside) = (sum(x0 + bw - 1), sum(x0 + bw + 1));
+        assert!(
+            inside + 30 < outside,
+            "pane {k}: box edge {inside} vs {outside}"
+        );
     }
     assert!(img.get_pixel(pane_w, 150).0[0] > 150, "the divider");
     assert_snapshot("compare_pyramid_2_panes", &img);

@@ -1,8 +1,9 @@
 //! The panel as a layer: egui draws into a texture of the window's size only when the
 //! panel changes (input over it, an egui animation, or the stats' refresh a few times a
 //! second), and every frame lays that texture over the world with one scissored
-//! triangle. On llvmpipe egui's own pass costs about 13 ms a frame (many small
-//! triangles and draw calls), the layer about 1 ms.
+//! triangle, and one more for each of the panes' labels (`run --compare`), which egui
+//! paints into the same texture. On llvmpipe egui's own pass costs about 13 ms a frame
+//! (many small triangles and draw calls), the layer about 1 ms.
 
 /// The label of the layer's GPU objects.
 const LABEL: &str = "sandbox2d panel layer";
@@ -39,6 +40,8 @@ pub(super) struct PanelLayer {
     target: Option<Target>,
     /// The pixels the panel painted, [x0, y0, x1, y1) (panel and any open popup).
     painted: Option<[u32; 4]>,
+    /// The pixels of each of the panes' labels, [x0, y0, x1, y1).
+    labels: Vec<[u32; 4]>,
 }
 
 impl PanelLayer {
@@ -82,6 +85,7 @@ impl PanelLayer {
             format,
             target: None,
             painted: None,
+            labels: Vec::new(),
         }
     }
 
@@ -118,6 +122,7 @@ impl PanelLayer {
                 size,
             });
             self.painted = None;
+            self.labels.clear();
         }
         &self.target.as_ref().expect("made above").view
     }
@@ -127,22 +132,34 @@ impl PanelLayer {
         self.target.as_ref().is_some_and(|t| t.size == size)
     }
 
-    /// Records what egui painted this time: the bounding box of its meshes, each cut to
-    /// its clip rectangle, in pixels. Nothing painted: the layer is skipped.
-    pub(super) fn set_painted(&mut self, jobs: &[egui::ClippedPrimitive], pixels_per_point: f32) {
-        self.painted = painted_rect(jobs, pixels_per_point, self.target.as_ref().map(|t| t.size));
+    /// Records what egui painted this time: the bounding box of the panel's meshes, each
+    /// cut to its clip rectangle, in pixels, and the boxes of the panes' labels
+    /// (`labels`, points; the meshes clipped to one of them are the label's, not the
+    /// panel's). Nothing painted: the layer is skipped.
+    pub(super) fn set_painted(
+        &mut self,
+        jobs: &[egui::ClippedPrimitive],
+        pixels_per_point: f32,
+        labels: &[egui::Rect],
+    ) {
+        let size = self.target.as_ref().map(|t| t.size);
+        (self.painted, self.labels) = split_painted(jobs, pixels_per_point, size, labels);
     }
 
-    /// The pixels the panel covers, [x0, y0, x1, y1), if any.
+    /// The pixels the panel covers, [x0, y0, x1, y1), if any (the labels apart: the
+    /// pointer over a label is over the world).
     pub(super) fn painted(&self) -> Option<[u32; 4]> {
         self.painted
     }
 
     /// Lays the layer over `target` (which holds the world), within what was painted.
     pub(super) fn composite(&self, encoder: &mut wgpu::CommandEncoder, target: &wgpu::TextureView) {
-        let (Some(t), Some([x0, y0, x1, y1])) = (&self.target, self.painted) else {
+        let Some(t) = &self.target else {
             return;
         };
+        if self.painted.is_none() && self.labels.is_empty() {
+            return;
+        }
         let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
             label: Some(LABEL),
             color_attachments: &[Some(wgpu::RenderPassColorAttachment {
@@ -161,19 +178,44 @@ impl PanelLayer {
         });
         pass.set_pipeline(&self.pipeline);
         pass.set_bind_group(0, &t.bind_group, &[]);
-        pass.set_scissor_rect(x0, y0, x1 - x0, y1 - y0);
-        pass.draw(0..3, 0..1);
+        for [x0, y0, x1, y1] in self.painted.iter().chain(&self.labels) {
+            pass.set_scissor_rect(*x0, *y0, x1 - x0, y1 - y0);
+            pass.draw(0..3, 0..1);
+        }
     }
+}
+
+/// What egui painted into a texture of `size`, in pixels: the panel's bounding box
+/// (every mesh not clipped to within one of `labels`, see [`painted_rect`]) and each
+/// label's box (`labels`, points).
+fn split_painted(
+    jobs: &[egui::ClippedPrimitive],
+    pixels_per_point: f32,
+    size: Option<[u32; 2]>,
+    labels: &[egui::Rect],
+) -> (Option<[u32; 4]>, Vec<[u32; 4]>) {
+    // a label's meshes are clipped to its box (half a point of slack)
+    let panel = jobs.iter().filter(|j| {
+        !labels
+            .iter()
+            .any(|l| l.expand(0.5).contains_rect(j.clip_rect))
+    });
+    (
+        painted_rect(panel, pixels_per_point, size),
+        labels
+            .iter()
+            .filter_map(|l| pixel_rect(*l, pixels_per_point, size))
+            .collect(),
+    )
 }
 
 /// The bounding box in pixels, [x0, y0, x1, y1), of the meshes of `jobs` cut to their
 /// clip rectangles and to a texture of `size`; `None` when nothing is painted.
-fn painted_rect(
-    jobs: &[egui::ClippedPrimitive],
+fn painted_rect<'a>(
+    jobs: impl IntoIterator<Item = &'a egui::ClippedPrimitive>,
     pixels_per_point: f32,
     size: Option<[u32; 2]>,
 ) -> Option<[u32; 4]> {
-    let [w, h] = size?;
     let mut rect = egui::Rect::NOTHING;
     for job in jobs {
         if let egui::epaint::Primitive::Mesh(mesh) = &job.primitive {
@@ -186,10 +228,16 @@ fn painted_rect(
             }
         }
     }
+    pixel_rect(rect, pixels_per_point, size)
+}
+
+/// `rect` (points) in whole pixels, [x0, y0, x1, y1), one more each side for
+/// antialiased edges, cut to a texture of `size`; `None` when nothing is left.
+fn pixel_rect(rect: egui::Rect, pixels_per_point: f32, size: Option<[u32; 2]>) -> Option<[u32; 4]> {
+    let [w, h] = size?;
     if !rect.is_positive() {
         return None;
     }
-    // whole pixels, one more each side for antialiased edges
     let x0 = ((rect.min.x * pixels_per_point).floor() - 1.0).clamp(0.0, w as f32) as u32;
     let y0 = ((rect.min.y * pixels_per_point).floor() - 1.0).clamp(0.0, h as f32) as u32;
     let x1 = ((rect.max.x * pixels_per_point).ceil() + 1.0).clamp(0.0, w as f32) as u32;
@@ -240,5 +288,28 @@ mod tests {
         );
         assert_eq!(painted_rect(&[], 1.0, Some([100, 100])), None);
         assert_eq!(painted_rect(&jobs, 1.0, None), None);
+    }
+
+    #[test]
+    fn the_labels_are_boxes_of_their_own_and_not_the_panel() {
+        // a panel 0..300 x 0..720 points, two labels right of it, at 1 px a point
+        let labels = [
+            Rect::from_min_max(Pos2::new(340.0, 8.0), Pos2::new(560.0, 70.0)),
+            Rect::from_min_max(Pos2::new(820.0, 8.0), Pos2::new(1040.0, 70.0)),
+        ];
+        let jobs = [
+            job((0.0, 0.0), (300.0, 720.0), Rect::EVERYTHING),
+            job((340.0, 8.0), (560.0, 70.0), labels[0]),
+            job((824.0, 12.0), (1000.0, 60.0), labels[1]),
+        ];
+        let (panel, boxes) = split_painted(&jobs, 1.0, Some([1280, 720]), &labels);
+        // the panel alone (where the pointer is the panel's), not the union with the
+        // labels, which would take the whole top of the window
+        assert_eq!(panel, Some([0, 0, 301, 720]));
+        assert_eq!(boxes, [[339, 7, 561, 71], [819, 7, 1041, 71]]);
+        // without labels every mesh is the panel's
+        let (panel, boxes) = split_painted(&jobs, 1.0, Some([1280, 720]), &[]);
+        assert_eq!(panel, Some([0, 0, 1001, 720]));
+        assert!(boxes.is_empty());
     }
 }

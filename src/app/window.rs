@@ -39,11 +39,13 @@ const PANEL_FRAME_PX: f32 = 32.0;
 /// The line between `--compare` panes.
 const DIVIDER_COLOR: [u8; 4] = [200, 200, 210, 255];
 /// `run --compare` labels: text and the box behind it.
-const LABEL_COLOR: [u8; 4] = [235, 235, 240, 255];
-const LABEL_BACK: [u8; 4] = [0, 0, 0, 150];
-/// Screen pixels per font pixel of a pane label, and its margin from the pane's corner.
-const LABEL_SCALE: u32 = 2;
-const LABEL_MARGIN_PX: f32 = 8.0;
+const LABEL_COLOR: egui::Color32 = egui::Color32::from_rgb(235, 235, 240);
+const LABEL_BACK: egui::Color32 = egui::Color32::from_black_alpha(160);
+/// A pane label's font size, its margin from the pane's corner and its box's padding
+/// around the text (points).
+const LABEL_FONT_PT: f32 = 14.0;
+const LABEL_MARGIN_PT: f32 = 8.0;
+const LABEL_PAD_PT: f32 = 4.0;
 /// How often the panel is redrawn when nothing touches it (its live figures and plots).
 const PANEL_REFRESH: std::time::Duration = std::time::Duration::from_millis(250);
 
@@ -122,12 +124,6 @@ pub(super) struct App {
     compare: Option<Compare>,
     /// One pane's draw list, before it is moved into place in `list`.
     pane_list: DrawList,
-    /// `run --compare`: each pane's label lines (settings, then figures), refreshed
-    /// every [`PANEL_REFRESH`] so the digits can be read.
-    labels: Vec<Vec<String>>,
-    labels_next: Option<Instant>,
-    /// Scratch: a label line's font-pixel runs.
-    runs: Vec<[u32; 3]>,
     /// With panes: the first pane's settings when its label was last written (the
     /// panel edits them; the label then follows).
     first_settings: Option<crate::defs::SolverSettings>,
@@ -143,9 +139,6 @@ impl App {
             list: DrawList::new(),
             compare: None,
             pane_list: DrawList::new(),
-            labels: Vec::new(),
-            labels_next: None,
-            runs: Vec::new(),
             first_settings: None,
             gpu: None,
             mouse: Mouse::default(),
@@ -509,7 +502,6 @@ impl App {
                     DIVIDER_COLOR,
                 );
             }
-            self.push_pane_labels(now);
         } else {
             fill_world_draw_list(&mut self.list, &self.session.world, &overlays);
             self.push_tools();
@@ -527,14 +519,17 @@ impl App {
         let t_list = Instant::now();
         let size = [g.config.width, g.config.height];
         let visible = self.panel_visible;
-        let due = visible
+        // with panes, egui also paints their labels (into the same layer), panel or not
+        let labelled = self.compare.is_some();
+        let layer = visible || labelled;
+        let due = layer
             && (self.panel_dirty
                 || self.panel_next.is_none_or(|t| now >= t)
                 || !g.panel.ready(size));
         let mut actions = ui::PanelActions::default();
-        let mut drawn: Option<(Vec<egui::ClippedPrimitive>, f32)> = None;
+        let mut drawn: Option<(Vec<egui::ClippedPrimitive>, f32, Vec<egui::Rect>)> = None;
         let mut free: Vec<egui::TextureId> = Vec::new();
-        if !visible {
+        if !layer {
             // Keep egui's input queue from growing while it is not run. Only the queue:
             // `take_egui_input` would also ask the window server for the window's
             // position, size and state (round trips, about 0.8 ms a frame under Xvfb).
@@ -556,9 +551,30 @@ impl App {
             let raw = g.egui_state.take_egui_input(&g.window);
             let ctx = g.egui_state.egui_ctx().clone();
             let session = &mut self.session;
-            let others = self.compare.as_ref().map_or(&[][..], |c| &c.others[..]);
+            let compare = self.compare.as_ref();
+            let others = compare.map_or(&[][..], |c| &c.others[..]);
+            let mut label_boxes = Vec::new();
             let mut out = ctx.run_ui(raw, |ui| {
-                actions = ui::panel(ui, session, others, frame_stats);
+                if visible {
+                    actions = ui::panel(ui, session, others, frame_stats);
+                }
+                if let Some(c) = compare {
+                    // the panes in points; the labels start right of the panel
+                    let ppp = ui.ctx().pixels_per_point();
+                    let h = size[1] as f32 / ppp;
+                    let panes: Vec<egui::Rect> = (0..c.panes())
+                        .map(|k| {
+                            let x = (area_left + k as f32 * pw) / ppp;
+                            egui::Rect::from_min_size(egui::pos2(x, 0.0), egui::vec2(pw / ppp, h))
+                        })
+                        .collect();
+                    let free_left = ui.available_rect_before_wrap().left();
+                    let figures = std::iter::once(&*session)
+                        .chain(&c.others)
+                        .map(Session::figures);
+                    let labels = c.labels.iter().map(String::as_str).zip(figures);
+                    label_boxes = frame::paint_pane_labels(ui.ctx(), &panes, free_left, labels);
+                }
             });
             g.egui_state
                 .handle_platform_output(&g.window, std::mem::take(&mut out.platform_output));
@@ -581,7 +597,7 @@ impl App {
                 }
             }
             free = textures.free.drain().collect();
-            drawn = Some((jobs, out.pixels_per_point));
+            drawn = Some((jobs, out.pixels_per_point, label_boxes));
         }
 
         let t_ui = Instant::now();
@@ -615,7 +631,7 @@ impl App {
                 label: Some("sandbox2d window frame"),
             });
         let mut extra = Vec::new();
-        if let Some((jobs, pixels_per_point)) = &drawn {
+        if let Some((jobs, pixels_per_point, label_boxes)) = &drawn {
             let screen = egui_wgpu::ScreenDescriptor {
                 size_in_pixels: size,
                 pixels_per_point: *pixels_per_point,
@@ -624,9 +640,9 @@ impl App {
                 g.egui_renderer
                     .update_buffers(&g.device, &g.queue, &mut encoder, jobs, &screen);
             draw_panel(g, &mut encoder, jobs, &screen);
-            g.panel.set_painted(jobs, *pixels_per_point);
+            g.panel.set_painted(jobs, *pixels_per_point, label_boxes);
         }
-        encode_frame(g, &mut encoder, &view, &self.list, &self.camera, visible);
+        encode_frame(g, &mut encoder, &view, &self.list, &self.camera, layer);
         // The last frame of a --frames run with --screenshot: the same passes again into
         // a texture that can be read back (a surface texture cannot, on every backend).
         let last = self.opts.frames.is_some_and(|n| self.frames + 1 >= n);
@@ -646,7 +662,7 @@ impl App {
                     &capture_view,
                     &self.list,
                     &self.camera,
-                    visible,
+                    layer,
                 );
                 c.copy(&mut encoder);
                 Some(c)
@@ -751,7 +767,8 @@ impl App {
                 let s = &self.session;
                 let base = s.scene.world.solver.merged(s.cli_overrides).resolve();
                 c.labels[0] = super::session::settings_label(&now, &base);
-                self.labels_next = None;
+                // egui paints the labels: the next frame shows the new one
+                self.panel_dirty = true;
                 if let Some(g) = &self.gpu {
                     g.window.set_title(&self.title());
                 }
@@ -786,7 +803,6 @@ impl App {
                 self.session.note = Some(format!("{} panes", self.panes()));
                 // the panes share the width: frame the scene in the first again
                 self.reset_camera();
-                self.labels_next = None;
                 self.first_settings = None;
                 if let Some(g) = &self.gpu {
                     g.window.set_title(&self.title());
@@ -818,7 +834,6 @@ impl App {
         if let Some(c) = self.compare.as_mut() {
             c.seek(k);
         }
-        self.labels_next = None;
         self.panel_dirty = true;
     }
 

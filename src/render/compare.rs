@@ -1,12 +1,12 @@
 //! Side by side (`render --compare`): the panes of a [`crate::compare`] comparison drawn
 //! next to each other in one frame, each through the same camera, labelled at its top
-//! with its settings and figures (in the [`super::font`] bitmap font), with a divider
-//! between panes.
+//! with its settings and figures (in the Hack font, rasterised by [`super::text`]), with
+//! a divider between panes.
 
 use image::RgbaImage;
 
-use super::font::{self, CELL_H};
 use super::frames::{FrameJob, FramesError, FramesWritten, frame_name};
+use super::text;
 use super::{GifWriter, RenderError, Renderer, save_png};
 use crate::compare::Pane;
 use crate::draw::world::{Overlays, fill_world_draw_list};
@@ -34,32 +34,42 @@ pub fn pane_width(width: u32, n: usize) -> u32 {
     (width / n.max(1) as u32).max(1)
 }
 
-/// The label's scale: font pixels 1 to 3 screen pixels, by the pane's width, and no
-/// larger than lets the widest line fit.
-fn label_scale(lines: &[String], pane_w: u32) -> u32 {
-    let mut scale = (pane_w / 320).clamp(1, 3);
-    while scale > 1 && font::text_size(lines, scale)[0] + 8 * scale > pane_w {
-        scale -= 1;
-    }
-    scale
+/// The padding (px) between a label's text and the edge of its backing at `px` pixels.
+fn label_pad(px: f32) -> u32 {
+    (px / 4.0).round().max(2.0) as u32
 }
 
-/// Draws the label at the pane's top-left over a translucent backing.
+/// The label's font size (px): a 36th of the pane's width within 12 to 24 px, then
+/// smaller, down to 8 px, until the widest line and its padding fit the pane.
+fn label_px(lines: &[String], pane_w: u32) -> f32 {
+    let mut px = (pane_w as f32 / 36.0).round().clamp(12.0, 24.0);
+    while px > 8.0 && text::text_size(lines, px)[0] + 2 * label_pad(px) > pane_w {
+        px -= 1.0;
+    }
+    px
+}
+
+/// The size in pixels of the box that [`render_panes`] draws a pane's label in, at the
+/// pane's top-left corner, in a pane of `pane` pixels: the text and its padding, cut to
+/// the pane.
+pub fn label_box(lines: &[String], pane: [u32; 2]) -> [u32; 2] {
+    let px = label_px(lines, pane[0]);
+    let pad = label_pad(px);
+    let [w, h] = text::text_size(lines, px);
+    [(w + 2 * pad).min(pane[0]), (h + 2 * pad).min(pane[1])]
+}
+
+/// Draws the label at the pane's top-left over a translucent backing, both cut to the
+/// pane (`img`).
 fn draw_label(img: &mut RgbaImage, lines: &[String]) {
-    let scale = label_scale(lines, img.width());
-    let pad = 3 * scale;
-    let [w, h] = font::text_size(lines, scale);
-    font::fill_rect(
-        img,
-        0,
-        0,
-        (w + 2 * pad).min(img.width()),
-        h + 2 * pad,
-        BACKING,
-    );
+    let px = label_px(lines, img.width());
+    let pad = label_pad(px);
+    let [w, h] = label_box(lines, [img.width(), img.height()]);
+    text::fill_rect(img, 0, 0, w, h, BACKING);
+    let line_h = text::line_height(px);
     for (i, line) in lines.iter().enumerate() {
-        let y = pad + i as u32 * CELL_H * scale;
-        font::draw_text(img, i64::from(pad), i64::from(y), scale, TEXT, line);
+        let y = pad + i as u32 * line_h;
+        text::draw_text(img, pad as f32, y as f32, px, TEXT, line);
     }
 }
 
@@ -91,7 +101,7 @@ pub fn render_panes(
     // a divider 1 pixel either side of each boundary (2 in all)
     for i in 1..panes.len() {
         let x = i64::from(i as u32 * pw) - 1;
-        font::fill_rect(&mut frame, x, 0, 2, ph, DIVIDER);
+        text::fill_rect(&mut frame, x, 0, 2, ph, DIVIDER);
     }
     Ok(frame)
 }
@@ -190,10 +200,22 @@ mod tests {
     }
 
     #[test]
-    fn the_label_shrinks_to_fit() {
+    fn the_label_grows_with_the_pane_and_shrinks_to_fit() {
         let lines = vec!["--solver pgs --iterations 4".to_owned()];
-        assert_eq!(label_scale(&lines, 1280), 3);
-        assert_eq!(label_scale(&lines, 640), 2);
-        assert_eq!(label_scale(&lines, 240), 1);
+        let fits =
+            |px: f32, pane_w: u32| text::text_size(&lines, px)[0] + 2 * label_pad(px) <= pane_w;
+        // wide panes: a 36th of the width, at most 24 px
+        assert_eq!(label_px(&lines, 1280), 24.0);
+        assert_eq!(label_px(&lines, 640), 18.0);
+        assert_eq!(label_px(&lines, 320), 12.0);
+        // narrow ones: the largest size that fits
+        for pane_w in [135, 150] {
+            let px = label_px(&lines, pane_w);
+            assert!(px > 8.0 && px < 12.0, "{px} px in {pane_w}");
+            assert!(fits(px, pane_w) && !fits(px + 1.0, pane_w));
+        }
+        // too narrow for any: the smallest size, cut at the pane's edge
+        assert_eq!(label_px(&lines, 60), 8.0);
+        assert_eq!(label_box(&lines, [60, 40])[0], 60);
     }
 }

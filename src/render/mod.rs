@@ -4,9 +4,9 @@
 
 pub mod capture;
 pub mod compare;
-pub mod font;
 pub mod frames;
 mod gpu;
+pub mod text;
 
 pub use capture::{GifWriter, save_png};
 pub use frames::{FrameJob, FramesError, FramesWritten, frame_name, render_frames};

@@ -1,68 +1,52 @@
-//! Recording a window frame: the overlays drawn over the world (the panes' labels,
-//! the tools), the world and the panel's layer into the surface, and the copy of a
+//! Recording a window frame: the panes' labels (painted by egui), the tools drawn over
+//! the world, the world and the panel's layer into the surface, and the copy of a
 //! frame read back for a screenshot.
 
 use super::*;
 
-impl App {
-    /// `run --compare`: each pane's settings and live figures at its top-left corner,
-    /// drawn as segments of the bitmap font (`render::font`) over a dark box.
-    pub(super) fn push_pane_labels(&mut self, now: Instant) {
-        let Some(c) = self.compare.as_ref() else {
-            return;
-        };
-        if self.labels_next.is_none_or(|t| now >= t) || self.labels.len() != c.panes() {
-            // the settings wrapped to the pane's width, then the figures
-            let (_, pw) = self.pane_area();
-            let cell = (crate::render::font::CELL_W * LABEL_SCALE) as f32;
-            let width = ((pw - 2.0 * LABEL_MARGIN_PX - 8.0) / cell).floor().max(8.0) as usize;
-            self.labels = std::iter::once(&self.session)
-                .chain(&c.others)
-                .zip(&c.labels)
-                .map(|(s, label)| {
-                    let mut lines = crate::compare::wrap(label, width);
-                    lines.extend(crate::compare::figure_lines(&s.figures()));
-                    lines
-                })
-                .collect();
-            self.labels_next = Some(now + PANEL_REFRESH);
+/// `run --compare`: each pane's label (its settings wrapped to the pane's width, then its
+/// live figures) at the pane's top-left corner, in egui's monospace font over a
+/// translucent box, on a layer of its own under any popup. `panes` are the panes' rects
+/// (points) left to right; `free_left` is where the panel ends (points): no label
+/// starts left of it. Each label is clipped to its box, itself inside its pane. Returns
+/// the boxes (points), which the panel layer lays over the world beside the panel.
+pub(super) fn paint_pane_labels<'a>(
+    ctx: &egui::Context,
+    panes: &[egui::Rect],
+    free_left: f32,
+    labels: impl Iterator<Item = (&'a str, crate::compare::Figures)>,
+) -> Vec<egui::Rect> {
+    let font = egui::FontId::monospace(LABEL_FONT_PT);
+    let advance = ctx.fonts_mut(|f| f.glyph_width(&font, '0')).max(1.0);
+    let layer = egui::LayerId::new(egui::Order::Background, egui::Id::unique("pane labels"));
+    let painter = ctx.layer_painter(layer);
+    let mut boxes = Vec::with_capacity(panes.len());
+    for (pane, (settings, figures)) in panes.iter().zip(labels) {
+        let min = egui::pos2(pane.left().max(free_left), pane.top())
+            + egui::vec2(1.0, 1.0) * LABEL_MARGIN_PT;
+        let room = pane.right() - min.x - LABEL_MARGIN_PT - 2.0 * LABEL_PAD_PT;
+        let columns = (room / advance).floor().max(8.0) as usize;
+        let mut lines = crate::compare::wrap(settings, columns);
+        lines.extend(crate::compare::figure_lines(&figures));
+        let galley = painter.layout_no_wrap(lines.join("\n"), font.clone(), LABEL_COLOR);
+        let size = galley.size() + egui::vec2(2.0, 2.0) * LABEL_PAD_PT;
+        let boxed = egui::Rect::from_min_size(min, size).intersect(*pane);
+        if !boxed.is_positive() {
+            continue;
         }
-        let [w, h] = self.camera.size;
-        let ppm = self.camera.pixels_per_meter;
-        let left = self.camera.center.x - 0.5 * w as f32 / ppm;
-        let top = self.camera.center.y + 0.5 * h as f32 / ppm;
-        let to_world = |x: f32, y: f32| Vec2::new(left + x / ppm, top - y / ppm);
-        let (area_left, pw) = self.pane_area();
-        let s = LABEL_SCALE as f32;
-        for (k, lines) in self.labels.iter().enumerate() {
-            let x0 = area_left + k as f32 * pw + LABEL_MARGIN_PX;
-            let y0 = LABEL_MARGIN_PX;
-            let [tw, th] = crate::render::font::text_size(lines, LABEL_SCALE);
-            let pad = 4.0;
-            let (bw, bh) = (tw as f32 + 2.0 * pad, th as f32 + 2.0 * pad);
-            self.list.push_box(
-                to_world(x0 - pad + 0.5 * bw, y0 - pad + 0.5 * bh),
-                bw / ppm,
-                bh / ppm,
-                0.0,
-                LABEL_BACK,
-                [0, 0, 0, 0],
-            );
-            for (row, line) in lines.iter().enumerate() {
-                self.runs.clear();
-                crate::render::font::text_runs(line, &mut self.runs);
-                let y = y0 + (row as u32 * crate::render::font::CELL_H) as f32 * s;
-                for &[a, b, r] in &self.runs {
-                    // round-capped segments through the middle of the run's pixels
-                    let yy = y + (r as f32 + 0.5) * s;
-                    let p = to_world(x0 + (a as f32 + 0.5) * s, yy);
-                    let q = to_world(x0 + (b as f32 - 0.5) * s, yy);
-                    self.list.push_line(p, q, s, LABEL_COLOR);
-                }
-            }
-        }
+        let painter = painter.with_clip_rect(boxed);
+        painter.rect_filled(boxed, 3.0, LABEL_BACK);
+        painter.galley(
+            min + egui::vec2(1.0, 1.0) * LABEL_PAD_PT,
+            galley,
+            LABEL_COLOR,
+        );
+        boxes.push(boxed);
     }
+    boxes
+}
 
+impl App {
     /// The drag spring and the emitter's ring, over the world.
     pub(super) fn push_tools(&mut self) {
         if let Some(d) = self.session.drag
@@ -93,18 +77,18 @@ impl App {
     }
 }
 
-/// Records one window frame into `target`: the world (cleared to the background), then
-/// the panel's layer over it.
+/// Records one window frame into `target`: the world (cleared to the background), then,
+/// with `layer`, egui's layer (the panel, the panes' labels) over it.
 pub(super) fn encode_frame(
     g: &mut Gpu,
     encoder: &mut wgpu::CommandEncoder,
     target: &wgpu::TextureView,
     list: &DrawList,
     camera: &Camera,
-    panel: bool,
+    layer: bool,
 ) {
     g.renderer.draw(encoder, target, list, camera);
-    if panel {
+    if layer {
         g.panel.composite(encoder, target);
     }
 }
