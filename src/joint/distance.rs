@@ -2,8 +2,8 @@
 //! rigidly or with a compliance, a spring), or within a range (its `limits`: a rope).
 //! One row along the anchors' direction: an equality, or the two limits.
 
-use super::pgs::{Row, RowBuilder};
-use super::soft::{Geometry, Jac, Pair, Prepared, Sweep};
+use super::pgs::{Damping, Row, RowBuilder};
+use super::soft::{Jac, Pair, Prepared, Sweep};
 use super::xpbd::{Start, VelocityPass, linear_correction};
 use super::{Joint, JointFrame, Kind, SLOTS, drive_force, outside, slot};
 use crate::body::Body;
@@ -88,14 +88,14 @@ impl Kind for Distance {
         pass.spring_damper(j, ax);
     }
 
-    fn soft_warm_start(p: &Prepared, _j: &Joint, pair: &mut Pair, g: &Geometry) {
+    fn soft_warm_start(p: &Prepared, _j: &Joint, pair: &mut Pair, g: &JointFrame) {
         let l = &p.impulses;
         let u = g.d.normalize_or(Vec2::Y);
         let r = Jac::linear(g.ra, g.rb, u);
         pair.apply(&r, l[slot::AXIAL] + l[slot::LOWER] - l[slot::UPPER]);
     }
 
-    fn soft_solve(sw: &Sweep, p: &mut Prepared, j: &Joint, pair: &mut Pair, g: &Geometry) -> f32 {
+    fn soft_solve(sw: &Sweep, p: &mut Prepared, j: &Joint, pair: &mut Pair, g: &JointFrame) -> f32 {
         let l = &mut p.impulses;
         let len = g.d.length();
         let u = if len > 1e-9 { g.d / len } else { Vec2::Y };
@@ -116,7 +116,7 @@ impl Kind for Distance {
         }
     }
 
-    fn soft_damp(h: f32, j: &Joint, pair: &mut Pair, g: &Geometry) {
+    fn soft_damp(h: f32, j: &Joint, pair: &mut Pair, g: &JointFrame) {
         if j.damping.linear > 0.0 {
             pair.damp(
                 Jac::linear(g.ra, g.rb, g.d.normalize_or(Vec2::Y)),

@@ -7,9 +7,11 @@
 //! last because it matters most. The soft step solves most hinges four at a time in the
 //! solver's SIMD lanes (`crate::solver::soft`); the rows here take the rest.
 
-use super::pgs::{Row, RowBuilder};
-use super::soft::{Geometry, Jac, Pair, Prepared, Sweep, own_spring};
-use super::xpbd::{Start, VelocityPass, angular_correction, project_point, project_range};
+use super::pgs::{Damping, Row, RowBuilder};
+use super::soft::{Jac, Pair, Prepared, Sweep, own_spring};
+use super::xpbd::{
+    Start, VelocityPass, angular_correction, project_point, project_range, spring_compliance,
+};
 use super::{Joint, JointFrame, Kind, SLOTS, drive_torque, slot};
 use crate::body::Body;
 use crate::defs::JointDef;
@@ -56,34 +58,19 @@ impl Kind for Hinge {
         rows.motor_of(j, ang);
         rows.range(j, ang, f.angle, true);
         rows.point(j, f);
-        if j.damping.angular > 0.0 {
-            rows.damp(ang, j.damping.angular);
-        }
+        rows.damp_angle(j, ang);
     }
 
     fn project(j: &Joint, bodies: &mut [Body], t: &Start, h: f32, lambdas: &mut [f32; SLOTS]) {
         // alpha~ = alpha / h^2
         let soft = j.compliance / (h * h);
-        project_point(j, bodies, t, soft, lambdas);
-        let f = j.frame(bodies);
+        let f = project_point(j, bodies, t, soft, lambdas);
         // the torsion spring: C = angle with compliance 1 / k, k = I_eff omega^2 (its
         // damping is applied in the velocity pass)
-        if let Some(sp) = j.spring
-            && sp.hertz > 0.0
-        {
-            let w = bodies[j.a].inv_inertia + bodies[j.b].inv_inertia;
-            if w > 0.0 {
-                let omega = std::f32::consts::TAU * sp.hertz;
-                let alpha = w / (omega * omega);
-                angular_correction(
-                    bodies,
-                    j.a,
-                    j.b,
-                    f.angle,
-                    alpha / (h * h),
-                    &mut lambdas[slot::SPRING],
-                );
-            }
+        let w = bodies[j.a].inv_inertia + bodies[j.b].inv_inertia;
+        if let Some(alpha) = spring_compliance(j, w) {
+            let spring = &mut lambdas[slot::SPRING];
+            angular_correction(bodies, j.a, j.b, f.angle, alpha / (h * h), spring);
         }
         let f = j.frame(bodies);
         project_range(j, bodies, f.angle, lambdas, None);
@@ -94,20 +81,18 @@ impl Kind for Hinge {
         pass.motor_of(j, ang);
         // the torsion spring's damper, on the angle
         pass.spring_damper(j, ang);
-        if j.damping.angular > 0.0 {
-            pass.damp(ang, j.damping.angular);
-        }
+        pass.damp_angle(j, ang);
     }
 
     fn soft_prepare(j: &Joint, _bodies: &[Body], h: f32, p: &mut Prepared) {
         p.spring = own_spring(j, h);
     }
 
-    fn soft_warm_start(p: &Prepared, _j: &Joint, pair: &mut Pair, g: &Geometry) {
+    fn soft_warm_start(p: &Prepared, _j: &Joint, pair: &mut Pair, g: &JointFrame) {
         warm_start_point_and_angle(p, pair, g);
     }
 
-    fn soft_solve(sw: &Sweep, p: &mut Prepared, j: &Joint, pair: &mut Pair, g: &Geometry) -> f32 {
+    fn soft_solve(sw: &Sweep, p: &mut Prepared, j: &Joint, pair: &mut Pair, g: &JointFrame) -> f32 {
         let spring = p.spring;
         let l = &mut p.impulses;
         let ang = Jac::angle();
@@ -124,17 +109,15 @@ impl Kind for Hinge {
         r.max(sw.point_of(pair, g, j.compliance, l))
     }
 
-    fn soft_damp(h: f32, j: &Joint, pair: &mut Pair, _g: &Geometry) {
-        if j.damping.angular > 0.0 {
-            pair.damp(Jac::angle(), h, j.damping.angular);
-        }
+    fn soft_damp(h: f32, j: &Joint, pair: &mut Pair, _g: &JointFrame) {
+        pair.damp_angle(j, h);
     }
 }
 
 /// The warm start of a point and the rows on the relative angle (hinge, weld): every
 /// angular row has J v = w_b - w_a (the upper limit negated).
 #[inline]
-pub(super) fn warm_start_point_and_angle(p: &Prepared, pair: &mut Pair, g: &Geometry) {
+pub(super) fn warm_start_point_and_angle(p: &Prepared, pair: &mut Pair, g: &JointFrame) {
     let l = &p.impulses;
     pair.apply_point(g.ra, g.rb, Vec2::new(l[slot::POINT_X], l[slot::POINT_Y]));
     let ang = l[slot::ANGLE] + l[slot::MOTOR] + l[slot::SERVO] + l[slot::LOWER] - l[slot::UPPER];

@@ -227,7 +227,7 @@ pub(crate) trait Kind {
     fn soft_prepare(_j: &Joint, _bodies: &[Body], _h: f32, _p: &mut soft::Prepared) {}
 
     /// The soft step: applies the joint's lambdas (start of each substep).
-    fn soft_warm_start(p: &soft::Prepared, j: &Joint, pair: &mut soft::Pair, g: &soft::Geometry);
+    fn soft_warm_start(p: &soft::Prepared, j: &Joint, pair: &mut soft::Pair, g: &JointFrame);
 
     /// The soft step: the joint's rows in one sweep; returns the largest |delta lambda|.
     fn soft_solve(
@@ -235,13 +235,13 @@ pub(crate) trait Kind {
         p: &mut soft::Prepared,
         j: &Joint,
         pair: &mut soft::Pair,
-        g: &soft::Geometry,
+        g: &JointFrame,
     ) -> f32;
 
     /// The soft step: the joint's damping over a substep of `h`: the fraction
     /// min(h c, 1) of the relative velocity along each damped row removed.
     #[inline]
-    fn soft_damp(_h: f32, _j: &Joint, _pair: &mut soft::Pair, _g: &soft::Geometry) {}
+    fn soft_damp(_h: f32, _j: &Joint, _pair: &mut soft::Pair, _g: &JointFrame) {}
 }
 
 /// Calls the [`Kind`] function `f` of the kind `kind`: the one place a joint kind is
@@ -436,7 +436,7 @@ impl Joint {
     /// The soft step: applies the joint's lambdas `p` to its bodies `pair`.
     #[inline]
     pub(crate) fn soft_warm_start(&self, p: &soft::Prepared, pair: &mut soft::Pair) {
-        let g = soft::Geometry::of(p, pair);
+        let g = soft::frame_now(p, pair);
         by_kind!(self.kind, soft_warm_start(p, self, pair, &g))
     }
 
@@ -448,14 +448,14 @@ impl Joint {
         p: &mut soft::Prepared,
         pair: &mut soft::Pair,
     ) -> f32 {
-        let g = soft::Geometry::of(p, pair);
+        let g = soft::frame_now(p, pair);
         by_kind!(self.kind, soft_solve(sw, p, self, pair, &g))
     }
 
     /// The soft step: the joint's damping over a substep of `h`.
     #[inline]
     pub(crate) fn soft_damp(&self, h: f32, p: &soft::Prepared, pair: &mut soft::Pair) {
-        let g = soft::Geometry::of(p, pair);
+        let g = soft::frame_now(p, pair);
         by_kind!(self.kind, soft_damp(h, self, pair, &g))
     }
 }
@@ -494,6 +494,13 @@ fn drive_force(j: &Joint, bodies: &mut [Body], (ra, rb, e): (Vec2, Vec2, Vec2), 
     let bb = &mut bodies[j.b];
     bb.velocity += bb.inv_mass * imp;
     bb.angular_velocity += bb.inv_inertia * cross(rb, imp);
+}
+
+/// v scaled down to length `max` if longer (a bounded point impulse).
+#[inline]
+fn clamp_length(v: Vec2, max: f32) -> Vec2 {
+    let len = v.length();
+    if len > max { v * (max / len) } else { v }
 }
 
 /// How far `x` is outside `[lo, hi]` (0 inside).

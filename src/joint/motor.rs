@@ -9,9 +9,9 @@
 //! the error removed per step is the same whatever the substeps).
 
 use super::pgs::{Point, Row, RowBuilder, motor, point_inv_k};
-use super::soft::{Geometry, Jac, Pair, Prepared, Sweep};
+use super::soft::{Jac, Pair, Prepared, Sweep};
 use super::xpbd::{Start, VelocityPass};
-use super::{Joint, JointFrame, Kind, SLOTS, slot};
+use super::{Joint, JointFrame, Kind, SLOTS, clamp_length, slot};
 use crate::body::Body;
 use crate::constraint::SolverBody;
 use crate::defs::JointDef;
@@ -71,7 +71,7 @@ impl Kind for Motor {
         point(j, f, pass.bodies, (h, dt), pass.joint).solve(pass.bodies);
     }
 
-    fn soft_warm_start(p: &Prepared, _j: &Joint, pair: &mut Pair, g: &Geometry) {
+    fn soft_warm_start(p: &Prepared, _j: &Joint, pair: &mut Pair, g: &JointFrame) {
         let l = &p.impulses;
         pair.apply_point(g.ra, g.rb, Vec2::new(l[slot::POINT_X], l[slot::POINT_Y]));
         pair.apply(&Jac::angle(), l[slot::ANGLE]);
@@ -79,7 +79,7 @@ impl Kind for Motor {
 
     /// The angle error and the point error d (b's centre less its target) driven out at
     /// `correction` per step, the torque and force bounded.
-    fn soft_solve(sw: &Sweep, p: &mut Prepared, j: &Joint, pair: &mut Pair, g: &Geometry) -> f32 {
+    fn soft_solve(sw: &Sweep, p: &mut Prepared, j: &Joint, pair: &mut Pair, g: &JointFrame) -> f32 {
         let l = &mut p.impulses;
         let ang = Jac::angle();
         let k = pair.k(&ang);
@@ -95,22 +95,14 @@ impl Kind for Motor {
         }
         let cdot = pair.point_velocity(g.ra, g.rb) + j.correction * g.d * sw.inv_dt;
         let old = Vec2::new(l[slot::POINT_X], l[slot::POINT_Y]);
-        let mut new = old - pair.solve_point(g.ra, g.rb, 0.0, cdot);
-        let (len, max) = (new.length(), j.max_force.max(0.0) * sw.h);
-        if len > max {
-            new *= max / len;
-        }
+        let new = clamp_length(
+            old - pair.solve_point(g.ra, g.rb, 0.0, cdot),
+            j.max_force.max(0.0) * sw.h,
+        );
         (l[slot::POINT_X], l[slot::POINT_Y]) = (new.x, new.y);
         pair.apply_point(g.ra, g.rb, new - old);
         r.max((new - old).abs().max_element())
     }
-}
-
-/// v scaled down to length `max` if longer.
-#[inline]
-fn clamp_length(v: Vec2, max: f32) -> Vec2 {
-    let len = v.length();
-    if len > max { v * (max / len) } else { v }
 }
 
 /// The angular row (PGS, XPBD's velocity pass): J v = w_b - w_a driven to -correction

@@ -4,6 +4,7 @@
 //! takes it after them: a soft point (soft step, PGS) or a compliant attach and a
 //! damper (XPBD).
 
+use super::clamp_length;
 use super::pgs::{MOUSE, Point, load, point_inv_k};
 use super::soft::Pair;
 use crate::body::Body;
@@ -86,11 +87,7 @@ impl MouseJoint {
         let rhs = -(cdot + p.bias + p.gamma * p.impulse);
         let k = p.inv_k;
         let d = Vec2::new(k[0] * rhs.x + k[2] * rhs.y, k[1] * rhs.x + k[3] * rhs.y);
-        let mut new = p.impulse + d;
-        let len = new.length();
-        if len > p.max_impulse {
-            new *= p.max_impulse / len;
-        }
+        let new = clamp_length(p.impulse + d, p.max_impulse);
         let d = new - p.impulse;
         p.impulse = new;
         let b = &mut bodies[p.b as usize];
@@ -219,11 +216,7 @@ pub(crate) fn soft_solve(
     let rhs = cdot + m.soft.bias_rate * c;
     let d = -m.soft.mass_scale * pair.solve_point(Vec2::ZERO, rb, 0.0, rhs)
         - m.soft.impulse_scale * m.impulse;
-    let mut new = m.impulse + d;
-    let len = new.length();
-    if len > m.max_impulse {
-        new *= m.max_impulse / len;
-    }
+    let new = clamp_length(m.impulse + d, m.max_impulse);
     let d = new - m.impulse;
     m.impulse = new;
     b.v += im * d;

@@ -9,7 +9,7 @@
 //! An inequality (limit) row is speculative while its gap is open: bias C / h lets the
 //! gap close in this step but not more. The point of a hinge or weld is one 2x2 block.
 
-use super::{Joint, JointFrame, MouseJoint, slot, wrap_angle};
+use super::{Joint, JointFrame, MouseJoint, clamp_length, slot, wrap_angle};
 use crate::body::Body;
 use crate::constraint::SolverBody;
 use crate::defs::SolverSettings;
@@ -185,11 +185,7 @@ impl Point {
         let rhs = -(cdot + self.bias + self.gamma * self.impulse);
         let k = self.inv_k;
         let d = Vec2::new(k[0] * rhs.x + k[2] * rhs.y, k[1] * rhs.x + k[3] * rhs.y);
-        let mut new = self.impulse + d;
-        let len = new.length();
-        if len > self.max_impulse {
-            new *= self.max_impulse / len;
-        }
+        let new = clamp_length(self.impulse + d, self.max_impulse);
         let d = new - self.impulse;
         self.impulse = new;
         self.apply(bodies, d);
@@ -318,6 +314,29 @@ pub(crate) struct RowBuilder<'a> {
     pub(super) dt: f32,
 }
 
+/// Where a joint's damping rows go (PGS's rows of a step, XPBD's velocity pass): each
+/// removes min(h c, 1) of the relative velocity along its row, after the sweeps.
+pub(super) trait Damping {
+    /// Queues a damping row along r at `rate` (1/s).
+    fn damp(&mut self, r: Row, rate: f32);
+
+    /// Queues the joint's angular damping (if any) on the angle row `ang`.
+    #[inline]
+    fn damp_angle(&mut self, j: &Joint, ang: Row) {
+        if j.damping.angular > 0.0 {
+            self.damp(ang, j.damping.angular);
+        }
+    }
+}
+
+impl Damping for RowBuilder<'_> {
+    #[inline]
+    fn damp(&mut self, r: Row, rate: f32) {
+        self.damping
+            .push((damping_row(r, self.bodies, self.h), rate));
+    }
+}
+
 impl RowBuilder<'_> {
     /// Adds a row of the joint, in its lambda slot (warm started from the joint's
     /// stored lambda, clamped to the row's bounds).
@@ -364,13 +383,6 @@ impl RowBuilder<'_> {
             let r = self.motor(r, m.speed, m.max_force);
             self.push(j, r, slot::MOTOR);
         }
-    }
-
-    /// Queues a damping row along r at `rate` (1/s), applied once after the sweeps.
-    #[inline]
-    pub(super) fn damp(&mut self, r: Row, rate: f32) {
-        self.damping
-            .push((damping_row(r, self.bodies, self.h), rate));
     }
 
     /// Adds a point block (its lambda already set).

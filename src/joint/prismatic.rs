@@ -4,8 +4,8 @@
 //! Rows: the motor, the limits and the servo along the axis, the line (the off-axis
 //! offset, C = perp . d) and the angle.
 
-use super::pgs::{Row, RowBuilder};
-use super::soft::{Geometry, Jac, Pair, Prepared, Sweep};
+use super::pgs::{Damping, Row, RowBuilder};
+use super::soft::{Jac, Pair, Prepared, Sweep};
 use super::xpbd::{Start, VelocityPass, angular_correction, line_correction, project_range};
 use super::{Joint, JointFrame, Kind, SLOTS, drive_force, outside, slot};
 use crate::body::Body;
@@ -37,9 +37,7 @@ impl Kind for Prismatic {
         if j.damping.linear > 0.0 {
             rows.damp(ax, j.damping.linear);
         }
-        if j.damping.angular > 0.0 {
-            rows.damp(Row::angle(rows.a, rows.b), j.damping.angular);
-        }
+        rows.damp_angle(j, Row::angle(rows.a, rows.b));
     }
 
     fn project(j: &Joint, bodies: &mut [Body], t: &Start, h: f32, lambdas: &mut [f32; SLOTS]) {
@@ -65,12 +63,10 @@ impl Kind for Prismatic {
             pass.damp(ax, j.damping.linear);
         }
         pass.spring_damper(j, ax);
-        if j.damping.angular > 0.0 {
-            pass.damp(Row::angle(pass.a, pass.b), j.damping.angular);
-        }
+        pass.damp_angle(j, Row::angle(pass.a, pass.b));
     }
 
-    fn soft_warm_start(p: &Prepared, _j: &Joint, pair: &mut Pair, g: &Geometry) {
+    fn soft_warm_start(p: &Prepared, _j: &Joint, pair: &mut Pair, g: &JointFrame) {
         let l = &p.impulses;
         let ax = Jac::linear(g.ra + g.d, g.rb, g.axis);
         let along = l[slot::MOTOR] + l[slot::SERVO] + l[slot::LOWER] - l[slot::UPPER];
@@ -80,7 +76,7 @@ impl Kind for Prismatic {
         pair.apply(&Jac::angle(), l[slot::ANGLE]);
     }
 
-    fn soft_solve(sw: &Sweep, p: &mut Prepared, j: &Joint, pair: &mut Pair, g: &Geometry) -> f32 {
+    fn soft_solve(sw: &Sweep, p: &mut Prepared, j: &Joint, pair: &mut Pair, g: &JointFrame) -> f32 {
         let l = &mut p.impulses;
         let ax = Jac::linear(g.ra + g.d, g.rb, g.axis);
         let mut r = sw.motor_of(pair, j, &ax, l);
@@ -95,13 +91,11 @@ impl Kind for Prismatic {
         ))
     }
 
-    fn soft_damp(h: f32, j: &Joint, pair: &mut Pair, g: &Geometry) {
+    fn soft_damp(h: f32, j: &Joint, pair: &mut Pair, g: &JointFrame) {
         if j.damping.linear > 0.0 {
             pair.damp(Jac::linear(g.ra + g.d, g.rb, g.axis), h, j.damping.linear);
         }
-        if j.damping.angular > 0.0 {
-            pair.damp(Jac::angle(), h, j.damping.angular);
-        }
+        pair.damp_angle(j, h);
     }
 }
 

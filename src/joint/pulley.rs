@@ -3,7 +3,7 @@
 //! ropes pull, they do not push.
 
 use super::pgs::{Row, RowBuilder};
-use super::soft::{Geometry, Jac, Pair, Prepared, Sweep};
+use super::soft::{Jac, Pair, Prepared, Sweep};
 use super::xpbd::{Start, VelocityPass, move_body};
 use super::{Joint, JointFrame, Kind, SLOTS, slot};
 use crate::body::Body;
@@ -41,7 +41,7 @@ impl PulleyRopes {
 
     /// The soft step's ropes now, from the bodies' motion since the step's start.
     #[inline]
-    fn since_start(p: &Prepared, pair: &Pair, g: &Geometry) -> PulleyRopes {
+    fn since_start(p: &Prepared, pair: &Pair, g: &JointFrame) -> PulleyRopes {
         let ea = p.ea0 + pair.a.dp + (g.ra - p.ra0);
         let eb = p.eb0 + pair.b.dp + (g.rb - p.rb0);
         PulleyRopes::new(g.ra, g.rb, ea, eb)
@@ -138,12 +138,12 @@ impl Kind for Pulley {
         (p.ea0, p.eb0) = (pa - j.ground[0], pb - j.ground[1]);
     }
 
-    fn soft_warm_start(p: &Prepared, j: &Joint, pair: &mut Pair, g: &Geometry) {
+    fn soft_warm_start(p: &Prepared, j: &Joint, pair: &mut Pair, g: &JointFrame) {
         let ropes = PulleyRopes::since_start(p, pair, g);
         pair.apply(&ropes.jac(j.ratio), p.impulses[slot::AXIAL]);
     }
 
-    fn soft_solve(sw: &Sweep, p: &mut Prepared, j: &Joint, pair: &mut Pair, g: &Geometry) -> f32 {
+    fn soft_solve(sw: &Sweep, p: &mut Prepared, j: &Joint, pair: &mut Pair, g: &JointFrame) -> f32 {
         let ropes = PulleyRopes::since_start(p, pair, g);
         let c = j.length - ropes.len_a - j.ratio * ropes.len_b;
         sw.inequality(pair, &ropes.jac(j.ratio), c, &mut p.impulses[slot::AXIAL])

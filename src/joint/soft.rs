@@ -21,7 +21,7 @@
 //! rigid equality on the angle (offset) error. Lambdas are impulses per substep; they
 //! carry from substep to substep and, through the joint, to the next step (warm start).
 
-use super::{Joint, SLOTS, slot, wrap_angle};
+use super::{Joint, JointFrame, SLOTS, slot, wrap_angle};
 use crate::body::Body;
 use crate::constraint::{SoftBody, Softness};
 use crate::math::{Vec2, cross, cross_sv};
@@ -73,31 +73,20 @@ impl Prepared {
     }
 }
 
-/// The current geometry of a joint.
-#[derive(Clone, Copy, Debug)]
-pub(crate) struct Geometry {
-    pub(super) ra: Vec2,
-    pub(super) rb: Vec2,
-    pub(super) d: Vec2,
-    pub(super) axis: Vec2,
-    pub(super) angle: f32,
-}
-
-impl Geometry {
-    /// The joint's geometry now, from the bodies' motion since the step's start.
-    #[inline]
-    pub(crate) fn of(p: &Prepared, pair: &Pair) -> Geometry {
-        let ra = pair.a.dq.rotate(p.ra0);
-        let rb = pair.b.dq.rotate(p.rb0);
-        // d = d0 + (dp_b - dp_a) + (rb - rb0) - (ra - ra0)
-        let d = p.d0 + (pair.b.dp - pair.a.dp) + (rb - p.rb0) - (ra - p.ra0);
-        Geometry {
-            ra,
-            rb,
-            d,
-            axis: pair.a.dq.rotate(p.axis0),
-            angle: p.angle0 + pair.b.dtheta - pair.a.dtheta,
-        }
+/// A joint's frame now (arms, anchor gap, axis, relative angle), from the bodies'
+/// motion since the step's start (`p`'s frame).
+#[inline]
+pub(crate) fn frame_now(p: &Prepared, pair: &Pair) -> JointFrame {
+    let ra = pair.a.dq.rotate(p.ra0);
+    let rb = pair.b.dq.rotate(p.rb0);
+    // d = d0 + (dp_b - dp_a) + (rb - rb0) - (ra - ra0)
+    let d = p.d0 + (pair.b.dp - pair.a.dp) + (rb - p.rb0) - (ra - p.ra0);
+    JointFrame {
+        ra,
+        rb,
+        d,
+        axis: pair.a.dq.rotate(p.axis0),
+        angle: p.angle0 + pair.b.dtheta - pair.a.dtheta,
     }
 }
 
@@ -210,6 +199,14 @@ impl Pair {
             inv * (k22 * rhs.x - k12 * rhs.y),
             inv * (k11 * rhs.y - k12 * rhs.x),
         )
+    }
+
+    /// The joint's angular damping (if any) over a substep of `h`.
+    #[inline]
+    pub(super) fn damp_angle(&mut self, j: &Joint, h: f32) {
+        if j.damping.angular > 0.0 {
+            self.damp(Jac::angle(), h, j.damping.angular);
+        }
     }
 
     /// Joint damping along `row`: removes the fraction min(h c, 1) of the relative
@@ -347,7 +344,7 @@ impl Sweep {
     pub(super) fn point(
         &self,
         p: &mut Pair,
-        g: &Geometry,
+        g: &JointFrame,
         compliance: f32,
         lambda: &mut Vec2,
     ) -> f32 {
@@ -371,7 +368,7 @@ impl Sweep {
     pub(super) fn point_of(
         &self,
         pair: &mut Pair,
-        g: &Geometry,
+        g: &JointFrame,
         compliance: f32,
         l: &mut [f32; SLOTS],
     ) -> f32 {
@@ -431,7 +428,7 @@ impl Sweep {
         &self,
         pair: &mut Pair,
         j: &Joint,
-        g: &Geometry,
+        g: &JointFrame,
         l: &mut [f32; SLOTS],
     ) -> f32 {
         let perp = g.axis.perp();

@@ -3,8 +3,8 @@
 //! the angle, then the point (a 2x2 block).
 
 use super::hinge::warm_start_point_and_angle;
-use super::pgs::{Row, RowBuilder};
-use super::soft::{Geometry, Jac, Pair, Prepared, Sweep};
+use super::pgs::{Damping, Row, RowBuilder};
+use super::soft::{Jac, Pair, Prepared, Sweep};
 use super::xpbd::{Start, VelocityPass, angular_correction, project_point};
 use super::{Joint, JointFrame, Kind, SLOTS, drive_torque, slot};
 use crate::body::Body;
@@ -31,32 +31,27 @@ impl Kind for Weld {
         let r = rows.equality(ang, f.angle, j.compliance);
         rows.push(j, r, slot::ANGLE);
         rows.point(j, f);
-        if j.damping.angular > 0.0 {
-            rows.damp(ang, j.damping.angular);
-        }
+        rows.damp_angle(j, ang);
     }
 
     fn project(j: &Joint, bodies: &mut [Body], t: &Start, h: f32, lambdas: &mut [f32; SLOTS]) {
         // alpha~ = alpha / h^2
         let soft = j.compliance / (h * h);
-        project_point(j, bodies, t, soft, lambdas);
-        let f = j.frame(bodies);
+        let f = project_point(j, bodies, t, soft, lambdas);
         angular_correction(bodies, j.a, j.b, f.angle, soft, &mut lambdas[slot::ANGLE]);
     }
 
     fn xpbd_velocity(j: &Joint, _f: &JointFrame, pass: &mut VelocityPass) {
         let ang = Row::angle(pass.a, pass.b);
         pass.motor_of(j, ang);
-        if j.damping.angular > 0.0 {
-            pass.damp(ang, j.damping.angular);
-        }
+        pass.damp_angle(j, ang);
     }
 
-    fn soft_warm_start(p: &Prepared, _j: &Joint, pair: &mut Pair, g: &Geometry) {
+    fn soft_warm_start(p: &Prepared, _j: &Joint, pair: &mut Pair, g: &JointFrame) {
         warm_start_point_and_angle(p, pair, g);
     }
 
-    fn soft_solve(sw: &Sweep, p: &mut Prepared, j: &Joint, pair: &mut Pair, g: &Geometry) -> f32 {
+    fn soft_solve(sw: &Sweep, p: &mut Prepared, j: &Joint, pair: &mut Pair, g: &JointFrame) -> f32 {
         let l = &mut p.impulses;
         let ang = Jac::angle();
         // (a weld has no spring: its rows start from 0)
@@ -66,9 +61,7 @@ impl Kind for Weld {
         r.max(sw.point_of(pair, g, j.compliance, l))
     }
 
-    fn soft_damp(h: f32, j: &Joint, pair: &mut Pair, _g: &Geometry) {
-        if j.damping.angular > 0.0 {
-            pair.damp(Jac::angle(), h, j.damping.angular);
-        }
+    fn soft_damp(h: f32, j: &Joint, pair: &mut Pair, _g: &JointFrame) {
+        pair.damp_angle(j, h);
     }
 }

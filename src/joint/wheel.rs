@@ -6,11 +6,12 @@
 //! the line (the off-axis offset, C = perp . d). A wheel has no servo: its spring takes
 //! the servo's lambda slot.
 
-use super::pgs::{Row, RowBuilder};
+use super::pgs::{Damping, Row, RowBuilder};
 use super::prismatic::off_axis_error;
-use super::soft::{Geometry, Jac, Pair, Prepared, Sweep, own_spring};
+use super::soft::{Jac, Pair, Prepared, Sweep, own_spring};
 use super::xpbd::{
     Start, VelocityPass, effective_inverse_mass, line_correction, linear_correction, project_range,
+    spring_compliance,
 };
 use super::{Joint, JointFrame, Kind, SLOTS, drive_torque, slot};
 use crate::body::Body;
@@ -59,24 +60,10 @@ impl Kind for Wheel {
         let then = [t0.ra0 + t0.d0, t0.rb0, t0.axis0];
         // the suspension: C = axis . d with compliance 1 / k, k = m_eff omega^2 (its
         // damping is applied in the velocity pass)
-        if let Some(sp) = j.spring
-            && sp.hertz > 0.0
-        {
-            let w = effective_inverse_mass(bodies, j.a, j.b, now);
-            if w > 0.0 {
-                let omega = std::f32::consts::TAU * sp.hertz;
-                let alpha = w / (omega * omega);
-                linear_correction(
-                    bodies,
-                    j.a,
-                    j.b,
-                    now,
-                    then,
-                    t,
-                    alpha / (h * h),
-                    &mut lambdas[slot::SPRING],
-                );
-            }
+        let w = effective_inverse_mass(bodies, j.a, j.b, now);
+        if let Some(alpha) = spring_compliance(j, w) {
+            let spring = &mut lambdas[slot::SPRING];
+            linear_correction(bodies, j.a, j.b, now, then, t, alpha / (h * h), spring);
         }
         let f = j.frame(bodies);
         project_range(
@@ -102,7 +89,7 @@ impl Kind for Wheel {
         p.spring = own_spring(j, h);
     }
 
-    fn soft_warm_start(p: &Prepared, _j: &Joint, pair: &mut Pair, g: &Geometry) {
+    fn soft_warm_start(p: &Prepared, _j: &Joint, pair: &mut Pair, g: &JointFrame) {
         let l = &p.impulses;
         let ax = Jac::linear(g.ra + g.d, g.rb, g.axis);
         pair.apply(&ax, l[slot::SPRING] + l[slot::LOWER] - l[slot::UPPER]);
@@ -111,7 +98,7 @@ impl Kind for Wheel {
         pair.apply(&Jac::angle(), l[slot::MOTOR]);
     }
 
-    fn soft_solve(sw: &Sweep, p: &mut Prepared, j: &Joint, pair: &mut Pair, g: &Geometry) -> f32 {
+    fn soft_solve(sw: &Sweep, p: &mut Prepared, j: &Joint, pair: &mut Pair, g: &JointFrame) -> f32 {
         let spring = p.spring;
         let l = &mut p.impulses;
         let mut r = sw.motor_of(pair, j, &Jac::angle(), l);
@@ -124,7 +111,7 @@ impl Kind for Wheel {
         r.max(sw.line(pair, j, g, l))
     }
 
-    fn soft_damp(h: f32, j: &Joint, pair: &mut Pair, g: &Geometry) {
+    fn soft_damp(h: f32, j: &Joint, pair: &mut Pair, g: &JointFrame) {
         if j.damping.linear > 0.0 {
             pair.damp(Jac::linear(g.ra + g.d, g.rb, g.axis), h, j.damping.linear);
         }

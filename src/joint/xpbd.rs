@@ -6,8 +6,8 @@
 //! A correction moves the bodies along the constraint gradients of the substep's start
 //! (as SHAKE does), not of the predicted positions (see [`super::Joint::project`]).
 
-use super::pgs::{JointRows, Row, damping_row, motor};
-use super::{Joint, SLOTS, slot, wrap_angle};
+use super::pgs::{Damping, JointRows, Row, damping_row, motor};
+use super::{Joint, JointFrame, SLOTS, slot, wrap_angle};
 use crate::body::Body;
 use crate::constraint::SolverBody;
 use crate::math::{Rot, Vec2, cross};
@@ -139,7 +139,7 @@ pub(super) fn point_correction(
 }
 
 /// The point of a hinge or weld projected: d = 0 with the joint's compliance (`soft` =
-/// alpha~), its lambda in the point slots.
+/// alpha~), its lambda in the point slots. Returns the joint's frame after.
 #[inline]
 pub(super) fn project_point(
     j: &Joint,
@@ -147,13 +147,27 @@ pub(super) fn project_point(
     t: &Start,
     soft: f32,
     lambdas: &mut [f32; SLOTS],
-) {
+) -> JointFrame {
     let f = j.frame(bodies);
     let mut lam = Vec2::new(lambdas[slot::POINT_X], lambdas[slot::POINT_Y]);
     point_correction(
         bodies, j.a, j.b, f.ra, f.rb, t.ra0, t.rb0, f.d, soft, &mut lam,
     );
     (lambdas[slot::POINT_X], lambdas[slot::POINT_Y]) = (lam.x, lam.y);
+    j.frame(bodies)
+}
+
+/// The compliance alpha = w / omega^2 of the joint's spring on a row whose inverse
+/// effective mass is `w` (k = m_eff omega^2), if it has a spring and the row moves
+/// something.
+#[inline]
+pub(super) fn spring_compliance(j: &Joint, w: f32) -> Option<f32> {
+    let sp = j.spring.filter(|sp| sp.hertz > 0.0)?;
+    if !(w > 0.0) {
+        return None;
+    }
+    let omega = std::f32::consts::TAU * sp.hertz;
+    Some(w / (omega * omega))
 }
 
 /// XPBD angular correction of C (rad): delta lambda = (-C - alpha~ lambda) / (1/I_a + 1/I_b + alpha~).
@@ -262,6 +276,14 @@ pub(crate) struct VelocityPass<'a> {
     pub(super) dt: f32,
 }
 
+impl Damping for VelocityPass<'_> {
+    #[inline]
+    fn damp(&mut self, r: Row, rate: f32) {
+        let row = damping_row(r, self.bodies, self.h);
+        self.damping.push((row, rate));
+    }
+}
+
 impl VelocityPass<'_> {
     /// Solves the joint's motor (if any) on row r, once, its impulse bounded by max
     /// force times h.
@@ -270,13 +292,6 @@ impl VelocityPass<'_> {
         if let Some(m) = j.motor {
             motor(r, self.bodies, m.speed, m.max_force, self.h).solve(self.bodies);
         }
-    }
-
-    /// Queues a damping row along r at `rate` (1/s).
-    #[inline]
-    pub(super) fn damp(&mut self, r: Row, rate: f32) {
-        self.damping
-            .push((damping_row(r, self.bodies, self.h), rate));
     }
 
     /// A spring's damper along r (the wheel's suspension, a hinge's torsion spring),
