@@ -497,7 +497,7 @@ fn drive_force(j: &Joint, bodies: &mut [Body], (ra, rb, e): (Vec2, Vec2, Vec2), 
 }
 
 /// v scaled down to length `max` if longer (a bounded point impulse).
-#[inline]
+#[inline(always)]
 fn clamp_length(v: Vec2, max: f32) -> Vec2 {
     let len = v.length();
     if len > max { v * (max / len) } else { v }

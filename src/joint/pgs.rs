@@ -86,7 +86,7 @@ pub struct JointRows {
     damping: Vec<(Row, f32)>,
 }
 
-#[inline]
+#[inline(always)]
 pub(super) fn load(bodies: &[SolverBody], i: u32) -> SolverBody {
     bodies[i as usize]
 }
@@ -101,14 +101,14 @@ impl Row {
             + b.inv_i * self.kb * self.kb
     }
 
-    #[inline]
+    #[inline(always)]
     fn jv(&self, bodies: &[SolverBody]) -> f32 {
         let (a, b) = (load(bodies, self.a), load(bodies, self.b));
         self.la.dot(a.v) + self.ka * a.w + self.lb.dot(b.v) + self.kb * b.w
     }
 
     /// v += M^-1 J^T d
-    #[inline]
+    #[inline(always)]
     fn apply(&self, bodies: &mut [SolverBody], d: f32) {
         let a = &mut bodies[self.a as usize];
         a.v += a.inv_m * d * self.la;
@@ -119,7 +119,7 @@ impl Row {
     }
 
     /// delta lambda = -(J v + bias + gamma lambda) / (K + gamma), projected onto [lo, hi].
-    #[inline]
+    #[inline(always)]
     pub(super) fn solve(&mut self, bodies: &mut [SolverBody]) -> f32 {
         let d = -self.mass * (self.jv(bodies) + self.bias + self.gamma * self.impulse);
         let new = (self.impulse + d).clamp(self.lo, self.hi);
@@ -178,7 +178,8 @@ impl Row {
 }
 
 impl Point {
-    #[inline]
+    /// (Always inlined: the sweeps' hottest call on a grid of hinges.)
+    #[inline(always)]
     pub(super) fn solve(&mut self, bodies: &mut [SolverBody]) -> f32 {
         let (a, b) = (load(bodies, self.a), load(bodies, self.b));
         let cdot = b.v + cross_sv(b.w, self.rb) - a.v - cross_sv(a.w, self.ra);
@@ -192,7 +193,7 @@ impl Point {
         d.abs().max_element()
     }
 
-    #[inline]
+    #[inline(always)]
     fn apply(&self, bodies: &mut [SolverBody], p: Vec2) {
         let a = &mut bodies[self.a as usize];
         a.v -= a.inv_m * p;
@@ -405,6 +406,7 @@ impl RowBuilder<'_> {
 
     /// The point of a hinge or weld, d = p_b - p_a = 0, as one 2x2 block: rigid
     /// (Baumgarte, regularised) or with the joint's compliance.
+    #[inline]
     pub(super) fn point(&mut self, j: &Joint, f: &JointFrame) {
         let (h, beta) = (self.h, self.beta);
         let ba = &self.bodies[j.a];
