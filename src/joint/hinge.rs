@@ -48,6 +48,7 @@ impl Kind for Hinge {
         drive_torque(j, bodies, p);
     }
 
+    #[inline(always)]
     fn pgs_rows(j: &Joint, f: &JointFrame, rows: &mut RowBuilder) {
         let ang = Row::angle(rows.a, rows.b);
         // the torsion spring, to its zero angle

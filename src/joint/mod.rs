@@ -416,7 +416,7 @@ impl Joint {
 /// The solvers' parts of a joint, each handed to the joint's kind.
 impl Joint {
     /// PGS: the joint's velocity rows of this (sub)step, from its frame `f` now.
-    #[inline]
+    #[inline(always)]
     pub(crate) fn pgs_rows(&self, f: &JointFrame, rows: &mut pgs::RowBuilder) {
         by_kind!(self.kind, pgs_rows(self, f, rows))
     }

@@ -341,7 +341,7 @@ impl Damping for RowBuilder<'_> {
 impl RowBuilder<'_> {
     /// Adds a row of the joint, in its lambda slot (warm started from the joint's
     /// stored lambda, clamped to the row's bounds).
-    #[inline]
+    #[inline(always)]
     pub(super) fn push(&mut self, j: &Joint, mut r: Row, slot: usize) {
         r.joint = self.joint;
         r.slot = slot as u8;
@@ -406,7 +406,7 @@ impl RowBuilder<'_> {
 
     /// The point of a hinge or weld, d = p_b - p_a = 0, as one 2x2 block: rigid
     /// (Baumgarte, regularised) or with the joint's compliance.
-    #[inline]
+    #[inline(always)]
     pub(super) fn point(&mut self, j: &Joint, f: &JointFrame) {
         let (h, beta) = (self.h, self.beta);
         let ba = &self.bodies[j.a];
@@ -440,6 +440,7 @@ impl RowBuilder<'_> {
     }
 
     /// Limits and servo rows on the joint's angle (hinge) or offset (prismatic) x.
+    #[inline(always)]
     pub(super) fn range(&mut self, j: &Joint, r: Row, x: f32, angular: bool) {
         if let Some([lo, hi]) = j.limits {
             let lower = self.inequality(r, x - lo);
