@@ -41,6 +41,7 @@ struct ReadmeExample;
 pub mod body;
 pub mod collision;
 pub mod compound;
+pub(crate) mod constraint;
 pub mod defs;
 pub mod draw;
 pub mod joint;

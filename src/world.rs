@@ -29,7 +29,6 @@ mod walls;
 
 pub use body_api::EditError;
 use build::energy_problem;
-pub(crate) use build::joint_not_finite;
 pub use build::{BodyInput, BuildError};
 pub use edit::{BodyKey, JointKey, RemoveError};
 pub use events::{ContactEvent, DEFAULT_HIT_SPEED, EventKind, HitEvent, SleepEvent};

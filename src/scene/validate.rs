@@ -575,7 +575,7 @@ pub(crate) fn check_joint(
         ..joint.clone()
     };
     let j = crate::joint::Joint::from_def(&pair, &[a, b]);
-    match crate::world::joint_not_finite(&j) {
+    match j.not_finite() {
         None => Ok(Some(j.length)),
         Some(what) => Err(ctx.err(
             span,

@@ -14,14 +14,7 @@ use crate::body::Body;
 use crate::defs::SolverSettings;
 use crate::math::{Vec2, cross, cross_sv};
 
-/// A body as the solver sees it: velocities and inverse masses, packed.
-#[derive(Clone, Copy, Debug, Default)]
-pub struct SolverBody {
-    pub v: Vec2,
-    pub w: f32,
-    pub inv_m: f32,
-    pub inv_i: f32,
-}
+pub use crate::constraint::SolverBody;
 
 /// The velocities of a constraint's two bodies, loaded once, updated by each row, stored back.
 struct PairVel {

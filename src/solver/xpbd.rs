@@ -7,7 +7,7 @@
 use super::contact_cache::Contact;
 use super::pgs::{Block, SolverBody};
 use crate::body::Body;
-use crate::joint::{linear_correction, move_body};
+use crate::joint::xpbd::{linear_correction, move_body};
 use crate::math::{Rot, Vec2, cross, cross_sv};
 use crate::shape::Shape;
 

@@ -9,7 +9,6 @@ use crate::defs::{BodyModel, BodyType, DragDef};
 use crate::joint::Joint;
 use crate::math::{BODY_AHEAD, BODY_PASS_BLOCK, Rot, Vec2, cross, prefetch};
 use crate::parallel::{self, Pool};
-use crate::solver::joint_rows::apply_drives;
 
 /// A constant force at a body point.
 #[derive(Clone, Copy, Debug, serde::Serialize, serde::Deserialize)]
@@ -54,7 +53,7 @@ impl Forces<'_> {
 /// implicitly so it can only slow a body down, whatever the step.
 pub(crate) fn integrate_velocities(bodies: &mut [Body], f: &Forces, h: f32, pool: Option<&Pool>) {
     if !f.joints.is_empty() {
-        apply_drives(f.joints, bodies, h);
+        crate::joint::apply_drives(f.joints, bodies, h);
     }
     // constant point forces: dv = h F / m, dw = h (r x F) / I
     for pf in f.forces {

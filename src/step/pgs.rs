@@ -6,7 +6,7 @@ use super::{Stage, StageClock, StepContext, StepState, StepStats, Stepper, integ
 use crate::collision::Contact;
 use crate::collision::collide::Speculative;
 use crate::defs::SolverKind;
-use crate::solver::joint_rows::JointRows;
+use crate::joint::pgs::JointRows;
 use crate::solver::pgs::{PgsSolver, SolveStats, SolverBody};
 
 /// Classic projected Gauss-Seidel and its scratch.

@@ -2,13 +2,12 @@
 //! project joints and contacts, derive velocities, and a velocity pass.
 
 use super::{Stage, StageClock, StepContext, StepState, StepStats, Stepper, integrate};
-use crate::body::Body;
 use crate::collision::Contact;
 use crate::collision::collide::Speculative;
 use crate::defs::SolverKind;
-use crate::joint::{MouseJoint, SLOTS};
-use crate::math::cross;
-use crate::solver::joint_rows::{JointRows, xpbd_velocity_pass};
+use crate::joint::SLOTS;
+use crate::joint::pgs::JointRows;
+use crate::joint::xpbd::velocity_pass;
 use crate::solver::pgs::SolverBody;
 use crate::solver::xpbd::XpbdContacts;
 
@@ -65,7 +64,7 @@ impl Stepper for XpbdStepper {
                     j.project(state.bodies, &self.xpbd.prev_rot, h, lam);
                 }
                 if let Some(m) = state.mouse {
-                    project_mouse(&m, state.bodies, h);
+                    m.xpbd_project(state.bodies, h);
                 }
                 let d = self.xpbd.project(state.bodies);
                 deepest = deepest.max(d);
@@ -82,7 +81,7 @@ impl Stepper for XpbdStepper {
             }));
             self.xpbd
                 .velocity_pass(state.bodies, &mut self.bodies, h, s.restitution_threshold);
-            xpbd_velocity_pass(
+            velocity_pass(
                 state.joints,
                 state.bodies,
                 &mut self.bodies,
@@ -90,7 +89,7 @@ impl Stepper for XpbdStepper {
                 &mut self.joint_rows,
             );
             if let Some(m) = state.mouse {
-                damp_mouse(&m, state.bodies, &mut self.bodies, h);
+                m.xpbd_damp(state.bodies, &mut self.bodies, h);
             }
             for (b, sb) in state.bodies.iter_mut().zip(&self.bodies) {
                 if b.is_dynamic() {
@@ -132,60 +131,4 @@ impl Stepper for XpbdStepper {
     fn as_any(&self) -> &dyn std::any::Any {
         self
     }
-}
-
-/// XPBD mouse joint: a compliant attach of the grabbed point to the target,
-/// alpha = 1 / k with k = m (2 pi f)^2, its correction bounded by max force times h^2.
-fn project_mouse(m: &MouseJoint, bodies: &mut [Body], h: f32) {
-    let Some(b) = bodies.get_mut(m.body) else {
-        return;
-    };
-    if !b.is_dynamic() {
-        return;
-    }
-    let r = b.rot.rotate(m.local);
-    let d = m.target - (b.position + r);
-    let len = d.length();
-    if len <= 1e-9 {
-        return;
-    }
-    let n = d / len;
-    let omega = std::f32::consts::TAU * m.hertz.max(0.01);
-    let k = b.mass * omega * omega;
-    // alpha~ = alpha / h^2 = 1 / (k h^2)
-    let soft = 1.0 / (k * h * h);
-    let rn = cross(r, n);
-    let w = b.inv_mass + b.inv_inertia * rn * rn;
-    let dl = (len / (w + soft)).min(m.max_force * h * h);
-    let p = dl * n;
-    crate::joint::move_body(b, b.inv_mass * p, b.inv_inertia * cross(r, p));
-}
-
-/// XPBD mouse damping: removes min(h c / m, 1) of the grabbed point's velocity,
-/// c = 2 m zeta omega.
-fn damp_mouse(m: &MouseJoint, world: &[Body], bodies: &mut [SolverBody], h: f32) {
-    let Some(b) = world.get(m.body) else {
-        return;
-    };
-    if !b.is_dynamic() {
-        return;
-    }
-    let r = b.rot.rotate(m.local);
-    let sb = &mut bodies[m.body];
-    let v = sb.v + crate::math::cross_sv(sb.w, r);
-    let speed = v.length();
-    if speed <= 1e-9 {
-        return;
-    }
-    let n = v / speed;
-    let omega = std::f32::consts::TAU * m.hertz.max(0.01);
-    let f = (h * 2.0 * m.damping_ratio.max(0.0) * omega).min(1.0);
-    let rn = cross(r, n);
-    let w = sb.inv_m + sb.inv_i * rn * rn;
-    if w <= 0.0 {
-        return;
-    }
-    let imp = -(f * speed / w) * n;
-    sb.v += sb.inv_m * imp;
-    sb.w += sb.inv_i * cross(r, imp);
 }

@@ -136,65 +136,11 @@ impl World {
         if a == b {
             return bad(format!("joins body {:?} to itself", self.bodies[a].name));
         }
-        if let Some([lo, hi]) = def.limits
-            && !(lo <= hi)
-        {
-            return bad(format!("limits min {lo} > max {hi}"));
-        }
-        if let Some(ax) = def.axis
-            && (!ax.is_finite() || ax.length() <= 1e-6)
-        {
-            return bad("prismatic axis must have a non-zero length".into());
-        }
-        if !(def.compliance >= 0.0) || !def.compliance.is_finite() {
-            return bad(format!("compliance must be >= 0, got {}", def.compliance));
-        }
-        if let Some(l) = def.length
-            && (!(l >= 0.0) || !l.is_finite())
-        {
-            return bad(format!("length must be >= 0, got {l}"));
-        }
-        let finite = [def.anchor, def.axis, def.offset]
-            .iter()
-            .flatten()
-            .chain(def.anchors.iter().flatten())
-            .chain(def.ground_anchors.iter().flatten())
-            .all(|v| v.is_finite());
-        if !finite || !def.angle.is_none_or(f32::is_finite) {
-            return bad("anchors, axis, offset and angle must be finite".into());
-        }
-        if let Some(sp) = def.spring
-            && !(sp.hertz > 0.0 && sp.hertz.is_finite() && sp.damping_ratio >= 0.0)
-        {
-            return bad(format!(
-                "spring needs hertz > 0 and damping_ratio >= 0, got {} and {}",
-                sp.hertz, sp.damping_ratio
-            ));
-        }
-        match def.kind {
-            crate::defs::JointKind::Hinge if def.servo.is_some() && def.spring.is_some() => {
-                return bad("a hinge takes a servo or a spring, not both".into());
-            }
-            crate::defs::JointKind::Motor
-                if !(def.max_force >= 0.0
-                    && def.max_torque >= 0.0
-                    && (0.0..=1.0).contains(&def.correction)) =>
-            {
-                return bad(format!(
-                    "a motor joint needs max_force, max_torque >= 0 and correction in [0, 1], got {}, {}, {}",
-                    def.max_force, def.max_torque, def.correction
-                ));
-            }
-            crate::defs::JointKind::Pulley if def.ground_anchors.is_none() => {
-                return bad("a pulley needs ground anchors".into());
-            }
-            crate::defs::JointKind::Pulley if !(def.ratio > 0.0 && def.ratio.is_finite()) => {
-                return bad(format!("a pulley's ratio must be > 0, got {}", def.ratio));
-            }
-            _ => {}
+        if let Err(why) = Joint::check_def(def) {
+            return bad(why);
         }
         let joint = Joint::from_def(def, &self.bodies);
-        if let Some(what) = joint_not_finite(&joint) {
+        if let Some(what) = joint.not_finite() {
             return bad(format!(
                 "its {what} is not finite (the bodies {:?} and {:?} are too far apart for f32)",
                 self.bodies[a].name, self.bodies[b].name
@@ -477,19 +423,6 @@ impl World {
             local,
         });
         Ok(())
-    }
-}
-
-/// The first derived value of a new joint that is not finite, by name.
-pub(crate) fn joint_not_finite(j: &Joint) -> Option<&'static str> {
-    if !j.length.is_finite() {
-        Some("length")
-    } else if !(j.local_a.is_finite() && j.local_b.is_finite()) {
-        Some("anchor offset")
-    } else if !(j.local_axis.is_finite() && j.ref_angle.is_finite()) {
-        Some("axis or reference angle")
-    } else {
-        None
     }
 }
 

@@ -251,7 +251,7 @@ impl WorldState {
             if j.a == j.b {
                 return bad(format!("joint #{k} joins body #{} to itself", j.a));
             }
-            if let Some(what) = crate::world::joint_not_finite(j) {
+            if let Some(what) = j.not_finite() {
                 return bad(format!("joint #{k}: its {what} is not finite"));
             }
             let mut numbers = vec![

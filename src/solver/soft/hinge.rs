@@ -2,7 +2,15 @@
 //! moving body) solved in lock step in SIMD lanes, as the contacts are (Box2D v3 solves
 //! its revolute joints one by one; here they take lanes like its contacts).
 //!
-//! A hinge's rows, in the order the scalar rows take them (`joints.rs`): a torsion
+//! The lanes are a layout of this solver's, not a kind of joint: they are filled and
+//! swept beside the contacts' lanes, colour by colour, so they live with them here
+//! rather than with the hinge in `crate::joint::hinge`, which holds the same rows one
+//! joint at a time (and solves the hinges the lanes do not take). The lanes read and
+//! write the bodies through the solver's own pointers in the same passes as the contact
+//! lanes; routing them through the joint's file would put a call and a copy of the pair
+//! in the sweep's hottest loop on a joint grid.
+//!
+//! A hinge's rows, in the order the scalar rows take them: a torsion
 //! spring to its zero angle (soft, its own hertz and damping ratio), a velocity
 //! motor on the relative angle (|lambda| <= max torque h), the lower and upper angle
 //! limits (speculative while open, soft once reached), then the point (a 2x2 block):
