@@ -909,6 +909,9 @@ fn two_interrupts_end_at_once_with_one_line_and_leave_nothing() {
         "t.csv",
     );
     assert!(began, "the run started");
+    // a second into the first step (about 10 s long), so the first interrupt waits for it
+    // to end and the second finds the run still stepping
+    std::thread::sleep(std::time::Duration::from_secs(1));
     let pid = child.id().to_string();
     Command::new("sh")
         .arg("-c")
