@@ -9,6 +9,7 @@ use std::time::Instant;
 
 use plotters::prelude::*;
 
+use super::median;
 use crate::World;
 use crate::defs::WorldDef;
 
@@ -254,19 +255,6 @@ pub struct Row {
     pub lost: u64,
     /// The state hash at the end (every run's; they must agree).
     pub state_hash: u64,
-}
-
-fn median(v: &mut [f64]) -> f64 {
-    if v.is_empty() {
-        return f64::NAN;
-    }
-    v.sort_by(|a, b| a.total_cmp(b));
-    let n = v.len();
-    if n % 2 == 1 {
-        v[n / 2]
-    } else {
-        0.5 * (v[n / 2 - 1] + v[n / 2])
-    }
 }
 
 /// The top box of each `[[pyramid]]` table (its last body, `pyramidK_{n-1}`) and where

@@ -415,7 +415,9 @@ pub fn tracked_body(world: &World, track: &Track) -> Option<usize> {
     }
 }
 
-fn median(v: &mut [f64]) -> f64 {
+/// The median of `v` (sorted in place; the mean of the middle two for an even count;
+/// NaN when empty).
+pub(crate) fn median(v: &mut [f64]) -> f64 {
     if v.is_empty() {
         return f64::NAN;
     }

@@ -424,18 +424,10 @@ pub fn fine_candidates(best: &Setting) -> Vec<Setting> {
     }
 }
 
+/// The median of the finite values of `v` (NaN when none is).
 fn median(v: &[f64]) -> f64 {
     let mut s: Vec<f64> = v.iter().copied().filter(|x| x.is_finite()).collect();
-    if s.is_empty() {
-        return f64::NAN;
-    }
-    s.sort_by(f64::total_cmp);
-    let n = s.len();
-    if n % 2 == 1 {
-        s[n / 2]
-    } else {
-        0.5 * (s[n / 2 - 1] + s[n / 2])
-    }
+    super::median(&mut s)
 }
 
 /// The runs of one search: the scene, the budgets of its accuracy and timing runs, how

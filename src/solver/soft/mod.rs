@@ -36,7 +36,9 @@ use crate::body::Body;
 use crate::body::HOT_BYTES;
 use crate::defs::{BodyModel, BodyType, SolverSettings};
 use crate::joint::{Joint, MouseJoint};
-use crate::math::{BODY_AHEAD, Rot, Vec2, cross, cross_sv, prefetch, uf_root, uf_union};
+use crate::math::{
+    BODY_AHEAD, BODY_PASS_BLOCK, Rot, Vec2, cross, cross_sv, prefetch, uf_root, uf_union,
+};
 use crate::parallel::{self, Disjoint, MAX_THREADS, Pool};
 use glam::Vec4;
 use std::sync::Mutex;
@@ -825,8 +827,6 @@ const WIDE_BLOCK: usize = 32;
 const PHASE_BLOCK: usize = 128;
 /// Bodies a thread claims at a time (integration).
 const BODY_BLOCK: usize = 1024;
-/// Bodies per block of a parallel pass over the world's bodies (`Body`, large).
-const BODY_PASS_BLOCK: usize = 256;
 /// Contacts from which one thread colours them while the others load the bodies.
 const PARALLEL_COLORING: usize = 1024;
 /// Contacts from which the layout of the constraints is split between the threads.
