@@ -183,6 +183,7 @@ impl SoftSolver {
             self.joints.ends(),
             &self.moves,
             may_lopsided.then_some(&self.inv_mass[..]),
+            self.deep_gate(s),
             threads,
             &mut self.body_colors,
             &mut self.colors,
@@ -191,6 +192,14 @@ impl SoftSolver {
             &mut self.cut_lanes,
         );
         self.build_colored(bodies, contacts, joints, found, s, h, pool);
+    }
+
+    /// Where the collide found an overlap deeper than [`direct::deep_overlap`], that
+    /// depth: the colouring then looks for such a contact between
+    /// moving bodies (a column's push-outs add up only there).
+    pub(super) fn deep_gate(&self, s: &SolverSettings) -> Option<f32> {
+        let depth = direct::deep_overlap(s);
+        (self.deepest > depth).then_some(depth)
     }
 
     /// The rest of [`SoftSolver::build`], once the contacts are coloured (`found`, and
@@ -219,6 +228,7 @@ impl SoftSolver {
             joint_counts,
             points,
             lopsided,
+            deep,
         } = found;
         // a colour is used by its contacts or its joints (the overflow counts as one)
         let mut used = [0u32; OVERFLOW + 1];
@@ -300,8 +310,8 @@ impl SoftSolver {
         // that does not move, twice as stiff
         let hertz = s.contact_hertz.min(0.25 * self.inv_h);
         let soft_dynamic = Softness::new(hertz, s.contact_damping_ratio, h);
-        let deep = direct::deep_overlap(s, soft_dynamic.bias_rate);
-        self.find_direct(contacts, lopsided, (self.deepest > deep).then_some(deep));
+        let deep = if deep { self.deep_gate(s) } else { None };
+        self.find_direct(contacts, lopsided, deep);
         let soft_static = Softness::new(2.0 * hertz, s.contact_damping_ratio, h);
         let omega = 2.0 * std::f32::consts::PI * hertz;
 

@@ -17,6 +17,9 @@ pub(super) struct Colored {
     pub(super) points: usize,
     /// Whether some contact is lopsided (looked for only where masses were given).
     pub(super) lopsided: bool,
+    /// Whether some contact between two moving bodies overlaps deeper than the depth
+    /// given (looked for only where one was).
+    pub(super) deep: bool,
 }
 
 /// Greedy colouring, the joints first (in joint order: `joints` holds each joint's two
@@ -28,14 +31,16 @@ pub(super) struct Colored {
 /// each contact's colour to `colors`, and to
 /// `cut_counts` what each colour had counted at the start of each of the `threads` even
 /// runs of the contacts but the first (the layout cuts the colours there). With
-/// `inv_mass`, also looks for a lopsided contact (see `SoftSolver::find_direct`): each
-/// pass over the contacts reads them from far in the cache.
+/// `inv_mass`, also looks for a lopsided contact, and with `deep` for a contact between
+/// moving bodies deeper than that (see `SoftSolver::find_direct`): each pass over the
+/// contacts reads them from far in the cache.
 #[allow(clippy::too_many_arguments)]
 pub(super) fn color_contacts(
     contacts: &[Contact],
     joints: &[(u32, u32)],
     moves: &[bool],
     inv_mass: Option<&[(f32, f32)]>,
+    deep: Option<f32>,
     threads: usize,
     body_colors: &mut Vec<u64>,
     colors: &mut Vec<u8>,
@@ -53,7 +58,8 @@ pub(super) fn color_contacts(
         keep_joint_colors(joints, moves, body_colors, joint_colors)
     };
     let mut counts = [0u32; OVERFLOW + 1];
-    let (mut points, mut lopsided) = (0usize, false);
+    let (mut points, mut lopsided, mut deep_found) = (0usize, false, false);
+    let below = -deep.unwrap_or(f32::INFINITY);
     // plain slices, so the loop keeps its pointers in registers
     let body_colors = &mut body_colors[..];
     for k in 0..threads {
@@ -70,6 +76,9 @@ pub(super) fn color_contacts(
                 && mb
             {
                 lopsided |= is_lopsided(inv_mass[a].0, inv_mass[b].0);
+            }
+            if deep.is_some() && ma && mb {
+                deep_found |= c.manifold.points().iter().any(|p| p.separation < below);
             }
             let used =
                 (if ma { body_colors[a] } else { 0 }) | (if mb { body_colors[b] } else { 0 });
@@ -92,6 +101,7 @@ pub(super) fn color_contacts(
         joint_counts,
         points,
         lopsided,
+        deep: deep_found,
     }
 }
 

@@ -43,15 +43,13 @@ pub(super) const MASS_RATIO: f32 = 10.0;
 /// The most contact points an exactly solved island may have (its problem has twice as
 /// many rows in the relax sweep).
 pub(super) const MAX_POINTS: usize = 24;
-/// The push-out speed, as a share of `max_push_speed`, that makes a contact deep.
-const DEEP_PUSH_SHARE: f32 = 0.5;
-
-/// How deep (m) a contact overlaps when its soft row (bias `bias_rate` per metre past
-/// the slop) asks for a push-out of [`DEEP_PUSH_SHARE`] of `max_push_speed`: with the
-/// defaults (8 substeps at 60 Hz) 4 cm. Islands with a
-/// contact deeper than this are solved exactly, as lopsided ones are.
-pub(super) fn deep_overlap(s: &crate::defs::SolverSettings, bias_rate: f32) -> f32 {
-    s.slop + DEEP_PUSH_SHARE * s.max_push_speed / bias_rate
+/// How deep (m) a contact overlaps to be deep: past the slop by more than a whole
+/// step's push-out at `max_push_speed` (5 cm at the defaults), an overlap the soft rows
+/// take more than a step to push out. Islands with such a contact between moving bodies
+/// are solved exactly, as lopsided ones are. (A loaded pyramid's lowest contacts, whose
+/// soft rows hold them 2 cm deep, are not deep.)
+pub(super) fn deep_overlap(s: &crate::defs::SolverSettings) -> f32 {
+    s.slop + s.max_push_speed * s.dt
 }
 
 /// Active-set passes at most per solve (each adds or removes one bound).

@@ -101,8 +101,9 @@ impl SoftSolver {
     /// contacts between moving bodies, with some contact joining masses
     /// `direct::MASS_RATIO` apart or more, and at most `direct::MAX_POINTS` points.
     /// `any_lopsided`: whether some contact is lopsided (found by the colouring pass).
-    /// `deep`: where some contact overlaps deeper than [`direct::deep_overlap`], that
-    /// depth; an island with a contact as deep is a candidate too.
+    /// `deep`: where some contact between moving bodies overlaps deeper than
+    /// [`direct::deep_overlap`], that depth; an island with such a contact is a
+    /// candidate too.
     pub(super) fn find_direct(
         &mut self,
         contacts: &[Contact],
@@ -118,7 +119,9 @@ impl SoftSolver {
         let below = -deep.unwrap_or(f32::INFINITY);
         let lopsided = |c: &Contact| {
             is_lopsided_contact(c, moves, inv_mass)
-                || c.manifold.points().iter().any(|p| p.separation < below)
+                || (moves[c.a as usize]
+                    && moves[c.b as usize]
+                    && c.manifold.points().iter().any(|p| p.separation < below))
         };
         let nb = self.moves.len();
         self.parent.clear();

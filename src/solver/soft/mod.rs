@@ -425,6 +425,7 @@ impl SoftSolver {
         let nb = bodies.len();
         self.size_bodies(nb);
         self.increments.resize(nb, (Vec2::ZERO, 0.0));
+        let deep = self.deep_gate(s);
         let (soft, moves) = (
             Disjoint::new(&mut self.bodies[..nb]),
             Disjoint::new(&mut self.moves),
@@ -504,6 +505,7 @@ impl SoftSolver {
                     ends,
                     movers,
                     None,
+                    deep,
                     threads,
                     body_colors,
                     colors,
