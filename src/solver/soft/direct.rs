@@ -44,7 +44,7 @@ pub(super) const MASS_RATIO: f32 = 10.0;
 /// many rows in the relax sweep).
 pub(super) const MAX_POINTS: usize = 24;
 /// How deep (m) a contact overlaps to be deep: past the slop by more than a whole
-/// step's push-out at `max_push_speed` (5 cm at the defaults), an overlap the soft rows
+/// step's push-out at `max_push_speed` (5.5 cm at the defaults), an overlap the soft rows
 /// take more than a step to push out. Islands with such a contact between moving bodies
 /// are solved exactly, as lopsided ones are. (A loaded pyramid's lowest contacts, whose
 /// soft rows hold them 2 cm deep, are not deep.)
