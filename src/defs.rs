@@ -393,6 +393,13 @@ pub struct JointDef {
     pub ground_anchors: Option<[Vec2; 2]>,
     /// Pulley: length_a + ratio length_b is kept at most its value at creation; > 0.
     pub ratio: f32,
+    /// The joint breaks (is removed, with a [`crate::JointBreakEvent`]) after a
+    /// step whose constraint force, the magnitude of its linear part (N), exceeds this;
+    /// `None` (the default) = it never breaks. > 0.
+    pub break_force: Option<f32>,
+    /// The joint breaks after a step whose constraint torque, its angular rows' (N m),
+    /// exceeds this in magnitude; `None` (the default) = never. > 0.
+    pub break_torque: Option<f32>,
 }
 
 impl JointDef {
@@ -420,6 +427,8 @@ impl JointDef {
             correction: 0.0,
             ground_anchors: None,
             ratio: 1.0,
+            break_force: None,
+            break_torque: None,
         }
     }
 

@@ -87,7 +87,8 @@ pub use defs::*;
 pub use draw::{Camera, DrawList};
 pub use joint::{Joint, JointId, MouseJoint};
 pub use world::{
-    BodyKey, BuildError, ContactEvent, DEFAULT_HIT_SPEED, EditError, EventKind, HitEvent, JointKey,
-    QUERY_MARGIN, QueryShape, RayHit, RemoveError, SHAPE_CAST_TOLERANCE, ShapeCastHit, SleepEvent,
-    StateError, StepError, StepStats, ThreadUse, Threads, World, WorldState,
+    BodyKey, BuildError, ContactEvent, DEFAULT_HIT_SPEED, EditError, EventKind, HitEvent,
+    JointBreakEvent, JointKey, QUERY_MARGIN, QueryShape, RayHit, RemoveError, SHAPE_CAST_TOLERANCE,
+    ShapeCastHit, SleepEvent, StateError, StepError, StepStats, ThreadUse, Threads, World,
+    WorldState,
 };

@@ -31,7 +31,9 @@ pub use body_api::EditError;
 use build::energy_problem;
 pub use build::{BodyInput, BuildError};
 pub use edit::{BodyKey, JointKey, RemoveError};
-pub use events::{ContactEvent, DEFAULT_HIT_SPEED, EventKind, HitEvent, SleepEvent};
+pub use events::{
+    ContactEvent, DEFAULT_HIT_SPEED, EventKind, HitEvent, JointBreakEvent, SleepEvent,
+};
 pub use measure::{FAR_FROM_ORIGIN, far_from_origin};
 pub use query::{QUERY_MARGIN, QueryShape, RayHit, SHAPE_CAST_TOLERANCE, ShapeCastHit};
 pub use state::{STATE_FORMAT, STATE_VERSION, StateError, WorldState};
@@ -114,6 +116,8 @@ pub struct World {
     hits: Vec<HitEvent>,
     /// The last step's bodies that fell asleep or woke.
     sleep_events: Vec<SleepEvent>,
+    /// The joints that broke in the last step.
+    joint_breaks: Vec<JointBreakEvent>,
     /// Each body's asleep flag after the last step with events on, and the edits count
     /// then (a flag list of another world's bodies is not compared).
     was_asleep: (Vec<bool>, u64),
@@ -180,6 +184,7 @@ impl World {
             hit_speed: DEFAULT_HIT_SPEED,
             hits: Vec::new(),
             sleep_events: Vec::new(),
+            joint_breaks: Vec::new(),
             was_asleep: (Vec::new(), 0),
             step_start_velocity: Vec::new(),
             events: Vec::new(),
@@ -413,6 +418,7 @@ impl World {
         let mut stats = stepper.step(&mut state, &cx, &mut clock);
         let ended = state.ended;
         self.sleep.unpark_joints(&mut self.joints);
+        self.break_joints(cx.h, cx.dt);
         if one_sided {
             self.keep_in_front();
         }

@@ -415,7 +415,7 @@ impl World {
         Ok(self.remove_joint_at(i))
     }
 
-    fn remove_joint_at(&mut self, i: usize) -> Joint {
+    pub(super) fn remove_joint_at(&mut self, i: usize) -> Joint {
         let j = self.joints.remove(i);
         self.joint_keys.remove(i);
         self.wake(j.a);
