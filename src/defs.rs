@@ -402,6 +402,18 @@ pub struct JointDef {
     pub break_torque: Option<f32>,
 }
 
+/// A rigid hinge with no anchor given (b's centre), between bodies 0 and 1: a base to
+/// fill in with `..Default::default()` for [`crate::World::create_joint`], which names
+/// the bodies by key.
+impl Default for JointDef {
+    fn default() -> Self {
+        JointDef {
+            anchor: None,
+            ..JointDef::hinge(0, 1, Vec2::ZERO)
+        }
+    }
+}
+
 impl JointDef {
     /// A rigid hinge between bodies `a` and `b` at the world point `at`: no limits,
     /// motor, servo or damping; the two bodies do not collide.

@@ -17,6 +17,9 @@ pub enum EditError {
     /// The joint key is stale (the joint was removed or broke) or from another world.
     #[error("the key names no joint of this world (removed, broken, or from another world)")]
     NoSuchJoint,
+    /// The definition could not make a body or joint (why, as the builder says).
+    #[error(transparent)]
+    Build(#[from] super::BuildError),
     /// A joint's value is out of its range.
     #[error("joint: the {what} must be {must}, got {value}")]
     BadJointValue {
@@ -98,7 +101,7 @@ impl World {
         b.rot = Rot::from_angle(angle);
         b.position = position - b.rot.rotate(b.origin_offset);
         self.moves += 1;
-        self.wake(i);
+        self.wake_index(i);
         Ok(())
     }
 
@@ -128,7 +131,7 @@ impl World {
         let b = &mut self.bodies[i];
         b.velocity = velocity;
         b.angular_velocity = angular_velocity;
-        self.wake(i);
+        self.wake_index(i);
         Ok(())
     }
 
@@ -156,7 +159,7 @@ impl World {
         let b = &mut self.bodies[i];
         b.velocity += impulse * b.inv_mass;
         b.angular_velocity += cross(world_point - b.position, impulse) * b.inv_inertia;
-        self.wake(i);
+        self.wake_index(i);
         Ok(())
     }
 
@@ -185,7 +188,7 @@ impl World {
         let b = &mut self.bodies[i];
         b.force += force;
         b.torque += cross(world_point - b.position, force) + torque;
-        self.wake(i);
+        self.wake_index(i);
         Ok(())
     }
 
@@ -216,8 +219,8 @@ impl World {
         j.break_torque = torque;
         // a sleeping island's joints carry no load the step looks at: wake it
         let (a, b) = (j.a, j.b);
-        self.wake(a);
-        self.wake(b);
+        self.wake_index(a);
+        self.wake_index(b);
         Ok(())
     }
 }
