@@ -89,6 +89,6 @@ pub use joint::{Joint, JointId, MouseJoint};
 pub use world::{
     BodyKey, BuildError, ContactEvent, DEFAULT_HIT_SPEED, EditError, EventKind, HitEvent,
     JointBreakEvent, JointKey, QUERY_MARGIN, QueryShape, RayHit, RemoveError, SHAPE_CAST_TOLERANCE,
-    ShapeCastHit, SleepEvent, StateError, StepError, StepStats, ThreadUse, Threads, World,
-    WorldState,
+    ShapeCastHit, ShapeKey, SleepEvent, StateError, StepError, StepStats, ThreadUse, Threads,
+    World, WorldState,
 };

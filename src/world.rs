@@ -22,6 +22,7 @@ mod edit;
 mod events;
 mod measure;
 mod query;
+mod shapes;
 mod spawn;
 mod state;
 mod threads;
@@ -36,6 +37,7 @@ pub use events::{
 };
 pub use measure::{FAR_FROM_ORIGIN, far_from_origin};
 pub use query::{QUERY_MARGIN, QueryShape, RayHit, SHAPE_CAST_TOLERANCE, ShapeCastHit};
+pub use shapes::ShapeKey;
 pub use state::{STATE_FORMAT, STATE_VERSION, StateError, WorldState};
 pub use threads::{ThreadUse, Threads};
 use walls::WallGrid;

@@ -17,6 +17,17 @@ pub enum EditError {
     /// The joint key is stale (the joint was removed or broke) or from another world.
     #[error("the key names no joint of this world (removed, broken, or from another world)")]
     NoSuchJoint,
+    /// The shape key is stale (the shape or its body was removed) or from another world.
+    #[error("the key names no shape of this world (removed, or from another world)")]
+    NoSuchShape,
+    /// A shape given to [`World::add_shape`] cannot be built.
+    #[error("body {name:?}: the shape cannot be added: {why}")]
+    BadShape {
+        /// The body's name.
+        name: String,
+        /// Why not.
+        why: String,
+    },
     /// The definition could not make a body or joint (why, as the builder says).
     #[error(transparent)]
     Build(#[from] super::BuildError),

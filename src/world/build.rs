@@ -421,7 +421,18 @@ impl World {
             asleep: false,
             sleep_time: 0.0,
             island: 0,
-            parts: compound.map(|(parts, _)| parts).unwrap_or_default(),
+            next_part_id: compound.as_ref().map_or(1, |(parts, _)| parts.len() as u32),
+            parts: compound
+                .map(|(mut parts, md)| {
+                    // a given mass scales every part's density alike
+                    if dynamic && md.mass > 0.0 {
+                        for p in &mut parts {
+                            p.density *= mass / md.mass;
+                        }
+                    }
+                    parts
+                })
+                .unwrap_or_default(),
             linear_damping: def.linear_damping,
             angular_damping: def.angular_damping,
             sleep_threshold: def.sleep_threshold,
