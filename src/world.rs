@@ -120,6 +120,10 @@ pub struct World {
     sleep_events: Vec<SleepEvent>,
     /// The joints that broke in the last step.
     joint_breaks: Vec<JointBreakEvent>,
+    /// Some joint may break: set where a breakable joint comes in (added, restored, a
+    /// threshold set), cleared by the step when it finds none, so a world without one
+    /// never looks.
+    may_break: bool,
     /// Each body's asleep flag after the last step with events on, and the edits count
     /// then (a flag list of another world's bodies is not compared).
     was_asleep: (Vec<bool>, u64),
@@ -187,6 +191,7 @@ impl World {
             hits: Vec::new(),
             sleep_events: Vec::new(),
             joint_breaks: Vec::new(),
+            may_break: false,
             was_asleep: (Vec::new(), 0),
             step_start_velocity: Vec::new(),
             events: Vec::new(),
@@ -458,6 +463,7 @@ impl World {
             sleep: &mut self.sleep,
             // only this step's solver may say it ended the step
             ended: None,
+            may_break: self.may_break,
         };
         let stepper = self.stepper.as_mut().expect("a stepper of this kind");
         let mut stats = stepper.step(&mut state, &cx, &mut clock);

@@ -245,3 +245,17 @@ fn joints_break_the_same_at_any_thread_count() {
         assert_eq!(one, run(kind, 3), "{kind:?}");
     }
 }
+
+#[test]
+fn a_restored_world_breaks_its_joints_as_the_saved_one_would() {
+    let mg = M * G;
+    for kind in SolverKind::ALL {
+        let saved = hung(kind, JointKind::Hinge, Some(0.98 * mg), None).snapshot();
+        // a world with no joint that may break takes the saved one's
+        let mut w = hung(kind, JointKind::Hinge, None, None);
+        w.restore(&saved).unwrap();
+        w.step().unwrap();
+        assert_eq!(w.joint_breaks().len(), 1, "{kind:?}");
+        assert!(w.joints().is_empty(), "{kind:?}");
+    }
+}

@@ -43,7 +43,7 @@ impl Stepper for XpbdStepper {
         self.lambdas.clear();
         self.lambdas.resize(state.joints.len(), [0.0; SLOTS]);
         // a joint that may break sums its substeps' impulses for the world to read
-        let breakable = state.joints.iter().any(|j| j.breakable());
+        let breakable = state.may_break;
         if breakable {
             for j in state.joints.iter_mut() {
                 j.step_impulses = [0.0; SLOTS];

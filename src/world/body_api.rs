@@ -228,6 +228,7 @@ impl World {
         let j = &mut self.joints[i];
         j.break_force = force;
         j.break_torque = torque;
+        self.may_break |= j.breakable();
         // a sleeping island's joints carry no load the step looks at: wake it
         let (a, b) = (j.a, j.b);
         self.wake_index(a);

@@ -177,6 +177,7 @@ impl World {
                 self.bodies[a].name, self.bodies[b].name
             ));
         }
+        self.may_break |= joint.breakable();
         self.joints.push(joint);
         self.sync_keys();
         if !def.collide_connected {

@@ -163,7 +163,11 @@ impl World {
     /// load this step and is not looked at.
     pub(super) fn break_joints(&mut self, h: f32, dt: f32) {
         self.joint_breaks.clear();
+        if !self.may_break {
+            return;
+        }
         if !self.joints.iter().any(|j| j.breakable()) {
+            self.may_break = false;
             return;
         }
         let xpbd = self.settings.kind == crate::defs::SolverKind::Xpbd;

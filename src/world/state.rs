@@ -490,6 +490,7 @@ impl World {
         self.contacts = s.contacts.clone();
         self.sleep.contacts = s.sleeping_contacts.clone();
         self.joints = s.joints.clone();
+        self.may_break = self.joints.iter().any(|j| j.breakable());
         // keys from before the restore name nothing in it
         self.body_keys.renew(self.bodies.len());
         self.joint_keys.renew(self.joints.len());
