@@ -47,7 +47,19 @@ pub struct XpbdContacts {
     pub block: bool,
     /// The velocity pass's normal impulses (scratch).
     jn: Vec<f32>,
+    /// Whether some point began the substep overlapping deeper than one substep's
+    /// push-out (its floor below 0): the velocity pass then sweeps the normal rows
+    /// [`PUSHED_OUT_SWEEPS`] times.
+    pushing_out: bool,
 }
+
+/// The velocity pass's sweeps of the normal rows while an overlap is being pushed out.
+/// The projection turns each contact's push into speed (v = dx / h), and a column of
+/// overlapping bodies stacks those speeds (four boxes each 0.25 m inside the one below:
+/// 1.6, 2.8, 4.9, 4.9 m/s); one Gauss-Seidel sweep from one end of the column takes
+/// back only part of them, and the top boxes flew 0.6 m and landed after a second.
+/// Repeated sweeps meet every point's target together.
+const PUSHED_OUT_SWEEPS: usize = 4;
 
 struct Geo {
     ra: Vec2,
@@ -172,6 +184,7 @@ impl XpbdContacts {
             p.lambda_n = 0.0;
             p.lambda_t = 0.0;
         }
+        self.pushing_out = self.points.iter().any(|p| p.floor < 0.0);
     }
 
     /// One projection of every contact: the overlap (C = gap < 0), then static friction
@@ -276,6 +289,28 @@ impl XpbdContacts {
             };
             (-e * p.vn_before).max(0.0)
         };
+        let sweeps = if self.pushing_out {
+            PUSHED_OUT_SWEEPS
+        } else {
+            1
+        };
+        for _ in 0..sweeps {
+            self.normal_sweep(world, bodies, &mut jn, &target_of);
+        }
+        self.friction_pass(world, bodies, &jn, h);
+        self.jn = jn;
+    }
+
+    /// One sweep of the velocity pass's normal rows: each touching point's normal
+    /// velocity to its target (`target_of`), a manifold's two points together; adds the
+    /// impulses to `jn`.
+    fn normal_sweep(
+        &self,
+        world: &[Body],
+        bodies: &mut [SolverBody],
+        jn: &mut [f32],
+        target_of: &impl Fn(&XpbdPoint) -> f32,
+    ) {
         let mut i = 0;
         while i < self.points.len() {
             let p = &self.points[i];
@@ -320,7 +355,8 @@ impl XpbdContacts {
                         bodies[b].v += imb * imp;
                         bodies[b].w += iib * cross(gg.rb, imp);
                     }
-                    (jn[i], jn[i + 1]) = (j1, j2);
+                    jn[i] += j1;
+                    jn[i + 1] += j2;
                     i += 2;
                     continue;
                 }
@@ -336,11 +372,15 @@ impl XpbdContacts {
                 bodies[a].w -= iia * cross(g.ra, imp);
                 bodies[b].v += imb * imp;
                 bodies[b].w += iib * cross(g.rb, imp);
-                jn[i] = j;
+                jn[i] += j;
             }
             i += 1;
         }
-        for (p, &j) in self.points.iter().zip(&jn) {
+    }
+
+    /// The velocity pass's dynamic friction, after the normal rows took `jn`.
+    fn friction_pass(&self, world: &[Body], bodies: &mut [SolverBody], jn: &[f32], h: f32) {
+        for (p, &j) in self.points.iter().zip(jn) {
             if p.lambda_n <= 0.0 {
                 continue;
             }
@@ -370,7 +410,6 @@ impl XpbdContacts {
                 }
             }
         }
-        self.jn = jn;
     }
 }
 

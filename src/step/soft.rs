@@ -38,6 +38,7 @@ impl Stepper for SoftStepper {
         // points out to the distance each pair can close in the step (speculative
         // contacts): a fast body meets what it would pass through
         let penetration = state.collide(cx.dt, cx.margin, Speculative::MarginOrMotion, clock);
+        self.soft.set_deepest(penetration);
         // without drag (or bodies' own damping) the forces change every substep's
         // velocities by the same amount: integrate once, and the solver adds that
         // increment in the later substeps

@@ -296,11 +296,12 @@ impl SoftSolver {
         self.lay_out_joints(joints, bodies, &used, h, s.warm_start, pool);
         self.cut_joints(threads);
         self.points = points;
-        self.find_direct(contacts, lopsided);
         // rigid contacts soften to a quarter of the substep rate at most; against a body
         // that does not move, twice as stiff
         let hertz = s.contact_hertz.min(0.25 * self.inv_h);
         let soft_dynamic = Softness::new(hertz, s.contact_damping_ratio, h);
+        let deep = direct::deep_overlap(s, soft_dynamic.bias_rate);
+        self.find_direct(contacts, lopsided, (self.deepest > deep).then_some(deep));
         let soft_static = Softness::new(2.0 * hertz, s.contact_damping_ratio, h);
         let omega = 2.0 * std::f32::consts::PI * hertz;
 

@@ -101,14 +101,25 @@ impl SoftSolver {
     /// contacts between moving bodies, with some contact joining masses
     /// `direct::MASS_RATIO` apart or more, and at most `direct::MAX_POINTS` points.
     /// `any_lopsided`: whether some contact is lopsided (found by the colouring pass).
-    pub(super) fn find_direct(&mut self, contacts: &[Contact], any_lopsided: bool) {
+    /// `deep`: where some contact overlaps deeper than [`direct::deep_overlap`], that
+    /// depth; an island with a contact as deep is a candidate too.
+    pub(super) fn find_direct(
+        &mut self,
+        contacts: &[Contact],
+        any_lopsided: bool,
+        deep: Option<f32>,
+    ) {
         self.direct_contact.clear();
         self.direct.clear();
-        if !any_lopsided {
+        if !any_lopsided && deep.is_none() {
             return;
         }
         let (moves, inv_mass) = (&self.moves, &self.inv_mass);
-        let lopsided = |c: &Contact| is_lopsided_contact(c, moves, inv_mass);
+        let below = -deep.unwrap_or(f32::INFINITY);
+        let lopsided = |c: &Contact| {
+            is_lopsided_contact(c, moves, inv_mass)
+                || c.manifold.points().iter().any(|p| p.separation < below)
+        };
         let nb = self.moves.len();
         self.parent.clear();
         self.parent.extend(0..nb as u32);

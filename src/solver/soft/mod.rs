@@ -363,11 +363,21 @@ pub struct SoftSolver {
     roots: Vec<u32>,
     /// The contact points of the step's contacts.
     points: usize,
+    /// The deepest overlap of the step's contacts (m), as the collide found it
+    /// ([`SoftSolver::set_deepest`]): past [`direct::deep_overlap`], the small islands of
+    /// such contacts are solved exactly.
+    deepest: f32,
     /// Whether the last `prepare_integrating` coloured the contacts beside its load pass.
     colored_beside_load: bool,
 }
 
 impl SoftSolver {
+    /// Tells the next `prepare` how deep the step's deepest overlap is (m, as the
+    /// collide returns it; 0 if not known).
+    pub fn set_deepest(&mut self, deepest: f32) {
+        self.deepest = deepest;
+    }
+
     /// Builds this step's constraints from the contacts (collided at the step's start)
     /// and the joints (and the mouse joint) for substeps of `h`, and loads the bodies.
     /// Lambdas start from the cache and the joints' own if warm starting.
