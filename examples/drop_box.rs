@@ -17,7 +17,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         position: Vec2::new(0.0, -0.5),
         ..Default::default()
     })?;
-    let b = world.add_body(&BodyDef {
+    let b = world.create_body(&BodyDef {
         name: "box".into(),
         shape: ShapeDef::Box {
             width: 1.0,
@@ -29,7 +29,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     })?;
     for step in 0..=180 {
         if step % 15 == 0 {
-            let body = &world.bodies[b];
+            let body = world.body(b).expect("the box is there");
             println!(
                 "t = {:5.2} s  height = {:6.3} m  angle = {:6.3} rad",
                 world.time(),

@@ -27,7 +27,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let mut crates: Vec<BodyKey> = Vec::new();
     for row in 0..8 {
         for col in 0..5 {
-            let i = world.add_body(&BodyDef {
+            let key = world.create_body(&BodyDef {
                 name: format!("crate {row} {col}"),
                 shape: ShapeDef::Box {
                     width: 0.9,
@@ -36,7 +36,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                 position: Vec2::new(10.0 + col as f32, 0.45 + row as f32 * 0.9),
                 ..Default::default()
             })?;
-            crates.push(world.body_key(i).unwrap());
+            crates.push(key);
         }
     }
     let everything = Filter::default();
@@ -45,14 +45,13 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     for frame in 0..300 {
         // fire a ball every half second from the cannon at x = -5
         if frame % 30 == 0 && frame < 150 {
-            let i = world.add_body(&BodyDef {
+            let key = world.create_body(&BodyDef {
                 name: format!("ball {frame}"),
                 shape: ShapeDef::Circle { radius: 0.3 },
                 density: 5.0,
                 position: Vec2::new(-5.0, 2.0 + (frame / 30) as f32),
                 ..Default::default()
             })?;
-            let key = world.body_key(i).unwrap();
             world.set_velocity(key, Vec2::new(18.0, 2.0), 0.0)?;
         }
         // the bomb: every crate it reaches is thrown away from it

@@ -5,7 +5,7 @@
 //! cargo run --example ragdoll --no-default-features
 
 use glam::Vec2;
-use sandbox2d::{BodyDef, BodyType, JointDef, ShapeDef, SolverSettings, World};
+use sandbox2d::{BodyDef, BodyKey, BodyType, JointDef, ShapeDef, SolverSettings, World};
 
 /// A limb: a capsule from `a` to `b` (world points, m) of `radius`.
 fn limb(name: &str, a: Vec2, b: Vec2, radius: f32) -> BodyDef {
@@ -23,16 +23,24 @@ fn limb(name: &str, a: Vec2, b: Vec2, radius: f32) -> BodyDef {
 }
 
 /// A hinge at `anchor` between bodies `a` and `b`, turning within `limits` (rad).
-fn hinge(a: usize, b: usize, anchor: Vec2, limits: [f32; 2]) -> JointDef {
-    JointDef {
+fn hinge(
+    world: &mut World,
+    (a, b): (BodyKey, BodyKey),
+    anchor: Vec2,
+    limits: [f32; 2],
+) -> Result<(), sandbox2d::EditError> {
+    let def = JointDef {
+        anchor: Some(anchor),
         limits: Some(limits),
-        ..JointDef::hinge(a, b, anchor)
-    }
+        ..Default::default()
+    };
+    world.create_joint(a, b, &def)?;
+    Ok(())
 }
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let mut world = World::new(Some(Vec2::new(0.0, -9.81)), SolverSettings::default());
-    world.add_body(&BodyDef {
+    world.create_body(&BodyDef {
         name: "ground".into(),
         body_type: BodyType::Static,
         shape: ShapeDef::Box {
@@ -44,19 +52,19 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     })?;
     // standing 2 m up: hips at y = 3, shoulders at 3.6, the head above
     let (hip, neck) = (Vec2::new(0.0, 3.0), Vec2::new(0.0, 3.6));
-    let torso = world.add_body(&limb("torso", hip, neck, 0.15))?;
-    let head = world.add_body(&BodyDef {
+    let torso = world.create_body(&limb("torso", hip, neck, 0.15))?;
+    let head = world.create_body(&BodyDef {
         name: "head".into(),
         shape: ShapeDef::Circle { radius: 0.13 },
         position: neck + Vec2::new(0.0, 0.22),
         ..Default::default()
     })?;
-    world.add_joint(&hinge(
-        torso,
-        head,
+    hinge(
+        &mut world,
+        (torso, head),
         neck + Vec2::new(0.0, 0.08),
         [-0.5, 0.5],
-    ))?;
+    )?;
     let quarter = std::f32::consts::FRAC_PI_2;
     for side in [-1.0f32, 1.0] {
         let s = if side < 0.0 { "left" } else { "right" };
@@ -64,17 +72,17 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         let shoulder = neck + Vec2::new(0.2 * side, -0.05);
         let elbow = shoulder + Vec2::new(0.05 * side, -0.3);
         let wrist = elbow + Vec2::new(0.0, -0.28);
-        let upper = world.add_body(&limb(&format!("{s} upper arm"), shoulder, elbow, 0.06))?;
-        let lower = world.add_body(&limb(&format!("{s} forearm"), elbow, wrist, 0.05))?;
-        world.add_joint(&hinge(torso, upper, shoulder, [-2.5, 2.5]))?;
-        world.add_joint(&hinge(upper, lower, elbow, [-2.2, 0.0]))?;
+        let upper = world.create_body(&limb(&format!("{s} upper arm"), shoulder, elbow, 0.06))?;
+        let lower = world.create_body(&limb(&format!("{s} forearm"), elbow, wrist, 0.05))?;
+        hinge(&mut world, (torso, upper), shoulder, [-2.5, 2.5])?;
+        hinge(&mut world, (upper, lower), elbow, [-2.2, 0.0])?;
         let hip_joint = hip + Vec2::new(0.1 * side, -0.05);
         let knee = hip_joint + Vec2::new(0.0, -0.42);
         let ankle = knee + Vec2::new(0.0, -0.4);
-        let thigh = world.add_body(&limb(&format!("{s} thigh"), hip_joint, knee, 0.08))?;
-        let shin = world.add_body(&limb(&format!("{s} shin"), knee, ankle, 0.07))?;
-        world.add_joint(&hinge(torso, thigh, hip_joint, [-quarter, 1.2]))?;
-        world.add_joint(&hinge(thigh, shin, knee, [0.0, 2.4]))?;
+        let thigh = world.create_body(&limb(&format!("{s} thigh"), hip_joint, knee, 0.08))?;
+        let shin = world.create_body(&limb(&format!("{s} shin"), knee, ankle, 0.07))?;
+        hinge(&mut world, (torso, thigh), hip_joint, [-quarter, 1.2])?;
+        hinge(&mut world, (thigh, shin), knee, [0.0, 2.4])?;
     }
     // four seconds: it falls 2 m, crumples and settles
     let mut worst_gap = 0.0f32;
@@ -82,7 +90,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         world.step()?;
         worst_gap = worst_gap.max(world.joint_error());
         if step % 60 == 59 {
-            let t = &world.bodies[torso];
+            let t = world.body(torso).expect("the torso is there");
             println!(
                 "t = {:4.2} s  torso at ({:6.3}, {:6.3}) m  speed {:6.3} m/s  joint gap {:.4} m",
                 world.time(),

@@ -78,6 +78,9 @@ pub struct Body {
     /// body whether it has parts, and here they read it from the lines they read anyway.
     #[serde(default)]
     pub parts: Vec<crate::compound::Part>,
+    /// The number the next part added to the body gets ([`crate::compound::Part::id`]).
+    #[serde(default)]
+    pub(crate) next_part_id: u32,
     /// The shape, centred on the centre of mass.
     pub shape: Shape,
     /// Where the scene's shape origin lies in the body frame (minus the centroid of the

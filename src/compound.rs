@@ -40,6 +40,14 @@ pub struct Part {
     /// [`Part::reach`] works it out.
     #[serde(skip)]
     pub reach: f32,
+    /// The part's density (kg/m^2), for working out the body's mass again when a
+    /// part is added or removed ([`crate::World::add_shape`]).
+    #[serde(default)]
+    pub density: f32,
+    /// The part's number in its body, for its [`crate::ShapeKey`]: never used again
+    /// in that body once the part is removed.
+    #[serde(default)]
+    pub id: u32,
 }
 
 /// Two parts are equal when what they are is (the kept reach is worked out from it).
@@ -147,6 +155,8 @@ pub fn build(
             filter: p.filter.unwrap_or(filter),
             sensor: p.sensor,
             reach: shape.radius(),
+            density: d,
+            id: i as u32,
         });
     }
     let mass: f32 = masses.iter().map(|m| m.mass).sum();

@@ -393,6 +393,25 @@ pub struct JointDef {
     pub ground_anchors: Option<[Vec2; 2]>,
     /// Pulley: length_a + ratio length_b is kept at most its value at creation; > 0.
     pub ratio: f32,
+    /// The joint breaks (is removed, with a [`crate::JointBreakEvent`]) after a
+    /// step whose constraint force, the magnitude of its linear part (N), exceeds this;
+    /// `None` (the default) = it never breaks. > 0.
+    pub break_force: Option<f32>,
+    /// The joint breaks after a step whose constraint torque, its angular rows' (N m),
+    /// exceeds this in magnitude; `None` (the default) = never. > 0.
+    pub break_torque: Option<f32>,
+}
+
+/// A rigid hinge with no anchor given (b's centre), between bodies 0 and 1: a base to
+/// fill in with `..Default::default()` for [`crate::World::create_joint`], which names
+/// the bodies by key.
+impl Default for JointDef {
+    fn default() -> Self {
+        JointDef {
+            anchor: None,
+            ..JointDef::hinge(0, 1, Vec2::ZERO)
+        }
+    }
 }
 
 impl JointDef {
@@ -420,6 +439,8 @@ impl JointDef {
             correction: 0.0,
             ground_anchors: None,
             ratio: 1.0,
+            break_force: None,
+            break_torque: None,
         }
     }
 

@@ -11,11 +11,11 @@
 //!     let mut world = World::new(Some(Vec2::new(0.0, -10.0)), settings);
 //!     world.add_body(&BodyDef { name: "ground".into(), body_type: BodyType::Static,
 //!         shape: ShapeDef::Box { width: 20.0, height: 1.0 }, position: Vec2::new(0.0, -0.5), ..Default::default() }).unwrap();
-//!     let ball = world.add_body(&BodyDef { name: "ball".into(), shape: ShapeDef::Circle { radius: 0.5 },
+//!     let ball = world.create_body(&BodyDef { name: "ball".into(), shape: ShapeDef::Circle { radius: 0.5 },
 //!         position: Vec2::new(0.0, 3.0), ..Default::default() }).unwrap();
 //!     for _ in 0..120 { world.step().unwrap(); }
 //!     // at rest on the ground: its centre one radius above it
-//!     assert!((world.bodies[ball].position.y - 0.5).abs() < 0.02);
+//!     assert!((world.body(ball).unwrap().position.y - 0.5).abs() < 0.02);
 //! }
 //! ```
 //!
@@ -87,7 +87,8 @@ pub use defs::*;
 pub use draw::{Camera, DrawList};
 pub use joint::{Joint, JointId, MouseJoint};
 pub use world::{
-    BodyKey, BuildError, ContactEvent, DEFAULT_HIT_SPEED, EditError, EventKind, HitEvent, JointKey,
-    QUERY_MARGIN, QueryShape, RayHit, RemoveError, SHAPE_CAST_TOLERANCE, ShapeCastHit, SleepEvent,
-    StateError, StepError, StepStats, ThreadUse, Threads, World, WorldState,
+    BodyKey, BuildError, ContactEvent, DEFAULT_HIT_SPEED, EditError, EventKind, HitEvent,
+    JointBreakEvent, JointKey, QUERY_MARGIN, QueryShape, RayHit, RemoveError, SHAPE_CAST_TOLERANCE,
+    ShapeCastHit, ShapeKey, SleepEvent, StateError, StepError, StepStats, ThreadUse, Threads,
+    World, WorldState,
 };

@@ -591,7 +591,7 @@ mod tests {
     fn push(w: &mut World, i: &f32) -> Result<(), StepError> {
         if *i != 0.0 {
             let at = w.bodies[5].position;
-            w.apply_force(5, crate::math::Vec2::new(*i, 0.0), at);
+            w.apply_force_index(5, crate::math::Vec2::new(*i, 0.0), at);
         }
         w.step()
     }

@@ -7,7 +7,7 @@ use crate::collision::Contact;
 use crate::collision::broad_phase::BroadPhase;
 use crate::collision::collide::Collider;
 use crate::defs::{BodyModel, DragDef, SolverSettings};
-use crate::joint::{Joint, JointId, MouseJoint};
+use crate::joint::{Joint, MouseJoint};
 use crate::math::{Aabb, Vec2, cross};
 use crate::parallel::{self, Pool};
 pub use crate::step::StepStats;
@@ -22,6 +22,7 @@ mod edit;
 mod events;
 mod measure;
 mod query;
+mod shapes;
 mod spawn;
 mod state;
 mod threads;
@@ -31,9 +32,12 @@ pub use body_api::EditError;
 use build::energy_problem;
 pub use build::{BodyInput, BuildError};
 pub use edit::{BodyKey, JointKey, RemoveError};
-pub use events::{ContactEvent, DEFAULT_HIT_SPEED, EventKind, HitEvent, SleepEvent};
+pub use events::{
+    ContactEvent, DEFAULT_HIT_SPEED, EventKind, HitEvent, JointBreakEvent, SleepEvent,
+};
 pub use measure::{FAR_FROM_ORIGIN, far_from_origin};
 pub use query::{QUERY_MARGIN, QueryShape, RayHit, SHAPE_CAST_TOLERANCE, ShapeCastHit};
+pub use shapes::ShapeKey;
 pub use state::{STATE_FORMAT, STATE_VERSION, StateError, WorldState};
 pub use threads::{ThreadUse, Threads};
 use walls::WallGrid;
@@ -114,6 +118,12 @@ pub struct World {
     hits: Vec<HitEvent>,
     /// The last step's bodies that fell asleep or woke.
     sleep_events: Vec<SleepEvent>,
+    /// The joints that broke in the last step.
+    joint_breaks: Vec<JointBreakEvent>,
+    /// Some joint may break: set where a breakable joint comes in (added, restored, a
+    /// threshold set), cleared by the step when it finds none, so a world without one
+    /// never looks.
+    may_break: bool,
     /// Each body's asleep flag after the last step with events on, and the edits count
     /// then (a flag list of another world's bodies is not compared).
     was_asleep: (Vec<bool>, u64),
@@ -180,6 +190,8 @@ impl World {
             hit_speed: DEFAULT_HIT_SPEED,
             hits: Vec::new(),
             sleep_events: Vec::new(),
+            joint_breaks: Vec::new(),
+            may_break: false,
             was_asleep: (Vec::new(), 0),
             step_start_velocity: Vec::new(),
             events: Vec::new(),
@@ -278,20 +290,43 @@ impl World {
     /// Sets a joint's drive: a constant force (N, prismatic and distance joints, along
     /// the axis) or torque (N m, hinge and weld) on its second body, with the reaction on
     /// the first, every step until changed (the seed's ApplyForce / ApplyTorque).
-    pub fn set_joint_drive(&mut self, joint: JointId, value: f32) {
-        if let Some(j) = self.joints.get_mut(joint) {
-            j.drive = if value.is_finite() { value } else { 0.0 };
-            let (a, b) = (j.a, j.b);
-            self.wake(a);
-            self.wake(b);
+    /// A stale key or a value that is not finite is refused and changes nothing; the
+    /// joint's bodies wake.
+    pub fn set_joint_drive(&mut self, key: JointKey, value: f32) -> Result<(), EditError> {
+        let i = self.joint_of_key(key).ok_or(EditError::NoSuchJoint)?;
+        if !value.is_finite() {
+            return Err(EditError::BadJointValue {
+                what: "drive",
+                must: "finite",
+                value: value.to_string(),
+            });
         }
+        let j = &mut self.joints[i];
+        j.drive = value;
+        let (a, b) = (j.a, j.b);
+        self.wake_index(a);
+        self.wake_index(b);
+        Ok(())
+    }
+
+    /// The joint of `key`, or None if it was removed (or broke). Its `a` and `b` are
+    /// body indices now; [`World::joint_bodies`] gives their keys.
+    pub fn joint(&self, key: JointKey) -> Option<&Joint> {
+        self.joints.get(self.joint_of_key(key)?)
+    }
+
+    /// The keys of the two bodies the joint of `key` holds (its `a`, then its `b`), or
+    /// None if it was removed.
+    pub fn joint_bodies(&self, key: JointKey) -> Option<[BodyKey; 2]> {
+        let j = self.joint(key)?;
+        Some([self.body_key(j.a)?, self.body_key(j.b)?])
     }
 
     /// Grabs a body with the mouse joint (or lets go with `None`).
     pub fn set_mouse(&mut self, mouse: Option<MouseJoint>) {
         self.mouse = mouse.filter(|m| m.body < self.bodies.len() && m.target.is_finite());
         if let Some(m) = self.mouse {
-            self.wake(m.body);
+            self.wake_index(m.body);
         }
     }
 
@@ -327,14 +362,34 @@ impl World {
         self.forces.len()
     }
 
-    /// Applies a force (N) at a world point for the next step only (the mouse's force emitter).
-    pub fn apply_force(&mut self, body: BodyId, force: Vec2, world_point: Vec2) {
+    /// Adds a force (N) at a world point for the next step only, and wakes the body:
+    /// [`World::apply_force_at`] with no torque. Only a dynamic body takes one; a stale
+    /// key or a value that is not finite is refused and changes nothing.
+    pub fn apply_force(
+        &mut self,
+        key: BodyKey,
+        force: Vec2,
+        world_point: Vec2,
+    ) -> Result<(), EditError> {
+        self.apply_force_at(key, force, world_point, 0.0)
+    }
+
+    /// Applies a force (N) at a world point to body `body` (an index) for the next step
+    /// only (the window's force emitter); nothing for a body that is not dynamic. The
+    /// program's; a library user names a body by key ([`World::apply_force`]).
+    #[doc(hidden)]
+    pub fn apply_force_index(&mut self, body: BodyId, force: Vec2, world_point: Vec2) {
         if let Some(b) = self.bodies.get_mut(body)
             && b.is_dynamic()
         {
             b.force += force;
             b.torque += cross(world_point - b.position, force);
         }
+    }
+
+    /// The key of the body with this name.
+    pub fn find_body(&self, name: &str) -> Option<BodyKey> {
+        self.body_key(self.body_index(name)?)
     }
 
     /// The index of the body with this name.
@@ -408,11 +463,13 @@ impl World {
             sleep: &mut self.sleep,
             // only this step's solver may say it ended the step
             ended: None,
+            may_break: self.may_break,
         };
         let stepper = self.stepper.as_mut().expect("a stepper of this kind");
         let mut stats = stepper.step(&mut state, &cx, &mut clock);
         let ended = state.ended;
         self.sleep.unpark_joints(&mut self.joints);
+        self.break_joints(cx.h, cx.dt);
         if one_sided {
             self.keep_in_front();
         }
@@ -497,8 +554,16 @@ impl World {
         }
     }
 
-    /// Wakes the island `body` sleeps in (nothing if it is awake).
-    pub fn wake(&mut self, body: BodyId) {
+    /// Wakes the island the body of `key` sleeps in (nothing if it is awake). A stale
+    /// key is refused.
+    pub fn wake(&mut self, key: BodyKey) -> Result<(), EditError> {
+        let i = self.body_of_key(key).ok_or(EditError::NoSuchBody)?;
+        self.wake_index(i);
+        Ok(())
+    }
+
+    /// Wakes the island body `body` (an index) sleeps in (nothing if it is awake).
+    pub(crate) fn wake_index(&mut self, body: BodyId) {
         if let Some(b) = self.bodies.get(body)
             && b.asleep
         {

@@ -6,7 +6,7 @@
 use glam::Vec2;
 use proptest::prelude::*;
 use sandbox2d::{
-    BodyDef, BodyKey, BodyType, EditError, RemoveError, ShapeDef, SolverSettings, World,
+    BodyDef, BodyKey, BodyType, EditError, JointDef, RemoveError, ShapeDef, SolverSettings, World,
 };
 
 fn crate_body(name: String, x: f32) -> BodyDef {
@@ -95,7 +95,7 @@ fn sleeping_box() -> (World, BodyKey) {
 #[test]
 fn every_setter_wakes_a_sleeping_body() {
     type Setter = fn(&mut World, BodyKey) -> Result<(), EditError>;
-    let setters: [(&str, Setter); 4] = [
+    let setters: [(&str, Setter); 6] = [
         ("set_transform", |w, k| {
             w.set_transform(k, Vec2::new(0.0, 3.0), 0.2)
         }),
@@ -107,6 +107,15 @@ fn every_setter_wakes_a_sleeping_body() {
         }),
         ("apply_force_at", |w, k| {
             w.apply_force_at(k, Vec2::new(0.0, 500.0), Vec2::new(0.2, 0.5), 0.0)
+        }),
+        ("apply_force", |w, k| {
+            w.apply_force(k, Vec2::new(0.0, 500.0), Vec2::new(0.2, 0.5))
+        }),
+        ("wake", |w, k| {
+            // woken, the box still rests: nudge it with a second setter to see it move
+            w.wake(k)?;
+            assert!(!w.body(k).unwrap().asleep);
+            w.set_velocity(k, Vec2::new(1.0, 0.0), 0.0)
         }),
     ];
     for (name, set) in setters {
@@ -202,4 +211,61 @@ fn set_transform_places_the_definitions_origin() {
         "{}",
         b.position
     );
+}
+
+#[test]
+fn joints_are_made_read_driven_and_removed_through_keys() {
+    let mut w = World::new(Some(Vec2::new(0.0, -10.0)), SolverSettings::default());
+    let ground = w
+        .create_body(&BodyDef {
+            name: "ground".into(),
+            body_type: BodyType::Static,
+            ..BodyDef::default()
+        })
+        .unwrap();
+    let a = w.create_body(&crate_body("a".into(), 0.0)).unwrap();
+    let b = w.create_body(&crate_body("b".into(), 3.0)).unwrap();
+    assert_eq!(w.find_body("b"), Some(b));
+    let def = JointDef {
+        anchor: Some(Vec2::new(1.5, 0.5)),
+        ..Default::default()
+    };
+    let j = w.create_joint(a, b, &def).unwrap();
+    assert_eq!(w.joint_bodies(j), Some([a, b]));
+    assert_eq!(w.joint(j).unwrap().kind, sandbox2d::JointKind::Hinge);
+    w.set_joint_drive(j, 3.0).unwrap();
+    assert_eq!(w.joint(j).unwrap().drive, 3.0);
+    // a removed body's key is refused by every call that names a body, and nothing
+    // changes
+    w.remove_body(a).unwrap();
+    assert!(w.joint(j).is_none(), "the joint went with its body");
+    let before = (w.state_hash(), w.joints().len(), w.bodies.len());
+    assert_eq!(w.create_joint(a, ground, &def), Err(EditError::NoSuchBody));
+    assert_eq!(w.create_joint(ground, a, &def), Err(EditError::NoSuchBody));
+    assert_eq!(w.wake(a), Err(EditError::NoSuchBody));
+    assert_eq!(
+        w.apply_force(a, Vec2::Y, Vec2::ZERO),
+        Err(EditError::NoSuchBody)
+    );
+    // a removed joint's key too
+    assert_eq!(w.set_joint_drive(j, 1.0), Err(EditError::NoSuchJoint));
+    assert_eq!(w.joint_bodies(j), None);
+    assert_eq!(w.remove_joint(j).unwrap_err(), RemoveError::NoSuchJoint);
+    // a definition the world cannot make a joint of is refused, nothing made
+    assert!(matches!(
+        w.create_joint(b, b, &def),
+        Err(EditError::Build(_))
+    ));
+    let held = w.create_joint(ground, b, &def).unwrap();
+    assert!(matches!(
+        w.set_joint_drive(held, f32::NAN),
+        Err(EditError::BadJointValue { .. })
+    ));
+    assert_eq!(w.joints().len(), before.1 + 1);
+    assert_eq!((w.state_hash(), w.bodies.len()), (before.0, before.2));
+    // a new joint between new bodies gets a key no old one had
+    let c = w.create_body(&crate_body("c".into(), 6.0)).unwrap();
+    let k = w.create_joint(b, c, &def).unwrap();
+    assert_ne!(k, j);
+    assert_eq!(w.joint_bodies(k), Some([b, c]));
 }

@@ -233,7 +233,7 @@ fn a_body_asleep_in_a_sensor_stays_heard_until_it_wakes_and_leaves() {
             "{kind:?}: {log:?}"
         );
         // woken and thrown up at 6 m/s: it rises 1.8 m, out of the sensor, and ends once
-        w.wake(0);
+        w.wake(w.body_key(0).unwrap()).unwrap();
         w.bodies[0].velocity = Vec2::new(0.0, 6.0);
         let mut ends = 0;
         for _ in 0..30 {

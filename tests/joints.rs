@@ -505,7 +505,8 @@ anchor = [0.0, 0.0]
 fn a_joint_drive_turns_a_wheel_at_tau_over_i() {
     for kind in SolverKind::ALL {
         let mut w = wheel(kind, "");
-        w.set_joint_drive(0, 2.0);
+        let key = w.joint_key(0).unwrap();
+        w.set_joint_drive(key, 2.0).unwrap();
         run(&mut w, 1.0);
         // I = m r^2 / 2 with m = 2 pi 0.25; omega = tau t / I
         let m = 2.0 * std::f32::consts::PI * 0.25;

@@ -1161,7 +1161,9 @@ fn a_one_sided_wall_holds_a_disc_pressed_into_it() {
         let mut lowest = f32::INFINITY;
         for _ in 0..120 {
             let p = w.bodies[disc].position;
-            w.apply_force(disc, Vec2::new(0.0, -1e5 * weight), p);
+            let key = w.body_key(disc).unwrap();
+            w.apply_force(key, Vec2::new(0.0, -1e5 * weight), p)
+                .unwrap();
             w.step().unwrap();
             lowest = lowest.min(w.bodies[disc].position.y);
         }
@@ -1221,7 +1223,8 @@ fn a_closed_one_sided_loop_keeps_discs_racing_round_inside() {
                 let b = &w.bodies[d];
                 let push = b.position.normalize_or_zero() * (b.mass * 1.0e5);
                 let at = b.position;
-                w.apply_force(d, push, at);
+                let key = w.body_key(d).unwrap();
+                w.apply_force(key, push, at).unwrap();
             }
             w.step().unwrap();
             for &d in &discs {

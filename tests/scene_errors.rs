@@ -367,6 +367,37 @@ fn prismatic_axis_of_zero_length() {
 }
 
 #[test]
+fn joint_break_force_not_positive() {
+    check(
+        &joint("type = \"hinge\"\nbodies = [\"a\", \"b\"]\nbreak_force = 0"),
+        11,
+        15,
+        &["break_force", "> 0", "got 0"],
+    );
+}
+
+#[test]
+fn joint_break_torque_not_finite() {
+    check(
+        &joint("type = \"weld\"\nbodies = [\"a\", \"b\"]\nbreak_torque = nan"),
+        11,
+        16,
+        &["break_torque"],
+    );
+}
+
+#[test]
+fn joint_break_thresholds_load() {
+    let scene = sandbox2d::scene::load_str(
+        &joint("type = \"hinge\"\nbodies = [\"a\", \"b\"]\nbreak_force = 50\nbreak_torque = 7.5"),
+        "ok.toml",
+    )
+    .unwrap();
+    let j = &scene.world.joints[0];
+    assert_eq!((j.break_force, j.break_torque), (Some(50.0), Some(7.5)));
+}
+
+#[test]
 fn negative_compliance() {
     check(
         &joint("type = \"distance\"\nbodies = [\"a\", \"b\"]\ncompliance = -1e-3"),

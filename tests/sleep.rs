@@ -119,7 +119,7 @@ fn a_force_a_grab_or_a_new_velocity_wakes_the_island() {
         assert_eq!(asleep(&w), 3, "{kind:?}");
         // a force on the bottom box wakes all three (one island)
         let p = w.bodies[1].position;
-        w.apply_force(1, sandbox2d::math::Vec2::new(50.0, 0.0), p);
+        w.apply_force_index(1, sandbox2d::math::Vec2::new(50.0, 0.0), p);
         w.step().unwrap();
         assert_eq!(asleep(&w), 0, "{kind:?}: a force woke nothing");
         steps(&mut w, 240);

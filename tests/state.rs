@@ -106,7 +106,9 @@ fn the_mouse_joint_and_queued_forces_are_kept() {
             ..grab
         }));
         // a force queued for the next step only
-        a.apply_force(top - 1, Vec2::new(300.0, 50.0), a.bodies[top - 1].position);
+        let below = a.body_key(top - 1).unwrap();
+        a.apply_force(below, Vec2::new(300.0, 50.0), a.bodies[top - 1].position)
+            .unwrap();
         let s = through_bytes(&a.snapshot());
         let mut b = build("pyramid", kind);
         b.restore(&s).unwrap();

@@ -49,8 +49,8 @@ pub fn drag_body(world: &mut World, body: BodyId, local_point: Vec2, target: Vec
         let tau = -DRAG_ANGULAR_DAMPING * omega * inertia * w;
         let f = Vec2::new(0.0, 0.5 * tau);
         if f.is_finite() {
-            world.apply_force(body, f, com + Vec2::X);
-            world.apply_force(body, -f, com - Vec2::X);
+            world.apply_force_index(body, f, com + Vec2::X);
+            world.apply_force_index(body, -f, com - Vec2::X);
         }
     }
 }
@@ -81,7 +81,7 @@ pub fn push_radial(world: &mut World, center: Vec2, radius: f32, accel: f32) -> 
         }
     }
     for &(i, f, at) in &pushes {
-        world.apply_force(i, f, at);
+        world.apply_force_index(i, f, at);
     }
     pushes.len()
 }

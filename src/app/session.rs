@@ -1358,7 +1358,8 @@ mod tests {
         // body is checked, an open defect)
         s.switch_solver(SolverKind::Soft);
         let name = s.world.bodies[1].name.clone();
-        s.world.apply_force(1, Vec2::new(f32::NAN, 0.0), Vec2::ZERO);
+        s.world
+            .apply_force_index(1, Vec2::new(f32::NAN, 0.0), Vec2::ZERO);
         assert!(!s.step_once());
         assert!(s.paused);
         assert!(s.error.as_deref().unwrap().contains(&name), "{:?}", s.error);

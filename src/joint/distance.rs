@@ -13,6 +13,13 @@ use crate::math::Vec2;
 pub(super) struct Distance;
 
 impl Kind for Distance {
+    fn reaction(l: &[f32; SLOTS]) -> (f32, f32) {
+        (
+            (l[slot::AXIAL] + l[slot::LOWER] - l[slot::UPPER]).abs(),
+            0.0,
+        )
+    }
+
     fn default_anchors(ba: &Body, bb: &Body) -> (Vec2, Vec2) {
         // both centres of mass
         (ba.position, bb.position)

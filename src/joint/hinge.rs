@@ -21,6 +21,10 @@ use crate::math::Vec2;
 pub(super) struct Hinge;
 
 impl Kind for Hinge {
+    fn reaction(l: &[f32; SLOTS]) -> (f32, f32) {
+        super::point_and_angle(l)
+    }
+
     fn check(def: &JointDef) -> Result<(), String> {
         if def.servo.is_some() && def.spring.is_some() {
             return Err("a hinge takes a servo or a spring, not both".into());

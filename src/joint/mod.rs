@@ -104,6 +104,17 @@ pub struct Joint {
     /// (> 0); 1 for the other kinds.
     #[serde(default = "one")]
     pub ratio: f32,
+    /// The constraint force (N, its linear part's magnitude) past which the joint
+    /// breaks after a step; `None` = never.
+    #[serde(default)]
+    pub break_force: Option<f32>,
+    /// The constraint torque (N m) past which the joint breaks; `None` = never.
+    #[serde(default)]
+    pub break_torque: Option<f32>,
+    /// XPBD: the step's impulses (N s) by row slot, each substep's lambda / h summed
+    /// (kept only for a joint that may break; the other solvers keep `impulses`).
+    #[serde(skip)]
+    pub(crate) step_impulses: [f32; SLOTS],
 }
 
 fn one() -> f32 {
@@ -195,6 +206,11 @@ pub(crate) trait Kind {
     /// a and b; `anchors`: the world anchors).
     #[inline]
     fn init(_j: &mut Joint, _def: &JointDef, _ends: (&Body, &Body), _anchors: (Vec2, Vec2)) {}
+
+    /// The linear impulse's magnitude (N s) and the angular impulse (N m s) that the
+    /// lambdas `l` (by row slot, as the kind's soft warm start applies them) put
+    /// through the joint.
+    fn reaction(l: &[f32; SLOTS]) -> (f32, f32);
 
     /// How far the joint is from holding (m), given its frame `f`.
     fn position_error(j: &Joint, f: &JointFrame, bodies: &[Body]) -> f32;
@@ -295,6 +311,9 @@ impl Joint {
             correction: 0.0,
             ground: [Vec2::ZERO; 2],
             ratio: 1.0,
+            break_force: def.break_force,
+            break_torque: def.break_torque,
+            step_impulses: [0.0; SLOTS],
         };
         by_kind!(def.kind, init(&mut j, def, (ba, bb), (wa, wb)));
         j
@@ -329,6 +348,16 @@ impl Joint {
             .all(|v| v.is_finite());
         if !finite || !def.angle.is_none_or(f32::is_finite) {
             return Err("anchors, axis, offset and angle must be finite".into());
+        }
+        for (what, v) in [
+            ("break_force", def.break_force),
+            ("break_torque", def.break_torque),
+        ] {
+            if let Some(v) = v
+                && !(v > 0.0 && v.is_finite())
+            {
+                return Err(format!("{what} must be > 0 and finite, got {v}"));
+            }
         }
         if let Some(sp) = def.spring
             && !(sp.hertz > 0.0 && sp.hertz.is_finite() && sp.damping_ratio >= 0.0)
@@ -383,6 +412,19 @@ impl Joint {
     pub fn position_error(&self, bodies: &[Body]) -> f32 {
         let f = self.frame(bodies);
         by_kind!(self.kind, position_error(self, &f, bodies))
+    }
+
+    /// The linear impulse's magnitude (N s) and the angular impulse (N m s, its
+    /// magnitude) that the lambdas `l` (by row slot) put through the joint.
+    pub(crate) fn reaction(&self, l: &[f32; SLOTS]) -> (f32, f32) {
+        let (f, t) = by_kind!(self.kind, reaction(l));
+        (f, t.abs())
+    }
+
+    /// Whether the joint may break (a break force or torque is set).
+    #[inline]
+    pub fn breakable(&self) -> bool {
+        self.break_force.is_some() || self.break_torque.is_some()
     }
 
     /// How far the angle is outside the hinge's limits, or off a weld or prismatic
@@ -494,6 +536,15 @@ fn drive_force(j: &Joint, bodies: &mut [Body], (ra, rb, e): (Vec2, Vec2, Vec2), 
     let bb = &mut bodies[j.b];
     bb.velocity += bb.inv_mass * imp;
     bb.angular_velocity += bb.inv_inertia * cross(rb, imp);
+}
+
+/// The reaction of a point and the rows on the relative angle (hinge, weld): the point
+/// impulse's magnitude, and the angular rows summed as their warm start applies them.
+#[inline]
+fn point_and_angle(l: &[f32; SLOTS]) -> (f32, f32) {
+    use slot::*;
+    let ang = l[ANGLE] + l[MOTOR] + l[SERVO] + l[LOWER] - l[UPPER];
+    (l[POINT_X].hypot(l[POINT_Y]), ang)
 }
 
 /// v scaled down to length `max` if longer (a bounded point impulse).

@@ -21,6 +21,10 @@ use crate::math::Vec2;
 pub(super) struct Motor;
 
 impl Kind for Motor {
+    fn reaction(l: &[f32; SLOTS]) -> (f32, f32) {
+        (l[slot::POINT_X].hypot(l[slot::POINT_Y]), l[slot::ANGLE])
+    }
+
     fn check(def: &JointDef) -> Result<(), String> {
         if !(def.max_force >= 0.0 && def.max_torque >= 0.0 && (0.0..=1.0).contains(&def.correction))
         {

@@ -14,6 +14,11 @@ use crate::body::Body;
 pub(super) struct Prismatic;
 
 impl Kind for Prismatic {
+    fn reaction(l: &[f32; SLOTS]) -> (f32, f32) {
+        let along = l[slot::MOTOR] + l[slot::SERVO] + l[slot::LOWER] - l[slot::UPPER];
+        (along.hypot(l[slot::AXIAL]), l[slot::ANGLE])
+    }
+
     fn position_error(j: &Joint, f: &JointFrame, _bodies: &[Body]) -> f32 {
         off_axis_error(j, f)
     }

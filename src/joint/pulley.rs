@@ -77,6 +77,10 @@ impl Joint {
 }
 
 impl Kind for Pulley {
+    fn reaction(l: &[f32; SLOTS]) -> (f32, f32) {
+        (l[slot::AXIAL].abs(), 0.0)
+    }
+
     fn default_anchors(ba: &Body, bb: &Body) -> (Vec2, Vec2) {
         // both centres of mass
         (ba.position, bb.position)

@@ -13,6 +13,10 @@ use crate::body::Body;
 pub(super) struct Weld;
 
 impl Kind for Weld {
+    fn reaction(l: &[f32; SLOTS]) -> (f32, f32) {
+        super::point_and_angle(l)
+    }
+
     fn position_error(_j: &Joint, f: &JointFrame, _bodies: &[Body]) -> f32 {
         f.d.length()
     }

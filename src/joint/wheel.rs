@@ -22,6 +22,11 @@ use crate::math::Vec2;
 pub(super) struct Wheel;
 
 impl Kind for Wheel {
+    fn reaction(l: &[f32; SLOTS]) -> (f32, f32) {
+        let along = l[slot::SPRING] + l[slot::LOWER] - l[slot::UPPER];
+        (along.hypot(l[slot::AXIAL]), l[slot::MOTOR])
+    }
+
     fn init(j: &mut Joint, def: &JointDef, _ends: (&Body, &Body), _anchors: (Vec2, Vec2)) {
         j.servo = None;
         j.spring = def.spring;

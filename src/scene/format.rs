@@ -325,6 +325,9 @@ pub(crate) struct FileJoint {
     pub ratio: Option<S<f32>>,
     /// hinge
     pub reference_angle: Option<S<f32>>,
+    /// any joint: the force (N) and torque (N m) past which it breaks
+    pub break_force: Option<S<f32>>,
+    pub break_torque: Option<S<f32>>,
 }
 
 /// `spring = { hertz, damping_ratio }` (wheel).

@@ -985,6 +985,16 @@ pub(crate) fn joint(ctx: &Ctx, bodies: &Bodies, j: &FileJoint) -> R<JointDef> {
         correction,
         ground_anchors,
         ratio,
+        break_force: j
+            .break_force
+            .as_ref()
+            .map(|v| ctx.positive(who, "break_force", v))
+            .transpose()?,
+        break_torque: j
+            .break_torque
+            .as_ref()
+            .map(|v| ctx.positive(who, "break_torque", v))
+            .transpose()?,
     };
     // A length at creation comes from the anchors, or from the bodies' positions.
     let span = j

@@ -181,6 +181,9 @@ pub(crate) struct StepState<'a> {
     /// the forces and checked the state): whether some body's state is not finite. The
     /// world then skips its own pass ([`integrate::end_step`]).
     pub ended: Option<bool>,
+    /// Some joint may break ([`crate::Joint::breakable`]): XPBD then sums its joints'
+    /// substep impulses for the world to read.
+    pub may_break: bool,
 }
 
 impl StepState<'_> {

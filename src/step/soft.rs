@@ -182,7 +182,7 @@ mod tests {
         assert!(asleep, "the box falls asleep within 2 s");
         assert!(!w.bodies[2].asleep, "the ball falls");
         // woken, the next collide finds every flag again
-        w.wake(1);
+        w.wake_index(1);
         w.step().unwrap();
         assert_eq!(w.collider.movers(w.bodies.len()), all);
     }

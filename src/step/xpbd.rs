@@ -42,6 +42,13 @@ impl Stepper for XpbdStepper {
         self.xpbd.block = s.block_solve;
         self.lambdas.clear();
         self.lambdas.resize(state.joints.len(), [0.0; SLOTS]);
+        // a joint that may break sums its substeps' impulses for the world to read
+        let breakable = state.may_break;
+        if breakable {
+            for j in state.joints.iter_mut() {
+                j.step_impulses = [0.0; SLOTS];
+            }
+        }
         let mut normal_sum = std::mem::take(&mut self.normal_sum);
         normal_sum.clear();
         normal_sum.resize(self.xpbd.points.len(), 0.0);
@@ -68,6 +75,16 @@ impl Stepper for XpbdStepper {
                 }
                 let d = self.xpbd.project(state.bodies);
                 deepest = deepest.max(d);
+            }
+            if breakable {
+                for (j, lam) in state.joints.iter_mut().zip(&self.lambdas) {
+                    if j.breakable() {
+                        // the substep's impulse: lambda / h
+                        for (acc, &l) in j.step_impulses.iter_mut().zip(lam) {
+                            *acc += l / h;
+                        }
+                    }
+                }
             }
             // v = (x - x_prev) / h, w = (theta - theta_prev) / h
             integrate::derive_velocities(state.bodies, h);

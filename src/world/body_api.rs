@@ -3,7 +3,7 @@
 //! velocity for a static body, a turn for a particle are refused, and the body is left
 //! as it was) and wakes the body's island, as Box2D's setters do.
 
-use super::{BodyKey, World};
+use super::{BodyKey, JointKey, World};
 use crate::body::Body;
 use crate::defs::{BodyModel, BodyType};
 use crate::math::{Rot, Vec2, cross};
@@ -14,6 +14,33 @@ pub enum EditError {
     /// The key is stale or from another world.
     #[error("the key names no body of this world (removed, or from another world)")]
     NoSuchBody,
+    /// The joint key is stale (the joint was removed or broke) or from another world.
+    #[error("the key names no joint of this world (removed, broken, or from another world)")]
+    NoSuchJoint,
+    /// The shape key is stale (the shape or its body was removed) or from another world.
+    #[error("the key names no shape of this world (removed, or from another world)")]
+    NoSuchShape,
+    /// A shape given to [`World::add_shape`] cannot be built.
+    #[error("body {name:?}: the shape cannot be added: {why}")]
+    BadShape {
+        /// The body's name.
+        name: String,
+        /// Why not.
+        why: String,
+    },
+    /// The definition could not make a body or joint (why, as the builder says).
+    #[error(transparent)]
+    Build(#[from] super::BuildError),
+    /// A joint's value is out of its range.
+    #[error("joint: the {what} must be {must}, got {value}")]
+    BadJointValue {
+        /// Which value.
+        what: &'static str,
+        /// What it must be.
+        must: &'static str,
+        /// It, as written.
+        value: String,
+    },
     /// A value given is NaN or infinite.
     #[error("body {name:?}: the {what} must be finite, got {value}")]
     NotFinite {
@@ -85,7 +112,7 @@ impl World {
         b.rot = Rot::from_angle(angle);
         b.position = position - b.rot.rotate(b.origin_offset);
         self.moves += 1;
-        self.wake(i);
+        self.wake_index(i);
         Ok(())
     }
 
@@ -115,7 +142,7 @@ impl World {
         let b = &mut self.bodies[i];
         b.velocity = velocity;
         b.angular_velocity = angular_velocity;
-        self.wake(i);
+        self.wake_index(i);
         Ok(())
     }
 
@@ -143,7 +170,7 @@ impl World {
         let b = &mut self.bodies[i];
         b.velocity += impulse * b.inv_mass;
         b.angular_velocity += cross(world_point - b.position, impulse) * b.inv_inertia;
-        self.wake(i);
+        self.wake_index(i);
         Ok(())
     }
 
@@ -172,7 +199,40 @@ impl World {
         let b = &mut self.bodies[i];
         b.force += force;
         b.torque += cross(world_point - b.position, force) + torque;
-        self.wake(i);
+        self.wake_index(i);
+        Ok(())
+    }
+
+    /// Sets the force (N) and torque (N m) past which the joint breaks after a step
+    /// (`None`: never on that count); see [`crate::JointDef::break_force`]. Each given
+    /// must be > 0 and finite; a stale key or a bad value changes nothing. Wakes the
+    /// joint's bodies.
+    pub fn set_joint_break(
+        &mut self,
+        key: JointKey,
+        force: Option<f32>,
+        torque: Option<f32>,
+    ) -> Result<(), EditError> {
+        let i = self.joint_of_key(key).ok_or(EditError::NoSuchJoint)?;
+        for (what, v) in [("break force", force), ("break torque", torque)] {
+            if let Some(v) = v
+                && !(v > 0.0 && v.is_finite())
+            {
+                return Err(EditError::BadJointValue {
+                    what,
+                    must: "> 0 and finite",
+                    value: v.to_string(),
+                });
+            }
+        }
+        let j = &mut self.joints[i];
+        j.break_force = force;
+        j.break_torque = torque;
+        self.may_break |= j.breakable();
+        // a sleeping island's joints carry no load the step looks at: wake it
+        let (a, b) = (j.a, j.b);
+        self.wake_index(a);
+        self.wake_index(b);
         Ok(())
     }
 }

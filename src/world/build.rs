@@ -2,7 +2,7 @@
 //! derived value checked to be finite), joints (checked, then anchored where the bodies
 //! are), constant point forces, and a whole world from its description.
 
-use super::{PointForce, World};
+use super::{BodyKey, EditError, JointKey, PointForce, World};
 use crate::body::{Body, BodyId};
 use crate::defs::{
     BodyDef, BodyModel, BodyType, ForceDef, JointDef, ShapeDef, SolverSettings, WorldDef,
@@ -118,7 +118,38 @@ impl World {
         Ok(w)
     }
 
-    /// Adds a joint between two existing, distinct bodies, anchored where the bodies are now.
+    /// Adds a joint of `def` between the bodies of keys `a` and `b` (its `a` and `b`;
+    /// `def.bodies` is not read), anchored where the bodies are now. A stale key is
+    /// refused ([`EditError::NoSuchBody`]), and so is a definition the world cannot make
+    /// a joint of ([`EditError::Build`]); either way the world is unchanged.
+    pub fn create_joint(
+        &mut self,
+        a: BodyKey,
+        b: BodyKey,
+        def: &JointDef,
+    ) -> Result<JointKey, EditError> {
+        self.sync_keys();
+        let ia = self.body_of_key(a).ok_or(EditError::NoSuchBody)?;
+        let ib = self.body_of_key(b).ok_or(EditError::NoSuchBody)?;
+        let def = JointDef {
+            bodies: [ia, ib],
+            ..def.clone()
+        };
+        let i = self.add_joint(&def)?;
+        Ok(self.joint_key(i).expect("a joint just added has a key"))
+    }
+
+    /// Adds a body and returns its key (see [`World::add_body`]).
+    pub fn create_body(&mut self, def: &BodyDef) -> Result<BodyKey, BuildError> {
+        let i = self.add_body(def)?;
+        self.sync_keys();
+        Ok(self.body_key(i).expect("a body just added has a key"))
+    }
+
+    /// Adds a joint between two existing, distinct bodies named by index
+    /// (`def.bodies`), anchored where the bodies are now. Scene files and the program
+    /// name bodies so; a library user names them by key ([`World::create_joint`]).
+    #[doc(hidden)]
     pub fn add_joint(&mut self, def: &JointDef) -> Result<JointId, BuildError> {
         let id = self.joints.len();
         let count = self.bodies.len();
@@ -146,6 +177,7 @@ impl World {
                 self.bodies[a].name, self.bodies[b].name
             ));
         }
+        self.may_break |= joint.breakable();
         self.joints.push(joint);
         self.sync_keys();
         if !def.collide_connected {
@@ -166,8 +198,8 @@ impl World {
                 }
             }
         } else {
-            self.wake(a);
-            self.wake(b);
+            self.wake_index(a);
+            self.wake_index(b);
         }
         Ok(id)
     }
@@ -390,7 +422,18 @@ impl World {
             asleep: false,
             sleep_time: 0.0,
             island: 0,
-            parts: compound.map(|(parts, _)| parts).unwrap_or_default(),
+            next_part_id: compound.as_ref().map_or(1, |(parts, _)| parts.len() as u32),
+            parts: compound
+                .map(|(mut parts, md)| {
+                    // a given mass scales every part's density alike
+                    if dynamic && md.mass > 0.0 {
+                        for p in &mut parts {
+                            p.density *= mass / md.mass;
+                        }
+                    }
+                    parts
+                })
+                .unwrap_or_default(),
             linear_damping: def.linear_damping,
             angular_damping: def.angular_damping,
             sleep_threshold: def.sleep_threshold,

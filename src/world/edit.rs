@@ -171,7 +171,7 @@ impl World {
         let gone = self.body_of_key(key).ok_or(RemoveError::NoSuchBody)?;
         self.edits += 1;
         // what rests on it falls: wake its island, and the islands of what it touches
-        self.wake(gone);
+        self.wake_index(gone);
         let touching: Vec<usize> = self
             .contacts
             .iter()
@@ -180,7 +180,7 @@ impl World {
             .map(|c| if c.a as usize == gone { c.b } else { c.a } as usize)
             .collect();
         for b in touching {
-            self.wake(b);
+            self.wake_index(b);
         }
         // its joints go first (highest index first, so the others keep theirs)
         let mut i = self.joints.len();
@@ -415,11 +415,11 @@ impl World {
         Ok(self.remove_joint_at(i))
     }
 
-    fn remove_joint_at(&mut self, i: usize) -> Joint {
+    pub(super) fn remove_joint_at(&mut self, i: usize) -> Joint {
         let j = self.joints.remove(i);
         self.joint_keys.remove(i);
-        self.wake(j.a);
-        self.wake(j.b);
+        self.wake_index(j.a);
+        self.wake_index(j.b);
         let pair = (j.a.min(j.b) as u32, j.a.max(j.b) as u32);
         let still = self
             .joints

@@ -5,7 +5,7 @@
 //! the solve pushed it apart (a normal impulse) or its manifold has a point of separation
 //! <= 0; a sensor pair when the shapes overlap after the step.
 
-use super::World;
+use super::{BodyKey, JointKey, World};
 use crate::body::BodyId;
 use crate::math::{Vec2, cross_sv};
 
@@ -82,6 +82,22 @@ pub struct SleepEvent {
     pub asleep: bool,
 }
 
+/// A joint that broke in the last step: its constraint force or torque went past its
+/// [`crate::JointDef::break_force`] or [`crate::JointDef::break_torque`], and it was
+/// removed after the step (its key now names nothing).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct JointBreakEvent {
+    /// The joint's key (stale from now on).
+    pub joint: JointKey,
+    /// The two bodies it held, its `a` and `b`.
+    pub bodies: [BodyKey; 2],
+    /// The constraint force it carried in the step (N): the magnitude of its linear
+    /// part, the step's impulse over the step's time.
+    pub force: f32,
+    /// The constraint torque it carried in the step (N m, magnitude): its angular rows.
+    pub torque: f32,
+}
+
 /// Walks two sorted pair lists and calls `began` for each pair only in `now` and
 /// `ended` for each only in `before`.
 fn diff(
@@ -132,6 +148,63 @@ impl World {
     /// the comparison: that step reports none.
     pub fn sleep_events(&self) -> &[SleepEvent] {
         &self.sleep_events
+    }
+
+    /// The joints that broke in the last step, in joint order (whether or not
+    /// [`World::record_events`] is on: breaking is part of the step).
+    pub fn joint_breaks(&self) -> &[JointBreakEvent] {
+        &self.joint_breaks
+    }
+
+    /// After the solve: removes each joint whose constraint force or torque went past
+    /// its threshold and records it. The soft step and PGS keep each (sub)step's
+    /// lambdas (impulses of a substep of `h`); XPBD sums its substeps' impulses over
+    /// the step of `dt`. A joint the step left parked (its island asleep) carried no
+    /// load this step and is not looked at.
+    pub(super) fn break_joints(&mut self, h: f32, dt: f32) {
+        self.joint_breaks.clear();
+        if !self.may_break {
+            return;
+        }
+        if !self.joints.iter().any(|j| j.breakable()) {
+            self.may_break = false;
+            return;
+        }
+        let xpbd = self.settings.kind == crate::defs::SolverKind::Xpbd;
+        let resting = |b: &crate::body::Body| b.asleep || (!b.is_dynamic() && !b.is_mover());
+        let mut broken: Vec<(usize, f32, f32)> = Vec::new();
+        for (i, j) in self.joints.iter().enumerate() {
+            if !j.breakable() || (resting(&self.bodies[j.a]) && resting(&self.bodies[j.b])) {
+                continue;
+            }
+            let (f, t) = if xpbd {
+                let (f, t) = j.reaction(&j.step_impulses);
+                (f / dt, t / dt)
+            } else {
+                let (f, t) = j.reaction(&j.impulses);
+                (f / h, t / h)
+            };
+            if j.break_force.is_some_and(|m| f > m) || j.break_torque.is_some_and(|m| t > m) {
+                broken.push((i, f, t));
+            }
+        }
+        // highest index first, so the others keep theirs while they go
+        for &(i, force, torque) in broken.iter().rev() {
+            let joint = self.joint_key(i).expect("a joint's key");
+            let (a, b) = (self.joints[i].a, self.joints[i].b);
+            let bodies = [
+                self.body_key(a).expect("a body's key"),
+                self.body_key(b).expect("a body's key"),
+            ];
+            self.remove_joint_at(i);
+            self.joint_breaks.push(JointBreakEvent {
+                joint,
+                bodies,
+                force,
+                torque,
+            });
+        }
+        self.joint_breaks.reverse();
     }
 
     /// Compares each body's asleep flag with the last step's.

@@ -268,8 +268,22 @@ impl WorldState {
             ];
             numbers.extend(j.impulses.iter().map(|&x| ("impulses", x)));
             numbers.extend(j.limits.iter().flatten().map(|&x| ("limits", x)));
+            numbers.extend(j.break_force.map(|x| ("break_force", x)));
+            numbers.extend(j.break_torque.map(|x| ("break_torque", x)));
             if let Some((what, x)) = numbers.iter().find(|(_, x)| !x.is_finite()) {
                 return bad(format!("joint #{k}: {what} is {x}, not finite"));
+            }
+        }
+        for (k, j) in self.joints.iter().enumerate() {
+            for (what, x) in [
+                ("break_force", j.break_force),
+                ("break_torque", j.break_torque),
+            ] {
+                if let Some(x) = x
+                    && !(x > 0.0)
+                {
+                    return bad(format!("joint #{k}: {what} is {x}, must be > 0"));
+                }
             }
         }
         for f in &self.forces {
@@ -476,6 +490,7 @@ impl World {
         self.contacts = s.contacts.clone();
         self.sleep.contacts = s.sleeping_contacts.clone();
         self.joints = s.joints.clone();
+        self.may_break = self.joints.iter().any(|j| j.breakable());
         // keys from before the restore name nothing in it
         self.body_keys.renew(self.bodies.len());
         self.joint_keys.renew(self.joints.len());
