@@ -3,6 +3,8 @@
 //! check what they are given, leave the body as it was when they refuse, wake a
 //! sleeping body, and move it as mechanics says (an impulse changes momentum by itself).
 
+#[path = "common/ground.rs"]
+mod ground;
 use glam::Vec2;
 use proptest::prelude::*;
 use sandbox2d::{
@@ -72,17 +74,7 @@ proptest! {
 /// A box at rest on the ground, asleep.
 fn sleeping_box() -> (World, BodyKey) {
     let mut w = World::new(Some(Vec2::new(0.0, -10.0)), SolverSettings::default());
-    w.add_body(&BodyDef {
-        name: "ground".into(),
-        body_type: BodyType::Static,
-        shape: ShapeDef::Box {
-            width: 20.0,
-            height: 1.0,
-        },
-        position: Vec2::new(0.0, -0.5),
-        ..BodyDef::default()
-    })
-    .unwrap();
+    ground::ground(&mut w);
     let i = w.add_body(&crate_body("box".into(), 0.0)).unwrap();
     let key = w.body_key(i).unwrap();
     for _ in 0..240 {

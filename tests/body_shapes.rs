@@ -3,6 +3,8 @@
 //! gives the box back), the same rigid motion kept, stale keys refused with nothing
 //! changed, and queries and contacts that see the new shape.
 
+#[path = "common/ground.rs"]
+mod ground;
 use glam::Vec2;
 use sandbox2d::{
     BodyDef, BodyKey, BodyType, EditError, Filter, JointDef, PartDef, ShapeDef, SolverSettings,
@@ -146,17 +148,7 @@ fn stale_keys_and_bad_shapes_are_refused_and_change_nothing() {
 #[test]
 fn queries_and_contacts_see_an_added_shape() {
     let mut w = World::new(Some(Vec2::new(0.0, -10.0)), SolverSettings::default());
-    w.create_body(&BodyDef {
-        name: "ground".into(),
-        body_type: BodyType::Static,
-        shape: ShapeDef::Box {
-            width: 20.0,
-            height: 1.0,
-        },
-        position: Vec2::new(0.0, -0.5),
-        ..BodyDef::default()
-    })
-    .unwrap();
+    ground::ground(&mut w);
     // a 1 m box resting on the ground, asleep after 4 s
     let b = w
         .create_body(&BodyDef {
