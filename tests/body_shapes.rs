@@ -243,3 +243,40 @@ fn a_joint_on_the_body_keeps_its_anchor_on_the_material() {
     assert!((before.1 - after.1).length() < 1e-5, "{before:?} {after:?}");
     assert!(w.joint(j).unwrap().position_error(&w.bodies) < 1e-5);
 }
+
+#[test]
+fn shapes_restored_from_a_state_without_density_or_numbers_are_numbered_and_kept() {
+    // a state saved before shapes kept their density and number reads 0 for both: the
+    // restore numbers the shapes again (each key names one shape), and adding or removing
+    // a shape, which needs every shape's density, is refused with nothing changed
+    let mut w = World::new(None, SolverSettings::default());
+    let b = boxed(&mut w, Vec2::ZERO, 0.0);
+    w.add_shape(b, &disc(Vec2::new(2.0, 0.0))).unwrap();
+    w.add_shape(b, &disc(Vec2::new(-2.0, 0.0))).unwrap();
+    let mut state: serde_json::Value =
+        serde_json::from_slice(&w.snapshot().to_json().unwrap()).unwrap();
+    for part in state["bodies"][0]["parts"].as_array_mut().unwrap() {
+        let part = part.as_object_mut().unwrap();
+        assert!(part.remove("density").is_some() && part.remove("id").is_some());
+    }
+    state["bodies"][0]
+        .as_object_mut()
+        .unwrap()
+        .remove("next_part_id");
+    let old = sandbox2d::WorldState::from_json(state.to_string().as_bytes()).unwrap();
+    let mut r = World::from_state(&old).unwrap();
+    let key = r.find_body("box").unwrap();
+    let keys = r.shape_keys(key).unwrap();
+    assert_eq!(keys.len(), 3);
+    for (k, a) in keys.iter().enumerate() {
+        assert!(keys[..k].iter().all(|b| b != a), "two shapes share a key");
+    }
+    let before = r.state_hash();
+    let refused = |e: EditError| {
+        let text = e.to_string();
+        assert!(text.contains("no density"), "{text}");
+    };
+    refused(r.add_shape(key, &disc(Vec2::new(0.0, 2.0))).unwrap_err());
+    refused(r.remove_shape(keys[1]).unwrap_err());
+    assert_eq!(r.state_hash(), before);
+}

@@ -54,6 +54,9 @@ impl World {
         if b.model == BodyModel::Particle {
             return Err(refuse("a particle has one circle"));
         }
+        if lacks_density(b) {
+            return Err(refuse(NO_DENSITY));
+        }
         let mut parts = match b.parts.is_empty() {
             true => vec![self.own_shape_as_part(i)?],
             false => b.parts.clone(),
@@ -104,10 +107,14 @@ impl World {
             .iter()
             .position(|p| p.id == key.id)
             .ok_or(EditError::NoSuchShape)?;
-        if b.parts.len() == 1 {
+        if b.parts.len() == 1 || lacks_density(b) {
             return Err(EditError::NotApplicable {
                 name: b.name.clone(),
-                why: "a body keeps at least one shape",
+                why: if b.parts.len() == 1 {
+                    "a body keeps at least one shape"
+                } else {
+                    NO_DENSITY
+                },
             });
         }
         let mut parts = b.parts.clone();
@@ -228,6 +235,18 @@ impl World {
         self.wake_index(i);
         Ok(())
     }
+}
+
+/// Why a body whose parts carry no density takes no shape and gives none up.
+const NO_DENSITY: &str =
+    "its shapes carry no density (a state saved before shapes kept theirs): build it again";
+
+/// Whether a dynamic body's parts all have density 0: restored from a state saved
+/// before parts kept their density, so its mass cannot be worked out again from them.
+fn lacks_density(b: &crate::body::Body) -> bool {
+    b.body_type == BodyType::Dynamic
+        && !b.parts.is_empty()
+        && b.parts.iter().all(|p| p.density == 0.0)
 }
 
 /// The density of a body's mass over its parts' area (1 where it has none: a static

@@ -480,6 +480,17 @@ impl World {
         self.check_events_state(s.bodies.len(), &s.motions, &s.spawns)
             .map_err(StateError::Mismatch)?;
         self.bodies = s.bodies.clone();
+        // a state saved before parts kept a number gives them all 0: number them
+        for b in &mut self.bodies {
+            let n = b.parts.len();
+            let unique = (1..n).all(|k| b.parts[..k].iter().all(|p| p.id != b.parts[k].id));
+            if !unique {
+                for (k, p) in b.parts.iter_mut().enumerate() {
+                    p.id = k as u32;
+                }
+                b.next_part_id = b.next_part_id.max(n as u32);
+            }
+        }
         self.edits += 1;
         self.gravity = s.gravity;
         self.drag = s.drag;
