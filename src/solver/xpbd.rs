@@ -164,6 +164,7 @@ impl XpbdContacts {
         self.prev_rot.clear();
         self.prev_rot
             .extend(bodies.iter().map(|b| (b.position, b.rot)));
+        self.pushing_out = false;
         for p in &mut self.points {
             let (ba, bb) = (&bodies[p.a as usize], &bodies[p.b as usize]);
             // A circle's anchor is its surface point facing the other body at the
@@ -183,8 +184,8 @@ impl XpbdContacts {
             p.floor = (g.gap + max_push_speed * h).min(0.0);
             p.lambda_n = 0.0;
             p.lambda_t = 0.0;
+            self.pushing_out |= p.floor < 0.0;
         }
-        self.pushing_out = self.points.iter().any(|p| p.floor < 0.0);
     }
 
     /// One projection of every contact: the overlap (C = gap < 0), then static friction

@@ -310,7 +310,6 @@ impl SoftSolver {
         // that does not move, twice as stiff
         let hertz = s.contact_hertz.min(0.25 * self.inv_h);
         let soft_dynamic = Softness::new(hertz, s.contact_damping_ratio, h);
-        let deep = if deep { self.deep_gate(s) } else { None };
         self.find_direct(contacts, lopsided, deep);
         let soft_static = Softness::new(2.0 * hertz, s.contact_damping_ratio, h);
         let omega = 2.0 * std::f32::consts::PI * hertz;

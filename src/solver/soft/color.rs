@@ -17,9 +17,9 @@ pub(super) struct Colored {
     pub(super) points: usize,
     /// Whether some contact is lopsided (looked for only where masses were given).
     pub(super) lopsided: bool,
-    /// Whether some contact between two moving bodies overlaps deeper than the depth
-    /// given (looked for only where one was).
-    pub(super) deep: bool,
+    /// The depth given, where some contact between two moving bodies overlaps deeper
+    /// than it (looked for only where one was given).
+    pub(super) deep: Option<f32>,
 }
 
 /// Greedy colouring, the joints first (in joint order: `joints` holds each joint's two
@@ -101,7 +101,7 @@ pub(super) fn color_contacts(
         joint_counts,
         points,
         lopsided,
-        deep: deep_found,
+        deep: deep.filter(|_| deep_found),
     }
 }
 

@@ -117,7 +117,7 @@ impl SoftSolver {
         }
         let (moves, inv_mass) = (&self.moves, &self.inv_mass);
         let below = -deep.unwrap_or(f32::INFINITY);
-        let lopsided = |c: &Contact| {
+        let candidate = |c: &Contact| {
             is_lopsided_contact(c, moves, inv_mass)
                 || (moves[c.a as usize]
                     && moves[c.b as usize]
@@ -142,7 +142,7 @@ impl SoftSolver {
             let body = if self.moves[c.a as usize] { c.a } else { c.b };
             let r = uf_root(&mut self.parent, body);
             points[r as usize] += c.manifold.count as u32;
-            flagged[r as usize] |= lopsided(c);
+            flagged[r as usize] |= candidate(c);
             self.roots.push(r);
         }
         self.direct_contact.extend(
