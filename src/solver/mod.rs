@@ -9,6 +9,7 @@
 pub mod contact_cache {
     pub use crate::collision::Contact;
 }
+pub(crate) mod dense;
 pub mod pgs;
 pub mod soft;
 pub mod xpbd;

@@ -36,6 +36,7 @@
 
 use super::{SoftBody, WideConstraint};
 use crate::math::{Vec2, cross};
+use crate::solver::dense::cholesky_solve;
 
 /// Contacts joining moving bodies whose masses differ by this factor or more make their
 /// island a candidate for the exact solve.
@@ -444,65 +445,9 @@ fn separation(c: &WideConstraint, k: usize, i: usize, bodies: &[SoftBody]) -> f3
     p.base_separation[k] + n.dot(sb.dp - sa.dp + qrb - qra)
 }
 
-/// A pivot left with this share of its row's diagonal or less belongs to a row that
-/// depends on the rows before it, to the rounding of the f32 Jacobians the matrix is
-/// made of (a box's two friction rows on a face are one row twice).
-const DEPENDENT: f64 = 1e-6;
-
-/// Solves K y = r in place (K symmetric positive semi-definite, n x n, row-major) by
-/// Cholesky. A row that depends on the rows before it ([`DEPENDENT`]) gets y = 0 and
-/// the others carry what it would have: one of the solutions where K is singular and
-/// r consistent. Returns false if K is not finite or a pivot is negative past that
-/// rounding (K indefinite).
-fn cholesky_solve(k: &mut [f64], y: &mut [f64], n: usize) -> bool {
-    for j in 0..n {
-        let diag = k[j * n + j];
-        let mut d = diag;
-        for p in 0..j {
-            d -= k[j * n + p] * k[j * n + p];
-        }
-        if !d.is_finite() || diag <= 0.0 || d < -DEPENDENT * diag {
-            return false;
-        }
-        if d <= DEPENDENT * diag {
-            // L_jj = inf: y_j = 0 and column j below is 0 (each used only as a divisor)
-            k[j * n + j] = f64::INFINITY;
-            for i in j + 1..n {
-                k[i * n + j] = 0.0;
-            }
-            continue;
-        }
-        let d = d.sqrt();
-        k[j * n + j] = d;
-        for i in j + 1..n {
-            let mut s = k[i * n + j];
-            for p in 0..j {
-                s -= k[i * n + p] * k[j * n + p];
-            }
-            k[i * n + j] = s / d;
-        }
-    }
-    // L z = r, then L^T y = z
-    for i in 0..n {
-        let mut s = y[i];
-        for p in 0..i {
-            s -= k[i * n + p] * y[p];
-        }
-        y[i] = s / k[i * n + i];
-    }
-    for i in (0..n).rev() {
-        let mut s = y[i];
-        for p in i + 1..n {
-            s -= k[p * n + i] * y[p];
-        }
-        y[i] = s / k[i * n + i];
-    }
-    true
-}
-
 #[cfg(test)]
 mod tests {
-    use super::{Bound, DirectIslands, cholesky_solve};
+    use super::{Bound, DirectIslands};
     use crate::bench::extremes::{Sweep, world_def};
     use crate::defs::SolverSettings;
     use crate::step::soft::SoftStepper;
@@ -576,32 +521,5 @@ mod tests {
         // q = [-4, 0]: unconstrained x = [8/3, -4/3], below x1's bound: x1 = -1, then
         // 2 x0 - 1 = 4, x0 = 2.5 (gradient of x1: x0 + 2 x1 = 0.5 >= 0 at its lower bound)
         assert!((d.x[0] - 2.5).abs() < 1e-12 && d.x[1] == -1.0, "{:?}", d.x);
-    }
-
-    #[test]
-    fn cholesky_solves_a_small_spd_system() {
-        // K = [[4, 2], [2, 3]], K y = [2, 1] -> y = [0.5, 0]
-        let mut k = vec![4.0, 2.0, 2.0, 3.0];
-        let mut y = vec![2.0, 1.0];
-        assert!(cholesky_solve(&mut k, &mut y, 2));
-        assert!((y[0] - 0.5).abs() < 1e-12 && y[1].abs() < 1e-12, "{y:?}");
-        let mut k = vec![1.0, 2.0, 2.0, 1.0];
-        let mut y = vec![1.0, 1.0];
-        assert!(!cholesky_solve(&mut k, &mut y, 2), "indefinite");
-    }
-
-    #[test]
-    fn cholesky_gives_a_dependent_row_nothing_and_still_solves() {
-        // rows 0 and 2 are one row twice (to a rounding of 1e-9): K y = r has many
-        // solutions; the one given puts nothing on row 2 and meets every equation
-        let k0 = [2.0, 1.0, 2.0, 1.0, 3.0, 1.0, 2.0, 1.0, 2.0 + 1e-9];
-        let r = [4.0, 5.0, 4.0];
-        let (mut k, mut y) = (k0.to_vec(), r.to_vec());
-        assert!(cholesky_solve(&mut k, &mut y, 3));
-        assert_eq!(y[2], 0.0);
-        for i in 0..3 {
-            let ky: f64 = (0..3).map(|j| k0[i * 3 + j] * y[j]).sum();
-            assert!((ky - r[i]).abs() < 1e-6, "row {i}: {ky} against {}", r[i]);
-        }
     }
 }

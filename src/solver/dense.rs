@@ -1,0 +1,107 @@
+//! Small dense symmetric systems solved by Cholesky: the exact solves of small islands
+//! (the soft step's islands of lopsided masses or deep overlaps, classic PGS's chains of
+//! joints).
+
+/// A pivot left with this share of its row's diagonal or less belongs to a row that
+/// depends on the rows before it, to the rounding of the f32 Jacobians the matrix is
+/// made of (a box's two friction rows on a face are one row twice; a closed loop of
+/// joints).
+const DEPENDENT: f64 = 1e-6;
+
+/// Factors K = L L^T in place (K symmetric positive semi-definite, n x n, row-major; L
+/// is left in the lower triangle). A row that depends on the rows before it
+/// ([`DEPENDENT`]) gets an infinite pivot, so [`solve`] gives it y = 0 and the others
+/// carry what it would have: one of the solutions where K is singular and r
+/// consistent. Returns false if K is not finite or a pivot is negative past that
+/// rounding (K indefinite).
+pub(crate) fn factor(k: &mut [f64], n: usize) -> bool {
+    for j in 0..n {
+        let diag = k[j * n + j];
+        let mut d = diag;
+        for p in 0..j {
+            d -= k[j * n + p] * k[j * n + p];
+        }
+        if !d.is_finite() || diag <= 0.0 || d < -DEPENDENT * diag {
+            return false;
+        }
+        if d <= DEPENDENT * diag {
+            // L_jj = inf: y_j = 0 and column j below is 0 (each used only as a divisor)
+            k[j * n + j] = f64::INFINITY;
+            for i in j + 1..n {
+                k[i * n + j] = 0.0;
+            }
+            continue;
+        }
+        let d = d.sqrt();
+        k[j * n + j] = d;
+        for i in j + 1..n {
+            let mut s = k[i * n + j];
+            for p in 0..j {
+                s -= k[i * n + p] * k[j * n + p];
+            }
+            k[i * n + j] = s / d;
+        }
+    }
+    true
+}
+
+/// Solves K y = r in place (y holds r on entry) with K factored by [`factor`].
+pub(crate) fn solve(l: &[f64], y: &mut [f64], n: usize) {
+    // L z = r, then L^T y = z
+    for i in 0..n {
+        let mut s = y[i];
+        for p in 0..i {
+            s -= l[i * n + p] * y[p];
+        }
+        y[i] = s / l[i * n + i];
+    }
+    for i in (0..n).rev() {
+        let mut s = y[i];
+        for p in i + 1..n {
+            s -= l[p * n + i] * y[p];
+        }
+        y[i] = s / l[i * n + i];
+    }
+}
+
+/// [`factor`], then [`solve`]: K y = r in place. Returns false (y untouched) where K
+/// cannot be factored.
+pub(crate) fn cholesky_solve(k: &mut [f64], y: &mut [f64], n: usize) -> bool {
+    if !factor(k, n) {
+        return false;
+    }
+    solve(k, y, n);
+    true
+}
+
+#[cfg(test)]
+mod tests {
+    use super::cholesky_solve;
+
+    #[test]
+    fn cholesky_solves_a_small_spd_system() {
+        // K = [[4, 2], [2, 3]], K y = [2, 1] -> y = [0.5, 0]
+        let mut k = vec![4.0, 2.0, 2.0, 3.0];
+        let mut y = vec![2.0, 1.0];
+        assert!(cholesky_solve(&mut k, &mut y, 2));
+        assert!((y[0] - 0.5).abs() < 1e-12 && y[1].abs() < 1e-12, "{y:?}");
+        let mut k = vec![1.0, 2.0, 2.0, 1.0];
+        let mut y = vec![1.0, 1.0];
+        assert!(!cholesky_solve(&mut k, &mut y, 2), "indefinite");
+    }
+
+    #[test]
+    fn cholesky_gives_a_dependent_row_nothing_and_still_solves() {
+        // rows 0 and 2 are one row twice (to a rounding of 1e-9): K y = r has many
+        // solutions; the one given puts nothing on row 2 and meets every equation
+        let k0 = [2.0, 1.0, 2.0, 1.0, 3.0, 1.0, 2.0, 1.0, 2.0 + 1e-9];
+        let r = [4.0, 5.0, 4.0];
+        let (mut k, mut y) = (k0.to_vec(), r.to_vec());
+        assert!(cholesky_solve(&mut k, &mut y, 3));
+        assert_eq!(y[2], 0.0);
+        for i in 0..3 {
+            let ky: f64 = (0..3).map(|j| k0[i * 3 + j] * y[j]).sum();
+            assert!((ky - r[i]).abs() < 1e-6, "row {i}: {ky} against {}", r[i]);
+        }
+    }
+}
