@@ -28,6 +28,7 @@ use crate::body::Body;
 use crate::defs::{DampingDef, JointDef, JointKind, MotorDef, ServoDef, SpringDef};
 use crate::math::{Rot, Vec2};
 
+mod chain;
 mod distance;
 mod hinge;
 mod motor;

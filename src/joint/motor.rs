@@ -155,5 +155,6 @@ fn point(
         joint,
         positional: false,
         pos_impulse: Vec2::ZERO,
+        exact: false,
     }
 }

@@ -76,6 +76,7 @@ impl MouseJoint {
             joint: MOUSE,
             positional: false,
             pos_impulse: Vec2::ZERO,
+            exact: false,
         })
     }
 

@@ -9,6 +9,7 @@
 //! An inequality (limit) row is speculative while its gap is open: bias C / h lets the
 //! gap close in this step but not more. The point of a hinge or weld is one 2x2 block.
 
+use super::chain::Chains;
 use super::{Joint, JointFrame, MouseJoint, clamp_length, slot, wrap_angle};
 use crate::body::Body;
 use crate::constraint::SolverBody;
@@ -65,13 +66,15 @@ pub(crate) struct Point {
     /// Rigid (not the mouse, not compliant): it also holds in the position solve.
     pub(super) positional: bool,
     pub(super) pos_impulse: Vec2,
+    /// Solved with its chain at once ([`super::chain`]), not point by point.
+    pub(super) exact: bool,
 }
 
 /// The joint index of the mouse joint's point.
 pub(super) const MOUSE: u32 = u32::MAX;
 
 #[derive(Clone, Copy, Debug)]
-enum Item {
+pub(super) enum Item {
     Row(Row),
     Point(Point),
 }
@@ -84,6 +87,8 @@ pub struct JointRows {
     split: bool,
     /// Damping rows, applied once after the sweeps.
     damping: Vec<(Row, f32)>,
+    /// The small chains of rigid points solved exactly.
+    chains: Chains,
 }
 
 #[inline(always)]
@@ -194,7 +199,7 @@ impl Point {
     }
 
     #[inline(always)]
-    fn apply(&self, bodies: &mut [SolverBody], p: Vec2) {
+    pub(super) fn apply(&self, bodies: &mut [SolverBody], p: Vec2) {
         let a = &mut bodies[self.a as usize];
         a.v -= a.inv_m * p;
         a.w -= a.inv_i * cross(self.ra, p);
@@ -435,6 +440,7 @@ impl RowBuilder<'_> {
             joint: self.joint,
             positional: rigid,
             pos_impulse: Vec2::ZERO,
+            exact: false,
         };
         self.push_point(p);
     }
@@ -506,6 +512,7 @@ impl JointRows {
         {
             self.items.push(Item::Point(p));
         }
+        self.chains.build(&mut self.items, bodies);
         // With split impulse the joints also hold in the position solve (J v_p = 0), so
         // the pseudo-velocities that push overlapping bodies apart do not pull joints
         // apart; their own drift stays with the warm-started velocity rows (Baumgarte),
@@ -516,6 +523,7 @@ impl JointRows {
     /// Forgets every row, and gives the damping rows to fill (XPBD's velocity pass).
     pub(super) fn damping_only(&mut self) -> &mut Vec<(Row, f32)> {
         self.items.clear();
+        self.chains.clear();
         self.damping.clear();
         &mut self.damping
     }
@@ -543,7 +551,7 @@ impl JointRows {
                     r.apply(bodies, d);
                     residual = residual.max(d.abs());
                 }
-                Item::Point(p) if p.positional => {
+                Item::Point(p) if p.positional && !p.exact => {
                     let (a, b) = (load(bodies, p.a), load(bodies, p.b));
                     let cdot = b.v + cross_sv(b.w, p.rb) - a.v - cross_sv(a.w, p.ra);
                     let rhs = -cdot;
@@ -556,7 +564,7 @@ impl JointRows {
                 _ => {}
             }
         }
-        residual
+        residual.max(self.chains.solve(&mut self.items, bodies, true))
     }
 
     /// Applies the warm-start lambdas.
@@ -577,11 +585,15 @@ impl JointRows {
             let d = match it {
                 Item::Row(r) => r.solve(bodies),
                 Item::Point(p) if p.joint == MOUSE => MouseJoint::pgs_solve(p, bodies),
+                Item::Point(p) if p.exact => 0.0,
                 Item::Point(p) => p.solve(bodies),
             };
             residual = residual.max(d);
         }
-        residual
+        if self.chains.is_empty() {
+            return residual;
+        }
+        residual.max(self.chains.solve(&mut self.items, bodies, false))
     }
 
     /// Joint damping: removes the fraction min(h c, 1) of the relative velocity along
