@@ -17,6 +17,10 @@
 //! Each query comes in two forms: one that calls a closure per result, allocating
 //! nothing (`for_each_*`, [`World::ray_cast`]), and one that returns a `Vec` in a
 //! fixed order (creation order, or nearest first).
+//!
+//! Results name bodies by [`BodyKey`]. A body pushed straight into [`World::bodies`]
+//! has no key until the world next steps, adds or removes a body ([`World::body_key`]),
+//! and no query reports it before then.
 
 use std::sync::{Arc, Mutex};
 
