@@ -62,10 +62,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                 near.push(body);
                 true
             });
-            for body in near {
-                let Some(key) = world.body_key(body) else {
-                    continue;
-                };
+            for key in near {
                 if !crates.contains(&key) {
                     continue;
                 }
@@ -85,7 +82,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         let height = 0.2 + (frame % 60) as f32 * 0.12;
         let laser =
             world.ray_cast_closest(Vec2::new(-10.0, height), Vec2::new(40.0, 0.0), &everything);
-        if laser.is_some_and(|h| world.bodies[h.body].name.starts_with("crate")) {
+        if laser.is_some_and(|h| crates.contains(&h.body)) {
             lasered += 1;
         }
     }

@@ -9,7 +9,7 @@
 //! use glam::Vec2;
 //! for settings in [SolverSettings::default(), SolverSettings::pgs(), SolverSettings::xpbd()] {
 //!     let mut world = World::new(Some(Vec2::new(0.0, -10.0)), settings);
-//!     world.add_body(&BodyDef { name: "ground".into(), body_type: BodyType::Static,
+//!     world.create_body(&BodyDef { name: "ground".into(), body_type: BodyType::Static,
 //!         shape: ShapeDef::Box { width: 20.0, height: 1.0 }, position: Vec2::new(0.0, -0.5), ..Default::default() }).unwrap();
 //!     let ball = world.create_body(&BodyDef { name: "ball".into(), shape: ShapeDef::Circle { radius: 0.5 },
 //!         position: Vec2::new(0.0, 3.0), ..Default::default() }).unwrap();
@@ -18,6 +18,13 @@
 //!     assert!((world.body(ball).unwrap().position.y - 0.5).abs() < 0.02);
 //! }
 //! ```
+//!
+//! Bodies, joints and shapes are named by generational keys ([`BodyKey`], [`JointKey`],
+//! [`ShapeKey`]) that stay valid across removals: a removed body's key names nothing,
+//! never another body. Events ([`World::events`], [`World::hits`],
+//! [`World::sleep_events`]) and query results ([`World::ray_cast_closest`] and the rest)
+//! name their bodies by key, so they can be kept and looked up ([`World::body`]) after
+//! bodies are removed.
 //!
 //! The solvers' internals (their scratch, the threads' passes) are not part of the
 //! API: a program steps a [`World`], and cannot reach a solver's buffers.

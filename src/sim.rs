@@ -87,7 +87,7 @@ pub fn write_trace_rows(out: &mut dyn Write, world: &World) -> std::io::Result<(
         // positions in the file's coordinates: the world's origin added back in f64
         // (an f32 is printed as itself when there is none)
         if shifted {
-            let p = world.world_position(i);
+            let p = world.world_position_index(i);
             write!(out, "{},{}", p.x, p.y)?;
         } else {
             write!(out, "{},{}", b.position.x, b.position.y)?;

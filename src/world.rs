@@ -335,9 +335,31 @@ impl World {
         self.mouse.as_ref()
     }
 
-    /// A mouse joint holding the dynamic body under `world_point`, with the usual
-    /// feel (5 Hz, damping ratio 0.7, up to 1000 times the body's weight at 10 m/s^2).
-    pub fn grab(&self, body: BodyId, world_point: Vec2) -> Option<MouseJoint> {
+    /// A mouse joint holding the dynamic body of `key` by its point at `world_point`,
+    /// with the usual feel (5 Hz, damping ratio 0.7, up to 1000 times the body's weight
+    /// at 10 m/s^2): hand it to [`World::set_mouse`]. Refused: a stale key, a body that
+    /// is not dynamic, a point that is not finite.
+    pub fn grab(&self, key: BodyKey, world_point: Vec2) -> Result<MouseJoint, EditError> {
+        let i = self.body_of_key(key).ok_or(EditError::NoSuchBody)?;
+        let b = &self.bodies[i];
+        if !world_point.is_finite() {
+            let what = "grab point";
+            let value = format!("{world_point}");
+            return Err(EditError::NotFinite {
+                name: b.name.clone(),
+                what,
+                value,
+            });
+        }
+        self.grab_index(i, world_point)
+            .ok_or_else(|| EditError::NotApplicable {
+                name: b.name.clone(),
+                why: "only a dynamic body is grabbed",
+            })
+    }
+
+    /// [`World::grab`] by body index: None for a body that is not there or not dynamic.
+    pub(crate) fn grab_index(&self, body: BodyId, world_point: Vec2) -> Option<MouseJoint> {
         let b = self.bodies.get(body).filter(|b| b.is_dynamic())?;
         Some(MouseJoint {
             body,
@@ -573,9 +595,14 @@ impl World {
         }
     }
 
-    /// A body's position in the scene file's coordinates, [`World::origin`] added back
-    /// in f64.
-    pub fn world_position(&self, body: BodyId) -> glam::DVec2 {
+    /// The position of the body of `key` (its centre of mass) in the scene file's
+    /// coordinates, [`World::origin`] added back in f64; None for a stale key.
+    pub fn world_position(&self, key: BodyKey) -> Option<glam::DVec2> {
+        Some(self.world_position_index(self.body_of_key(key)?))
+    }
+
+    /// [`World::world_position`] of body `body` (an index).
+    pub(crate) fn world_position_index(&self, body: BodyId) -> glam::DVec2 {
         self.origin + self.bodies[body].position.as_dvec2()
     }
 

@@ -7,8 +7,8 @@
 mod ground;
 use glam::Vec2;
 use sandbox2d::{
-    BodyDef, BodyKey, BodyType, EditError, Filter, JointDef, PartDef, ShapeDef, SolverSettings,
-    World,
+    BodyDef, BodyKey, BodyType, EditError, Filter, JointDef, PartDef, ShapeDef, SolverKind,
+    SolverSettings, World,
 };
 use std::f32::consts::PI;
 
@@ -163,16 +163,15 @@ fn queries_and_contacts_see_an_added_shape() {
     assert!(w.body(b).unwrap().asleep);
     let all = Filter::default();
     // the query tree is made now, before the shape is there
-    let box_index = w.body_of_key(b).unwrap();
     assert!(w.query_point(Vec2::new(3.0, 3.0), &all).is_empty());
     // a disc 2.5 m right of the box, 2.5 m up: the tree sees it at once
     let s = w.add_shape(b, &disc(Vec2::new(2.5, 2.5))).unwrap();
     assert!(!w.body(b).unwrap().asleep, "adding a shape wakes the body");
-    assert_eq!(w.query_point(Vec2::new(2.6, 3.1), &all), vec![box_index]);
+    assert_eq!(w.query_point(Vec2::new(2.6, 3.1), &all), vec![b]);
     let hit = w
         .ray_cast_closest(Vec2::new(2.5, 6.0), Vec2::new(0.0, -10.0), &all)
         .unwrap();
-    assert_eq!(hit.body, box_index);
+    assert_eq!(hit.body, b);
     assert!((hit.point.y - 3.5).abs() < 1e-3, "{:?}", hit.point);
     w.remove_shape(s).unwrap();
     assert!(w.query_point(Vec2::new(2.6, 3.1), &all).is_empty());
@@ -242,6 +241,62 @@ fn a_joint_on_the_body_keeps_its_anchor_on_the_material() {
     let after = w.joint(j).unwrap().world_anchors(&w.bodies);
     assert!((before.1 - after.1).length() < 1e-5, "{before:?} {after:?}");
     assert!(w.joint(j).unwrap().position_error(&w.bodies) < 1e-5);
+}
+
+#[test]
+fn a_motor_joint_keeps_holding_its_body_where_it_was_when_either_body_takes_a_shape() {
+    // no gravity: a free box a, and a box b held by a motor joint 3 m right of and 1 m
+    // above it, a quarter turn further round. A disc added to b, then to a, moves each
+    // one's centre of mass; the motor goes on holding b's origin at the same place in
+    // a's frame (the joint's anchors move with the centres: the target does too)
+    for kind in [SolverKind::Soft, SolverKind::Pgs, SolverKind::Xpbd] {
+        let mut w = World::new(None, SolverSettings::defaults(kind));
+        let a = boxed(&mut w, Vec2::ZERO, 0.0);
+        let b = w
+            .create_body(&BodyDef {
+                name: "held".into(),
+                shape: ShapeDef::Box {
+                    width: 1.0,
+                    height: 1.0,
+                },
+                position: Vec2::new(3.0, 1.0),
+                angle: PI / 2.0,
+                ..BodyDef::default()
+            })
+            .unwrap();
+        w.create_joint(a, b, &JointDef::motor_joint(0, 0, 500.0, 500.0))
+            .unwrap();
+        // b's origin in a's frame from a's origin, and the angle between them
+        let held = |w: &World| {
+            let (ba, bb) = (w.body(a).unwrap(), w.body(b).unwrap());
+            (
+                ba.rot.inv_rotate(bb.origin() - ba.origin()),
+                bb.angle - ba.angle,
+            )
+        };
+        let start = held(&w);
+        let run = |w: &mut World| {
+            for _ in 0..240 {
+                w.step().unwrap();
+            }
+        };
+        for (body, offset) in [(b, Vec2::new(0.0, 1.5)), (a, Vec2::new(-2.0, 0.5))] {
+            let moved = {
+                let old = w.body(body).unwrap().position;
+                w.add_shape(body, &disc(offset)).unwrap();
+                (w.body(body).unwrap().position - old).length()
+            };
+            assert!(moved > 0.2, "{kind:?}: the centre moved {moved} m");
+            run(&mut w);
+            let (p, angle) = held(&w);
+            assert!(
+                (p - start.0).length() < 1e-3,
+                "{kind:?}: b's origin held at {p} in a's frame, was {}",
+                start.0
+            );
+            assert!((angle - start.1).abs() < 1e-3, "{kind:?}: {angle}");
+        }
+    }
 }
 
 #[test]

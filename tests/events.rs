@@ -3,9 +3,16 @@
 //! each bounce, the begin carrying the impact's impulse; nothing is recorded unless asked.
 
 use glam::Vec2;
-use sandbox2d::{BodyDef, BodyType, EventKind, ShapeDef, SolverKind, SolverSettings, World};
+use sandbox2d::{
+    BodyDef, BodyKey, BodyType, EventKind, Filter, ShapeDef, SolverKind, SolverSettings, World,
+};
 
 const G: f32 = 10.0;
+
+/// The keys of bodies `a` and `b` (indices now).
+fn keys(w: &World, a: usize, b: usize) -> (BodyKey, BodyKey) {
+    (w.body_key(a).unwrap(), w.body_key(b).unwrap())
+}
 
 fn ball(y: f32) -> BodyDef {
     BodyDef {
@@ -52,7 +59,7 @@ fn a_sensor_hears_each_overlap_once_and_never_touches_the_body() {
             );
             let y = with.bodies[0].position.y;
             for e in with.events() {
-                assert_eq!((e.a, e.b), (0, 1));
+                assert_eq!((e.a, e.b), keys(&with, 0, 1));
                 match e.kind {
                     EventKind::SensorBegin => {
                         // the ball's bottom crossed the gate's top in this step
@@ -112,7 +119,7 @@ fn a_bouncing_ball_begins_and_ends_a_contact_with_each_bounce() {
     for k in 1..=240 {
         w.step().unwrap();
         for e in w.events() {
-            assert_eq!((e.a, e.b), (0, 1));
+            assert_eq!((e.a, e.b), keys(&w, 0, 1));
             log.push((k, e.kind, e.impulse));
         }
     }
@@ -219,7 +226,7 @@ fn a_body_asleep_in_a_sensor_stays_heard_until_it_wakes_and_leaves() {
             log.extend(
                 w.events()
                     .iter()
-                    .filter(|e| (e.a, e.b) == (0, 1))
+                    .filter(|e| (e.a, e.b) == keys(&w, 0, 1))
                     .map(|e| (k, e.kind)),
             );
         }
@@ -293,7 +300,7 @@ fn a_dropped_box_hits_the_ground_at_the_speed_of_its_fall() {
                 "{kind:?} h {h}: one impact, then rest: {hits:?}"
             );
             let hit = hits[0];
-            assert_eq!((hit.a, hit.b), (0, 1));
+            assert_eq!((hit.a, hit.b), keys(&w, 0, 1));
             let err = (hit.approach_speed - exact).abs() / exact;
             assert!(
                 err < 0.01,
@@ -346,7 +353,7 @@ fn a_ball_thrown_at_a_wall_hits_it_at_its_speed_and_slow_touches_make_no_hit() {
             hits.extend(w.hits().iter().copied());
         }
         assert_eq!(hits.len(), 1, "{kind:?}: {hits:?}");
-        assert_eq!((hits[0].a, hits[0].b), (0, 1));
+        assert_eq!((hits[0].a, hits[0].b), keys(&w, 0, 1));
         assert!(
             (hits[0].approach_speed - 12.5).abs() < 12.5 * 1e-3,
             "{kind:?}: {}",
@@ -393,9 +400,99 @@ fn a_box_that_falls_asleep_and_is_woken_says_so_once_each() {
     // asleep once, woken once (at step 200), asleep again; the ground never changes
     let flags: Vec<bool> = seen.iter().map(|(_, e)| e.asleep).collect();
     assert_eq!(flags, [true, false, true], "{seen:?}");
-    assert!(seen.iter().all(|(_, e)| e.body == i));
+    assert!(seen.iter().all(|(_, e)| e.body == key));
     assert!(
         seen[0].0 < 200 && seen[1].0 == 200 && seen[2].0 > 200,
         "{seen:?}"
     );
+}
+
+#[test]
+fn events_and_query_hits_name_bodies_that_keys_still_find_after_a_removal() {
+    // a static shelf far off, made first, then the ground and a box dropped 5 m onto it:
+    // the box is body 2 when it lands. The shelf is removed after the landing step,
+    // so the box is body 1 from then on; the events of that step, read after the
+    // removal, still lead to the box and the ground
+    for kind in SolverKind::ALL {
+        let mut w = World::new(Some(Vec2::new(0.0, -G)), SolverSettings::defaults(kind));
+        w.record_events = true;
+        let shelf = w
+            .create_body(&BodyDef {
+                name: "shelf".into(),
+                position: Vec2::new(100.0, 0.0),
+                ..ground()
+            })
+            .unwrap();
+        let floor = w.create_body(&ground()).unwrap();
+        let block = w
+            .create_body(&BodyDef {
+                name: "box".into(),
+                shape: ShapeDef::Box {
+                    width: 1.0,
+                    height: 1.0,
+                },
+                position: Vec2::new(0.0, 5.5),
+                ..BodyDef::default()
+            })
+            .unwrap();
+        let mut landed = false;
+        for _ in 0..120 {
+            w.step().unwrap();
+            if !w.hits().is_empty() {
+                landed = true;
+                break;
+            }
+        }
+        assert!(landed, "{kind:?}: the box never hit the ground");
+        assert_eq!(w.body_of_key(block), Some(2));
+        w.remove_body(shelf).unwrap();
+        assert_eq!(
+            w.body_of_key(block),
+            Some(1),
+            "the box moved down one index"
+        );
+        let hit = w.hits()[0];
+        assert_eq!((hit.a, hit.b), (floor, block), "{kind:?}");
+        assert_eq!(w.body(hit.b).unwrap().name, "box");
+        assert_eq!(w.body(hit.a).unwrap().name, "ground");
+        // the approach speed of a 5 m fall, less at most g dt
+        let exact = (2.0 * G * 5.0).sqrt();
+        assert!(
+            (hit.approach_speed - exact).abs() < 0.03 * exact,
+            "{kind:?}: {}",
+            hit.approach_speed
+        );
+        let begin = w
+            .events()
+            .iter()
+            .find(|e| e.kind == EventKind::Begin)
+            .expect("the landing began a contact");
+        assert_eq!((begin.a, begin.b), (floor, block));
+        assert!(w.body(shelf).is_none() && w.world_position(shelf).is_none());
+        // queries name it by the same key: a ray down onto it, a point inside it
+        let at = w.world_position(block).unwrap().as_vec2();
+        let ray = w
+            .ray_cast_closest(
+                at + Vec2::new(0.0, 3.0),
+                Vec2::new(0.0, -6.0),
+                &Filter::default(),
+            )
+            .unwrap();
+        assert_eq!(ray.body, block);
+        assert!(
+            (ray.point.y - (at.y + 0.5)).abs() < 1e-3,
+            "{kind:?}: {ray:?}"
+        );
+        assert_eq!(w.query_point(at, &Filter::default()), [block]);
+        // once it sleeps, the sleep event names it by key too
+        let mut slept = None;
+        for _ in 0..600 {
+            w.step().unwrap();
+            if let Some(e) = w.sleep_events().iter().find(|e| e.asleep) {
+                slept = Some(e.body);
+                break;
+            }
+        }
+        assert_eq!(slept, Some(block), "{kind:?}");
+    }
 }

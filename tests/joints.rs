@@ -401,13 +401,14 @@ fn energy_scale(w: &World) -> f64 {
 /// body's centre by twice its distance from the anchor.
 fn drive_work_bound(w: &World, seconds: f64) -> f64 {
     let g = w.gravity.map_or(0.0, |g| g.length()) as f64;
-    w.joints()
-        .iter()
-        .map(|j| {
+    (0..w.joints().len())
+        .map(|i| {
+            let key = w.joint_key(i).unwrap();
+            let j = w.joint(key).unwrap();
             let motor = j
                 .motor
                 .map_or(0.0, |m| (m.max_force * m.speed).abs() as f64 * seconds);
-            let b = &w.bodies[j.b];
+            let b = w.body(w.joint_bodies(key).unwrap()[1]).unwrap();
             let servo = if j.servo.is_some() {
                 2.0 * b.mass as f64 * g * j.local_b.length() as f64
             } else {
@@ -552,7 +553,9 @@ fn the_mouse_joint_pulls_a_body_to_the_target() {
         )
         .unwrap();
         let mut w = World::from_def(&sc.world, settings).unwrap();
-        let mut m = w.grab(0, Vec2::ZERO).expect("dynamic body");
+        let mut m = w
+            .grab(w.body_key(0).unwrap(), Vec2::ZERO)
+            .expect("dynamic body");
         m.target = Vec2::new(3.0, 1.0);
         w.set_mouse(Some(m));
         run(&mut w, 3.0);

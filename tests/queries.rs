@@ -4,14 +4,14 @@
 
 use glam::Vec2;
 use proptest::prelude::*;
-use sandbox2d::{BodyDef, BodyType, Filter, ShapeDef, SolverSettings, World};
+use sandbox2d::{BodyDef, BodyKey, BodyType, Filter, ShapeDef, SolverSettings, World};
 
 fn world() -> World {
     World::new(None, SolverSettings::default())
 }
 
-fn add(w: &mut World, name: &str, shape: ShapeDef, at: Vec2, angle: f32) -> usize {
-    w.add_body(&BodyDef {
+fn add(w: &mut World, name: &str, shape: ShapeDef, at: Vec2, angle: f32) -> BodyKey {
+    w.create_body(&BodyDef {
         name: name.into(),
         body_type: BodyType::Static,
         shape,
@@ -138,7 +138,8 @@ fn ray_cast_all_lists_every_body_nearest_first_and_filters_by_category() {
         ..Filter::default()
     };
     let hits = w.ray_cast_all(Vec2::ZERO, Vec2::new(10.0, 0.0), &Filter::default());
-    let bodies: Vec<usize> = hits.iter().map(|h| h.body).collect();
+    let index = |k: BodyKey| w.body_of_key(k).unwrap();
+    let bodies: Vec<usize> = hits.iter().map(|h| index(h.body)).collect();
     assert_eq!(bodies, [3, 2, 1, 0]);
     assert!(hits.windows(2).all(|p| p[0].fraction <= p[1].fraction));
     let only_default = Filter {
@@ -148,12 +149,12 @@ fn ray_cast_all_lists_every_body_nearest_first_and_filters_by_category() {
     let bodies: Vec<usize> = w
         .ray_cast_all(Vec2::ZERO, Vec2::new(10.0, 0.0), &only_default)
         .iter()
-        .map(|h| h.body)
+        .map(|h| index(h.body))
         .collect();
     assert_eq!(bodies, [3, 2, 0]);
     assert_eq!(
         w.ray_cast_closest(Vec2::ZERO, Vec2::new(10.0, 0.0), &only_default)
-            .map(|h| h.body),
+            .map(|h| index(h.body)),
         Some(3)
     );
 }

@@ -11,8 +11,8 @@ use sandbox2d::compound::for_each_collider;
 use sandbox2d::math::{Aabb, Rot, Transform};
 use sandbox2d::shape::Shape;
 use sandbox2d::{
-    BodyDef, BodyType, Filter, PartDef, QueryShape, SHAPE_CAST_TOLERANCE, ShapeDef, SolverSettings,
-    World,
+    BodyDef, BodyKey, BodyType, Filter, PartDef, QueryShape, SHAPE_CAST_TOLERANCE, ShapeDef,
+    SolverSettings, World,
 };
 
 /// One of the shapes a body can have, by a number.
@@ -156,6 +156,13 @@ fn scan_shape(w: &World, shape: &Shape, xf: &Transform, filter: &Filter) -> Vec<
         .collect()
 }
 
+/// Where the bodies of `keys` are now (every key must name one).
+fn at(w: &World, keys: Vec<BodyKey>) -> Vec<usize> {
+    keys.iter()
+        .map(|&k| w.body_of_key(k).expect("a query names live bodies"))
+        .collect()
+}
+
 /// Checks every query at a few places against the scans.
 fn check_all(w: &World, probes: &[(f32, f32, f32, f32)], mask: u32) -> Result<(), TestCaseError> {
     let filter = Filter {
@@ -166,22 +173,22 @@ fn check_all(w: &World, probes: &[(f32, f32, f32, f32)], mask: u32) -> Result<()
     let (disc_shape, _) = Shape::from_def(&ShapeDef::Circle { radius: 1.3 }).unwrap();
     for &(x, y, dx, dy) in probes {
         let p = Vec2::new(x, y);
-        prop_assert_eq!(w.query_point(p, &filter), scan_point(w, p, &filter));
+        prop_assert_eq!(at(w, w.query_point(p, &filter)), scan_point(w, p, &filter));
         let q = Aabb {
             min: p,
             max: p + Vec2::new(dx.abs(), dy.abs()),
         };
-        prop_assert_eq!(w.query_aabb(&q, &filter), scan_aabb(w, &q, &filter));
+        prop_assert_eq!(at(w, w.query_aabb(&q, &filter)), scan_aabb(w, &q, &filter));
         let t = Vec2::new(dx, dy) * 3.0;
         let hits: Vec<(f32, usize)> = w
             .ray_cast_all(p, t, &filter)
             .iter()
-            .map(|h| (h.fraction, h.body))
+            .map(|h| (h.fraction, at(w, vec![h.body])[0]))
             .collect();
         prop_assert_eq!(&hits, &scan_ray(w, p, t, &filter));
         prop_assert_eq!(
             w.ray_cast_closest(p, t, &filter)
-                .map(|h| (h.fraction, h.body)),
+                .map(|h| (h.fraction, at(w, vec![h.body])[0])),
             hits.first().copied()
         );
         let xf = Transform {
@@ -189,7 +196,7 @@ fn check_all(w: &World, probes: &[(f32, f32, f32, f32)], mask: u32) -> Result<()
             q: Rot::from_angle(0.0),
         };
         prop_assert_eq!(
-            w.query_shape(&disc, p, 0.0, &filter),
+            at(w, w.query_shape(&disc, p, 0.0, &filter)),
             scan_shape(w, &disc_shape, &xf, &filter)
         );
     }
@@ -270,7 +277,7 @@ fn a_disc_cast_at_a_wall_stops_where_their_gap_closes() {
     let hit = w
         .cast_shape(&disc, Vec2::ZERO, 0.0, Vec2::new(20.0, 0.0), &all)
         .unwrap();
-    assert_eq!(hit.body, 0);
+    assert_eq!(w.body_of_key(hit.body), Some(0));
     let exact = 8.5 / 20.0;
     assert!(
         hit.fraction <= exact && (exact - hit.fraction) * 20.0 <= SHAPE_CAST_TOLERANCE,
@@ -304,7 +311,7 @@ fn a_box_cast_at_an_angle_meets_a_disc_where_geometry_says() {
     let hit = w
         .cast_shape(&block, Vec2::ZERO, 0.0, Vec2::new(0.0, 17.0), &all)
         .unwrap();
-    assert_eq!(hit.body, 1);
+    assert_eq!(w.body_of_key(hit.body), Some(1));
     let exact = 8.5 / 17.0;
     assert!(
         hit.fraction <= exact + 1e-6 && (exact - hit.fraction) * 17.0 <= SHAPE_CAST_TOLERANCE,
@@ -323,7 +330,7 @@ fn a_box_cast_at_an_angle_meets_a_disc_where_geometry_says() {
     let (a, b, cc) = (d.dot(d), 2.0 * oc.dot(d), oc.dot(oc) - 1.5 * 1.5);
     let exact = (-b - (b * b - 4.0 * a * cc).sqrt()) / (2.0 * a);
     let hit = w.cast_shape(&disc, o, 0.0, d, &all).unwrap();
-    assert_eq!(hit.body, 1);
+    assert_eq!(w.body_of_key(hit.body), Some(1));
     assert!(
         hit.fraction <= exact + 1e-6 && (exact - hit.fraction) * d.length() <= SHAPE_CAST_TOLERANCE,
         "{} against {exact}",
@@ -351,7 +358,7 @@ fn a_shape_overlapping_at_its_start_is_hit_at_once() {
             &Filter::default(),
         )
         .unwrap();
-    assert_eq!((hit.body, hit.fraction), (1, 0.0));
+    assert_eq!((w.body_of_key(hit.body), hit.fraction), (Some(1), 0.0));
     assert!(
         QueryShape::new(&ShapeDef::Segment {
             a: Vec2::ZERO,

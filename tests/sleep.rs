@@ -125,7 +125,9 @@ fn a_force_a_grab_or_a_new_velocity_wakes_the_island() {
         steps(&mut w, 240);
         assert_eq!(asleep(&w), 3, "{kind:?}: asleep again");
         // the mouse
-        let grab = w.grab(3, w.bodies[3].position).unwrap();
+        let grab = w
+            .grab(w.body_key(3).unwrap(), w.bodies[3].position)
+            .unwrap();
         w.set_mouse(Some(grab));
         assert_eq!(asleep(&w), 0, "{kind:?}: a grab woke nothing");
         w.set_mouse(None);

@@ -666,10 +666,7 @@ impl Session {
     pub fn ray_text(&self) -> Option<String> {
         let r = self.ray?;
         Some(
-            match (
-                r.hit.and_then(|h| self.world.bodies.get(h.body)),
-                r.distance(),
-            ) {
+            match (r.hit.and_then(|h| self.world.body(h.body)), r.distance()) {
                 (Some(b), Some(d)) => format!("ray: hits {:?} at {d:.3} m", b.name),
                 _ => "ray: no hit".to_string(),
             },
@@ -1116,7 +1113,7 @@ mod tests {
         s.aim_ray(Vec2::new(x, def.position.y - 0.1));
         let r = s.ray.expect("on");
         let hit = r.hit.expect("hits the top box");
-        assert_eq!(hit.body, top);
+        assert_eq!(Some(hit.body), s.world.body_key(top));
         assert!((r.distance().unwrap() - 3.0).abs() < 1e-4, "{r:?}");
         assert!((hit.point - Vec2::new(x, face)).length() < 1e-4, "{r:?}");
         assert!((hit.normal - Vec2::Y).length() < 1e-4, "{r:?}");

@@ -214,7 +214,7 @@ pub fn run(scene: &ConvScene, kind: SolverKind) -> Result<Series, String> {
         // the largest coordinate the motion reaches
         let mut reach = bodies
             .iter()
-            .map(|&b| w.world_position(b).abs().max_element())
+            .map(|&b| w.world_position_index(b).abs().max_element())
             .fold(0.0f64, f64::max);
         let mut failed = None;
         'run: for j in 1..=samples {
@@ -229,7 +229,7 @@ pub fn run(scene: &ConvScene, kind: SolverKind) -> Result<Series, String> {
                 let want = exact.pose(k, t);
                 reach = reach.max(want.p.abs().max_element());
                 speed = speed.max(f64::from(w.bodies[b].velocity.abs().max_element()));
-                err = err.max((w.world_position(b) - want.p).length());
+                err = err.max((w.world_position_index(b) - want.p).length());
                 aerr = aerr.max((w.bodies[b].angle as f64 - want.angle).abs());
             }
         }

@@ -207,9 +207,10 @@ impl Exact {
                 return Err("its joint is not a plain distance joint at the body's centre".into());
             }
             let anchor_local = if j.a == body { j.local_b } else { j.local_a };
-            let pivot = w.world_position(other) + dv(w.bodies[other].rot.rotate(anchor_local));
+            let pivot =
+                w.world_position_index(other) + dv(w.bodies[other].rot.rotate(anchor_local));
             let b = &w.bodies[body];
-            let p0 = w.world_position(body);
+            let p0 = w.world_position_index(body);
             if j.compliance > 0.0 {
                 return Self::spring(
                     w,
@@ -261,7 +262,7 @@ impl Exact {
             let b = &w.bodies[i];
             Flying {
                 body: i,
-                p0: w.world_position(i),
+                p0: w.world_position_index(i),
                 v0: dv(b.velocity),
                 angle0: b.angle as f64,
                 omega: b.angular_velocity as f64,
@@ -353,7 +354,7 @@ impl Exact {
         horizon: f64,
     ) -> Result<Exact, String> {
         let b = &w.bodies[body];
-        let d = w.world_position(body) - anchor;
+        let d = w.world_position_index(body) - anchor;
         if d.length() < 1e-6 {
             return Err("the spring starts folded".into());
         }
@@ -400,7 +401,7 @@ impl Exact {
             return None;
         };
         let xf = gb.transform();
-        let origin = w.world_position(ground) - dv(gb.position);
+        let origin = w.world_position_index(ground) - dv(gb.position);
         (0..poly.count).find_map(|k| {
             let a = dv(xf.apply(poly.vertices[k])) + origin;
             let b = dv(xf.apply(poly.vertices[(k + 1) % poly.count])) + origin;
@@ -426,7 +427,7 @@ impl Exact {
         if !at_rest(b) {
             return Err("the disk does not start at rest".into());
         }
-        let c = w.world_position(body);
+        let c = w.world_position_index(body);
         let Some((n, fa, fb)) = Self::face_under(w, ground, c, r) else {
             return Err("the disk does not rest on a face of the other body".into());
         };
@@ -482,7 +483,7 @@ impl Exact {
             return Err("no gravity, or the box turns".into());
         }
         let up = -g.normalize();
-        let c = w.world_position(body);
+        let c = w.world_position_index(body);
         // the box's lowest point touches a face of the ground whose normal is up
         let xf = b.transform();
         let origin = c - dv(b.position);
@@ -842,7 +843,7 @@ impl Reference {
                 bodies
                     .iter()
                     .map(|&i| Pose {
-                        p: w.world_position(i),
+                        p: w.world_position_index(i),
                         angle: w.bodies[i].angle as f64,
                     })
                     .collect()
@@ -1015,7 +1016,7 @@ impl<'a> Tracker<'a> {
                 },
                 Truth::Unmeasured(_) => return,
             };
-            let d = (world.world_position(i) - truth.p).length();
+            let d = (world.world_position_index(i) - truth.p).length();
             let a = (world.bodies[i].angle as f64 - truth.angle).abs();
             self.sum_p += d * d;
             self.max_p = self.max_p.max(d);

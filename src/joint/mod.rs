@@ -51,10 +51,10 @@ pub type JointId = usize;
 pub struct Joint {
     /// What the joint holds (see [`JointKind`]).
     pub kind: JointKind,
-    /// Index of the first body in the world.
-    pub a: usize,
+    /// Index of the first body in the world (its key: [`crate::World::joint_bodies`]).
+    pub(crate) a: usize,
     /// Index of the second body in the world.
-    pub b: usize,
+    pub(crate) b: usize,
     /// Anchor on `a`, in a's frame, from its centre of mass (m).
     pub local_a: Vec2,
     /// Anchor on `b`, in b's frame, from its centre of mass (m).
@@ -399,7 +399,8 @@ impl Joint {
     }
 
     /// World positions of the two anchors (for drawing).
-    /// A motor joint's are b's target point and b's centre; a pulley's its bodies' anchors.
+    /// A motor joint's are b's target point and the point of b it drives there (b's
+    /// centre of mass when the joint was made); a pulley's its bodies' anchors.
     pub fn world_anchors(&self, bodies: &[Body]) -> (Vec2, Vec2) {
         let f = self.frame(bodies);
         let pa = bodies[self.a].position + f.ra;

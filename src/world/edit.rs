@@ -78,6 +78,13 @@ impl Keys {
         self.by_index.get(index).copied()
     }
 
+    /// The key of body `index`, for a list of bodies whose keys are in step (the
+    /// step's own records: events).
+    pub(crate) fn body(&self, index: usize) -> BodyKey {
+        let (slot, generation) = self.by_index[index];
+        BodyKey { slot, generation }
+    }
+
     fn index(&self, slot: u32, generation: u32) -> Option<usize> {
         let &(g, i) = self.slots.get(slot as usize)?;
         (g == generation && i != u32::MAX).then_some(i as usize)
@@ -224,11 +231,6 @@ impl World {
                 *p = (shift32(p.0), shift32(p.1));
             }
         }
-        self.events.retain(|e| e.a != gone && e.b != gone);
-        for e in &mut self.events {
-            e.a = shift(e.a, gone);
-            e.b = shift(e.b, gone);
-        }
         for j in &mut self.joints {
             j.a = shift(j.a, gone);
             j.b = shift(j.b, gone);
@@ -374,11 +376,6 @@ impl World {
             for p in list.iter_mut() {
                 *p = (map[p.0 as usize], map[p.1 as usize]);
             }
-        }
-        self.events.retain(|e| !is_gone[e.a] && !is_gone[e.b]);
-        for e in &mut self.events {
-            e.a = new(e.a);
-            e.b = new(e.b);
         }
         let mut i = 0;
         self.bodies.retain(|_| {

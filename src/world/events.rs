@@ -6,7 +6,6 @@
 //! <= 0; a sensor pair when the shapes overlap after the step.
 
 use super::{BodyKey, JointKey, World};
-use crate::body::BodyId;
 use crate::math::{Vec2, cross_sv};
 
 /// What happened to a pair.
@@ -39,10 +38,11 @@ impl EventKind {
 pub struct ContactEvent {
     /// Began or ended touching, or a sensor overlap began or ended.
     pub kind: EventKind,
-    /// The pair, lower index first.
-    pub a: BodyId,
-    /// The pair's other body (the higher index).
-    pub b: BodyId,
+    /// The pair's body created first (of two bodies, the one earlier in
+    /// [`World::bodies`]).
+    pub a: BodyKey,
+    /// The pair's other body (created later).
+    pub b: BodyKey,
     /// For [`EventKind::Begin`]: the normal impulse the step's solve put through the new
     /// contact (N s, summed over its points, as the solver keeps it for warm starting:
     /// for sounds and damage); 0 for the other kinds.
@@ -58,10 +58,10 @@ pub const DEFAULT_HIT_SPEED: f32 = 1.0;
 /// the other) makes no second hit until it parts and meets again.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct HitEvent {
-    /// The pair, lower index first.
-    pub a: BodyId,
-    /// The other body.
-    pub b: BodyId,
+    /// The pair's body created first.
+    pub a: BodyKey,
+    /// The other body (created later).
+    pub b: BodyKey,
     /// Where they met (world frame): the contact point of the fastest approach.
     pub point: Vec2,
     /// The contact normal there, from `a` to `b`.
@@ -77,7 +77,7 @@ pub struct HitEvent {
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct SleepEvent {
     /// The body.
-    pub body: BodyId,
+    pub body: BodyKey,
     /// True: it fell asleep; false: it woke.
     pub asleep: bool,
 }
@@ -215,7 +215,7 @@ impl World {
             for (i, (b, was)) in self.bodies.iter().zip(before.iter()).enumerate() {
                 if b.asleep != *was {
                     self.sleep_events.push(SleepEvent {
-                        body: i,
+                        body: self.body_keys.body(i),
                         asleep: b.asleep,
                     });
                 }
@@ -237,6 +237,8 @@ impl World {
             // bodies added in the step (a spawn): no start velocity to compare
             return;
         }
+        // (lower index, higher index, point, normal, speed), in pair order below
+        let mut found: Vec<(usize, usize, Vec2, Vec2, f32)> = Vec::new();
         for c in &self.contacts {
             let points = c.manifold.points();
             if !points
@@ -267,21 +269,23 @@ impl World {
                 continue;
             }
             let (lo, hi, normal) = if a < b { (a, b, n) } else { (b, a, -n) };
-            self.hits.push(HitEvent {
-                a: lo,
-                b: hi,
-                point,
-                normal,
-                approach_speed: speed,
-            });
+            found.push((lo, hi, point, normal, speed));
         }
         // a compound meets a body through several parts: one event, the fastest
-        self.hits.sort_unstable_by(|x, y| {
-            (x.a, x.b)
-                .cmp(&(y.a, y.b))
-                .then(y.approach_speed.total_cmp(&x.approach_speed))
-        });
-        self.hits.dedup_by_key(|h| (h.a, h.b));
+        found.sort_unstable_by(|x, y| (x.0, x.1).cmp(&(y.0, y.1)).then(y.4.total_cmp(&x.4)));
+        found.dedup_by_key(|h| (h.0, h.1));
+        let keys = &self.body_keys;
+        self.hits.extend(
+            found
+                .iter()
+                .map(|&(a, b, point, normal, approach_speed)| HitEvent {
+                    a: keys.body(a),
+                    b: keys.body(b),
+                    point,
+                    normal,
+                    approach_speed,
+                }),
+        );
     }
 
     /// Compares the pairs touching after this step with those after the last one.
@@ -318,18 +322,19 @@ impl World {
             |j| begins.push(now[j]),
             |p| ends.push(p),
         );
-        let event = |kind, (a, b): (u32, u32), impulse| ContactEvent {
+        let event = |keys: &super::edit::Keys, kind, (a, b): (u32, u32), impulse| ContactEvent {
             kind,
-            a: a as usize,
-            b: b as usize,
+            a: keys.body(a as usize),
+            b: keys.body(b as usize),
             impulse,
         };
+        let keys = &self.body_keys;
         self.events
-            .extend(ends.iter().map(|&p| event(EventKind::End, p, 0.0)));
+            .extend(ends.iter().map(|&p| event(keys, EventKind::End, p, 0.0)));
         self.events.extend(
             begins
                 .iter()
-                .map(|&(p, imp)| event(EventKind::Begin, p, imp)),
+                .map(|&(p, imp)| event(keys, EventKind::Begin, p, imp)),
         );
         self.touching = pairs;
         self.update_hits(&begins);
@@ -361,18 +366,21 @@ impl World {
         sensing.sort_unstable();
         sensing.dedup();
         let (mut ends, mut begins) = (Vec::new(), Vec::new());
+        let keys = &self.body_keys;
         diff(
             &self.sensed,
             &sensing,
             |j| begins.push(sensing[j]),
             |p| ends.push(p),
         );
-        self.events
-            .extend(ends.iter().map(|&p| event(EventKind::SensorEnd, p, 0.0)));
+        self.events.extend(
+            ends.iter()
+                .map(|&p| event(keys, EventKind::SensorEnd, p, 0.0)),
+        );
         self.events.extend(
             begins
                 .iter()
-                .map(|&p| event(EventKind::SensorBegin, p, 0.0)),
+                .map(|&p| event(keys, EventKind::SensorBegin, p, 0.0)),
         );
         self.sensed = sensing;
     }

@@ -17,11 +17,15 @@
 //! Each query comes in two forms: one that calls a closure per result, allocating
 //! nothing (`for_each_*`, [`World::ray_cast`]), and one that returns a `Vec` in a
 //! fixed order (creation order, or nearest first).
+//!
+//! Results name bodies by [`BodyKey`]. A body pushed straight into [`World::bodies`]
+//! has no key until the world next steps, adds or removes a body ([`World::body_key`]),
+//! and no query reports it before then.
 
 use std::sync::{Arc, Mutex};
 
-use super::World;
-use crate::body::{Body, BodyId};
+use super::{BodyKey, World};
+use crate::body::Body;
 use crate::collision::bvh::Bvh;
 use crate::defs::{Filter, ShapeDef};
 use crate::math::{Aabb, Rot, Transform, Vec2};
@@ -35,7 +39,7 @@ pub const QUERY_MARGIN: f32 = 0.1;
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct RayHit {
     /// The body hit.
-    pub body: BodyId,
+    pub body: BodyKey,
     /// The world point where the ray enters the body's shape.
     pub point: Vec2,
     /// The shape's outward unit normal there (world frame).
@@ -48,7 +52,7 @@ pub struct RayHit {
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct ShapeCastHit {
     /// The body touched.
-    pub body: BodyId,
+    pub body: BodyKey,
     /// How far along the translation the shape gets before it touches (the time of
     /// impact, in [0, 1]): the shape at `position + fraction * translation` is within
     /// [`SHAPE_CAST_TOLERANCE`] of the body.
@@ -240,7 +244,12 @@ impl World {
 
     /// Calls `f(body)` for each body whose shape holds the world point `p` (boundary
     /// included) among those `filter` sees, until `f` returns false. Allocates nothing.
-    pub fn for_each_at_point(&self, p: Vec2, filter: &Filter, mut f: impl FnMut(BodyId) -> bool) {
+    pub fn for_each_at_point(&self, p: Vec2, filter: &Filter, mut f: impl FnMut(BodyKey) -> bool) {
+        self.at_point(p, filter, |i| self.body_key(i).is_none_or(&mut f));
+    }
+
+    /// [`World::for_each_at_point`] by body index.
+    fn at_point(&self, p: Vec2, filter: &Filter, mut f: impl FnMut(usize) -> bool) {
         let index = self.query_index();
         let at = Aabb { min: p, max: p };
         index.candidates(&self.bodies, &at, |i| {
@@ -254,14 +263,19 @@ impl World {
 
     /// The bodies whose shape holds the world point `p` (boundary included), in
     /// creation order, among those `filter` sees.
-    pub fn query_point(&self, p: Vec2, filter: &Filter) -> Vec<BodyId> {
+    pub fn query_point(&self, p: Vec2, filter: &Filter) -> Vec<BodyKey> {
         let mut out = Vec::new();
-        self.for_each_at_point(p, filter, |i| {
+        self.at_point(p, filter, |i| {
             out.push(i);
             true
         });
-        out.sort_unstable();
-        out
+        self.keys_in_order(out)
+    }
+
+    /// The keys of bodies `found` (indices), in creation order.
+    fn keys_in_order(&self, mut found: Vec<usize>) -> Vec<BodyKey> {
+        found.sort_unstable();
+        found.into_iter().filter_map(|i| self.body_key(i)).collect()
     }
 
     /// Calls `f(body)` for each body whose bounding box overlaps `aabb` (touching
@@ -270,8 +284,13 @@ impl World {
         &self,
         aabb: &Aabb,
         filter: &Filter,
-        mut f: impl FnMut(BodyId) -> bool,
+        mut f: impl FnMut(BodyKey) -> bool,
     ) {
+        self.in_aabb(aabb, filter, |i| self.body_key(i).is_none_or(&mut f));
+    }
+
+    /// [`World::for_each_in_aabb`] by body index.
+    fn in_aabb(&self, aabb: &Aabb, filter: &Filter, mut f: impl FnMut(usize) -> bool) {
         let index = self.query_index();
         index.candidates(&self.bodies, aabb, |i| {
             let b = &self.bodies[i];
@@ -284,14 +303,13 @@ impl World {
 
     /// The bodies whose bounding box overlaps `aabb` (touching counts), in creation
     /// order, among those `filter` sees.
-    pub fn query_aabb(&self, aabb: &Aabb, filter: &Filter) -> Vec<BodyId> {
+    pub fn query_aabb(&self, aabb: &Aabb, filter: &Filter) -> Vec<BodyKey> {
         let mut out = Vec::new();
-        self.for_each_in_aabb(aabb, filter, |i| {
+        self.in_aabb(aabb, filter, |i| {
             out.push(i);
             true
         });
-        out.sort_unstable();
-        out
+        self.keys_in_order(out)
     }
 
     /// Calls `f(body)` for each body the shape, placed at `position` and turned by
@@ -303,7 +321,21 @@ impl World {
         position: Vec2,
         angle: f32,
         filter: &Filter,
-        mut f: impl FnMut(BodyId) -> bool,
+        mut f: impl FnMut(BodyKey) -> bool,
+    ) {
+        self.overlapping(shape, position, angle, filter, |i| {
+            self.body_key(i).is_none_or(&mut f)
+        });
+    }
+
+    /// [`World::for_each_overlapping`] by body index.
+    fn overlapping(
+        &self,
+        shape: &QueryShape,
+        position: Vec2,
+        angle: f32,
+        filter: &Filter,
+        mut f: impl FnMut(usize) -> bool,
     ) {
         let xf = shape.placed(position, angle);
         let aabb = shape.shape.aabb(&xf);
@@ -327,14 +359,13 @@ impl World {
         position: Vec2,
         angle: f32,
         filter: &Filter,
-    ) -> Vec<BodyId> {
+    ) -> Vec<BodyKey> {
         let mut out = Vec::new();
-        self.for_each_overlapping(shape, position, angle, filter, |i| {
+        self.overlapping(shape, position, angle, filter, |i| {
             out.push(i);
             true
         });
-        out.sort_unstable();
-        out
+        self.keys_in_order(out)
     }
 
     /// Casts the segment from `origin` to `origin + translation` among the bodies
@@ -361,8 +392,11 @@ impl World {
             let o = xf.inv_apply(origin);
             let d = xf.q.inv_rotate(translation);
             let (t, n) = b.ray_cast_local(o, d)?;
-            (t <= max).then(|| RayHit {
-                body: i,
+            if t > max {
+                return None;
+            }
+            Some(RayHit {
+                body: self.body_key(i)?,
                 point: origin + translation * t,
                 normal: xf.q.rotate(n),
                 fraction: t,
@@ -402,7 +436,11 @@ impl World {
             hits.push(*h);
             1.0
         });
-        hits.sort_by(|a, b| a.fraction.total_cmp(&b.fraction).then(a.body.cmp(&b.body)));
+        hits.sort_by(|a, b| {
+            a.fraction
+                .total_cmp(&b.fraction)
+                .then_with(|| self.body_of_key(a.body).cmp(&self.body_of_key(b.body)))
+        });
         hits
     }
 
@@ -416,7 +454,8 @@ impl World {
     ) -> Option<RayHit> {
         let mut best: Option<RayHit> = None;
         self.ray_cast(origin, translation, filter, |h| {
-            if best.is_none_or(|b| (h.fraction, h.body) < (b.fraction, b.body)) {
+            let order = |h: &RayHit| (h.fraction, self.body_of_key(h.body));
+            if best.is_none_or(|b| order(h) < order(&b)) {
                 best = Some(*h);
             }
             h.fraction
@@ -445,26 +484,34 @@ impl World {
         };
         let swept = start.union(&end);
         let index = self.query_index();
-        let mut best: Option<ShapeCastHit> = None;
+        // (index, hit)
+        let mut best: Option<(usize, ShapeCastHit)> = None;
         index.candidates(&self.bodies, &swept, |i| {
             let b = &self.bodies[i];
             if !sees(filter, b) || !b.aabb().overlaps(&swept) {
                 return true;
             }
-            let limit = best.map_or(1.0, |h| h.fraction);
+            let Some(key) = self.body_key(i) else {
+                return true;
+            };
+            let limit = best.map_or(1.0, |(_, h)| h.fraction);
             if let Some(hit) = time_of_impact(&shape.shape, &xf, translation, b, limit)
-                && best.is_none_or(|h| (hit.0, i) < (h.fraction, h.body))
+                && best.is_none_or(|(j, h)| (hit.0, i) < (h.fraction, j))
             {
-                best = Some(ShapeCastHit {
-                    body: i,
-                    fraction: hit.0,
-                    point: hit.1,
-                    normal: hit.2,
-                });
+                let (fraction, point, normal) = hit;
+                best = Some((
+                    i,
+                    ShapeCastHit {
+                        body: key,
+                        fraction,
+                        point,
+                        normal,
+                    },
+                ));
             }
             true
         });
-        best
+        best.map(|(_, h)| h)
     }
 }
 

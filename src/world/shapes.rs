@@ -202,11 +202,11 @@ impl World {
             b.inertia = inertia;
             b.inv_inertia = 1.0 / inertia;
         }
-        // what is anchored in the body's frame stays on the same material point
+        // what is anchored in the body's frame stays on the same material point: a
+        // joint's anchors, and a motor joint's target (on a) and the point it drives
+        // (on b, its centre of mass when the joint was made), so a motor holds the body
+        // where it held it
         for j in &mut self.joints {
-            if j.kind == crate::defs::JointKind::Motor {
-                continue;
-            }
             if j.a == i {
                 j.local_a -= c;
             }

@@ -269,13 +269,15 @@ pub fn simulate(a: &SimulateArgs) -> Result<(), Failure> {
         }
         for e in w.events() {
             event_counts[e.kind as usize] += 1;
+            // the step's own events: their bodies are there until a removal
+            let name = |key| w.body(key).map_or("", |b| b.name.as_str());
             if let (Some(f), None) = (events_file.as_mut(), &events_error)
                 && let Err(err) = writeln!(
                     f,
                     "{k},{},{},{},{}",
                     e.kind.name(),
-                    sim::csv_field(&w.bodies[e.a].name),
-                    sim::csv_field(&w.bodies[e.b].name),
+                    sim::csv_field(name(e.a)),
+                    sim::csv_field(name(e.b)),
                     e.impulse
                 )
             {

@@ -1162,7 +1162,7 @@ mod tests {
                         if i == 30 {
                             let body = w.bodies.iter().position(|b| b.is_dynamic()).unwrap();
                             let at = w.bodies[body].position + glam::Vec2::new(0.1, 0.0);
-                            let m = w.grab(body, at);
+                            let m = w.grab_index(body, at);
                             w.set_mouse(m);
                         }
                         if i == 60 {
