@@ -34,14 +34,17 @@ pub(crate) const MAX_POINTS: usize = 32;
 pub(crate) struct Chains {
     /// The items (points) of each chain, chain after chain.
     members: Vec<u32>,
-    /// Each chain: its first member, its count, where its factor starts.
-    chains: Vec<(u32, u32, u32)>,
+    /// Each chain: its first member, its count, where its factor starts, its band (rows
+    /// off the diagonal where K may be nonzero).
+    chains: Vec<(u32, u32, u32, u32)>,
     factors: Vec<f64>,
     /// Scratch: the right-hand side and solution of one chain's solve.
     y: Vec<f64>,
     /// Scratch: union-find over the bodies, and (root, item) of each rigid point.
     parent: Vec<u32>,
     order: Vec<(u32, u32)>,
+    /// Scratch: (body, point) for each moving body a chain's point acts on.
+    touch: Vec<(u32, u32)>,
 }
 
 fn moves(b: &SolverBody) -> bool {
@@ -156,37 +159,66 @@ impl Chains {
             Item::Point(p) => p,
             Item::Row(_) => unreachable!("a chain holds points only"),
         };
-        for i in 0..count {
-            let pi = point(items, self.members[first + i]);
-            for j in 0..=i {
-                let pj = point(items, self.members[first + j]);
-                // K_ij = sum over the bodies both act on of s_i s_j (1/m I + 1/I u_i u_j^T),
-                // u = perp(arm)
-                let mut block = [0.0f64; 4];
-                for x in [pi.a, pi.b] {
-                    if let (Some((si, ri)), Some((sj, rj))) = (arm(&pi, x), arm(&pj, x)) {
-                        let b = &bodies[x as usize];
-                        let (ui, uj) = (ri.perp(), rj.perp());
-                        let (m, ii) = (b.inv_m as f64, b.inv_i as f64);
-                        let s = si * sj;
-                        block[0] += s * (m + ii * (ui.x * uj.x) as f64);
-                        block[1] += s * ii * (ui.x * uj.y) as f64;
-                        block[2] += s * ii * (ui.y * uj.x) as f64;
-                        block[3] += s * (m + ii * (ui.y * uj.y) as f64);
-                    }
-                }
-                for (r, c, v) in [
-                    (0, 0, block[0]),
-                    (0, 1, block[1]),
-                    (1, 0, block[2]),
-                    (1, 1, block[3]),
-                ] {
-                    let (row, col) = (2 * i + r, 2 * j + c);
-                    self.factors[at + row * n + col] = v;
-                    self.factors[at + col * n + row] = v;
+        // each moving body's points, body by body: K_ij = J_i M^-1 J_j^T is the sum over
+        // the bodies both points act on of s_i s_j (1/m I + 1/I u_i u_j^T), u = perp(arm)
+        self.touch.clear();
+        for k in 0..count {
+            let p = point(items, self.members[first + k]);
+            for x in [p.a, p.b] {
+                if moves(&bodies[x as usize]) {
+                    self.touch.push((x, k as u32));
                 }
             }
         }
+        self.touch.sort_unstable();
+        let mut band = 0;
+        let mut run = 0;
+        while run < self.touch.len() {
+            let x = self.touch[run].0;
+            let mut end = run;
+            while end < self.touch.len() && self.touch[end].0 == x {
+                end += 1;
+            }
+            let b = &bodies[x as usize];
+            let (m, ii) = (b.inv_m as f64, b.inv_i as f64);
+            for e in run..end {
+                for f in run..=e {
+                    let (i, j) = (self.touch[e].1 as usize, self.touch[f].1 as usize);
+                    let (pi, pj) = (
+                        point(items, self.members[first + i]),
+                        point(items, self.members[first + j]),
+                    );
+                    let (Some((si, ri)), Some((sj, rj))) = (arm(&pi, x), arm(&pj, x)) else {
+                        continue;
+                    };
+                    band = band.max(i.abs_diff(j));
+                    let (ui, uj) = (ri.perp(), rj.perp());
+                    let s = si * sj;
+                    let block = [
+                        [
+                            s * (m + ii * (ui.x * uj.x) as f64),
+                            s * ii * (ui.x * uj.y) as f64,
+                        ],
+                        [
+                            s * ii * (ui.y * uj.x) as f64,
+                            s * (m + ii * (ui.y * uj.y) as f64),
+                        ],
+                    ];
+                    for (r, row) in block.iter().enumerate() {
+                        for (c, v) in row.iter().enumerate() {
+                            let (gi, gj) = (2 * i + r, 2 * j + c);
+                            self.factors[at + gi * n + gj] += v;
+                            if i != j {
+                                self.factors[at + gj * n + gi] += v;
+                            }
+                        }
+                    }
+                }
+            }
+            run = end;
+        }
+        // rows of points `band` apart meet in K: 2 band + 1 rows off the diagonal
+        let band = (2 * band + 1).min(n);
         // the regularisation, a tenth of the point-by-point sweeps': a compliance that
         // still lets a taut run of joints hold a load across it (without it a straight
         // bridge between two posts has no state of rest: it cannot sag without
@@ -199,7 +231,7 @@ impl Chains {
                 }
             }
         }
-        if !dense::factor(&mut self.factors[at..], n) {
+        if !dense::factor_banded(&mut self.factors[at..], n, band) {
             self.factors.truncate(at);
             return false;
         }
@@ -208,7 +240,8 @@ impl Chains {
                 p.exact = true;
             }
         }
-        self.chains.push((first as u32, count as u32, at as u32));
+        self.chains
+            .push((first as u32, count as u32, at as u32, band as u32));
         true
     }
 
@@ -222,7 +255,7 @@ impl Chains {
         position: bool,
     ) -> f32 {
         let mut largest = 0.0f32;
-        for &(first, count, at) in &self.chains {
+        for &(first, count, at, band) in &self.chains {
             let (first, count, at) = (first as usize, count as usize, at as usize);
             let n = 2 * count;
             self.y.clear();
@@ -238,7 +271,7 @@ impl Chains {
                     self.y.extend([rhs.x as f64, rhs.y as f64]);
                 }
             }
-            dense::solve(&self.factors[at..at + n * n], &mut self.y, n);
+            dense::solve_banded(&self.factors[at..at + n * n], &mut self.y, n, band as usize);
             for (k, &m) in self.members[first..first + count].iter().enumerate() {
                 if let Item::Point(p) = &mut items[m as usize] {
                     let d = Vec2::new(self.y[2 * k] as f32, self.y[2 * k + 1] as f32);
