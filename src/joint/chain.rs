@@ -60,6 +60,16 @@ fn find(parent: &mut [u32], mut i: u32) -> u32 {
     i
 }
 
+/// The ranges of a sorted list's runs of one key.
+fn runs(v: &[(u32, u32)]) -> impl Iterator<Item = std::ops::Range<usize>> + '_ {
+    let mut start = 0;
+    v.chunk_by(|a, b| a.0 == b.0).map(move |g| {
+        let r = start..start + g.len();
+        start = r.end;
+        r
+    })
+}
+
 /// The point's Jacobian on body `x` (0 if the point does not act on it): (sign, arm).
 #[inline]
 fn arm(p: &Point, x: u32) -> Option<(f64, Vec2)> {
@@ -123,24 +133,18 @@ impl Chains {
             }
         }
         self.order.sort_unstable();
-        let mut start = 0;
-        while start < self.order.len() {
-            let root = self.order[start].0;
-            let mut end = start;
-            while end < self.order.len() && self.order[end].0 == root {
-                end += 1;
-            }
-            let count = end - start;
+        let order = std::mem::take(&mut self.order);
+        for run in runs(&order) {
+            let count = run.len();
             if (MIN_POINTS..=MAX_POINTS).contains(&count) {
                 let first = self.members.len();
-                self.members
-                    .extend(self.order[start..end].iter().map(|&(_, i)| i));
+                self.members.extend(order[run].iter().map(|&(_, i)| i));
                 if !self.factor_chain(items, bodies, first, count) {
                     self.members.truncate(first);
                 }
             }
-            start = end;
         }
+        self.order = order;
     }
 
     /// Builds and factors K of the chain whose points are `members[first..first +
@@ -172,17 +176,12 @@ impl Chains {
         }
         self.touch.sort_unstable();
         let mut band = 0;
-        let mut run = 0;
-        while run < self.touch.len() {
-            let x = self.touch[run].0;
-            let mut end = run;
-            while end < self.touch.len() && self.touch[end].0 == x {
-                end += 1;
-            }
+        for run in runs(&self.touch) {
+            let x = self.touch[run.start].0;
             let b = &bodies[x as usize];
             let (m, ii) = (b.inv_m as f64, b.inv_i as f64);
-            for e in run..end {
-                for f in run..=e {
+            for e in run.clone() {
+                for f in run.start..=e {
                     let (i, j) = (self.touch[e].1 as usize, self.touch[f].1 as usize);
                     let (pi, pj) = (
                         point(items, self.members[first + i]),
@@ -215,7 +214,6 @@ impl Chains {
                     }
                 }
             }
-            run = end;
         }
         // rows of points `band` apart meet in K: 2 band + 1 rows off the diagonal
         let band = (2 * band + 1).min(n);
