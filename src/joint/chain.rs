@@ -43,6 +43,8 @@ pub(crate) struct Chains {
     /// Scratch: union-find over the bodies, and (root, item) of each rigid point.
     parent: Vec<u32>,
     order: Vec<(u32, u32)>,
+    /// Scratch: the rigid points of each island, by its root body.
+    size: Vec<u32>,
     /// Scratch: (body, point) for each moving body a chain's point acts on.
     touch: Vec<(u32, u32)>,
 }
@@ -96,7 +98,7 @@ impl Chains {
     }
 
     /// Finds the chains among the items' rigid points, factors each, and marks their
-    /// points exact and unregularised. A chain whose matrix cannot be factored (not
+    /// points exact (their regularisation cut to a tenth). A chain whose matrix cannot be factored (not
     /// finite) keeps its points on the regularised sweeps.
     pub(crate) fn build(&mut self, items: &mut [Item], bodies: &[SolverBody]) {
         self.clear();
@@ -132,16 +134,24 @@ impl Chains {
                 self.order.push((find(&mut self.parent, body), i as u32));
             }
         }
+        // only the islands of a chain's size are sorted into chains (a pile of ragdolls
+        // or a grid of thousands of hinges has none)
+        self.size.clear();
+        self.size.resize(bodies.len(), 0);
+        for &(root, _) in &self.order {
+            self.size[root as usize] += 1;
+        }
+        let size = &self.size;
+        self.order.retain(|&(root, _)| {
+            (MIN_POINTS..=MAX_POINTS).contains(&(size[root as usize] as usize))
+        });
         self.order.sort_unstable();
         let order = std::mem::take(&mut self.order);
         for run in runs(&order) {
-            let count = run.len();
-            if (MIN_POINTS..=MAX_POINTS).contains(&count) {
-                let first = self.members.len();
-                self.members.extend(order[run].iter().map(|&(_, i)| i));
-                if !self.factor_chain(items, bodies, first, count) {
-                    self.members.truncate(first);
-                }
+            let (first, count) = (self.members.len(), run.len());
+            self.members.extend(order[run].iter().map(|&(_, i)| i));
+            if !self.factor_chain(items, bodies, first, count) {
+                self.members.truncate(first);
             }
         }
         self.order = order;
