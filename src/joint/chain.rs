@@ -13,9 +13,9 @@
 //! so a closed loop stays finite too. Larger islands (a grid of thousands of joints) and
 //! shorter chains stay with the regularised point-by-point sweeps.
 
-use super::pgs::{Item, Point, load};
+use super::pgs::{Item, Point};
 use crate::constraint::SolverBody;
-use crate::math::{Vec2, cross_sv};
+use crate::math::Vec2;
 use crate::solver::dense;
 
 /// The share of the point-by-point regularisation a chain keeps.
@@ -90,11 +90,6 @@ impl Chains {
         self.members.clear();
         self.chains.clear();
         self.factors.clear();
-    }
-
-    /// Whether any chain is solved exactly.
-    pub(crate) fn is_empty(&self) -> bool {
-        self.chains.is_empty()
     }
 
     /// Finds the chains among the items' rigid points, factors each, and marks their
@@ -269,8 +264,7 @@ impl Chains {
             self.y.clear();
             for &m in &self.members[first..first + count] {
                 if let Item::Point(p) = &items[m as usize] {
-                    let (a, b) = (load(bodies, p.a), load(bodies, p.b));
-                    let cdot = b.v + cross_sv(b.w, p.rb) - a.v - cross_sv(a.w, p.ra);
+                    let cdot = p.cdot(bodies);
                     let rhs = if position {
                         -cdot
                     } else {

@@ -183,11 +183,17 @@ impl Row {
 }
 
 impl Point {
+    /// The anchors' relative velocity, J v = v_b + w_b x r_b - v_a - w_a x r_a.
+    #[inline(always)]
+    pub(super) fn cdot(&self, bodies: &[SolverBody]) -> Vec2 {
+        let (a, b) = (load(bodies, self.a), load(bodies, self.b));
+        b.v + cross_sv(b.w, self.rb) - a.v - cross_sv(a.w, self.ra)
+    }
+
     /// (Always inlined: the sweeps' hottest call on a grid of hinges.)
     #[inline(always)]
     pub(super) fn solve(&mut self, bodies: &mut [SolverBody]) -> f32 {
-        let (a, b) = (load(bodies, self.a), load(bodies, self.b));
-        let cdot = b.v + cross_sv(b.w, self.rb) - a.v - cross_sv(a.w, self.ra);
+        let cdot = self.cdot(bodies);
         let rhs = -(cdot + self.bias + self.gamma * self.impulse);
         let k = self.inv_k;
         let d = Vec2::new(k[0] * rhs.x + k[2] * rhs.y, k[1] * rhs.x + k[3] * rhs.y);
@@ -552,9 +558,7 @@ impl JointRows {
                     residual = residual.max(d.abs());
                 }
                 Item::Point(p) if p.positional && !p.exact => {
-                    let (a, b) = (load(bodies, p.a), load(bodies, p.b));
-                    let cdot = b.v + cross_sv(b.w, p.rb) - a.v - cross_sv(a.w, p.ra);
-                    let rhs = -cdot;
+                    let rhs = -p.cdot(bodies);
                     let k = p.inv_k;
                     let d = Vec2::new(k[0] * rhs.x + k[2] * rhs.y, k[1] * rhs.x + k[3] * rhs.y);
                     p.pos_impulse += d;
@@ -589,9 +593,6 @@ impl JointRows {
                 Item::Point(p) => p.solve(bodies),
             };
             residual = residual.max(d);
-        }
-        if self.chains.is_empty() {
-            return residual;
         }
         residual.max(self.chains.solve(&mut self.items, bodies, false))
     }

@@ -9,18 +9,13 @@
 const DEPENDENT: f64 = 1e-6;
 
 /// Factors K = L L^T in place (K symmetric positive semi-definite, n x n, row-major; L
-/// is left in the lower triangle). A row that depends on the rows before it
-/// ([`DEPENDENT`]) gets an infinite pivot, so [`solve`] gives it y = 0 and the others
-/// carry what it would have: one of the solutions where K is singular and r
-/// consistent. Returns false if K is not finite or a pivot is negative past that
-/// rounding (K indefinite).
-pub(crate) fn factor(k: &mut [f64], n: usize) -> bool {
-    factor_banded(k, n, n)
-}
-
-/// [`factor`] of a K whose entries more than `band` rows off the diagonal are zero (a
-/// chain of joints in order): L keeps the band, so only the band is worked, n band^2
-/// operations instead of n^3 / 6.
+/// is left in the lower triangle). K's entries more than `band` rows off the diagonal
+/// must be zero (a chain of joints in order; `band` = n for a full K): L keeps the band,
+/// so only the band is worked, n band^2 operations instead of n^3 / 6. A row that
+/// depends on the rows before it ([`DEPENDENT`]) gets an infinite pivot, so
+/// [`solve_banded`] gives it y = 0 and the others carry what it would have: one of the
+/// solutions where K is singular and r consistent. Returns false if K is not finite or
+/// a pivot is negative past that rounding (K indefinite).
 pub(crate) fn factor_banded(k: &mut [f64], n: usize, band: usize) -> bool {
     for j in 0..n {
         let diag = k[j * n + j];
@@ -54,12 +49,8 @@ pub(crate) fn factor_banded(k: &mut [f64], n: usize, band: usize) -> bool {
     true
 }
 
-/// Solves K y = r in place (y holds r on entry) with K factored by [`factor`].
-pub(crate) fn solve(l: &[f64], y: &mut [f64], n: usize) {
-    solve_banded(l, y, n, n)
-}
-
-/// [`solve`] with a factor from [`factor_banded`] of the same band.
+/// Solves K y = r in place (y holds r on entry) with K factored by [`factor_banded`]
+/// of the same band.
 pub(crate) fn solve_banded(l: &[f64], y: &mut [f64], n: usize, band: usize) {
     // L z = r, then L^T y = z
     for i in 0..n {
@@ -78,13 +69,13 @@ pub(crate) fn solve_banded(l: &[f64], y: &mut [f64], n: usize, band: usize) {
     }
 }
 
-/// [`factor`], then [`solve`]: K y = r in place. Returns false (y untouched) where K
-/// cannot be factored.
+/// K y = r in place for a full K: [`factor_banded`], then [`solve_banded`], at band n.
+/// Returns false (y untouched) where K cannot be factored.
 pub(crate) fn cholesky_solve(k: &mut [f64], y: &mut [f64], n: usize) -> bool {
-    if !factor(k, n) {
+    if !factor_banded(k, n, n) {
         return false;
     }
-    solve(k, y, n);
+    solve_banded(k, y, n, n);
     true
 }
 
