@@ -7,7 +7,7 @@ use sandbox2d::{BodyDef, BodyType, ShapeDef, SolverSettings, World};
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let mut world = World::new(Some(Vec2::new(0.0, -9.81)), SolverSettings::default());
-    world.add_body(&BodyDef {
+    world.create_body(&BodyDef {
         name: "ground".into(),
         body_type: BodyType::Static,
         shape: ShapeDef::Box {

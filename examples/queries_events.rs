@@ -13,7 +13,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let mut world = World::new(Some(Vec2::new(0.0, -9.81)), SolverSettings::default());
     world.record_events = true;
     world.hit_speed = 2.0; // louder than a crate settling
-    world.add_body(&BodyDef {
+    world.create_body(&BodyDef {
         name: "ground".into(),
         body_type: BodyType::Static,
         shape: ShapeDef::Box {

@@ -102,13 +102,15 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         }
     }
     // on the ground: no part below it, nothing moving, every joint together
-    let lowest = world.bodies[1..]
-        .iter()
-        .map(|b| b.aabb().min.y)
+    let lowest = world
+        .bodies()
+        .skip(1)
+        .map(|(_, b)| b.aabb().min.y)
         .fold(f32::MAX, f32::min);
-    let fastest = world.bodies[1..]
-        .iter()
-        .map(|b| b.velocity.length())
+    let fastest = world
+        .bodies()
+        .skip(1)
+        .map(|(_, b)| b.velocity.length())
         .fold(0.0, f32::max);
     println!(
         "ragdoll at rest: lowest point {lowest:.4} m, fastest part {fastest:.4} m/s, largest joint gap while falling {worst_gap:.4} m"

@@ -15,7 +15,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         .nth(1)
         .unwrap_or_else(|| "pyramid.png".into());
     let mut world = World::new(Some(Vec2::new(0.0, -9.81)), SolverSettings::default());
-    world.add_body(&BodyDef {
+    world.create_body(&BodyDef {
         name: "ground".into(),
         body_type: BodyType::Static,
         shape: ShapeDef::Box {
@@ -28,7 +28,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     // a pyramid of 10 rows of boxes
     for row in 0..10 {
         for k in 0..(10 - row) {
-            world.add_body(&BodyDef {
+            world.create_body(&BodyDef {
                 name: format!("box {row} {k}"),
                 shape: ShapeDef::Box {
                     width: 1.0,
@@ -39,7 +39,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             })?;
         }
     }
-    world.add_body(&BodyDef {
+    world.create_body(&BodyDef {
         name: "ball".into(),
         shape: ShapeDef::Circle { radius: 0.6 },
         density: 10.0,

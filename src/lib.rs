@@ -24,7 +24,10 @@
 //! never another body. Events ([`World::events`], [`World::hits`],
 //! [`World::sleep_events`]) and query results ([`World::ray_cast_closest`] and the rest)
 //! name their bodies by key, so they can be kept and looked up ([`World::body`]) after
-//! bodies are removed.
+//! bodies are removed. [`World::bodies`] walks every body with its key in creation
+//! order; a body changes only through setters that check what they are given and wake
+//! it ([`World::set_transform`], [`World::set_velocity`], [`World::apply_impulse`],
+//! [`World::apply_force`]). Indices are the crate's own.
 //!
 //! The solvers' internals (their scratch, the threads' passes) are not part of the
 //! API: a program steps a [`World`], and cannot reach a solver's buffers.

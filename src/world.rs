@@ -28,7 +28,7 @@ mod state;
 mod threads;
 mod walls;
 
-pub use body_api::EditError;
+pub use body_api::{Bodies, EditError};
 use build::energy_problem;
 pub use build::{BodyInput, BuildError};
 pub use edit::{BodyKey, JointKey, RemoveError};
@@ -77,8 +77,9 @@ pub enum StepError {
 /// A physics world.
 #[derive(Clone, Debug)]
 pub struct World {
-    /// The bodies, in creation order.
-    pub bodies: Vec<Body>,
+    /// The bodies, in creation order (the public way: [`World::bodies()`] and the key
+    /// setters).
+    pub(crate) bodies: Vec<Body>,
     /// m/s^2; `None` skips the gravity pass.
     pub gravity: Option<Vec2>,
     /// `None` = vacuum.
@@ -335,6 +336,11 @@ impl World {
         self.mouse.as_ref()
     }
 
+    /// The key of the body the mouse joint holds, if one is held.
+    pub fn mouse_body(&self) -> Option<BodyKey> {
+        self.body_key(self.mouse.as_ref()?.body)
+    }
+
     /// A mouse joint holding the dynamic body of `key` by its point at `world_point`,
     /// with the usual feel (5 Hz, damping ratio 0.7, up to 1000 times the body's weight
     /// at 10 m/s^2): hand it to [`World::set_mouse`]. Refused: a stale key, a body that
@@ -399,8 +405,7 @@ impl World {
     /// Applies a force (N) at a world point to body `body` (an index) for the next step
     /// only (the window's force emitter); nothing for a body that is not dynamic. The
     /// program's; a library user names a body by key ([`World::apply_force`]).
-    #[doc(hidden)]
-    pub fn apply_force_index(&mut self, body: BodyId, force: Vec2, world_point: Vec2) {
+    pub(crate) fn apply_force_index(&mut self, body: BodyId, force: Vec2, world_point: Vec2) {
         if let Some(b) = self.bodies.get_mut(body)
             && b.is_dynamic()
         {
@@ -415,7 +420,7 @@ impl World {
     }
 
     /// The index of the body with this name.
-    pub fn body_index(&self, name: &str) -> Option<BodyId> {
+    pub(crate) fn body_index(&self, name: &str) -> Option<BodyId> {
         self.bodies.iter().position(|b| b.name == name)
     }
 
@@ -608,12 +613,12 @@ impl World {
 
     /// The first dynamic body whose energy term ([`World::energy`]'s) is not finite,
     /// and why: to name it when the total is not.
-    pub fn energy_not_finite(&self) -> Option<(BodyId, String)> {
-        self.bodies.iter().enumerate().find_map(|(i, b)| {
+    pub fn energy_not_finite(&self) -> Option<(BodyKey, String)> {
+        self.bodies().find_map(|(key, b)| {
             if !b.is_dynamic() {
                 return None;
             }
-            energy_problem(b, self.gravity).map(|(_, why)| (i, why))
+            energy_problem(b, self.gravity).map(|(_, why)| (key, why))
         })
     }
 

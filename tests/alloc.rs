@@ -54,7 +54,7 @@ fn a_sleeping_pile_steps_without_allocating() {
         for _ in 0..600 {
             w.step().unwrap();
         }
-        let asleep = w.bodies.iter().filter(|b| b.asleep).count();
+        let asleep = w.bodies().map(|(_, b)| b).filter(|b| b.asleep).count();
         assert!(asleep > 200, "{kind:?}: {asleep} of 211 asleep");
         let before = counting::allocations();
         for _ in 0..100 {

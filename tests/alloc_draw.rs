@@ -35,7 +35,11 @@ fn steady_frames_fill_the_draw_list_without_allocating() {
                 drawn += list.boxes.len() + list.polygons.len() + list.circles.len();
             }
             // a compound body (the car's chassis) draws each of its parts
-            let shapes: usize = w.bodies.iter().map(|b| b.parts.len().max(1)).sum();
+            let shapes: usize = w
+                .bodies()
+                .map(|(_, b)| b)
+                .map(|b| b.parts.len().max(1))
+                .sum();
             assert_eq!(drawn, 30 * shapes, "{name}: every body (every part) drawn");
             assert_eq!(allocs, 0, "{name} with {overlays:?}: allocations");
         }

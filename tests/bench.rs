@@ -109,7 +109,7 @@ fn a_resting_box_s_converged_lambdas_carry_its_weight() {
     s.tolerance = 0.0;
     s.sleep = false;
     let mut w = World::new(Some(Vec2::new(0.0, -10.0)), s);
-    w.add_body(&BodyDef {
+    w.create_body(&BodyDef {
         name: "ground".into(),
         body_type: BodyType::Static,
         shape: ShapeDef::Box {
@@ -120,7 +120,7 @@ fn a_resting_box_s_converged_lambdas_carry_its_weight() {
         ..Default::default()
     })
     .unwrap();
-    w.add_body(&BodyDef {
+    w.create_body(&BodyDef {
         name: "box".into(),
         shape: ShapeDef::Box {
             width: 1.0,
@@ -194,7 +194,7 @@ fn energy_is_kinetic_plus_potential_above_the_floor() {
     // E = m g h + 1/2 m v^2 for a ball of mass m at height h moving at v
     let mut w = World::new(Some(Vec2::new(0.0, -10.0)), SolverSettings::pgs());
     let b = w
-        .add_body(&BodyDef {
+        .create_body(&BodyDef {
             name: "ball".into(),
             shape: ShapeDef::Circle { radius: 0.5 },
             mass: Some(3.0),
@@ -217,7 +217,7 @@ fn energy_is_kinetic_plus_potential_above_the_floor() {
     let e1 = bench::energy_about(&w, 0.0);
     let expect = -30.0 * 0.5 * 3.0 * 100.0 / (60.0 * 60.0);
     assert!((e1 - e0 - expect).abs() < 1e-3, "{} vs {expect}", e1 - e0);
-    assert!(w.bodies[b].position.y < 2.5);
+    assert!(w.body(b).unwrap().position.y < 2.5);
 }
 
 mod common;

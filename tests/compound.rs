@@ -4,10 +4,13 @@
 //! queries that see each part, sensor parts (heard, never touched, massless at density
 //! 0), and snapshot/restore.
 
+#[path = "common/bodies.rs"]
+mod bodies;
+use bodies::ByOrder;
 use glam::Vec2;
 use sandbox2d::{
-    BodyDef, BodyType, EventKind, Filter, JointDef, PartDef, ShapeDef, SolverKind, SolverSettings,
-    World,
+    BodyDef, BodyKey, BodyType, EventKind, Filter, JointDef, PartDef, ShapeDef, SolverKind,
+    SolverSettings, World,
 };
 
 const G: f32 = 9.81;
@@ -35,10 +38,10 @@ fn body(name: &str, shape: ShapeDef, at: Vec2) -> BodyDef {
     }
 }
 
-fn ground(w: &mut World) -> usize {
+fn ground(w: &mut World) -> BodyKey {
     let mut g = body("ground", boxdef(40.0, 1.0), Vec2::new(0.0, -0.5));
     g.body_type = BodyType::Static;
-    w.add_body(&g).unwrap()
+    w.create_body(&g).unwrap()
 }
 
 /// An L: a 2 x 0.4 bar at the origin and a 0.4 x 1.2 post at (-0.8, 0.8).
@@ -82,8 +85,8 @@ fn an_l_has_the_mass_centre_and_inertia_of_its_two_boxes() {
     let mut def = body("ell", ell(), at);
     def.density = rho;
     def.angle = angle;
-    let i = w.add_body(&def).unwrap();
-    let b = &w.bodies[i];
+    let i = w.create_body(&def).unwrap();
+    let b = &w.body(i).unwrap();
     assert!(close(b.mass, m, 1e-5), "mass {} vs {m}", b.mass);
     assert!(
         close(b.inertia, inertia, 1e-4),
@@ -115,9 +118,9 @@ fn part_densities_and_a_given_mass_follow_the_parallel_axis_theorem() {
     let inertia = m1 / 6.0 + m1 * cx * cx + 0.5 * m2 * r * r + m2 * (d - cx) * (d - cx);
     let mut w = World::new(None, settings(SolverKind::Soft));
     let i = w
-        .add_body(&body("free", shape.clone(), Vec2::ZERO))
+        .create_body(&body("free", shape.clone(), Vec2::ZERO))
         .unwrap();
-    let b = &w.bodies[i];
+    let b = &w.body(i).unwrap();
     assert!(close(b.mass, m, 1e-5), "{} vs {m}", b.mass);
     assert!(close(b.position.x, cx, 1e-5), "{} vs {cx}", b.position.x);
     assert!(
@@ -128,8 +131,8 @@ fn part_densities_and_a_given_mass_follow_the_parallel_axis_theorem() {
     // a given mass scales every part alike: same centre, inertia in proportion
     let mut def = body("given", shape, Vec2::ZERO);
     def.mass = Some(10.0);
-    let j = w.add_body(&def).unwrap();
-    let b = &w.bodies[j];
+    let j = w.create_body(&def).unwrap();
+    let b = &w.body(j).unwrap();
     assert!(close(b.mass, 10.0, 1e-6));
     assert!(close(b.position.x, cx, 1e-5));
     assert!(close(b.inertia, inertia * 10.0 / m, 1e-4), "{}", b.inertia);
@@ -153,16 +156,18 @@ fn a_compound_physical_pendulum_swings_with_the_period_of_its_inertia() {
             Vec2::new(-1.0, 0.0),
         );
         pin.body_type = BodyType::Static;
-        let p = w.add_body(&pin).unwrap();
+        let p = w.create_body(&pin).unwrap();
         // hanging down from the pivot at (-1, 0), turned 0.1 rad off the vertical
         let theta0 = 0.1f32;
         let angle = -std::f32::consts::FRAC_PI_2 + theta0;
         let dir = Vec2::from_angle(angle);
         let mut def = body("hammer", hammer.clone(), Vec2::new(-1.0, 0.0) + dir * 1.0);
         def.angle = angle;
-        let h = w.add_body(&def).unwrap();
+        let h = w.create_body(&def).unwrap();
         let pivot = Vec2::new(-1.0, 0.0);
-        let mut j = JointDef::hinge(p, h, pivot);
+        // a joint definition names its bodies by creation order
+        let (pi, hi) = (w.order_of_key(p).unwrap(), w.order_of_key(h).unwrap());
+        let mut j = JointDef::hinge(pi, hi, pivot);
         j.collide_connected = false;
         w.add_joint(&j).unwrap();
         // closed form, in the description frame (pivot at x = -1): the handle
@@ -175,7 +180,7 @@ fn a_compound_physical_pendulum_swings_with_the_period_of_its_inertia() {
         // the swing's zero crossings of the angle from the vertical
         let dt = w.settings.dt;
         let mut crossings = Vec::new();
-        let side = |w: &World| (w.bodies[h].position - pivot).x;
+        let side = |w: &World| (w.body(h).unwrap().position - pivot).x;
         let mut last = side(&w);
         for n in 1..=(4.0 * period / dt) as usize {
             w.step().unwrap();
@@ -212,20 +217,22 @@ fn a_table_rests_on_its_legs_under_every_solver() {
         let g = ground(&mut w);
         // legs' feet 0.1 m above the ground
         let t = w
-            .add_body(&body("table", table.clone(), Vec2::new(0.0, 0.2)))
+            .create_body(&body("table", table.clone(), Vec2::new(0.0, 0.2)))
             .unwrap();
         let origin = |w: &World| {
-            let b = &w.bodies[t];
+            let b = &w.body(t).unwrap();
             b.position + b.rot.rotate(b.origin_offset)
         };
         for _ in 0..180 {
             w.step().unwrap();
         }
-        let b = &w.bodies[t];
+        let b = &w.body(t).unwrap();
         let top = origin(&w).y + 1.1;
         assert!((top - 1.2).abs() < 0.01, "{kind:?}: top at {top}");
         assert!(b.angle.abs() < 0.005, "{kind:?}: tilted {}", b.angle);
         assert!(b.velocity.length() < 0.01, "{kind:?}: {}", b.velocity);
+        // contacts name their bodies by creation order
+        let (g, t) = (w.order_of_key(g).unwrap(), w.order_of_key(t).unwrap());
         let with_ground: Vec<_> = w
             .contacts()
             .iter()
@@ -257,14 +264,14 @@ fn a_part_filtered_from_the_ground_passes_through_it_while_the_rest_holds() {
         let mut g = body("ground", boxdef(40.0, 2.0), Vec2::new(0.0, -1.0));
         g.body_type = BodyType::Static;
         g.filter.category = ground_cat;
-        w.add_body(&g).unwrap();
+        w.create_body(&g).unwrap();
         let n = w
-            .add_body(&body("nail", nail.clone(), Vec2::new(0.0, 1.5)))
+            .create_body(&body("nail", nail.clone(), Vec2::new(0.0, 1.5)))
             .unwrap();
         for _ in 0..150 {
             w.step().unwrap();
         }
-        let b = &w.bodies[n];
+        let b = &w.body(n).unwrap();
         let head = b.position + b.rot.rotate(b.origin_offset);
         // the head's lower face on the ground's top (y = 0)
         assert!((head.y - 0.1).abs() < 0.01, "{kind:?}: head at {}", head.y);
@@ -330,7 +337,7 @@ fn a_restored_snapshot_of_compounds_continues_bit_identically() {
             Vec2::new(0.3 * k as f32, 1.0 + 1.5 * k as f32),
         );
         def.angle = 0.4 * k as f32;
-        w.add_body(&def).unwrap();
+        w.create_body(&def).unwrap();
     }
     for _ in 0..40 {
         w.step().unwrap();
@@ -376,27 +383,27 @@ fn a_sensor_part_hears_a_ball_pass_once_and_the_solid_part_holds_it() {
         let mut with = World::new(Some(Vec2::new(0.0, -G)), settings(kind));
         let mut without = World::new(Some(Vec2::new(0.0, -G)), settings(kind));
         for w in [&mut with, &mut without] {
-            w.add_body(&body(
+            w.create_body(&body(
                 "ball",
                 ShapeDef::Circle { radius: r },
                 Vec2::new(0.0, 4.0),
             ))
             .unwrap();
         }
-        with.add_body(&floor_with_zone(true)).unwrap();
-        without.add_body(&floor_with_zone(false)).unwrap();
+        with.create_body(&floor_with_zone(true)).unwrap();
+        without.create_body(&floor_with_zone(false)).unwrap();
         assert!(with.record_events, "a sensor part turns the events on");
         let (mut begins, mut ends) = (0, 0);
-        let mut prev_y = with.bodies[0].position.y;
+        let mut prev_y = with.nth_body(0).position.y;
         for k in 1..=180 {
             with.step().unwrap();
             without.step().unwrap();
-            let y = with.bodies[0].position.y;
+            let y = with.nth_body(0).position.y;
             // the zone never touches the ball: it moves as with the floor alone
             assert!(
-                (y - without.bodies[0].position.y).abs() < 1e-5,
+                (y - without.nth_body(0).position.y).abs() < 1e-5,
                 "{kind:?} step {k}: {y} against {}",
-                without.bodies[0].position.y
+                without.nth_body(0).position.y
             );
             for e in with.events() {
                 match e.kind {
@@ -416,7 +423,7 @@ fn a_sensor_part_hears_a_ball_pass_once_and_the_solid_part_holds_it() {
         }
         assert_eq!((begins, ends), (1, 1), "{kind:?}");
         // the solid part holds the ball: it rests on y = 0 (within the solvers' slop)
-        let y = with.bodies[0].position.y;
+        let y = with.nth_body(0).position.y;
         assert!((y - r).abs() < 0.02, "{kind:?}: ball at {y}");
         // no contact of the ball with the zone part (part 1, feature bits 16..22 or 22..28)
         for c in with.contacts() {
@@ -443,8 +450,8 @@ fn a_massless_sensor_part_adds_no_mass_and_a_dense_one_does() {
         );
         b.density = rho;
         let mut w = World::new(None, settings(SolverKind::Soft));
-        w.add_body(&b).unwrap();
-        let b = &w.bodies[0];
+        w.create_body(&b).unwrap();
+        let b = &w.nth_body(0);
         (b.mass, b.inertia, b.position)
     };
     // density 0: the box alone, m = rho w h, I = m (w^2 + h^2) / 12, centre at the box
@@ -466,7 +473,7 @@ fn a_massless_sensor_part_adds_no_mass_and_a_dense_one_does() {
     let mut p = PartDef::new(boxdef(1.0, 1.0), Vec2::ZERO);
     p.density = Some(0.0);
     let bad = body("bad", ShapeDef::Compound { parts: vec![p] }, Vec2::ZERO);
-    assert!(w.add_body(&bad).is_err());
+    assert!(w.create_body(&bad).is_err());
 }
 
 #[test]
@@ -488,30 +495,30 @@ fn a_moving_probe_hears_a_box_ahead_without_pushing_it_and_never_hears_statics()
             Vec2::ZERO,
         );
         probe.velocity = Vec2::new(2.0, 0.0);
-        w.add_body(&probe).unwrap();
-        w.add_body(&body("box", boxdef(1.0, 1.0), Vec2::new(5.0, 0.0)))
+        w.create_body(&probe).unwrap();
+        w.create_body(&body("box", boxdef(1.0, 1.0), Vec2::new(5.0, 0.0)))
             .unwrap();
         let mut post = body("post", boxdef(0.5, 0.5), Vec2::new(3.0, 0.85));
         post.body_type = BodyType::Static;
-        w.add_body(&post).unwrap();
+        w.create_body(&post).unwrap();
         let mut heard = None;
         for k in 1..=90 {
             w.step().unwrap();
-            let post = w.body_key(2);
+            let post = w.key_at(2);
             for e in w.events() {
                 assert!(
                     Some(e.a) != post && Some(e.b) != post,
                     "{kind:?}: the static post was heard"
                 );
                 if e.kind == EventKind::SensorBegin {
-                    assert_eq!((Some(e.a), Some(e.b)), (w.body_key(0), w.body_key(1)));
+                    assert_eq!((Some(e.a), Some(e.b)), (w.key_at(0), w.key_at(1)));
                     assert!(heard.is_none(), "{kind:?}: heard twice");
                     heard = Some(k);
                 }
             }
             if heard.is_none() {
                 // nothing touched the box while the zone went over it
-                assert_eq!(w.bodies[1].velocity, Vec2::ZERO, "{kind:?} step {k}");
+                assert_eq!(w.nth_body(1).velocity, Vec2::ZERO, "{kind:?} step {k}");
             }
         }
         // the zone's front (x = 2.5 + 2 t) reaches the box's face (4.5) at t = 1 s
@@ -519,9 +526,9 @@ fn a_moving_probe_hears_a_box_ahead_without_pushing_it_and_never_hears_statics()
         assert!((t - 1.0).abs() <= 1.5 / 60.0, "{kind:?}: heard at {t} s");
         // the probe kept its speed: nothing (the post above all) touched it
         assert!(
-            (w.bodies[0].velocity - Vec2::new(2.0, 0.0)).length() < 1e-5,
+            (w.nth_body(0).velocity - Vec2::new(2.0, 0.0)).length() < 1e-5,
             "{kind:?}: {}",
-            w.bodies[0].velocity
+            w.nth_body(0).velocity
         );
     }
 }

@@ -2,6 +2,9 @@
 //! for bit), keys outlive removals and never name another body, and what a removed body
 //! held falls as free fall says.
 
+#[path = "common/bodies.rs"]
+mod bodies;
+use bodies::ByOrder;
 use glam::Vec2;
 use sandbox2d::{
     BodyDef, BodyType, RemoveError, ShapeDef, SolverKind, SolverSettings, World, WorldDef,
@@ -38,7 +41,7 @@ fn a_body_removed_before_the_first_step_leaves_the_world_that_never_had_it() {
     for kind in [SolverKind::Soft, SolverKind::Pgs, SolverKind::Xpbd] {
         let mut a = World::from_def(&less, settings(kind)).unwrap();
         let mut b = World::from_def(&def, settings(kind)).unwrap();
-        let key = b.body_key(gone).unwrap();
+        let key = b.nth_key(gone);
         let removed = b.remove_body(key).unwrap();
         assert_eq!(removed.name, def.bodies[gone].name);
         assert_eq!(hashes(&mut a, 60), hashes(&mut b, 60), "{kind:?}");
@@ -58,7 +61,7 @@ fn removing_a_chain_link_removes_its_joints_and_keeps_the_rest() {
     for kind in [SolverKind::Soft, SolverKind::Pgs, SolverKind::Xpbd] {
         let mut a = World::from_def(&less, settings(kind)).unwrap();
         let mut b = World::from_def(&def, settings(kind)).unwrap();
-        b.remove_body(b.body_key(last).unwrap()).unwrap();
+        b.remove_body(b.nth_key(last)).unwrap();
         assert_eq!(b.joints().len(), less.joints.len());
         assert_eq!(hashes(&mut a, 60), hashes(&mut b, 60), "{kind:?}");
     }
@@ -81,40 +84,41 @@ fn boxes_on_ground(kind: SolverKind) -> World {
         width: 20.0,
         height: 1.0,
     };
-    w.add_body(&ground).unwrap();
-    w.add_body(&body("low", BodyType::Dynamic, 0.5)).unwrap();
-    w.add_body(&body("high", BodyType::Dynamic, 1.5)).unwrap();
+    w.create_body(&ground).unwrap();
+    w.create_body(&body("low", BodyType::Dynamic, 0.5)).unwrap();
+    w.create_body(&body("high", BodyType::Dynamic, 1.5))
+        .unwrap();
     w
 }
 
 #[test]
 fn keys_outlive_removals_and_never_name_another_body() {
     let mut w = boxes_on_ground(SolverKind::Soft);
-    let (low, high) = (w.body_key(1).unwrap(), w.body_key(2).unwrap());
+    let (low, high) = (w.nth_key(1), w.nth_key(2));
     w.remove_body(low).unwrap();
     // the high box moved down an index, its key follows it
-    assert_eq!(w.body_of_key(high), Some(1));
-    assert_eq!(w.bodies[1].name, "high");
-    assert_eq!(w.body_of_key(low), None);
+    assert_eq!(w.order_of_key(high), Some(1));
+    assert_eq!(w.nth_body(1).name, "high");
+    assert_eq!(w.order_of_key(low), None);
     assert_eq!(w.remove_body(low).unwrap_err(), RemoveError::NoSuchBody);
     // a new body takes the freed slot under a new generation: the old key stays dead
     let i = w
-        .add_body(&BodyDef {
+        .create_body(&BodyDef {
             name: "new".into(),
             position: Vec2::new(3.0, 0.5),
             ..BodyDef::default()
         })
         .unwrap();
-    let new = w.body_key(i).unwrap();
+    let new = i;
     assert_ne!(new, low);
-    assert_eq!(w.body_of_key(low), None);
-    assert_eq!(w.body_of_key(new), Some(i));
+    assert_eq!(w.order_of_key(low), None);
+    assert_eq!(w.order_of_key(new), Some(w.body_count() - 1));
     // a key of another world's restore names nothing either
     let state = w.snapshot();
     w.restore(&state).unwrap();
-    assert_eq!(w.body_of_key(high), None);
-    assert_eq!(w.body_of_key(new), None);
-    assert_eq!(w.body_of_key(w.body_key(1).unwrap()), Some(1));
+    assert_eq!(w.order_of_key(high), None);
+    assert_eq!(w.order_of_key(new), None);
+    assert_eq!(w.order_of_key(w.nth_key(1)), Some(1));
 }
 
 #[test]
@@ -130,9 +134,9 @@ fn what_rested_on_a_removed_body_falls_freely_even_asleep() {
         for _ in 0..120 {
             w.step().unwrap();
         }
-        assert!(w.bodies[2].asleep, "{kind:?}: the stack sleeps");
-        let y0 = w.bodies[2].position.y;
-        w.remove_body(w.body_key(1).unwrap()).unwrap();
+        assert!(w.nth_body(2).asleep, "{kind:?}: the stack sleeps");
+        let y0 = w.nth_body(2).position.y;
+        w.remove_body(w.nth_key(1)).unwrap();
         // in the air for sqrt(2 * 1 m / g) = 0.447 s: check the first 0.4 s, against
         // semi-implicit Euler's free fall over N substeps of h: y0 - g h^2 N (N + 1) / 2
         let h = w.settings.dt / w.settings.substeps as f32;
@@ -141,13 +145,13 @@ fn what_rested_on_a_removed_body_falls_freely_even_asleep() {
             let big_n = (n * w.settings.substeps) as f32;
             let t = n as f32 * w.settings.dt;
             let want = y0 - 10.0 * h * h * big_n * (big_n + 1.0) / 2.0;
-            let y = w.bodies[1].position.y;
+            let y = w.nth_body(1).position.y;
             assert!((y - want).abs() < 0.01, "{kind:?}: t {t}: y {y} vs {want}");
         }
         for _ in 0..60 {
             w.step().unwrap();
         }
-        let y = w.bodies[1].position.y;
+        let y = w.nth_body(1).position.y;
         assert!(
             (y - 0.5).abs() < 0.02,
             "{kind:?}: lands on the ground, y {y}"
@@ -165,8 +169,12 @@ fn a_pendulum_whose_hinge_is_removed_falls_freely() {
         for _ in 0..30 {
             w.step().unwrap();
         }
-        let disc = w.bodies.iter().position(|b| b.is_dynamic()).unwrap();
-        let (p0, v0) = (w.bodies[disc].position, w.bodies[disc].velocity);
+        let disc = w
+            .bodies()
+            .map(|(_, b)| b)
+            .position(|b| b.is_dynamic())
+            .unwrap();
+        let (p0, v0) = (w.nth_body(disc).position, w.nth_body(disc).velocity);
         let key = w.joint_key(0).unwrap();
         w.remove_joint(key).unwrap();
         assert!(w.joints().is_empty());
@@ -180,7 +188,7 @@ fn a_pendulum_whose_hinge_is_removed_falls_freely() {
         let h = w.settings.dt / w.settings.substeps as f32;
         let big_n = (n * w.settings.substeps) as f32;
         let want = p0 + big_n * h * v0 + g * h * h * big_n * (big_n + 1.0) / 2.0;
-        let got = w.bodies[disc].position;
+        let got = w.nth_body(disc).position;
         assert!((got - want).length() < 1e-3, "{kind:?}: {got} vs {want}");
     }
 }

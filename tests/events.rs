@@ -2,6 +2,9 @@
 //! never touches what passes through it; a bouncing ball's contacts begin and end with
 //! each bounce, the begin carrying the impact's impulse; nothing is recorded unless asked.
 
+#[path = "common/bodies.rs"]
+mod bodies;
+use bodies::ByOrder;
 use glam::Vec2;
 use sandbox2d::{
     BodyDef, BodyKey, BodyType, EventKind, Filter, ShapeDef, SolverKind, SolverSettings, World,
@@ -11,7 +14,7 @@ const G: f32 = 10.0;
 
 /// The keys of bodies `a` and `b` (indices now).
 fn keys(w: &World, a: usize, b: usize) -> (BodyKey, BodyKey) {
-    (w.body_key(a).unwrap(), w.body_key(b).unwrap())
+    (w.nth_key(a), w.nth_key(b))
 }
 
 fn ball(y: f32) -> BodyDef {
@@ -42,22 +45,23 @@ fn a_sensor_hears_each_overlap_once_and_never_touches_the_body() {
     for kind in SolverKind::ALL {
         let settings = SolverSettings::defaults(kind);
         let mut with = World::new(Some(Vec2::new(0.0, -G)), settings);
-        with.add_body(&ball(3.0)).unwrap();
-        with.add_body(&gate()).unwrap();
+        with.create_body(&ball(3.0)).unwrap();
+        with.create_body(&gate()).unwrap();
         assert!(with.record_events, "a sensor turns the events on");
         let mut without = World::new(Some(Vec2::new(0.0, -G)), settings);
-        without.add_body(&ball(3.0)).unwrap();
+        without.create_body(&ball(3.0)).unwrap();
         let (mut begins, mut ends) = (Vec::new(), Vec::new());
-        let mut prev_y = with.bodies[0].position.y;
+        let mut prev_y = with.nth_body(0).position.y;
         for k in 1..=120 {
             with.step().unwrap();
             without.step().unwrap();
             // the ball falls as if the gate were not there, bit for bit
             assert_eq!(
-                with.bodies[0].position, without.bodies[0].position,
+                with.nth_body(0).position,
+                without.nth_body(0).position,
                 "{kind:?} step {k}"
             );
-            let y = with.bodies[0].position.y;
+            let y = with.nth_body(0).position.y;
             for e in with.events() {
                 assert_eq!((e.a, e.b), keys(&with, 0, 1));
                 match e.kind {
@@ -95,12 +99,12 @@ fn a_bouncing_ball_begins_and_ends_a_contact_with_each_bounce() {
     let settings = SolverSettings::default();
     let mut w = World::new(Some(Vec2::new(0.0, -G)), settings);
     let h = 2.0f32;
-    w.add_body(&BodyDef {
+    w.create_body(&BodyDef {
         restitution: 0.5,
         ..ball(h + 0.25)
     })
     .unwrap();
-    w.add_body(&BodyDef {
+    w.create_body(&BodyDef {
         name: "ground".into(),
         body_type: BodyType::Static,
         shape: ShapeDef::Box {
@@ -114,7 +118,7 @@ fn a_bouncing_ball_begins_and_ends_a_contact_with_each_bounce() {
     .unwrap();
     assert!(w.events().is_empty());
     w.record_events = true;
-    let m = w.bodies[0].mass;
+    let m = w.nth_body(0).mass;
     let mut log = Vec::new();
     for k in 1..=240 {
         w.step().unwrap();
@@ -155,12 +159,12 @@ fn a_filtered_pair_never_touches_and_never_makes_an_event() {
         group: -1,
         ..Default::default()
     };
-    w.add_body(&BodyDef {
+    w.create_body(&BodyDef {
         filter: ghost,
         ..ball(1.0)
     })
     .unwrap();
-    w.add_body(&BodyDef {
+    w.create_body(&BodyDef {
         name: "floor".into(),
         body_type: BodyType::Static,
         shape: ShapeDef::Box {
@@ -180,7 +184,7 @@ fn a_filtered_pair_never_touches_and_never_makes_an_event() {
     // it fell through the floor as in free fall: y = 1 - g t^2 / 2 (semi-implicit Euler
     // is ahead by g t dt / 2)
     let t = 1.0f32;
-    let y = w.bodies[0].position.y;
+    let y = w.nth_body(0).position.y;
     let exact = 1.0 - 0.5 * G * t * t;
     assert!(
         (y - exact).abs() <= 0.5 * G * t / 60.0 + 1e-3,
@@ -197,9 +201,9 @@ fn a_body_asleep_in_a_sensor_stays_heard_until_it_wakes_and_leaves() {
         let mut settings = SolverSettings::defaults(kind);
         settings.sleep = true;
         let mut w = World::new(Some(Vec2::new(0.0, -G)), settings);
-        w.add_body(&ball(1.0)).unwrap();
-        w.add_body(&gate()).unwrap();
-        w.add_body(&BodyDef {
+        w.create_body(&ball(1.0)).unwrap();
+        w.create_body(&gate()).unwrap();
+        w.create_body(&BodyDef {
             name: "floor".into(),
             body_type: BodyType::Static,
             shape: ShapeDef::Box {
@@ -212,7 +216,7 @@ fn a_body_asleep_in_a_sensor_stays_heard_until_it_wakes_and_leaves() {
         .unwrap();
         // a ball far away that falls for ever keeps the world awake (else a world asleep
         // skips its broad phase altogether)
-        w.add_body(&BodyDef {
+        w.create_body(&BodyDef {
             name: "faller".into(),
             position: Vec2::new(100.0, 0.0),
             ..ball(0.0)
@@ -222,7 +226,7 @@ fn a_body_asleep_in_a_sensor_stays_heard_until_it_wakes_and_leaves() {
         let mut slept = false;
         for k in 0..600 {
             w.step().unwrap();
-            slept |= w.bodies[0].asleep;
+            slept |= w.nth_body(0).asleep;
             log.extend(
                 w.events()
                     .iter()
@@ -231,7 +235,7 @@ fn a_body_asleep_in_a_sensor_stays_heard_until_it_wakes_and_leaves() {
             );
         }
         assert!(
-            slept && w.bodies[0].asleep,
+            slept && w.nth_body(0).asleep,
             "{kind:?}: the ball never slept"
         );
         assert_eq!(
@@ -240,8 +244,13 @@ fn a_body_asleep_in_a_sensor_stays_heard_until_it_wakes_and_leaves() {
             "{kind:?}: {log:?}"
         );
         // woken and thrown up at 6 m/s: it rises 1.8 m, out of the sensor, and ends once
-        w.wake(w.body_key(0).unwrap()).unwrap();
-        w.bodies[0].velocity = Vec2::new(0.0, 6.0);
+        w.wake(w.nth_key(0)).unwrap();
+        w.set_velocity(
+            w.nth_key(0),
+            Vec2::new(0.0, 6.0),
+            w.nth_body(0).angular_velocity,
+        )
+        .unwrap();
         let mut ends = 0;
         for _ in 0..30 {
             w.step().unwrap();
@@ -277,8 +286,8 @@ fn a_dropped_box_hits_the_ground_at_the_speed_of_its_fall() {
         for h in [20.0f32, 30.0] {
             let mut w = World::new(Some(Vec2::new(0.0, -G)), SolverSettings::defaults(kind));
             w.record_events = true;
-            w.add_body(&ground()).unwrap();
-            w.add_body(&BodyDef {
+            w.create_body(&ground()).unwrap();
+            w.create_body(&BodyDef {
                 name: "box".into(),
                 shape: ShapeDef::Box {
                     width: 1.0,
@@ -325,7 +334,7 @@ fn a_ball_thrown_at_a_wall_hits_it_at_its_speed_and_slow_touches_make_no_hit() {
     for kind in SolverKind::ALL {
         let mut w = World::new(None, SolverSettings::defaults(kind));
         w.record_events = true;
-        w.add_body(&BodyDef {
+        w.create_body(&BodyDef {
             name: "wall".into(),
             body_type: BodyType::Static,
             shape: ShapeDef::Box {
@@ -338,7 +347,7 @@ fn a_ball_thrown_at_a_wall_hits_it_at_its_speed_and_slow_touches_make_no_hit() {
         .unwrap();
         // 12.5 m/s into the wall, and 0.5 m/s (below the 1 m/s threshold)
         for (v, y) in [(12.5f32, 2.0f32), (0.5, -2.0)] {
-            w.add_body(&BodyDef {
+            w.create_body(&BodyDef {
                 name: format!("ball{v}"),
                 shape: ShapeDef::Circle { radius: 0.25 },
                 position: Vec2::new(3.0, y),
@@ -361,9 +370,9 @@ fn a_ball_thrown_at_a_wall_hits_it_at_its_speed_and_slow_touches_make_no_hit() {
         );
         // the slow ball did reach the wall: it touched without a hit
         assert!(
-            w.bodies[2].position.x > 4.0,
+            w.nth_body(2).position.x > 4.0,
             "{kind:?}: {}",
-            w.bodies[2].position
+            w.nth_body(2).position
         );
     }
 }
@@ -372,9 +381,9 @@ fn a_ball_thrown_at_a_wall_hits_it_at_its_speed_and_slow_touches_make_no_hit() {
 fn a_box_that_falls_asleep_and_is_woken_says_so_once_each() {
     let mut w = World::new(Some(Vec2::new(0.0, -G)), SolverSettings::default());
     w.record_events = true;
-    w.add_body(&ground()).unwrap();
+    w.create_body(&ground()).unwrap();
     let i = w
-        .add_body(&BodyDef {
+        .create_body(&BodyDef {
             name: "box".into(),
             shape: ShapeDef::Box {
                 width: 1.0,
@@ -384,12 +393,12 @@ fn a_box_that_falls_asleep_and_is_woken_says_so_once_each() {
             ..BodyDef::default()
         })
         .unwrap();
-    let key = w.body_key(i).unwrap();
+    let key = i;
     let mut seen = Vec::new();
     for k in 0..300 {
         if k == 200 {
             // a push between steps wakes it: reported with the next step
-            assert!(w.bodies[i].asleep, "asleep by 200 steps");
+            assert!(w.body(i).unwrap().asleep, "asleep by 200 steps");
             w.set_velocity(key, Vec2::new(3.0, 0.0), 0.0).unwrap();
         }
         w.step().unwrap();
@@ -444,10 +453,10 @@ fn events_and_query_hits_name_bodies_that_keys_still_find_after_a_removal() {
             }
         }
         assert!(landed, "{kind:?}: the box never hit the ground");
-        assert_eq!(w.body_of_key(block), Some(2));
+        assert_eq!(w.order_of_key(block), Some(2));
         w.remove_body(shelf).unwrap();
         assert_eq!(
-            w.body_of_key(block),
+            w.order_of_key(block),
             Some(1),
             "the box moved down one index"
         );

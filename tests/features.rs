@@ -6,6 +6,9 @@
 //! and force saturation, the prismatic motor; kinematic bodies; and determinism of
 //! every solver with pinned state hashes.
 
+#[path = "common/bodies.rs"]
+mod bodies;
+use bodies::ByOrder;
 use glam::Vec2;
 use sandbox2d::scene::load_str;
 use sandbox2d::{SolverKind, SolverSettings, World};
@@ -21,7 +24,7 @@ fn world_with(toml: &str, settings: SolverSettings) -> World {
 }
 
 fn id(w: &World, name: &str) -> usize {
-    w.body_index(name).expect("body exists")
+    w.order_of(name).expect("body exists")
 }
 
 fn steps(w: &mut World, n: usize) {
@@ -51,7 +54,7 @@ fn linear_drag_follows_its_step_by_step_closed_form() {
     for kind in SolverKind::ALL {
         let mut w = falling_ball(kind, 2.0, 0.0);
         let b = id(&w, "ball");
-        let m = w.bodies[b].mass as f64;
+        let m = w.nth_body(b).mass as f64;
         assert!((m - 1.0).abs() < 1e-5);
         let n_sub = w.settings.substeps.max(1) as f64;
         let h = w.settings.dt as f64 / n_sub;
@@ -60,12 +63,12 @@ fn linear_drag_follows_its_step_by_step_closed_form() {
         for step in 1..=120 {
             w.step().unwrap();
             let expected = v_star * (1.0 - r.powf(step as f64 * n_sub));
-            let v = w.bodies[b].velocity.y as f64;
+            let v = w.nth_body(b).velocity.y as f64;
             assert!(
                 (v - expected).abs() <= 1e-4 * v_star.abs(),
                 "{kind:?} step {step}: v {v} vs {expected}"
             );
-            assert_eq!(w.bodies[b].velocity.x, 0.0);
+            assert_eq!(w.nth_body(b).velocity.x, 0.0);
         }
     }
 }
@@ -81,8 +84,8 @@ fn quadratic_drag_reaches_its_terminal_velocity() {
         let mut w = falling_ball(kind, 0.0, 0.4);
         let b = id(&w, "ball");
         steps(&mut w, 600);
-        let v = w.bodies[b].velocity.y as f64;
-        let m = w.bodies[b].mass as f64;
+        let v = w.nth_body(b).velocity.y as f64;
+        let m = w.nth_body(b).mass as f64;
         let h = w.settings.dt as f64 / w.settings.substeps.max(1) as f64;
         let gh = 10.0 * h;
         let terminal = -((gh * gh + 4.0 * m * 10.0 / 0.4).sqrt() - gh) / 2.0;
@@ -111,13 +114,13 @@ fn the_soft_step_with_drag_holds_a_resting_box() {
     let mut last_speed = 3.0f32;
     for k in 0..300 {
         w.step().unwrap();
-        let p = w.bodies[bx].position;
+        let p = w.nth_body(bx).position;
         assert!(0.5 - p.y <= slop + 1e-3, "step {k}: sank to {}", p.y);
         assert!(p.y < 0.5 + 1e-3, "step {k}: hovers at {}", p.y);
         assert!(p.x.abs() < 1e-3, "step {k}: crept to {}", p.x);
         // drag and friction only slow it; stopping, it may overshoot zero by at most
         // one substep of friction, mu g h = 0.6 * 10 / 480 = 0.0125 m/s
-        let s = w.bodies[sl].velocity.x;
+        let s = w.nth_body(sl).velocity.x;
         let h = w.settings.dt / w.settings.substeps as f32;
         let bound = if last_speed > 0.6 * 10.0 * h {
             last_speed + 1e-6
@@ -160,11 +163,11 @@ fn the_contact_cache_carries_friction_impulses() {
         let mut w = world_with(&text, settings);
         let b = id(&w, "box");
         steps(&mut w, 120);
-        let p0 = w.bodies[b].position;
+        let p0 = w.nth_body(b).position;
         steps(&mut w, 120);
-        let slid = w.bodies[b].position.distance(p0);
+        let slid = w.nth_body(b).position.distance(p0);
         let h = w.settings.dt / w.settings.substeps.max(1) as f32;
-        let m = w.bodies[b].mass;
+        let m = w.nth_body(b).mass;
         let (mut normal, mut tangent) = (0.0f32, 0.0f32);
         for contact in w.contacts() {
             for p in contact.manifold.points() {
@@ -200,12 +203,12 @@ fn a_weld_holds_two_bodies_as_one() {
     for kind in SolverKind::ALL {
         let mut w = world(text, kind);
         let (a, b) = (id(&w, "a"), id(&w, "b"));
-        let rel0 = w.bodies[b].angle - w.bodies[a].angle;
-        let d0 = w.bodies[b].position - w.bodies[a].position;
+        let rel0 = w.nth_body(b).angle - w.nth_body(a).angle;
+        let d0 = w.nth_body(b).position - w.nth_body(a).position;
         let mut worst = (0.0f32, 0.0f32);
         for _ in 0..180 {
             w.step().unwrap();
-            let (ba, bb) = (&w.bodies[a], &w.bodies[b]);
+            let (ba, bb) = (&w.nth_body(a), &w.nth_body(b));
             let rel = bb.angle - ba.angle - rel0;
             // b's centre, seen from a's frame, stays where it was built
             let d = ba.rot.inv_rotate(bb.position - ba.position);
@@ -243,10 +246,10 @@ fn a_motor_saturates_at_its_torque_limit() {
     for kind in SolverKind::ALL {
         let mut w = motor_wheel(kind, 50.0, 0.5);
         let b = id(&w, "bar");
-        let i = w.bodies[b].mass * (4.0 + 0.04) / 12.0;
-        assert!((w.bodies[b].inertia - i).abs() < 1e-5);
+        let i = w.nth_body(b).mass * (4.0 + 0.04) / 12.0;
+        assert!((w.nth_body(b).inertia - i).abs() < 1e-5);
         steps(&mut w, 60);
-        let omega = w.bodies[b].angular_velocity;
+        let omega = w.nth_body(b).angular_velocity;
         let expected = 0.5 * 1.0 / i;
         eprintln!("{kind:?}: saturated motor, omega {omega:.5} vs tau t / I = {expected:.5}");
         assert!(
@@ -255,7 +258,7 @@ fn a_motor_saturates_at_its_torque_limit() {
         );
         let mut w = motor_wheel(kind, 3.0, 1e3);
         steps(&mut w, 60);
-        let omega = w.bodies[b].angular_velocity;
+        let omega = w.nth_body(b).angular_velocity;
         assert!((omega - 3.0).abs() <= 0.01 * 3.0, "{kind:?}: {omega}");
     }
 }
@@ -282,17 +285,17 @@ fn the_prismatic_motor_drives_along_its_axis_and_saturates() {
     for kind in SolverKind::ALL {
         let mut w = slider(kind, 1.5, 1e3);
         let b = id(&w, "slider");
-        assert!((w.bodies[b].mass - 1.0).abs() < 1e-6);
+        assert!((w.nth_body(b).mass - 1.0).abs() < 1e-6);
         steps(&mut w, 60);
-        let v = w.bodies[b].velocity;
+        let v = w.nth_body(b).velocity;
         eprintln!("{kind:?}: prismatic motor at {v:?} (target 1.5 m/s)");
         assert!((v.x - 1.5).abs() <= 0.015, "{kind:?}: {v:?}");
         assert!(v.y.abs() < 1e-3, "{kind:?}: {v:?}");
-        assert!((w.bodies[b].position.y - 2.0).abs() < 1e-3);
+        assert!((w.nth_body(b).position.y - 2.0).abs() < 1e-3);
 
         let mut w = slider(kind, 10.0, 0.5);
         steps(&mut w, 60);
-        let v = w.bodies[b].velocity.x;
+        let v = w.nth_body(b).velocity.x;
         assert!((v - 0.5).abs() <= 0.01 * 0.5, "{kind:?}: {v} vs 0.5");
     }
 }
@@ -307,11 +310,11 @@ fn a_kinematic_body_keeps_its_velocity_and_carries_a_box() {
     for kind in SolverKind::ALL {
         let mut w = world(text, kind);
         let (p, b) = (id(&w, "platform"), id(&w, "box"));
-        assert_eq!(w.bodies[p].mass, 0.0);
+        assert_eq!(w.nth_body(p).mass, 0.0);
         for k in 1..=120 {
             w.step().unwrap();
             let t = k as f32 * w.settings.dt;
-            let pl = &w.bodies[p];
+            let pl = &w.nth_body(p);
             assert_eq!(pl.velocity, Vec2::new(1.0, 0.0), "{kind:?}");
             // x is a sum of n = k * substeps increments h v, each rounded to f32: off
             // from v t by at most n half-ulps of x
@@ -325,14 +328,14 @@ fn a_kinematic_body_keeps_its_velocity_and_carries_a_box() {
             assert_eq!(pl.position.y, 0.0, "{kind:?}");
             assert_eq!(pl.angle, 0.0, "{kind:?}");
         }
-        let v = w.bodies[b].velocity;
+        let v = w.nth_body(b).velocity;
         eprintln!("{kind:?}: box on the platform at {v:?}");
         assert!(
             (v.x - 1.0).abs() < 0.01 && v.y.abs() < 0.01,
             "{kind:?}: {v:?}"
         );
         // and it rides on top, not through
-        let y = w.bodies[b].position.y;
+        let y = w.nth_body(b).position.y;
         assert!((y - 0.75).abs() < 0.02, "{kind:?}: box at y {y}");
     }
 }
@@ -389,7 +392,7 @@ fn body_damping_follows_its_step_by_step_closed_form() {
         let n = 120.0 * settings.substeps as f64;
         let v = 2.0 / (1.0 + h * 0.5).powf(n);
         let spin = 3.0 / (1.0 + h * 0.25).powf(n);
-        let b = &w.bodies[0];
+        let b = &w.nth_body(0);
         assert!(
             (b.velocity.x as f64 - v).abs() < 1e-4 * v,
             "{kind:?}: {} vs {v}",

@@ -265,7 +265,7 @@ fn mutated_builtin_scenes_load_build_and_run_or_are_refused_with_a_place() {
                     // a few steps where they are cheap
                     let work = settings.iterations as u64 * settings.substeps as u64;
                     let mut finite = true;
-                    if world.bodies.len() <= 400 && work <= 400 {
+                    if world.body_count() <= 400 && work <= 400 {
                         stepped.set(stepped.get() + 1);
                         for _ in 0..3 {
                             if let Err(e) = world.step() {

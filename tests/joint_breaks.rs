@@ -4,6 +4,9 @@
 //! solver, for a hinge, a weld and a distance joint; a weld's break torque against the
 //! moment m g d of a weight held off to one side; the same breaks at any thread count.
 
+#[path = "common/bodies.rs"]
+mod bodies;
+use bodies::ByOrder;
 use glam::Vec2;
 use sandbox2d::{
     BodyDef, BodyType, JointDef, JointKind, ShapeDef, SolverKind, SolverSettings, World,
@@ -48,10 +51,12 @@ fn hung(
     break_torque: Option<f32>,
 ) -> World {
     let mut w = World::new(Some(Vec2::new(0.0, -G)), SolverSettings::defaults(kind));
-    let g = w.add_body(&ground()).unwrap();
+    let g = w.create_body(&ground()).unwrap();
     let at = Vec2::new(0.0, 3.0);
-    let b = w.add_body(&weight(at)).unwrap();
-    assert!((w.bodies[b].mass - M).abs() < 1e-5);
+    let b = w.create_body(&weight(at)).unwrap();
+    assert!((w.body(b).unwrap().mass - M).abs() < 1e-5);
+    // a joint definition names its bodies by creation order
+    let (g, b) = (w.order_of_key(g).unwrap(), w.order_of_key(b).unwrap());
     let mut def = match joint {
         JointKind::Hinge => JointDef::hinge(g, b, at),
         JointKind::Weld => JointDef {
@@ -81,20 +86,20 @@ fn a_weight_holds_above_its_break_force_and_breaks_below_it() {
             }
             assert_eq!(w.joints().len(), 1, "{who}");
             assert!(
-                (w.bodies[1].position.y - 3.0).abs() < 0.01,
+                (w.nth_body(1).position.y - 3.0).abs() < 0.01,
                 "{who}: the weight hangs where it was, y {}",
-                w.bodies[1].position.y
+                w.nth_body(1).position.y
             );
             // a little below: it breaks in the first step, reporting m g
             let mut w = hung(kind, joint, Some(0.98 * mg), None);
             let key = w.joint_key(0).unwrap();
-            let weight = w.body_key(1).unwrap();
+            let weight = w.nth_key(1);
             w.step().unwrap();
             let breaks = w.joint_breaks().to_vec();
             assert_eq!(breaks.len(), 1, "{who}: {breaks:?}");
             let e = breaks[0];
             assert_eq!(e.joint, key, "{who}");
-            assert_eq!(e.bodies, [w.body_key(0).unwrap(), weight], "{who}");
+            assert_eq!(e.bodies, [w.nth_key(0), weight], "{who}");
             assert!(
                 (e.force - mg).abs() <= 0.01 * mg,
                 "{who}: force {} against m g = {mg}",
@@ -105,10 +110,10 @@ fn a_weight_holds_above_its_break_force_and_breaks_below_it() {
             assert_eq!(w.joint_of_key(key), None, "{who}");
             assert!(w.remove_joint(key).is_err(), "{who}");
             // reported once: the next step has no break, and the weight falls freely
-            let v0 = w.bodies[1].velocity.y;
+            let v0 = w.nth_body(1).velocity.y;
             w.step().unwrap();
             assert!(w.joint_breaks().is_empty(), "{who}");
-            let dv = w.bodies[1].velocity.y - v0;
+            let dv = w.nth_body(1).velocity.y - v0;
             let dt = w.settings.dt;
             assert!(
                 (dv + G * dt).abs() < 1e-3 * G * dt + 1e-5,
@@ -127,8 +132,9 @@ fn a_weld_breaks_on_the_moment_of_a_weight_held_to_one_side() {
     for kind in SolverKind::ALL {
         let settled = || {
             let mut w = World::new(Some(Vec2::new(0.0, -G)), SolverSettings::defaults(kind));
-            let g = w.add_body(&ground()).unwrap();
-            let b = w.add_body(&weight(Vec2::new(d, 3.0))).unwrap();
+            let g = w.create_body(&ground()).unwrap();
+            let b = w.create_body(&weight(Vec2::new(d, 3.0))).unwrap();
+            let (g, b) = (w.order_of_key(g).unwrap(), w.order_of_key(b).unwrap());
             w.add_joint(&JointDef {
                 kind: JointKind::Weld,
                 ..JointDef::hinge(g, b, Vec2::new(0.0, 3.0))
@@ -202,7 +208,7 @@ fn joints_break_the_same_at_any_thread_count() {
         let mut w = World::new(Some(Vec2::new(0.0, -G)), SolverSettings::defaults(kind));
         w.set_threads(threads);
         let g = w
-            .add_body(&BodyDef {
+            .create_body(&BodyDef {
                 body_type: BodyType::Static,
                 ..ground()
             })
@@ -211,7 +217,7 @@ fn joints_break_the_same_at_any_thread_count() {
             let x = (i % 30) as f32 * 1.5;
             let y = 3.0 - (i / 30) as f32 * 2.0;
             let b = w
-                .add_body(&BodyDef {
+                .create_body(&BodyDef {
                     filter: sandbox2d::Filter {
                         group: -1,
                         ..Default::default()
@@ -220,7 +226,8 @@ fn joints_break_the_same_at_any_thread_count() {
                     ..weight(Vec2::new(x + 0.7, y))
                 })
                 .unwrap();
-            let mut def = JointDef::hinge(g, b, Vec2::new(x, y));
+            let (gi, bi) = (w.order_of_key(g).unwrap(), w.order_of_key(b).unwrap());
+            let mut def = JointDef::hinge(gi, bi, Vec2::new(x, y));
             def.break_force = Some(M * G * (1.0 + 0.075 * (i % 40) as f32));
             w.add_joint(&def).unwrap();
         }

@@ -1,12 +1,15 @@
 //! Physics checked against closed forms, conservation and error bounds.
 
+#[path = "common/bodies.rs"]
+mod bodies;
+use bodies::ByOrder;
 use glam::Vec2;
 use sandbox2d::collision::sat;
 use sandbox2d::math::{Rot, Transform};
 use sandbox2d::shape::Shape;
 use sandbox2d::{
-    BodyDef, BodyModel, BodyType, ForceDef, ShapeDef, SolverSettings, StepError, World, WorldDef,
-    scene,
+    BodyDef, BodyKey, BodyModel, BodyType, ForceDef, ShapeDef, SolverSettings, StepError, World,
+    WorldDef, scene,
 };
 
 fn ground(width: f32) -> BodyDef {
@@ -20,11 +23,11 @@ fn ground(width: f32) -> BodyDef {
 }
 
 /// A 1 m box resting on a 20 m ground under gravity 10; returns the world and the box.
-fn box_on_ground(settings: SolverSettings) -> (World, usize) {
+fn box_on_ground(settings: SolverSettings) -> (World, BodyKey) {
     let mut w = World::new(Some(Vec2::new(0.0, -10.0)), settings);
-    w.add_body(&ground(20.0)).unwrap();
+    w.create_body(&ground(20.0)).unwrap();
     let b = w
-        .add_body(&BodyDef {
+        .create_body(&BodyDef {
             name: "box".into(),
             position: Vec2::new(0.0, 0.5),
             ..Default::default()
@@ -35,15 +38,15 @@ fn box_on_ground(settings: SolverSettings) -> (World, usize) {
 
 /// A ball of `radius` whose bottom is `height` above a 10 m pad, both of restitution
 /// `e`, under gravity 10; returns the world and the ball.
-fn ball_over_pad(settings: SolverSettings, e: f32, radius: f32, height: f32) -> (World, usize) {
+fn ball_over_pad(settings: SolverSettings, e: f32, radius: f32, height: f32) -> (World, BodyKey) {
     let mut w = World::new(Some(Vec2::new(0.0, -10.0)), settings);
-    w.add_body(&BodyDef {
+    w.create_body(&BodyDef {
         restitution: e,
         ..ground(10.0)
     })
     .unwrap();
     let b = w
-        .add_body(&BodyDef {
+        .create_body(&BodyDef {
             name: "ball".into(),
             shape: ShapeDef::Circle { radius },
             position: Vec2::new(0.0, height + radius),
@@ -69,7 +72,7 @@ fn free_fall_matches_semi_implicit_euler() {
     let mut w = World::new(Some(Vec2::new(0.0, g as f32)), s);
     let (v0, y0) = (3.0f64, 0.0f64);
     let b = w
-        .add_body(&BodyDef {
+        .create_body(&BodyDef {
             name: "ball".into(),
             shape: ShapeDef::Circle { radius: 0.1 },
             velocity: Vec2::new(0.0, v0 as f32),
@@ -82,7 +85,7 @@ fn free_fall_matches_semi_implicit_euler() {
         let n = n as f64;
         let v = v0 + n * h * g;
         let y = y0 + n * h * v0 + h * h * g * n * (n + 1.0) / 2.0;
-        let body = &w.bodies[b];
+        let body = &w.body(b).unwrap();
         assert!(
             (body.velocity.y as f64 - v).abs() <= 1e-6 * v.abs().max(1.0),
             "step {n}: v {} vs {v}",
@@ -101,7 +104,7 @@ fn free_fall_matches_semi_implicit_euler() {
 fn world_mass_properties_follow_the_formulas() {
     let mut w = World::new(None, SolverSettings::pgs());
     let c = w
-        .add_body(&BodyDef {
+        .create_body(&BodyDef {
             name: "c".into(),
             shape: ShapeDef::Circle { radius: 0.3 },
             density: 2.0,
@@ -109,7 +112,7 @@ fn world_mass_properties_follow_the_formulas() {
         })
         .unwrap();
     let b = w
-        .add_body(&BodyDef {
+        .create_body(&BodyDef {
             name: "b".into(),
             shape: ShapeDef::Box {
                 width: 2.0,
@@ -120,7 +123,7 @@ fn world_mass_properties_follow_the_formulas() {
         })
         .unwrap();
     let p = w
-        .add_body(&BodyDef {
+        .create_body(&BodyDef {
             name: "p".into(),
             model: BodyModel::Particle,
             shape: ShapeDef::Circle { radius: 0.3 },
@@ -128,14 +131,18 @@ fn world_mass_properties_follow_the_formulas() {
         })
         .unwrap();
     let m = 2.0 * std::f32::consts::PI * 0.09;
-    assert!((w.bodies[c].mass - m).abs() < 1e-5);
-    assert!((w.bodies[c].inertia - 0.5 * m * 0.09).abs() < 1e-6);
-    assert!((w.bodies[b].mass - 5.0).abs() < 1e-6);
-    assert!((w.bodies[b].inertia - 5.0 * (4.0 + 1.0) / 12.0).abs() < 1e-5);
-    assert_eq!(w.bodies[p].inv_inertia, 0.0, "a particle does not rotate");
+    assert!((w.body(c).unwrap().mass - m).abs() < 1e-5);
+    assert!((w.body(c).unwrap().inertia - 0.5 * m * 0.09).abs() < 1e-6);
+    assert!((w.body(b).unwrap().mass - 5.0).abs() < 1e-6);
+    assert!((w.body(b).unwrap().inertia - 5.0 * (4.0 + 1.0) / 12.0).abs() < 1e-5);
+    assert_eq!(
+        w.body(p).unwrap().inv_inertia,
+        0.0,
+        "a particle does not rotate"
+    );
     // a polygon given off-centre: the body sits at its centroid
     let t = w
-        .add_body(&BodyDef {
+        .create_body(&BodyDef {
             name: "t".into(),
             shape: ShapeDef::Polygon {
                 points: vec![Vec2::ZERO, Vec2::new(3.0, 0.0), Vec2::new(0.0, 3.0)],
@@ -144,8 +151,8 @@ fn world_mass_properties_follow_the_formulas() {
             ..Default::default()
         })
         .unwrap();
-    assert!((w.bodies[t].position - Vec2::new(11.0, 1.0)).length() < 1e-5);
-    assert!((w.bodies[t].origin() - Vec2::new(10.0, 0.0)).length() < 1e-5);
+    assert!((w.body(t).unwrap().position - Vec2::new(11.0, 1.0)).length() < 1e-5);
+    assert!((w.body(t).unwrap().origin() - Vec2::new(10.0, 0.0)).length() < 1e-5);
 }
 
 fn poly(w: f32, h: f32) -> Shape {
@@ -388,7 +395,7 @@ fn resting_box_stays_within_slop_and_does_not_creep() {
     let (mut w, b) = box_on_ground(s);
     for _ in 0..600 {
         w.step().unwrap();
-        let body = &w.bodies[b];
+        let body = &w.body(b).unwrap();
         // overlap of the box with the ground: 0.5 - y
         let pen = 0.5 - body.position.y;
         assert!(pen <= s.slop + 1e-3, "penetration {pen}");
@@ -405,19 +412,19 @@ fn resting_box_stays_within_slop_and_does_not_creep() {
 #[test]
 fn pyramid_of_20_stands_for_10_seconds() {
     let mut w = world_of("pyramid", SolverSettings::pgs());
-    let start: Vec<Vec2> = w.bodies.iter().map(|b| b.position).collect();
-    let top = w.bodies.len() - 1;
+    let start: Vec<Vec2> = w.bodies().map(|(_, b)| b).map(|b| b.position).collect();
+    let top = w.body_count() - 1;
     for _ in 0..600 {
         w.step().unwrap();
     }
     let worst = w
-        .bodies
-        .iter()
+        .bodies()
+        .map(|(_, b)| b)
         .zip(&start)
         .map(|(b, s)| (b.position - *s).length())
         .fold(0.0f32, f32::max);
     assert!(worst < 0.15, "a box moved {worst} m");
-    let drift = (w.bodies[top].position.x - start[top].x).abs();
+    let drift = (w.nth_body(top).position.x - start[top].x).abs();
     assert!(drift < 0.01, "top box drifted {drift} m sideways");
 }
 
@@ -447,7 +454,7 @@ fn warm_starting_needs_fewer_iterations_on_the_stack() {
 fn landing_step(w: &mut World, body: usize, radius: f32) -> u32 {
     for k in 1..2000 {
         w.step().unwrap();
-        if w.bodies[body].position.y <= radius + 1e-3 {
+        if w.nth_body(body).position.y <= radius + 1e-3 {
             return k;
         }
     }
@@ -537,7 +544,7 @@ fn a_point_force_gives_torque_r_cross_f() {
     let s = SolverSettings::pgs();
     let mut w = World::from_def(&def, s).unwrap();
     w.step().unwrap();
-    let b = &w.bodies[0];
+    let b = &w.nth_body(0);
     let m = 2.0;
     let i = m * (4.0 + 1.0) / 12.0;
     assert!((b.velocity.y - s.dt * 4.0 / m).abs() < 1e-6);
@@ -572,7 +579,7 @@ fn a_runaway_world_names_the_body() {
         assert!(err.to_string().contains("rocket"));
         // the step that failed is the one reported, and the world stops counting there
         assert_eq!(*step, w.step_count(), "{kind:?}");
-        assert!(!w.bodies[0].position.is_finite() || !w.bodies[0].velocity.is_finite());
+        assert!(!w.nth_body(0).position.is_finite() || !w.nth_body(0).velocity.is_finite());
     }
 }
 
@@ -593,7 +600,12 @@ fn a_runaway_spin_is_named_as_the_spin() {
         let kind = s.kind;
         // a spin gone infinite (from outside: a scene with one is refused at load)
         let mut w = World::from_def(&def, s).unwrap();
-        w.bodies[0].angular_velocity = f32::INFINITY;
+        // a finite impulse far out: r x J / I overflows the body's spin to +inf
+        let b = w.nth_key(0);
+        let centre = w.nth_body(0).position;
+        let far = centre + Vec2::new(0.0, f32::MAX);
+        w.apply_impulse(b, Vec2::new(-1.0, 0.0), far).unwrap();
+        assert_eq!(w.nth_body(0).angular_velocity, f32::INFINITY, "{kind:?}");
         let err = w.step().unwrap_err();
         let StepError::NonFinite { what, value, .. } = &err;
         let m = err.to_string();
@@ -606,8 +618,10 @@ fn a_runaway_spin_is_named_as_the_spin() {
         );
         // an angle carried past f32 by a spin that is still finite
         let mut w = World::from_def(&def, s).unwrap();
-        w.bodies[0].angle = f32::MAX;
-        w.bodies[0].angular_velocity = f32::MAX;
+        let (b, body) = w.bodies().next().unwrap();
+        let (at, v) = (body.position, body.velocity);
+        w.set_transform(b, at, f32::MAX).unwrap();
+        w.set_velocity(b, v, f32::MAX).unwrap();
         let err = w.step().unwrap_err();
         let StepError::NonFinite { what, value, .. } = &err;
         let m = err.to_string();
@@ -637,14 +651,14 @@ fn restitution_bounces_to_e_squared_height() {
         let mut bounced = false;
         let mut apex = 0.0f32;
         for _ in 0..400 {
-            let vy_before = w.bodies[b].velocity.y;
+            let vy_before = w.body(b).unwrap().velocity.y;
             w.step().unwrap();
-            let vy = w.bodies[b].velocity.y;
+            let vy = w.body(b).unwrap().velocity.y;
             if vy_before < 0.0 && vy > 0.0 {
                 bounced = true;
             }
             if bounced {
-                apex = apex.max(w.bodies[b].position.y - 0.1);
+                apex = apex.max(w.body(b).unwrap().position.y - 0.1);
                 if vy < 0.0 {
                     break;
                 }
@@ -677,11 +691,11 @@ fn elastic_ball_keeps_its_height_bounce_after_bounce() {
     let (mut w, b) = ball_over_pad(SolverSettings::pgs(), 1.0, 0.25, h0);
     let mut apexes = Vec::new();
     for _ in 0..1200 {
-        let vy_before = w.bodies[b].velocity.y;
+        let vy_before = w.body(b).unwrap().velocity.y;
         w.step().unwrap();
         // the apex of a symplectic-Euler arc: the step where v_y turns negative
-        if vy_before > 0.0 && w.bodies[b].velocity.y <= 0.0 {
-            apexes.push(w.bodies[b].position.y - 0.25);
+        if vy_before > 0.0 && w.body(b).unwrap().velocity.y <= 0.0 {
+            apexes.push(w.body(b).unwrap().position.y - 0.25);
         }
     }
     eprintln!("apexes after each bounce (m): {apexes:.4?}");
@@ -717,38 +731,38 @@ fn the_large_pyramid_stands_with_one_soft_sweep_a_substep() {
     let s = sc.world.solver.resolve();
     assert_eq!((s.substeps, s.iterations), (4, 1));
     let mut w = World::from_def(&sc.world, s).expect("builds");
-    let start: Vec<Vec2> = w.bodies.iter().map(|b| b.position).collect();
+    let start: Vec<Vec2> = w.bodies().map(|(_, b)| b).map(|b| b.position).collect();
     let mut deepest = 0.0f32;
     for _ in 0..500 {
         w.step().unwrap();
         deepest = deepest.max(w.stats().penetration);
     }
-    let top = w.bodies.len() - 1;
-    let sink = start[top].y - w.bodies[top].position.y;
-    let sideways = (w.bodies[top].position.x - start[top].x).abs();
+    let top = w.body_count() - 1;
+    let sink = start[top].y - w.nth_body(top).position.y;
+    let sideways = (w.nth_body(top).position.x - start[top].x).abs();
     assert!(sink < 0.6, "the top box sank {sink} m");
     assert!(sideways < 0.05, "the top box moved {sideways} m sideways");
     assert!(deepest < 0.03, "overlap {deepest} m");
     // no box fell through another or off the pile below the bottom row
-    assert!(w.bodies[1..].iter().all(|b| b.position.y > 0.4));
+    assert!(w.bodies().skip(1).all(|(_, b)| b.position.y > 0.4));
 }
 
 #[test]
 fn soft_step_holds_the_pyramid_of_20_and_repeats_itself() {
     let run = || {
         let mut w = world_of("pyramid", soft_settings());
-        let start: Vec<Vec2> = w.bodies.iter().map(|b| b.position).collect();
+        let start: Vec<Vec2> = w.bodies().map(|(_, b)| b).map(|b| b.position).collect();
         for _ in 0..600 {
             w.step().unwrap();
         }
         let worst = w
-            .bodies
-            .iter()
+            .bodies()
+            .map(|(_, b)| b)
             .zip(&start)
             .map(|(b, s)| (b.position - *s).length())
             .fold(0.0f32, f32::max);
-        let top = w.bodies.len() - 1;
-        let drift = (w.bodies[top].position.x - start[top].x).abs();
+        let top = w.body_count() - 1;
+        let drift = (w.nth_body(top).position.x - start[top].x).abs();
         (worst, drift, w.state_hash())
     };
     let (worst, drift, hash) = run();
@@ -765,7 +779,7 @@ fn soft_step_resting_box_settles_and_does_not_creep() {
     let mut x_settled = 0.0;
     for k in 1..=600 {
         w.step().unwrap();
-        let body = &w.bodies[b];
+        let body = &w.body(b).unwrap();
         let pen = 0.5 - body.position.y;
         assert!(pen <= s.slop + 1e-3, "penetration {pen}");
         assert!(body.position.y < 0.5 + 1e-3, "the box does not hover");
@@ -781,7 +795,7 @@ fn soft_step_resting_box_settles_and_does_not_creep() {
             x_settled = body.position.x;
         }
     }
-    let creep = (w.bodies[b].position.x - x_settled).abs();
+    let creep = (w.body(b).unwrap().position.x - x_settled).abs();
     assert!(creep < 1e-5, "crept {creep} m in the last 300 steps");
 }
 
@@ -846,11 +860,11 @@ fn scene_world(text: &str, kind: sandbox2d::SolverKind) -> World {
 
 /// The largest distance any body gets from where it started, over `seconds`.
 fn largest_displacement(w: &mut World, seconds: f32) -> f32 {
-    let start: Vec<Vec2> = w.bodies.iter().map(|b| b.position).collect();
+    let start: Vec<Vec2> = w.bodies().map(|(_, b)| b).map(|b| b.position).collect();
     let mut worst = 0.0f32;
     for _ in 0..(seconds / w.settings.dt).round() as usize {
         w.step().expect("finite");
-        for (b, s) in w.bodies.iter().zip(&start) {
+        for (b, s) in w.bodies().map(|(_, b)| b).zip(&start) {
             worst = worst.max(b.position.distance(*s));
         }
     }
@@ -904,15 +918,15 @@ fn a_heavy_box_on_two_light_ones_stands_at_mass_ratios_100_to_10000() {
     // squeezed the light boxes out sideways.
     for r in [100.0, 1e3, 1e4] {
         let mut w = extremes_world(sandbox2d::bench::extremes::Sweep::MassRatio, r);
-        let heavy = w.body_index("heavy").unwrap();
-        let y0 = w.bodies[heavy].position;
+        let heavy = w.order_of("heavy").unwrap();
+        let y0 = w.nth_body(heavy).position;
         let worst = largest_displacement(&mut w, 10.0);
-        let moved = w.bodies[heavy].position.distance(y0);
+        let moved = w.nth_body(heavy).position.distance(y0);
         eprintln!("mass ratio {r}: heavy box moved {moved:.4} m, any box {worst:.4} m");
         assert!(moved < 0.05, "ratio {r}: heavy box moved {moved} m");
         assert!(worst < 0.05, "ratio {r}: a box moved {worst} m");
         // the sink: two contacts' slop and load depth, 0.02 m at most
-        let sink = y0.y - w.bodies[heavy].position.y;
+        let sink = y0.y - w.nth_body(heavy).position.y;
         assert!(sink < 0.02, "ratio {r}: sank {sink} m");
     }
 }
@@ -959,7 +973,7 @@ position = [0.0, 2.5]
         let (mut peak, mut late_speed, mut late_spin) = (0.0f32, 0.0f32, 0.0f32);
         for k in 1..=2 * steps_per_second {
             w.step().expect("finite");
-            for b in &w.bodies {
+            for (_, b) in w.bodies() {
                 peak = peak.max(b.velocity.length());
                 if k >= steps_per_second {
                     late_speed = late_speed.max(b.velocity.length());
@@ -967,7 +981,7 @@ position = [0.0, 2.5]
                 }
             }
         }
-        let centres: Vec<f32> = w.bodies[1..].iter().map(|b| b.position.y).collect();
+        let centres: Vec<f32> = w.bodies().skip(1).map(|(_, b)| b.position.y).collect();
         eprintln!(
             "{kind:?}: peak speed {peak:.3} m/s, from 1 s on {late_speed:.4} m/s and \
              {late_spin:.4} rad/s, centres {centres:?}"
@@ -1055,7 +1069,7 @@ velocity = [300.0, 0.0]
         let mut w = scene_world(text, kind);
         for _ in 0..60 {
             w.step().expect("finite");
-            let x = w.bodies[1].position.x;
+            let x = w.nth_body(1).position.x;
             assert!(x < 0.0, "{kind:?}: the ball passed the wall (x = {x})");
         }
     }
@@ -1120,7 +1134,7 @@ filter = {fb}
                 w.step().expect("finite");
                 touched |= w.contacts().iter().any(|c| (c.a, c.b) == (1, 2));
             }
-            let (ya, yb) = (w.bodies[1].position.y, w.bodies[2].position.y);
+            let (ya, yb) = (w.nth_body(1).position.y, w.nth_body(2).position.y);
             assert_eq!(
                 touched, collide,
                 "{kind:?} {fa} / {fb}: contact between a and b"
@@ -1156,16 +1170,16 @@ fn a_one_sided_wall_holds_a_disc_pressed_into_it() {
         sandbox2d::SolverKind::Xpbd,
     ] {
         let mut w = World::from_def(&sc.world, SolverSettings::defaults(kind)).unwrap();
-        let disc = w.body_index("disc").unwrap();
-        let weight = w.bodies[disc].mass * 10.0;
+        let disc = w.order_of("disc").unwrap();
+        let weight = w.nth_body(disc).mass * 10.0;
         let mut lowest = f32::INFINITY;
         for _ in 0..120 {
-            let p = w.bodies[disc].position;
-            let key = w.body_key(disc).unwrap();
+            let p = w.nth_body(disc).position;
+            let key = w.nth_key(disc);
             w.apply_force(key, Vec2::new(0.0, -1e5 * weight), p)
                 .unwrap();
             w.step().unwrap();
-            lowest = lowest.min(w.bodies[disc].position.y);
+            lowest = lowest.min(w.nth_body(disc).position.y);
         }
         assert!(
             lowest >= 0.0,
@@ -1214,21 +1228,21 @@ fn a_closed_one_sided_loop_keeps_discs_racing_round_inside() {
     ] {
         let mut w = World::from_def(&sc.world, SolverSettings::defaults(kind)).unwrap();
         let discs: Vec<usize> = (0..speeds.len())
-            .map(|i| w.body_index(&format!("d{i}")).unwrap())
+            .map(|i| w.order_of(&format!("d{i}")).unwrap())
             .collect();
         let mut farthest = 0.0f32;
         for _ in 0..300 {
             // pressed outward at 10,000 g, as a stirred pile presses them and more
             for &d in &discs {
-                let b = &w.bodies[d];
+                let b = &w.nth_body(d);
                 let push = b.position.normalize_or_zero() * (b.mass * 1.0e5);
                 let at = b.position;
-                let key = w.body_key(d).unwrap();
+                let key = w.nth_key(d);
                 w.apply_force(key, push, at).unwrap();
             }
             w.step().unwrap();
             for &d in &discs {
-                farthest = farthest.max(w.bodies[d].position.length());
+                farthest = farthest.max(w.nth_body(d).position.length());
             }
         }
         // the sides' lines are radius cos(pi / sides) from the centre at their middles

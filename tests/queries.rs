@@ -2,6 +2,9 @@
 //! (entry point, normal, fraction), point and box queries, filters, and a property test
 //! that every reported hit lies on the surface with no earlier entry.
 
+#[path = "common/bodies.rs"]
+mod bodies;
+use bodies::ByOrder;
 use glam::Vec2;
 use proptest::prelude::*;
 use sandbox2d::{BodyDef, BodyKey, BodyType, Filter, ShapeDef, SolverSettings, World};
@@ -124,21 +127,27 @@ fn a_ray_enters_a_triangle_through_its_slanted_side() {
 fn ray_cast_all_lists_every_body_nearest_first_and_filters_by_category() {
     let mut w = world();
     for k in 0..4 {
-        add(
-            &mut w,
-            &format!("c{k}"),
-            ShapeDef::Circle { radius: 0.5 },
-            Vec2::new(8.0 - 2.0 * k as f32, 0.0),
-            0.0,
-        );
+        // body 1 is in category bit 1 only
+        let filter = if k == 1 {
+            Filter {
+                category: 1 << 1,
+                ..Filter::default()
+            }
+        } else {
+            Filter::default()
+        };
+        w.create_body(&BodyDef {
+            name: format!("c{k}"),
+            body_type: BodyType::Static,
+            shape: ShapeDef::Circle { radius: 0.5 },
+            position: Vec2::new(8.0 - 2.0 * k as f32, 0.0),
+            filter,
+            ..BodyDef::default()
+        })
+        .unwrap();
     }
-    // body 1 is in category bit 1 only
-    w.bodies[1].filter = Filter {
-        category: 1 << 1,
-        ..Filter::default()
-    };
     let hits = w.ray_cast_all(Vec2::ZERO, Vec2::new(10.0, 0.0), &Filter::default());
-    let index = |k: BodyKey| w.body_of_key(k).unwrap();
+    let index = |k: BodyKey| w.order_of_key(k).unwrap();
     let bodies: Vec<usize> = hits.iter().map(|h| index(h.body)).collect();
     assert_eq!(bodies, [3, 2, 1, 0]);
     assert!(hits.windows(2).all(|p| p[0].fraction <= p[1].fraction));

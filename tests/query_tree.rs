@@ -4,6 +4,9 @@
 //! bodies (the tree's moved list and its rebuilds), and after bodies are removed and
 //! added. A shape cast's time of impact is checked against closed forms.
 
+#[path = "common/bodies.rs"]
+mod bodies;
+use bodies::ByOrder;
 use glam::Vec2;
 use proptest::prelude::*;
 use sandbox2d::collision::sat::collide;
@@ -73,7 +76,7 @@ fn spec() -> impl Strategy<Value = Spec> {
     )
 }
 
-fn add(w: &mut World, i: usize, s: &Spec) -> usize {
+fn add(w: &mut World, i: usize, s: &Spec) -> BodyKey {
     let &(kind, size, x, y, angle, dynamic, category, far) = s;
     // a few bodies far from the rest: the tree spans a huge box
     let offset = if far {
@@ -81,7 +84,7 @@ fn add(w: &mut World, i: usize, s: &Spec) -> usize {
     } else {
         Vec2::ZERO
     };
-    w.add_body(&BodyDef {
+    w.create_body(&BodyDef {
         name: format!("b{i}"),
         body_type: if dynamic {
             BodyType::Dynamic
@@ -104,18 +107,18 @@ fn add(w: &mut World, i: usize, s: &Spec) -> usize {
 
 /// The bodies a scan finds whose shape holds `p`.
 fn scan_point(w: &World, p: Vec2, filter: &Filter) -> Vec<usize> {
-    (0..w.bodies.len())
+    (0..w.body_count())
         .filter(|&i| {
-            let b = &w.bodies[i];
+            let b = &w.nth_body(i);
             filter.mask & b.filter.category != 0 && b.contains_local(b.transform().inv_apply(p))
         })
         .collect()
 }
 
 fn scan_aabb(w: &World, q: &Aabb, filter: &Filter) -> Vec<usize> {
-    (0..w.bodies.len())
+    (0..w.body_count())
         .filter(|&i| {
-            let b = &w.bodies[i];
+            let b = &w.nth_body(i);
             filter.mask & b.filter.category != 0 && b.aabb().overlaps(q)
         })
         .collect()
@@ -123,9 +126,9 @@ fn scan_aabb(w: &World, q: &Aabb, filter: &Filter) -> Vec<usize> {
 
 /// Every body a segment enters, as (fraction, body), nearest first.
 fn scan_ray(w: &World, o: Vec2, t: Vec2, filter: &Filter) -> Vec<(f32, usize)> {
-    let mut hits: Vec<(f32, usize)> = (0..w.bodies.len())
+    let mut hits: Vec<(f32, usize)> = (0..w.body_count())
         .filter_map(|i| {
-            let b = &w.bodies[i];
+            let b = &w.nth_body(i);
             if filter.mask & b.filter.category == 0 {
                 return None;
             }
@@ -140,9 +143,9 @@ fn scan_ray(w: &World, o: Vec2, t: Vec2, filter: &Filter) -> Vec<(f32, usize)> {
 
 /// The bodies a shape placed by `xf` overlaps, by the narrow phase's own test.
 fn scan_shape(w: &World, shape: &Shape, xf: &Transform, filter: &Filter) -> Vec<usize> {
-    (0..w.bodies.len())
+    (0..w.body_count())
         .filter(|&i| {
-            let b = &w.bodies[i];
+            let b = &w.nth_body(i);
             if filter.mask & b.filter.category == 0 {
                 return false;
             }
@@ -159,7 +162,7 @@ fn scan_shape(w: &World, shape: &Shape, xf: &Transform, filter: &Filter) -> Vec<
 /// Where the bodies of `keys` are now (every key must name one).
 fn at(w: &World, keys: Vec<BodyKey>) -> Vec<usize> {
     keys.iter()
-        .map(|&k| w.body_of_key(k).expect("a query names live bodies"))
+        .map(|&k| w.order_of_key(k).expect("a query names live bodies"))
         .collect()
 }
 
@@ -227,10 +230,10 @@ proptest! {
         }
         check_all(&w, &probes, mask)?;
         for r in &remove {
-            if w.bodies.is_empty() {
+            if w.body_count() == 0 {
                 break;
             }
-            let key = w.body_key(r.index(w.bodies.len())).unwrap();
+            let key = w.nth_key(r.index(w.body_count()));
             w.remove_body(key).unwrap();
         }
         for (i, s) in specs.iter().take(3).enumerate() {
@@ -246,7 +249,7 @@ proptest! {
 
 fn ground_world() -> World {
     let mut w = World::new(None, SolverSettings::default());
-    w.add_body(&BodyDef {
+    w.create_body(&BodyDef {
         name: "wall".into(),
         body_type: BodyType::Static,
         shape: ShapeDef::Box {
@@ -257,7 +260,7 @@ fn ground_world() -> World {
         ..BodyDef::default()
     })
     .unwrap();
-    w.add_body(&BodyDef {
+    w.create_body(&BodyDef {
         name: "ball".into(),
         body_type: BodyType::Static,
         shape: ShapeDef::Circle { radius: 1.0 },
@@ -277,7 +280,7 @@ fn a_disc_cast_at_a_wall_stops_where_their_gap_closes() {
     let hit = w
         .cast_shape(&disc, Vec2::ZERO, 0.0, Vec2::new(20.0, 0.0), &all)
         .unwrap();
-    assert_eq!(w.body_of_key(hit.body), Some(0));
+    assert_eq!(w.order_of_key(hit.body), Some(0));
     let exact = 8.5 / 20.0;
     assert!(
         hit.fraction <= exact && (exact - hit.fraction) * 20.0 <= SHAPE_CAST_TOLERANCE,
@@ -311,7 +314,7 @@ fn a_box_cast_at_an_angle_meets_a_disc_where_geometry_says() {
     let hit = w
         .cast_shape(&block, Vec2::ZERO, 0.0, Vec2::new(0.0, 17.0), &all)
         .unwrap();
-    assert_eq!(w.body_of_key(hit.body), Some(1));
+    assert_eq!(w.order_of_key(hit.body), Some(1));
     let exact = 8.5 / 17.0;
     assert!(
         hit.fraction <= exact + 1e-6 && (exact - hit.fraction) * 17.0 <= SHAPE_CAST_TOLERANCE,
@@ -330,7 +333,7 @@ fn a_box_cast_at_an_angle_meets_a_disc_where_geometry_says() {
     let (a, b, cc) = (d.dot(d), 2.0 * oc.dot(d), oc.dot(oc) - 1.5 * 1.5);
     let exact = (-b - (b * b - 4.0 * a * cc).sqrt()) / (2.0 * a);
     let hit = w.cast_shape(&disc, o, 0.0, d, &all).unwrap();
-    assert_eq!(w.body_of_key(hit.body), Some(1));
+    assert_eq!(w.order_of_key(hit.body), Some(1));
     assert!(
         hit.fraction <= exact + 1e-6 && (exact - hit.fraction) * d.length() <= SHAPE_CAST_TOLERANCE,
         "{} against {exact}",
@@ -358,7 +361,7 @@ fn a_shape_overlapping_at_its_start_is_hit_at_once() {
             &Filter::default(),
         )
         .unwrap();
-    assert_eq!((w.body_of_key(hit.body), hit.fraction), (Some(1), 0.0));
+    assert_eq!((w.order_of_key(hit.body), hit.fraction), (Some(1), 0.0));
     assert!(
         QueryShape::new(&ShapeDef::Segment {
             a: Vec2::ZERO,

@@ -1,6 +1,9 @@
 //! Every refusal of the scene format, one by one: the exact line and column, and a
 //! message that names what is wrong.
 
+#[path = "common/bodies.rs"]
+mod bodies;
+use bodies::ByOrder;
 use sandbox2d::scene::{SceneError, load_str};
 
 /// Loads `text` as "bad.toml", which must be refused.
@@ -1330,7 +1333,7 @@ fn polygon_of_16_vertices_loads_and_builds() {
     let text = body(&format!("shape = {{ polygon = [{}] }}", points.join(", ")));
     let sc = load_str(&text, "ok.toml").unwrap();
     let w = sandbox2d::World::from_def(&sc.world, sc.world.solver.resolve()).unwrap();
-    match &w.bodies[0].shape {
+    match &w.nth_body(0).shape {
         sandbox2d::shape::Shape::Polygon(p) => assert_eq!(p.count, 16),
         s => panic!("{s:?}"),
     }

@@ -3,8 +3,11 @@
 //! (a = 2/3 g sin, from I = m r^2 / 2); rounded shapes come to rest on the ground at
 //! their half height under every solver; a box rests on a static segment.
 
+#[path = "common/bodies.rs"]
+mod bodies;
+use bodies::ByOrder;
 use glam::Vec2;
-use sandbox2d::{BodyDef, BodyType, ShapeDef, SolverKind, SolverSettings, World};
+use sandbox2d::{BodyDef, BodyKey, BodyType, ShapeDef, SolverKind, SolverSettings, World};
 
 const G: f32 = 9.81;
 
@@ -61,7 +64,7 @@ fn speed_down_ramp_under(
         true,
     );
     ramp.friction = mu;
-    w.add_body(&ramp).unwrap();
+    w.create_body(&ramp).unwrap();
     let up = Vec2::new(-theta.sin(), theta.cos());
     let along = Vec2::new(theta.cos(), theta.sin());
     let mut b = body(
@@ -72,12 +75,12 @@ fn speed_down_ramp_under(
         false,
     );
     b.friction = mu;
-    let i = w.add_body(&b).unwrap();
+    let i = w.create_body(&b).unwrap();
     let steps = (t / w.settings.dt).round() as usize;
     for _ in 0..steps {
         w.step().unwrap();
     }
-    -w.bodies[i].velocity.dot(along)
+    -w.body(i).unwrap().velocity.dot(along)
 }
 
 #[test]
@@ -174,7 +177,7 @@ fn rounded_shapes_come_to_rest_at_their_half_height_under_every_solver() {
     for kind in [SolverKind::Soft, SolverKind::Pgs, SolverKind::Xpbd] {
         for (shape, half) in &shapes {
             let mut w = World::new(Some(Vec2::new(0.0, -G)), settings(kind));
-            w.add_body(&body(
+            w.create_body(&body(
                 "ground",
                 ShapeDef::Segment {
                     a: Vec2::new(-10.0, 0.0),
@@ -187,7 +190,7 @@ fn rounded_shapes_come_to_rest_at_their_half_height_under_every_solver() {
             .unwrap();
             // dropped 0.5 m, tilted a little: it must settle flat
             let i = w
-                .add_body(&body(
+                .create_body(&body(
                     "b",
                     shape.clone(),
                     Vec2::new(0.0, half + 0.5),
@@ -198,7 +201,7 @@ fn rounded_shapes_come_to_rest_at_their_half_height_under_every_solver() {
             for _ in 0..300 {
                 w.step().unwrap();
             }
-            let b = &w.bodies[i];
+            let b = &w.body(i).unwrap();
             assert!(
                 (b.position.y - half).abs() < 0.01,
                 "{kind:?} {shape:?}: rests at y = {}, expected {half}",
@@ -217,7 +220,7 @@ fn rounded_shapes_come_to_rest_at_their_half_height_under_every_solver() {
 #[test]
 fn four_capsules_stacked_on_their_sides_stand_on_a_segment() {
     let mut w = World::new(Some(Vec2::new(0.0, -G)), settings(SolverKind::Soft));
-    w.add_body(&body(
+    w.create_body(&body(
         "ground",
         ShapeDef::Segment {
             a: Vec2::new(-5.0, 0.0),
@@ -228,7 +231,7 @@ fn four_capsules_stacked_on_their_sides_stand_on_a_segment() {
         true,
     ))
     .unwrap();
-    let ids: Vec<usize> = (0..4)
+    let ids: Vec<BodyKey> = (0..4)
         .map(|k| {
             let d = body(
                 &format!("c{k}"),
@@ -240,14 +243,14 @@ fn four_capsules_stacked_on_their_sides_stand_on_a_segment() {
                 0.0,
                 false,
             );
-            w.add_body(&d).unwrap()
+            w.create_body(&d).unwrap()
         })
         .collect();
     for _ in 0..600 {
         w.step().unwrap();
     }
     for (k, &i) in ids.iter().enumerate() {
-        let b = &w.bodies[i];
+        let b = &w.body(i).unwrap();
         let want = Vec2::new(0.0, 0.25 + 0.5 * k as f32);
         assert!(
             (b.position - want).length() < 0.02,
@@ -288,11 +291,11 @@ fn slide_over_seams(kind: SolverKind, plain: bool) -> f32 {
     );
     let sc = sandbox2d::scene::load_str(&text, "floor.toml").expect("loads");
     let mut w = World::from_def(&sc.world, settings(kind)).expect("builds");
-    let b = w.body_index("box").unwrap();
+    let b = w.order_of("box").unwrap();
     let mut worst = 0.0f32;
     for _ in 0..120 {
         w.step().unwrap();
-        worst = worst.max(v0 - w.bodies[b].velocity.x);
+        worst = worst.max(v0 - w.nth_body(b).velocity.x);
     }
     worst / v0
 }
@@ -329,19 +332,19 @@ fn a_one_sided_polyline_lets_a_ball_up_through_and_holds_it_on_top() {
     let sc = sandbox2d::scene::load_str(text, "t.toml").unwrap();
     for kind in [SolverKind::Soft, SolverKind::Pgs, SolverKind::Xpbd] {
         let mut w = World::from_def(&sc.world, settings(kind)).unwrap();
-        let b = w.body_index("ball").unwrap();
+        let b = w.order_of("ball").unwrap();
         // up through the line: v^2 = 64 - 2 g (y + 1) never meets it going up
         let mut top = f32::MIN;
         for _ in 0..240 {
             w.step().unwrap();
-            top = top.max(w.bodies[b].position.y);
+            top = top.max(w.nth_body(b).position.y);
         }
         let apex = -1.0 + 64.0 / (2.0 * G);
         assert!(
             (top - apex).abs() < 0.05,
             "{kind:?}: rose to {top}, free flight gives {apex}"
         );
-        let y = w.bodies[b].position.y;
+        let y = w.nth_body(b).position.y;
         assert!((y - 0.2).abs() < 0.01, "{kind:?}: rests at {y}, not on top");
     }
 }

@@ -1,5 +1,8 @@
 //! Sleeping: islands at rest stop costing, and wake when anything reaches them.
 
+#[path = "common/bodies.rs"]
+mod bodies;
+use bodies::ByOrder;
 use sandbox2d::{SolverKind, SolverSettings, World};
 
 /// A stack of `count` 1 m boxes on a static ground, gravity 10, under `kind`'s defaults
@@ -21,7 +24,7 @@ fn steps(w: &mut World, n: usize) {
 }
 
 fn asleep(w: &World) -> usize {
-    w.bodies.iter().filter(|b| b.asleep).count()
+    w.bodies().map(|(_, b)| b).filter(|b| b.asleep).count()
 }
 
 fn box_def(name: &str, y: f32) -> sandbox2d::BodyDef {
@@ -44,9 +47,17 @@ fn a_stack_at_rest_falls_asleep_and_stops_costing() {
         let mut w = stack(5, kind);
         steps(&mut w, 180);
         assert_eq!(asleep(&w), 5, "{kind:?}: all five asleep after 3 s");
-        let before: Vec<_> = w.bodies.iter().map(|b| (b.position, b.angle)).collect();
+        let before: Vec<_> = w
+            .bodies()
+            .map(|(_, b)| b)
+            .map(|b| (b.position, b.angle))
+            .collect();
         steps(&mut w, 60);
-        let after: Vec<_> = w.bodies.iter().map(|b| (b.position, b.angle)).collect();
+        let after: Vec<_> = w
+            .bodies()
+            .map(|(_, b)| b)
+            .map(|b| (b.position, b.angle))
+            .collect();
         assert_eq!(before, after, "{kind:?}: a sleeping stack moved");
         assert_eq!(
             w.stats().contacts,
@@ -54,9 +65,8 @@ fn a_stack_at_rest_falls_asleep_and_stops_costing() {
             "{kind:?}: contacts solved while asleep"
         );
         assert!(
-            w.bodies
-                .iter()
-                .all(|b| b.velocity == sandbox2d::math::Vec2::ZERO)
+            w.bodies()
+                .all(|(_, b)| b.velocity == sandbox2d::math::Vec2::ZERO)
         );
     }
 }
@@ -83,7 +93,7 @@ fn a_box_dropped_on_a_sleeping_stack_wakes_it_and_is_carried() {
         let mut w = stack(5, kind);
         steps(&mut w, 180);
         assert_eq!(asleep(&w), 5, "{kind:?}");
-        let top = w.add_body(&box_def("dropped", 8.0)).unwrap();
+        let top = w.create_body(&box_def("dropped", 8.0)).unwrap();
         let mut woke_at = None;
         for k in 0..240 {
             w.step().unwrap();
@@ -95,12 +105,12 @@ fn a_box_dropped_on_a_sleeping_stack_wakes_it_and_is_carried() {
         // free fall from 8 m to the top at 5 m takes sqrt(2 * 2.5 / 10) = 0.71 s: it must
         // wake before the box lands (42 steps), not after
         assert!(k < 45, "{kind:?}: woke at step {k}");
-        let y = w.bodies[top].position.y;
+        let y = w.body(top).unwrap().position.y;
         assert!(
             (y - 5.5).abs() < 0.05,
             "{kind:?}: the dropped box rests at {y}, not on the stack"
         );
-        for (i, b) in w.bodies[1..6].iter().enumerate() {
+        for (i, (_, b)) in w.bodies().skip(1).take(5).enumerate() {
             let want = 0.5 + i as f32;
             assert!(
                 (b.position.y - want).abs() < 0.05,
@@ -118,26 +128,27 @@ fn a_force_a_grab_or_a_new_velocity_wakes_the_island() {
         steps(&mut w, 180);
         assert_eq!(asleep(&w), 3, "{kind:?}");
         // a force on the bottom box wakes all three (one island)
-        let p = w.bodies[1].position;
-        w.apply_force_index(1, sandbox2d::math::Vec2::new(50.0, 0.0), p);
+        let p = w.nth_body(1).position;
+        w.apply_force(w.nth_key(1), sandbox2d::math::Vec2::new(50.0, 0.0), p)
+            .unwrap();
         w.step().unwrap();
         assert_eq!(asleep(&w), 0, "{kind:?}: a force woke nothing");
         steps(&mut w, 240);
         assert_eq!(asleep(&w), 3, "{kind:?}: asleep again");
         // the mouse
-        let grab = w
-            .grab(w.body_key(3).unwrap(), w.bodies[3].position)
-            .unwrap();
+        let grab = w.grab(w.nth_key(3), w.nth_body(3).position).unwrap();
         w.set_mouse(Some(grab));
         assert_eq!(asleep(&w), 0, "{kind:?}: a grab woke nothing");
         w.set_mouse(None);
         steps(&mut w, 240);
         assert_eq!(asleep(&w), 3, "{kind:?}: asleep again");
         // a velocity set from outside
-        w.bodies[2].velocity.x = 1.0;
+        let b = w.nth_body(2);
+        let v = sandbox2d::math::Vec2::new(1.0, b.velocity.y);
+        w.set_velocity(w.nth_key(2), v, b.angular_velocity).unwrap();
         w.step().unwrap();
         assert_eq!(asleep(&w), 0, "{kind:?}: a new velocity woke nothing");
-        assert!(w.bodies[2].position.x > 0.0, "{kind:?}: and it moved");
+        assert!(w.nth_body(2).position.x > 0.0, "{kind:?}: and it moved");
     }
 }
 
@@ -152,7 +163,7 @@ fn a_sleeping_world_saves_and_restores_bit_for_bit() {
     let mut r = stack(5, SolverKind::Soft);
     r.restore(&saved).unwrap();
     for world in [&mut w, &mut r] {
-        world.add_body(&box_def("dropped", 7.0)).unwrap();
+        world.create_body(&box_def("dropped", 7.0)).unwrap();
         steps(world, 120);
     }
     assert_eq!(w.state_hash(), r.state_hash());
@@ -160,7 +171,7 @@ fn a_sleeping_world_saves_and_restores_bit_for_bit() {
     let back = sandbox2d::WorldState::from_json(&json).unwrap();
     let mut r2 = stack(5, SolverKind::Soft);
     r2.restore(&back).unwrap();
-    r2.add_body(&box_def("dropped", 7.0)).unwrap();
+    r2.create_body(&box_def("dropped", 7.0)).unwrap();
     steps(&mut r2, 120);
     assert_eq!(w.state_hash(), r2.state_hash(), "through JSON");
 }
@@ -203,15 +214,17 @@ fn a_jointed_island_sleeps_costs_nothing_and_wakes_when_hit() {
     let sc = sandbox2d::scene::load_str(text, "hang.toml").unwrap();
     for kind in SolverKind::ALL {
         let mut w = World::from_def(&sc.world, SolverSettings::defaults(kind)).unwrap();
-        let disc = w.body_index("disc").unwrap();
-        let links: Vec<usize> = (0..w.bodies.len())
-            .filter(|&i| w.bodies[i].is_dynamic() && i != disc)
+        let disc = w.order_of("disc").unwrap();
+        let links: Vec<usize> = (0..w.body_count())
+            .filter(|&i| w.nth_body(i).is_dynamic() && i != disc)
             .collect();
         assert_eq!(links.len(), 3);
         let mut slept = None;
         for k in 0..300 {
             w.step().unwrap();
-            if slept.is_none() && w.bodies[disc].asleep && links.iter().all(|&i| w.bodies[i].asleep)
+            if slept.is_none()
+                && w.nth_body(disc).asleep
+                && links.iter().all(|&i| w.nth_body(i).asleep)
             {
                 slept = Some(k);
             }
@@ -228,11 +241,11 @@ fn a_jointed_island_sleeps_costs_nothing_and_wakes_when_hit() {
             h,
             "{kind:?}: a sleeping jointed island moved"
         );
-        let y = w.bodies[disc].position.y;
+        let y = w.nth_body(disc).position.y;
         // within 2 cm: PGS's hinge stretches 1.4 cm under the load (docs/tradeoffs.md)
         assert!((y - 4.0).abs() < 0.02, "{kind:?}: the disc hangs at {y}");
         // a ball dropped onto the disc wakes it; the chain sleeps on
-        w.add_body(&sandbox2d::BodyDef {
+        w.create_body(&sandbox2d::BodyDef {
             name: "ball".into(),
             shape: sandbox2d::ShapeDef::Circle { radius: 0.1 },
             position: glam::Vec2::new(0.05, 4.5),
@@ -242,11 +255,11 @@ fn a_jointed_island_sleeps_costs_nothing_and_wakes_when_hit() {
         let mut woke = false;
         for _ in 0..30 {
             w.step().unwrap();
-            woke |= !w.bodies[disc].asleep;
+            woke |= !w.nth_body(disc).asleep;
         }
         assert!(woke, "{kind:?}: the ball woke the disc");
         assert!(
-            links.iter().all(|&i| w.bodies[i].asleep),
+            links.iter().all(|&i| w.nth_body(i).asleep),
             "{kind:?}: the chain slept on"
         );
     }
@@ -267,22 +280,22 @@ fn sleeper_and_ball(kind: SolverKind) -> World {
 fn a_body_made_asleep_is_not_integrated_until_something_touches_it() {
     for kind in SolverKind::ALL {
         let mut w = sleeper_and_ball(kind);
-        let s = w.body_index("sleeper").unwrap();
-        let b = w.body_index("ball").unwrap();
-        assert!(w.bodies[s].asleep, "{kind:?}: made asleep");
-        let start = (w.bodies[s].position, w.bodies[s].angle);
+        let s = w.order_of("sleeper").unwrap();
+        let b = w.order_of("ball").unwrap();
+        assert!(w.nth_body(s).asleep, "{kind:?}: made asleep");
+        let start = (w.nth_body(s).position, w.nth_body(s).angle);
         // the ball falls 4.25 m to the box's top: sqrt(2 * 4.25 / 10) = 0.92 s, 55 steps
         let mut woke_at = None;
         for i in 0..120 {
             w.step().unwrap();
-            if w.bodies[s].asleep {
+            if w.nth_body(s).asleep {
                 // asleep in gravity, 5 m up: not one bit moved, no velocity
                 assert_eq!(
-                    (w.bodies[s].position, w.bodies[s].angle),
+                    (w.nth_body(s).position, w.nth_body(s).angle),
                     start,
                     "{kind:?} step {i}"
                 );
-                assert_eq!(w.bodies[s].velocity, sandbox2d::math::Vec2::ZERO);
+                assert_eq!(w.nth_body(s).velocity, sandbox2d::math::Vec2::ZERO);
             } else if woke_at.is_none() {
                 woke_at = Some(i);
             }
@@ -295,13 +308,13 @@ fn a_body_made_asleep_is_not_integrated_until_something_touches_it() {
         );
         // and then fell like any body: 2 s after waking it lies on the ground
         steps(&mut w, 120);
-        let y = w.bodies[s].position.y;
+        let y = w.nth_body(s).position.y;
         assert!(
             (0.4..0.6).contains(&y),
             "{kind:?}: the box rests on the ground, y = {y}"
         );
         assert!(
-            w.bodies[b].position.y < 3.0,
+            w.nth_body(b).position.y < 3.0,
             "{kind:?}: the ball came down too"
         );
     }
@@ -317,16 +330,16 @@ fn bodies_made_asleep_and_jointed_sleep_as_one_island_and_wake_together() {
     let sc = sandbox2d::scene::load_str(text, "pair.toml").unwrap();
     let mut w = World::from_def(&sc.world, SolverSettings::defaults(SolverKind::Soft)).unwrap();
     assert!(
-        w.bodies[0].asleep && w.bodies[1].asleep,
+        w.nth_body(0).asleep && w.nth_body(1).asleep,
         "the joint did not wake them"
     );
     // the ball lands on b only (0.9 m in 0.42 s); a wakes with it
     for _ in 0..60 {
         w.step().unwrap();
-        assert_eq!(w.bodies[0].asleep, w.bodies[1].asleep, "one island");
+        assert_eq!(w.nth_body(0).asleep, w.nth_body(1).asleep, "one island");
     }
-    assert!(!w.bodies[0].asleep, "hit, the pair woke");
-    assert!(w.bodies[0].position.y < 5.0, "and falls");
+    assert!(!w.nth_body(0).asleep, "hit, the pair woke");
+    assert!(w.nth_body(0).position.y < 5.0, "and falls");
 }
 
 /// Ragdolls (Box2D's humans: hinges with limits, joint friction and springs) dropped on
@@ -342,7 +355,11 @@ fn dropped_ragdolls_come_to_rest_and_fall_asleep() {
     let sc = sandbox2d::scene::load_str(text, "humans.toml").unwrap();
     for kind in [SolverKind::Soft, SolverKind::Pgs, SolverKind::Xpbd] {
         let mut w = World::from_def(&sc.world, SolverSettings::defaults(kind)).unwrap();
-        let dynamic = w.bodies.iter().filter(|b| b.is_dynamic()).count();
+        let dynamic = w
+            .bodies()
+            .map(|(_, b)| b)
+            .filter(|b| b.is_dynamic())
+            .count();
         assert_eq!(dynamic, 66);
         // at most 10 s
         let mut n = 0;
@@ -360,13 +377,20 @@ fn dropped_ragdolls_come_to_rest_and_fall_asleep() {
     // at 0.1 m/s, over the 0.05 m/s threshold: it stays awake however slow its centre
     let mut w = stack(1, SolverKind::Soft);
     w.settings.sleep = true;
-    let b = w.bodies.iter().position(|b| b.is_dynamic()).unwrap();
+    let (b, body) = w.bodies().find(|(_, b)| b.is_dynamic()).unwrap();
+    let at = sandbox2d::math::Vec2::new(body.position.x, 5.0);
+    let angle = body.angle;
     w.gravity = None;
+    // lifted clear of the ground and set spinning once: nothing touches it after
+    w.set_transform(b, at, angle).unwrap();
+    w.set_velocity(b, sandbox2d::math::Vec2::ZERO, 0.2).unwrap();
     for _ in 0..120 {
-        w.bodies[b].velocity = sandbox2d::math::Vec2::ZERO;
-        w.bodies[b].position.y = 5.0;
-        w.bodies[b].angular_velocity = 0.2;
         w.step().unwrap();
     }
-    assert!(!w.bodies[b].asleep, "a spinning body stays awake");
+    let body = w.body(b).unwrap();
+    assert!(
+        (body.position.y - 5.0).abs() < 1e-3,
+        "it stayed where it was put"
+    );
+    assert!(!body.asleep, "a spinning body stays awake");
 }

@@ -745,7 +745,7 @@ fn the_feature_scenes_draw_each_moving_body_where_the_physics_puts_it() {
             (0..3).all(|c| p[c].abs_diff(bg[c]) <= CHANNEL_TOLERANCE)
         };
         let mut checked = 0;
-        for b in w.bodies.iter().filter(|b| b.is_dynamic()) {
+        for b in w.bodies().map(|(_, b)| b).filter(|b| b.is_dynamic()) {
             let c = camera.world_to_screen(b.position);
             let size = 2.0 * b.shape.radius() * camera.pixels_per_meter;
             if !b.contains_local(Vec2::ZERO)

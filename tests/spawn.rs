@@ -4,6 +4,9 @@
 //! the offsets put them, the removal of many bodies at once the same as one by one, and
 //! the path against its closed form.
 
+#[path = "common/bodies.rs"]
+mod bodies;
+use bodies::ByOrder;
 use sandbox2d::math::Vec2;
 use sandbox2d::{SolverKind, SolverSettings, World};
 
@@ -48,7 +51,7 @@ fn spawns_are_deterministic_twice_and_at_one_and_two_threads() {
 #[test]
 fn a_copy_is_made_when_due_and_the_oldest_goes_past_the_count() {
     let mut w = world(SPAWNS, SolverKind::Soft, 1);
-    let floor = w.bodies.len();
+    let floor = w.body_count();
     assert_eq!(floor, 300, "nothing spawned before the first step");
     let group = 12;
     for step in 0..60u64 {
@@ -58,7 +61,7 @@ fn a_copy_is_made_when_due_and_the_oldest_goes_past_the_count() {
         assert_eq!(w.spawned(), vec![made], "after step {step}");
         let alive = made.min(3);
         assert_eq!(
-            w.bodies.len(),
+            w.body_count(),
             floor + group * alive as usize,
             "after step {step}"
         );
@@ -66,7 +69,7 @@ fn a_copy_is_made_when_due_and_the_oldest_goes_past_the_count() {
         // the live copies are the newest, in order, after the floor
         let first = made - alive;
         for (i, k) in (first..made).enumerate() {
-            let hip = &w.bodies[floor + group * i];
+            let hip = &w.nth_body(floor + group * i);
             assert_eq!(hip.name, format!("spawn0/humans0_0_hip#{k}"));
         }
     }
@@ -77,14 +80,14 @@ fn copies_lie_at_their_offsets() {
     // no gravity: a copy stays where it was made
     let text = SPAWNS.replace("gravity = [0.0, -10.0]", "gravity = [0.0, 0.0]");
     let mut w = world(&text, SolverKind::Soft, 1);
-    let floor = w.bodies.len();
+    let floor = w.body_count();
     let mut seen = 0;
     for _ in 0..60 {
         w.step().unwrap();
         let made = w.spawned()[0];
         let alive = made.min(3);
         for (i, k) in (made - alive..made).enumerate() {
-            let crate_ = &w.bodies[floor + 12 * i + 11];
+            let crate_ = &w.nth_body(floor + 12 * i + 11);
             assert_eq!(crate_.name, format!("spawn0/crate#{k}"));
             // copy k at (1, 3) + (k mod 4) (3, 0)
             let want = Vec2::new(1.0 + 3.0 * (k % 4) as f32, 3.0);
@@ -122,14 +125,14 @@ fn removing_many_bodies_at_once_is_removing_them_one_by_one() {
         let mut many = one.clone();
         // the first live copy's bodies and a floor box, as keys
         let picks: Vec<usize> = (300..312).chain([7]).collect();
-        let keys: Vec<_> = picks.iter().map(|&i| one.body_key(i).unwrap()).collect();
+        let keys: Vec<_> = picks.iter().map(|&i| one.nth_key(i)).collect();
         for &k in &keys {
             one.remove_body(k).unwrap();
         }
         assert_eq!(many.remove_bodies(&keys).unwrap(), keys.len());
-        assert_eq!(many.bodies.len(), one.bodies.len());
+        assert_eq!(many.body_count(), one.body_count());
         assert_eq!(many.joints().len(), one.joints().len());
-        for (a, b) in many.bodies.iter().zip(&one.bodies) {
+        for ((_, a), (_, b)) in many.bodies().zip(one.bodies()) {
             assert_eq!((&a.name, a.asleep), (&b.name, b.asleep));
         }
         assert_eq!(run(&mut many, 30), run(&mut one, 30), "{kind:?}");
@@ -150,7 +153,7 @@ fn a_kinematic_body_follows_its_path() {
             w.step().unwrap();
             let t = n as f64 * dt;
             let want = 60.0 * (0.2 * t).sin();
-            let p = w.bodies[0].position;
+            let p = w.nth_body(0).position;
             worst = worst.max((p.x as f64 - want).abs());
             assert_eq!(p.y, 4.0, "{kind:?}");
         }

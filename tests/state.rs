@@ -3,6 +3,9 @@
 //! never stopped; damaged or foreign state files are refused, through the library and
 //! through `simulate --save-state / --load-state`.
 
+#[path = "common/bodies.rs"]
+mod bodies;
+use bodies::ByOrder;
 use sandbox2d::math::Vec2;
 use sandbox2d::{SolverKind, SolverSettings, StateError, World, WorldState};
 
@@ -97,17 +100,16 @@ fn the_mouse_joint_and_queued_forces_are_kept() {
     for kind in KINDS {
         let mut a = build("pyramid", kind);
         steps(&mut a, 20);
-        let top = a.bodies.len() - 1;
-        let p = a.bodies[top].position + Vec2::new(0.2, 0.1);
-        let grab = a.grab(a.body_key(top).unwrap(), p).unwrap();
+        let top = a.body_count() - 1;
+        let p = a.nth_body(top).position + Vec2::new(0.2, 0.1);
+        let grab = a.grab(a.nth_key(top), p).unwrap();
         a.set_mouse(Some(grab));
-        a.set_mouse(Some(sandbox2d::MouseJoint {
-            target: p + Vec2::new(1.0, 2.0),
-            ..grab
-        }));
+        let mut moved = grab;
+        moved.target = p + Vec2::new(1.0, 2.0);
+        a.set_mouse(Some(moved));
         // a force queued for the next step only
-        let below = a.body_key(top - 1).unwrap();
-        a.apply_force(below, Vec2::new(300.0, 50.0), a.bodies[top - 1].position)
+        let below = a.nth_key(top - 1);
+        a.apply_force(below, Vec2::new(300.0, 50.0), a.nth_body(top - 1).position)
             .unwrap();
         let s = through_bytes(&a.snapshot());
         let mut b = build("pyramid", kind);
@@ -135,7 +137,7 @@ fn events_continue_the_same() {
             b.step().unwrap();
             // the restored world's keys are new ones: the events name the same bodies
             let named = |w: &World| {
-                let at = |k| w.body_of_key(k).unwrap();
+                let at = |k| w.order_of_key(k).unwrap();
                 w.events()
                     .iter()
                     .map(|e| (e.kind, at(e.a), at(e.b), e.impulse))

@@ -107,7 +107,8 @@ fn a_pile_falls_asleep_the_same_way_on_two_threads() {
         let mut asleep_at = None;
         for i in 0..900 {
             w.step().unwrap();
-            if asleep_at.is_none() && w.bodies.iter().filter(|b| b.asleep).count() > 300 {
+            if asleep_at.is_none() && w.bodies().map(|(_, b)| b).filter(|b| b.asleep).count() > 300
+            {
                 asleep_at = Some(i);
             }
         }

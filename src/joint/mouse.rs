@@ -12,10 +12,12 @@ use crate::constraint::{SoftBody, Softness, SolverBody};
 use crate::math::{Vec2, cross, cross_sv};
 
 /// Drags one body's point towards a world target with a damped spring (the window's mouse).
+/// Made by [`crate::World::grab`] (a body by key); its target and feel may be changed
+/// before it is handed to [`crate::World::set_mouse`].
 #[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct MouseJoint {
-    /// Index of the dragged body in the world.
-    pub body: usize,
+    /// Index of the dragged body in the world ([`crate::World::mouse_body`] gives its key).
+    pub(crate) body: usize,
     /// The grabbed point, in the body's frame from its centre of mass (m).
     pub local: Vec2,
     /// Where the point is pulled (world, m).

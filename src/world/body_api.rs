@@ -3,6 +3,7 @@
 //! velocity for a static body, a turn for a particle are refused, and the body is left
 //! as it was) and wakes the body's island, as Box2D's setters do.
 
+use super::edit::Keys;
 use super::{BodyKey, JointKey, World};
 use crate::body::Body;
 use crate::defs::{BodyModel, BodyType};
@@ -61,10 +62,76 @@ pub enum EditError {
     },
 }
 
+/// The world's bodies with their keys, in creation order: [`World::bodies`].
+#[derive(Clone, Debug)]
+pub struct Bodies<'a> {
+    bodies: &'a [Body],
+    keys: &'a Keys,
+    range: std::ops::Range<usize>,
+}
+
+impl<'a> Bodies<'a> {
+    fn at(&self, i: usize) -> (BodyKey, &'a Body) {
+        (self.keys.body(i), &self.bodies[i])
+    }
+}
+
+impl<'a> Iterator for Bodies<'a> {
+    type Item = (BodyKey, &'a Body);
+
+    fn next(&mut self) -> Option<Self::Item> {
+        let i = self.range.next()?;
+        Some(self.at(i))
+    }
+
+    fn size_hint(&self) -> (usize, Option<usize>) {
+        self.range.size_hint()
+    }
+
+    fn nth(&mut self, n: usize) -> Option<Self::Item> {
+        let i = self.range.nth(n)?;
+        Some(self.at(i))
+    }
+}
+
+impl DoubleEndedIterator for Bodies<'_> {
+    fn next_back(&mut self) -> Option<Self::Item> {
+        let i = self.range.next_back()?;
+        Some(self.at(i))
+    }
+
+    fn nth_back(&mut self, n: usize) -> Option<Self::Item> {
+        let i = self.range.nth_back(n)?;
+        Some(self.at(i))
+    }
+}
+
+impl ExactSizeIterator for Bodies<'_> {}
+
+impl std::iter::FusedIterator for Bodies<'_> {}
+
 impl World {
     /// The body of `key`, or None if it was removed.
     pub fn body(&self, key: BodyKey) -> Option<&Body> {
         self.bodies.get(self.body_of_key(key)?)
+    }
+
+    /// Every body with its key, in creation order (a removed body leaves the order of
+    /// the rest as it was). Reading a body changes nothing; to change one, name it by
+    /// its key to a setter ([`World::set_transform`], [`World::set_velocity`],
+    /// [`World::apply_impulse`], [`World::apply_force_at`], ...).
+    pub fn bodies(&self) -> Bodies<'_> {
+        let n = self.bodies.len().min(self.body_keys.len());
+        Bodies {
+            bodies: &self.bodies,
+            keys: &self.body_keys,
+            range: 0..n,
+        }
+    }
+
+    /// How many bodies the world has.
+    pub fn body_count(&self) -> usize {
+        self.bodies.len()
     }
 
     /// The index of `key`'s body, checking `values` are finite.

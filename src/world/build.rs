@@ -139,7 +139,8 @@ impl World {
         Ok(self.joint_key(i).expect("a joint just added has a key"))
     }
 
-    /// Adds a body and returns its key (see [`World::add_body`]).
+    /// Adds a body (its mass and inertia from the shape and density, or the given mass)
+    /// and returns its key. A name another body has is refused.
     pub fn create_body(&mut self, def: &BodyDef) -> Result<BodyKey, BuildError> {
         let i = self.add_body(def)?;
         self.sync_keys();
@@ -205,18 +206,24 @@ impl World {
     }
 
     /// Adds a body; its mass and inertia come from the shape and density (or the given mass).
-    pub fn add_body(&mut self, def: &BodyDef) -> Result<BodyId, BuildError> {
+    pub(crate) fn add_body(&mut self, def: &BodyDef) -> Result<BodyId, BuildError> {
         if self.bodies.iter().any(|b| b.name == def.name) {
             return Err(BuildError::DuplicateName(def.name.clone()));
         }
         let body = World::make_body(def, self.gravity)?;
-        Ok(self.add_made_body(body, def.awake))
+        Ok(self.add_made_index(body, def.awake))
     }
 
     /// Adds a body made by [`World::make_body`] without checking that its name is new
     /// (the caller has: a loader with a set of names), asleep on an island of its own if
-    /// not `awake` and dynamic ([`BodyDef::awake`]).
-    pub fn add_made_body(&mut self, mut body: Body, awake: bool) -> BodyId {
+    /// not `awake` and dynamic ([`BodyDef::awake`]). Returns its key.
+    pub fn add_made_body(&mut self, body: Body, awake: bool) -> BodyKey {
+        let i = self.add_made_index(body, awake);
+        self.body_keys.body(i)
+    }
+
+    /// [`World::add_made_body`], returning the body's index.
+    pub(crate) fn add_made_index(&mut self, mut body: Body, awake: bool) -> BodyId {
         self.damped |= body.linear_damping != 0.0 || body.angular_damping != 0.0;
         if !awake && body.is_dynamic() {
             // an island's label is the index of one of its bodies: its own
@@ -234,7 +241,7 @@ impl World {
         self.bodies.len() - 1
     }
 
-    /// The body a description makes, as [`World::add_body`] would add it to a world with
+    /// The body a description makes, as [`World::create_body`] would add it to a world with
     /// this gravity, without adding it: every value it derives (centre of mass, mass,
     /// inertia and their inverses, kinetic and potential energy) is checked to be finite.
     pub fn make_body(def: &BodyDef, gravity: Option<Vec2>) -> Result<Body, BuildError> {

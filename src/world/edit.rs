@@ -12,7 +12,8 @@ use super::World;
 use crate::body::{Body, BodyId};
 use crate::joint::{Joint, JointId};
 
-/// A body's name for the world's life: [`World::body_key`], [`World::body_of_key`].
+/// A body's name for the world's life: [`World::create_body`] and [`World::find_body`]
+/// give one, [`World::body`] reads the body, [`World::bodies`] lists every body's.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, serde::Serialize, serde::Deserialize)]
 pub struct BodyKey {
     slot: u32,
@@ -72,6 +73,11 @@ impl Keys {
             };
             self.by_index.push(key);
         }
+    }
+
+    /// How many items have keys.
+    pub(crate) fn len(&self) -> usize {
+        self.by_index.len()
     }
 
     fn key(&self, index: usize) -> Option<(u32, u32)> {
@@ -145,15 +151,14 @@ fn shift(i: usize, gone: usize) -> usize {
 }
 
 impl World {
-    /// The key of body `index` (None past the end). Bodies pushed straight into
-    /// [`World::bodies`] get theirs at the next [`World::add_body`], step or removal.
-    pub fn body_key(&self, index: BodyId) -> Option<BodyKey> {
+    /// The key of body `index` (None past the end).
+    pub(crate) fn body_key(&self, index: BodyId) -> Option<BodyKey> {
         let (slot, generation) = self.body_keys.key(index)?;
         Some(BodyKey { slot, generation })
     }
 
     /// Where the body of `key` is now, or None if it was removed.
-    pub fn body_of_key(&self, key: BodyKey) -> Option<BodyId> {
+    pub(crate) fn body_of_key(&self, key: BodyKey) -> Option<BodyId> {
         self.body_keys.index(key.slot, key.generation)
     }
 

@@ -7,8 +7,9 @@
 //! and from then on kept by the step: each body's box is fattened by [`QUERY_MARGIN`]
 //! when it enters the tree, and a body whose box leaves its fattened box goes to a short
 //! list tested one by one, until the list is long enough that the tree is built again.
-//! Adding, removing and moving bodies through the world's methods is seen; a body's
-//! position written straight into [`World::bodies`] is seen at the next step.
+//! Adding, removing and moving bodies through the world's methods is seen; a position
+//! the crate writes straight into the body list (the window's drag) is seen at the
+//! next step.
 //!
 //! A query's [`Filter`] is one-sided, as in Box2D: a body takes part when its category
 //! is in the filter's mask (`Filter::default()` takes every body). The bodies' own masks
@@ -18,9 +19,7 @@
 //! nothing (`for_each_*`, [`World::ray_cast`]), and one that returns a `Vec` in a
 //! fixed order (creation order, or nearest first).
 //!
-//! Results name bodies by [`BodyKey`]. A body pushed straight into [`World::bodies`]
-//! has no key until the world next steps, adds or removes a body ([`World::body_key`]),
-//! and no query reports it before then.
+//! Results name bodies by [`BodyKey`]; a body has its key from the moment it is added.
 
 use std::sync::{Arc, Mutex};
 

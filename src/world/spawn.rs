@@ -193,7 +193,7 @@ impl World {
             b.position += off;
             match World::make_body(&b, self.gravity) {
                 Ok(body) => {
-                    let i = self.add_made_body(body, b.awake);
+                    let i = self.add_made_index(body, b.awake);
                     index.push(Some(i));
                     keys.extend(self.body_key(i));
                 }

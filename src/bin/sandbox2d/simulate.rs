@@ -339,11 +339,14 @@ pub fn simulate(a: &SimulateArgs) -> Result<(), Failure> {
         // the energy at the end: the body whose term overflowed (at the start, the
         // scene loader has refused such a body)
         let culprit = match world.energy_not_finite() {
-            Some((i, why)) if what.starts_with("energy") => {
-                format!(
-                    " (body {:?} (#{i}): {why})",
-                    one_line(&world.bodies[i].name)
-                )
+            Some((key, why)) if what.starts_with("energy") => {
+                // #n: its place in creation order (the scene file's order)
+                let (i, (_, b)) = world
+                    .bodies()
+                    .enumerate()
+                    .find(|(_, (k, _))| *k == key)
+                    .expect("the key energy_not_finite gives names a body");
+                format!(" (body {:?} (#{i}): {why})", one_line(&b.name))
             }
             _ => String::new(),
         };
@@ -358,7 +361,7 @@ pub fn simulate(a: &SimulateArgs) -> Result<(), Failure> {
     if a.json {
         let used = world.thread_use();
         let figures = Figures {
-            bodies: world.bodies.len(),
+            bodies: world.body_count(),
             contacts: MaxMean {
                 max: summary.contacts_max,
                 mean: summary.contacts_mean,
@@ -448,7 +451,7 @@ pub fn simulate(a: &SimulateArgs) -> Result<(), Failure> {
         say!(
             "steps        {} ({} bodies, {} thread{}{})",
             summary.steps,
-            world.bodies.len(),
+            world.body_count(),
             world.threads(),
             if world.threads() == 1 { "" } else { "s" },
             if used.steps_on_one + used.steps_on_many > 0 {
