@@ -42,7 +42,7 @@ fn main() {
         "{} {n}x{n} joint grid ({} joints), {steps} steps: stretch at step 60 {at60:.4} m, \
          largest {worst:.4} m, median {:.3} ms/step",
         kind.name(),
-        w.joints().len(),
+        w.joint_count(),
         ms[ms.len() / 2]
     );
 }

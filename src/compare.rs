@@ -104,7 +104,7 @@ impl Pane {
             } else {
                 0.0
             },
-            joint_error: (!self.world.joints().is_empty()).then(|| self.world.joint_error()),
+            joint_error: (!self.world.joints.is_empty()).then(|| self.world.joint_error()),
             energy_drift: (self.energy_start.abs() > 1e-9)
                 .then(|| (e - self.energy_start) / self.energy_start.abs()),
         }

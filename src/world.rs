@@ -28,7 +28,7 @@ mod state;
 mod threads;
 mod walls;
 
-pub use body_api::{Bodies, EditError};
+pub use body_api::{Bodies, EditError, Joints, Keyed};
 use build::energy_problem;
 pub use build::{BodyInput, BuildError};
 pub use edit::{BodyKey, JointKey, RemoveError};
@@ -283,11 +283,6 @@ impl World {
         ))
     }
 
-    /// The joints, in creation order.
-    pub fn joints(&self) -> &[Joint] {
-        &self.joints
-    }
-
     /// Sets a joint's drive: a constant force (N, prismatic and distance joints, along
     /// the axis) or torque (N m, hinge and weld) on its second body, with the reaction on
     /// the first, every step until changed (the seed's ApplyForce / ApplyTorque).
@@ -310,8 +305,8 @@ impl World {
         Ok(())
     }
 
-    /// The joint of `key`, or None if it was removed (or broke). Its `a` and `b` are
-    /// body indices now; [`World::joint_bodies`] gives their keys.
+    /// The joint of `key`, or None if it was removed (or broke).
+    /// [`World::joint_bodies`] gives its bodies' keys.
     pub fn joint(&self, key: JointKey) -> Option<&Joint> {
         self.joints.get(self.joint_of_key(key)?)
     }
@@ -439,9 +434,21 @@ impl World {
         self.time
     }
 
-    /// This step's contacts (pairs and manifolds), sorted by pair.
+    /// This step's contacts (pairs and manifolds), sorted by pair (the bodies'
+    /// creation order).
     pub fn contacts(&self) -> &[Contact] {
         &self.contacts
+    }
+
+    /// The keys of the two bodies of a contact of [`World::contacts`], a (made first)
+    /// then b: the normal points from a to b. A contact is this step's: one copied
+    /// from another world or kept across a removal may name other bodies, or none (then
+    /// None).
+    pub fn contact_bodies(&self, contact: &Contact) -> Option<[BodyKey; 2]> {
+        Some([
+            self.body_key(contact.a as usize)?,
+            self.body_key(contact.b as usize)?,
+        ])
     }
 
     /// Advances the world by one step of `settings.dt` (in `settings.substeps` substeps)

@@ -3,9 +3,6 @@
 //! gives the box back), the same rigid motion kept, stale keys refused with nothing
 //! changed, and queries and contacts that see the new shape.
 
-#[path = "common/bodies.rs"]
-mod bodies;
-use bodies::ByOrder;
 #[path = "common/ground.rs"]
 mod ground;
 use glam::Vec2;
@@ -239,11 +236,11 @@ fn a_joint_on_the_body_keeps_its_anchor_on_the_material() {
             },
         )
         .unwrap();
-    let before = w.joint(j).unwrap().world_anchors(&w.body_list());
+    let before = w.joint_anchors(j).unwrap();
     w.add_shape(b, &disc(Vec2::new(2.0, 0.0))).unwrap();
-    let after = w.joint(j).unwrap().world_anchors(&w.body_list());
+    let after = w.joint_anchors(j).unwrap();
     assert!((before.1 - after.1).length() < 1e-5, "{before:?} {after:?}");
-    assert!(w.joint(j).unwrap().position_error(&w.body_list()) < 1e-5);
+    assert!(w.joint_position_error(j).unwrap() < 1e-5);
 }
 
 #[test]

@@ -62,7 +62,7 @@ fn removing_a_chain_link_removes_its_joints_and_keeps_the_rest() {
         let mut a = World::from_def(&less, settings(kind)).unwrap();
         let mut b = World::from_def(&def, settings(kind)).unwrap();
         b.remove_body(b.nth_key(last)).unwrap();
-        assert_eq!(b.joints().len(), less.joints.len());
+        assert_eq!(b.joint_count(), less.joints.len());
         assert_eq!(hashes(&mut a, 60), hashes(&mut b, 60), "{kind:?}");
     }
 }
@@ -175,9 +175,9 @@ fn a_pendulum_whose_hinge_is_removed_falls_freely() {
             .position(|b| b.is_dynamic())
             .unwrap();
         let (p0, v0) = (w.nth_body(disc).position, w.nth_body(disc).velocity);
-        let key = w.joint_key(0).unwrap();
+        let key = w.joints().next().unwrap().0;
         w.remove_joint(key).unwrap();
-        assert!(w.joints().is_empty());
+        assert!((w.joint_count() == 0));
         assert_eq!(w.remove_joint(key).unwrap_err(), RemoveError::NoSuchJoint);
         let g = w.gravity.unwrap();
         let n = 30;

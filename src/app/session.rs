@@ -530,7 +530,7 @@ impl Session {
                     }
                 }
                 let s = *self.world.stats();
-                let joint_error = if self.world.joints().is_empty() {
+                let joint_error = if self.world.joints.is_empty() {
                     0.0
                 } else {
                     self.world.joint_error()
@@ -814,7 +814,7 @@ impl Session {
                     / n as f64
             }),
             penetration: last.map_or(0.0, |s| s.penetration),
-            joint_error: (!self.world.joints().is_empty())
+            joint_error: (!self.world.joints.is_empty())
                 .then(|| last.map_or(0.0, |s| s.joint_error)),
             energy_drift: (self.energy_start.abs() > 1e-9 && last.is_some())
                 .then(|| last.map_or(0.0, |s| s.energy_drift)),

@@ -408,7 +408,7 @@ fn figures(ui: &mut Ui, s: &Session, frame: FrameStats) {
             if asleep > 0 {
                 row("asleep", asleep.to_string());
             }
-            row("joints", s.world.joints().len().to_string());
+            row("joints", s.world.joints.len().to_string());
             row("sim time", format!("{:.2} s", s.world.time()));
             row("ms / step", format!("{:.3} (mean {mean_ms:.3})", last.ms));
             row("contacts", last.contacts.to_string());
@@ -445,7 +445,7 @@ fn plots(ui: &mut Ui, s: &Session, others: &[Session]) {
         &series(&|x| Some(f64::from(x.ms))),
         Color32::from_rgb(90, 200, 255),
     );
-    if panes.iter().any(|p| !p.world.joints().is_empty()) {
+    if panes.iter().any(|p| !p.world.joints.is_empty()) {
         plot(
             ui,
             "joint error (m)",

@@ -282,7 +282,7 @@ pub fn settings_grid() -> Vec<Setting> {
 /// The largest anchor separation of the world's joints (m), or `None` for a world
 /// without joints.
 pub fn joint_error(world: &World) -> Option<f32> {
-    (!world.joints().is_empty()).then(|| world.joint_error())
+    (!world.joints.is_empty()).then(|| world.joint_error())
 }
 
 /// How long and how often to run a scene.

@@ -187,11 +187,11 @@ impl Exact {
         }
         let g = dv(w.gravity.unwrap_or(glam::Vec2::ZERO));
         let statics = w.bodies.len() - movers.len();
-        if w.joints().is_empty() && statics == 0 {
+        if w.joints.is_empty() && statics == 0 {
             return Self::flight(w, &movers, g);
         }
-        if w.joints().len() == 1 && movers.len() == 1 && statics == 1 && w.drag.is_none() {
-            let j = &w.joints()[0];
+        if w.joints.len() == 1 && movers.len() == 1 && statics == 1 && w.drag.is_none() {
+            let j = &w.joints[0];
             let body = movers[0];
             let other = if j.a == body { j.b } else { j.a };
             let local = if j.a == body { j.local_a } else { j.local_b };
@@ -243,7 +243,7 @@ impl Exact {
                 angle: b.angle as f64,
             });
         }
-        if w.joints().is_empty() && movers.len() == 1 && statics == 1 && w.drag.is_none() {
+        if w.joints.is_empty() && movers.len() == 1 && statics == 1 && w.drag.is_none() {
             let body = movers[0];
             let ground = (0..w.bodies.len())
                 .find(|&i| i != body)

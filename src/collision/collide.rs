@@ -19,13 +19,14 @@ use crate::defs::{BodyType, Filter};
 use crate::math::{Aabb, BODY_AHEAD, BODY_PASS_BLOCK, Vec2, prefetch};
 use crate::parallel::{self, Pool};
 
-/// A touching pair of bodies and its manifold. `a < b`; the normal points from a to b.
+/// A touching pair of bodies and its manifold: a made before b; the normal points from
+/// a to b. [`crate::World::contact_bodies`] gives the two bodies' keys.
 #[derive(Clone, Copy, Debug, Default, serde::Serialize, serde::Deserialize)]
 pub struct Contact {
     /// Index of the first body (the lower one) in the world.
-    pub a: u32,
+    pub(crate) a: u32,
     /// Index of the second body in the world.
-    pub b: u32,
+    pub(crate) b: u32,
     /// The touching points and their shared normal.
     pub manifold: Manifold,
     /// Mixed friction coefficient: sqrt(mu_a mu_b).

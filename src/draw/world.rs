@@ -95,7 +95,7 @@ impl Tint {
                         out[i] = out[i].max(deepest);
                     }
                 }
-                for j in world.joints() {
+                for j in &world.joints {
                     let e = j.position_error(&world.bodies);
                     for i in [j.a, j.b] {
                         out[i] = out[i].max(e);
@@ -274,7 +274,7 @@ pub fn fill_world_draw_list(list: &mut DrawList, world: &World, overlays: &Overl
     let (dot, width) = mark_sizes_px(overlays.pixels_per_meter);
     push_joint_lines_sized(
         list,
-        world.joints().iter().flat_map(|j| {
+        world.joints.iter().flat_map(|j| {
             let (pa, pb) = j.world_anchors(&world.bodies);
             if j.kind == crate::defs::JointKind::Pulley {
                 [Some((j.ground[0], pa)), Some((j.ground[1], pb))]

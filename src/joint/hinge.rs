@@ -142,7 +142,7 @@ mod tests {
         for _ in 0..60 {
             w.step().unwrap();
         }
-        let j = &w.joints()[0];
+        let j = &w.joints[0];
         let want = 2.0 * 10.0 * w.settings.dt;
         let (x, y) = (j.impulses[slot::POINT_X], j.impulses[slot::POINT_Y]);
         assert!(x.abs() < 1e-4 * want, "{x}");

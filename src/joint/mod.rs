@@ -280,7 +280,7 @@ macro_rules! by_kind {
 impl Joint {
     /// Builds a joint from its description and the bodies as they are now.
     /// `def.bodies` must be valid, distinct indices (the world checks).
-    pub fn from_def(def: &JointDef, bodies: &[Body]) -> Joint {
+    pub(crate) fn from_def(def: &JointDef, bodies: &[Body]) -> Joint {
         let (ba, bb) = (&bodies[def.bodies[0]], &bodies[def.bodies[1]]);
         let (wa, wb) = match (def.anchors, def.anchor) {
             (Some([p, q]), _) => (p, q),
@@ -401,7 +401,7 @@ impl Joint {
     /// World positions of the two anchors (for drawing).
     /// A motor joint's are b's target point and the point of b it drives there (b's
     /// centre of mass when the joint was made); a pulley's its bodies' anchors.
-    pub fn world_anchors(&self, bodies: &[Body]) -> (Vec2, Vec2) {
+    pub(crate) fn world_anchors(&self, bodies: &[Body]) -> (Vec2, Vec2) {
         let f = self.frame(bodies);
         let pa = bodies[self.a].position + f.ra;
         (pa, pa + f.d)
@@ -411,7 +411,7 @@ impl Joint {
     /// the length error (or range violation) of a distance joint, the off-axis offset
     /// plus the range violation of a prismatic or wheel joint, the stretch of a pulley
     /// past its length; 0 for a motor joint (a bounded drive, not a constraint).
-    pub fn position_error(&self, bodies: &[Body]) -> f32 {
+    pub(crate) fn position_error(&self, bodies: &[Body]) -> f32 {
         let f = self.frame(bodies);
         by_kind!(self.kind, position_error(self, &f, bodies))
     }
@@ -431,7 +431,7 @@ impl Joint {
 
     /// How far the angle is outside the hinge's limits, or off a weld or prismatic
     /// joint's rest angle (rad).
-    pub fn angle_error(&self, bodies: &[Body]) -> f32 {
+    pub(crate) fn angle_error(&self, bodies: &[Body]) -> f32 {
         let f = self.frame(bodies);
         by_kind!(self.kind, angle_error(self, &f))
     }

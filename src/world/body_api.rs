@@ -7,6 +7,7 @@ use super::edit::Keys;
 use super::{BodyKey, JointKey, World};
 use crate::body::Body;
 use crate::defs::{BodyModel, BodyType};
+use crate::joint::Joint;
 use crate::math::{Rot, Vec2, cross};
 
 /// What a change to a body refuses.
@@ -62,22 +63,30 @@ pub enum EditError {
     },
 }
 
-/// The world's bodies with their keys, in creation order: [`World::bodies`].
+/// The world's bodies or joints with their keys, in creation order: [`World::bodies`],
+/// [`World::joints`]. An exact-size, double-ended iterator.
 #[derive(Clone, Debug)]
-pub struct Bodies<'a> {
-    bodies: &'a [Body],
+pub struct Keyed<'a, K, T> {
+    items: &'a [T],
     keys: &'a Keys,
+    key: fn(&Keys, usize) -> K,
     range: std::ops::Range<usize>,
 }
 
-impl<'a> Bodies<'a> {
-    fn at(&self, i: usize) -> (BodyKey, &'a Body) {
-        (self.keys.body(i), &self.bodies[i])
+/// [`World::bodies`]: `(BodyKey, &Body)` in creation order.
+pub type Bodies<'a> = Keyed<'a, BodyKey, Body>;
+
+/// [`World::joints`]: `(JointKey, &Joint)` in creation order.
+pub type Joints<'a> = Keyed<'a, JointKey, Joint>;
+
+impl<'a, K, T> Keyed<'a, K, T> {
+    fn at(&self, i: usize) -> (K, &'a T) {
+        ((self.key)(self.keys, i), &self.items[i])
     }
 }
 
-impl<'a> Iterator for Bodies<'a> {
-    type Item = (BodyKey, &'a Body);
+impl<'a, K, T> Iterator for Keyed<'a, K, T> {
+    type Item = (K, &'a T);
 
     fn next(&mut self) -> Option<Self::Item> {
         let i = self.range.next()?;
@@ -94,7 +103,7 @@ impl<'a> Iterator for Bodies<'a> {
     }
 }
 
-impl DoubleEndedIterator for Bodies<'_> {
+impl<K, T> DoubleEndedIterator for Keyed<'_, K, T> {
     fn next_back(&mut self) -> Option<Self::Item> {
         let i = self.range.next_back()?;
         Some(self.at(i))
@@ -106,9 +115,9 @@ impl DoubleEndedIterator for Bodies<'_> {
     }
 }
 
-impl ExactSizeIterator for Bodies<'_> {}
+impl<K, T> ExactSizeIterator for Keyed<'_, K, T> {}
 
-impl std::iter::FusedIterator for Bodies<'_> {}
+impl<K, T> std::iter::FusedIterator for Keyed<'_, K, T> {}
 
 impl World {
     /// The body of `key`, or None if it was removed.
@@ -122,11 +131,53 @@ impl World {
     /// [`World::apply_impulse`], [`World::apply_force_at`], ...).
     pub fn bodies(&self) -> Bodies<'_> {
         let n = self.bodies.len().min(self.body_keys.len());
-        Bodies {
-            bodies: &self.bodies,
+        Keyed {
+            items: &self.bodies,
             keys: &self.body_keys,
+            key: Keys::body,
             range: 0..n,
         }
+    }
+
+    /// Every joint with its key, in creation order (a removed or broken joint leaves
+    /// the order of the rest as it was). [`World::joint_bodies`] gives a joint's bodies'
+    /// keys.
+    pub fn joints(&self) -> Joints<'_> {
+        let n = self.joints.len().min(self.joint_keys.len());
+        Keyed {
+            items: &self.joints,
+            keys: &self.joint_keys,
+            key: Keys::joint,
+            range: 0..n,
+        }
+    }
+
+    /// How many joints the world has.
+    pub fn joint_count(&self) -> usize {
+        self.joints.len()
+    }
+
+    /// The world positions of the joint's two anchors (m): for most joints the points
+    /// it holds together, on its first body then its second; a motor joint's are the
+    /// second body's target point and the point of it driven there; a pulley's its
+    /// bodies' anchors. None for a stale key.
+    pub fn joint_anchors(&self, key: JointKey) -> Option<(Vec2, Vec2)> {
+        Some(self.joint(key)?.world_anchors(&self.bodies))
+    }
+
+    /// How far the joint is from holding (m), as [`World::joint_error`] measures each
+    /// joint: the anchor separation of a hinge or weld, the length error (or range
+    /// violation) of a distance joint, the off-axis offset plus the range violation of
+    /// a prismatic or wheel joint, the stretch of a pulley past its length; 0 for a
+    /// motor joint. None for a stale key.
+    pub fn joint_position_error(&self, key: JointKey) -> Option<f32> {
+        Some(self.joint(key)?.position_error(&self.bodies))
+    }
+
+    /// How far the joint's angle is outside a hinge's limits, or off a weld or
+    /// prismatic joint's rest angle (rad). None for a stale key.
+    pub fn joint_angle_error(&self, key: JointKey) -> Option<f32> {
+        Some(self.joint(key)?.angle_error(&self.bodies))
     }
 
     /// How many bodies the world has.

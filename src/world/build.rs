@@ -135,7 +135,7 @@ impl World {
             bodies: [ia, ib],
             ..def.clone()
         };
-        let i = self.add_joint(&def)?;
+        let i = self.add_joint_index(&def)?;
         Ok(self.joint_key(i).expect("a joint just added has a key"))
     }
 
@@ -147,11 +147,19 @@ impl World {
         Ok(self.body_key(i).expect("a body just added has a key"))
     }
 
-    /// Adds a joint between two existing, distinct bodies named by index
-    /// (`def.bodies`), anchored where the bodies are now. Scene files and the program
-    /// name bodies so; a library user names them by key ([`World::create_joint`]).
+    /// Adds a joint between two existing, distinct bodies named by their places in
+    /// creation order (`def.bodies`, as a [`crate::WorldDef`] names them), anchored where
+    /// the bodies are now, and returns its key. The program builds a scene's joints so;
+    /// a library user names bodies by key ([`World::create_joint`]).
     #[doc(hidden)]
-    pub fn add_joint(&mut self, def: &JointDef) -> Result<JointId, BuildError> {
+    pub fn add_joint(&mut self, def: &JointDef) -> Result<JointKey, BuildError> {
+        let i = self.add_joint_index(def)?;
+        self.sync_keys();
+        Ok(self.joint_key(i).expect("a joint just added has a key"))
+    }
+
+    /// [`World::add_joint`], returning the joint's index.
+    pub(crate) fn add_joint_index(&mut self, def: &JointDef) -> Result<JointId, BuildError> {
         let id = self.joints.len();
         let count = self.bodies.len();
         for &i in &def.bodies {

@@ -20,7 +20,8 @@ pub struct BodyKey {
     generation: u32,
 }
 
-/// A joint's name for the world's life: [`World::joint_key`], [`World::joint_of_key`].
+/// A joint's name for the world's life: [`World::create_joint`] gives one,
+/// [`World::joint`] reads the joint, [`World::joints`] lists every joint's.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, serde::Serialize, serde::Deserialize)]
 pub struct JointKey {
     slot: u32,
@@ -89,6 +90,12 @@ impl Keys {
     pub(crate) fn body(&self, index: usize) -> BodyKey {
         let (slot, generation) = self.by_index[index];
         BodyKey { slot, generation }
+    }
+
+    /// The key of joint `index`, for a list of joints whose keys are in step.
+    pub(crate) fn joint(&self, index: usize) -> JointKey {
+        let (slot, generation) = self.by_index[index];
+        JointKey { slot, generation }
     }
 
     fn index(&self, slot: u32, generation: u32) -> Option<usize> {
@@ -163,13 +170,13 @@ impl World {
     }
 
     /// The key of joint `index` (None past the end).
-    pub fn joint_key(&self, index: JointId) -> Option<JointKey> {
+    pub(crate) fn joint_key(&self, index: JointId) -> Option<JointKey> {
         let (slot, generation) = self.joint_keys.key(index)?;
         Some(JointKey { slot, generation })
     }
 
     /// Where the joint of `key` is now, or None if it was removed.
-    pub fn joint_of_key(&self, key: JointKey) -> Option<JointId> {
+    pub(crate) fn joint_of_key(&self, key: JointKey) -> Option<JointId> {
         self.joint_keys.index(key.slot, key.generation)
     }
 

@@ -18,8 +18,6 @@ pub trait ByOrder {
     fn order_of(&self, name: &str) -> Option<usize>;
     /// Where the body of `key` is in creation order, None for a stale key.
     fn order_of_key(&self, key: BodyKey) -> Option<usize>;
-    /// The bodies, copied, in creation order (what a joint's measures read).
-    fn body_list(&self) -> Vec<Body>;
 }
 
 impl ByOrder for World {
@@ -41,9 +39,5 @@ impl ByOrder for World {
 
     fn order_of_key(&self, key: BodyKey) -> Option<usize> {
         self.bodies().position(|(k, _)| k == key)
-    }
-
-    fn body_list(&self) -> Vec<Body> {
-        self.bodies().map(|(_, b)| b.clone()).collect()
     }
 }

@@ -254,7 +254,7 @@ mod tests {
         for _ in 0..120 {
             w.step().unwrap();
         }
-        let j = &w.joints()[0];
+        let j = &w.joints[0];
         let h = w.settings.dt / w.settings.substeps as f32;
         let want = 2.0 * 10.0 * h;
         let (x, y) = (j.impulses[slot::POINT_X], j.impulses[slot::POINT_Y]);

@@ -1101,25 +1101,17 @@ mod tests {
         let pool = Pool::new(2);
         let run = |pool: Option<&Pool>| {
             let mut s = SoftSolver::default();
-            s.prepare(
-                &w.bodies,
-                w.contacts(),
-                w.joints(),
-                None,
-                &settings,
-                h,
-                pool,
-            );
+            s.prepare(&w.bodies, w.contacts(), &w.joints, None, &settings, h, pool);
             s.take_increments(&w.bodies, pool);
             assert!(!s.hinges.is_empty() && !s.joint_ranges.is_empty());
             let jobs = pool.map_or(0, Pool::jobs);
-            let r = s.run(w.joints(), substeps, &settings, h, pool);
+            let r = s.run(&w.joints, substeps, &settings, h, pool);
             if let Some(pool) = pool {
                 assert_eq!(pool.jobs(), jobs + 1, "one job for every substep");
             }
             let mut lam = Vec::new();
             s.lambdas(&mut lam);
-            let mut joints = w.joints().to_vec();
+            let mut joints = w.joints.to_vec();
             s.store_joints(&mut joints, pool);
             s.bodies[..w.bodies.len()]
                 .iter()
