@@ -264,3 +264,68 @@ fn joints_are_made_read_driven_and_removed_through_keys() {
     assert_ne!(k, j);
     assert_eq!(w.joint_bodies(k), Some([b, c]));
 }
+
+#[test]
+fn a_force_and_a_path_go_on_a_body_by_key_and_a_stale_key_is_refused() {
+    // a constant 2 N on a 1 kg box, no gravity: after t s it has moved a t^2 / 2
+    let mut w = World::new(None, SolverSettings::default());
+    let b = w.create_body(&crate_body("box".into(), 0.0)).unwrap();
+    let gone = w.create_body(&crate_body("gone".into(), 5.0)).unwrap();
+    w.remove_body(gone).unwrap();
+    let force = sandbox2d::ForceDef {
+        body: 0,
+        force: Vec2::new(2.0, 0.0),
+        point: Vec2::ZERO,
+    };
+    let hash = w.state_hash();
+    assert_eq!(w.create_force(gone, &force), Err(EditError::NoSuchBody));
+    assert_eq!(w.force_count(), 0);
+    assert_eq!(w.state_hash(), hash, "a refused force changes nothing");
+    w.create_force(b, &force).unwrap();
+    assert_eq!(w.force_count(), 1);
+    let x0 = w.body(b).unwrap().position.x;
+    let m = w.body(b).unwrap().mass;
+    let steps = 60;
+    for _ in 0..steps {
+        w.step().unwrap();
+    }
+    let t = steps as f32 * w.settings.dt;
+    let moved = w.body(b).unwrap().position.x - x0;
+    let want = 0.5 * (2.0 / m) * t * t;
+    assert!(
+        (moved - want).abs() < 0.02 * want,
+        "moved {moved} m, a t^2 / 2 = {want} m"
+    );
+    // a path: only a kinematic body takes one, and a stale key is refused
+    let path = sandbox2d::MotionDef {
+        body: 0,
+        amplitude: Vec2::new(1.0, 0.0),
+        angular_frequency: 2.0,
+        phase: 0.0,
+    };
+    assert_eq!(w.create_motion(gone, &path), Err(EditError::NoSuchBody));
+    assert!(matches!(
+        w.create_motion(b, &path),
+        Err(EditError::Build(_))
+    ));
+    let k = w
+        .create_body(&BodyDef {
+            body_type: BodyType::Kinematic,
+            ..crate_body("slider".into(), -5.0)
+        })
+        .unwrap();
+    w.create_motion(k, &path).unwrap();
+    let x0 = w.body(k).unwrap().position.x;
+    // the path is in the world's time: at time t it is at p0 + amplitude sin(2 t),
+    // p0 where it was when it took the path
+    for _ in 0..47 {
+        w.step().unwrap();
+    }
+    let t = w.time() as f32;
+    let x = w.body(k).unwrap().position.x - x0;
+    assert!(
+        (x - (2.0 * t).sin()).abs() < 1e-3,
+        "on the path: {x} vs {}",
+        (2.0 * t).sin()
+    );
+}

@@ -459,7 +459,21 @@ impl World {
         Ok(body)
     }
 
-    /// Adds a constant force at a body point (the point is in the body's shape frame).
+    /// Adds a constant force, every step, at a point of the body of `key` (the point
+    /// in the body's shape frame; `def.body` is not read). A stale key is refused
+    /// ([`EditError::NoSuchBody`]), and so is a force or point that is not finite
+    /// ([`EditError::Build`]); either way the world is unchanged.
+    pub fn create_force(&mut self, key: BodyKey, def: &ForceDef) -> Result<(), EditError> {
+        let body = self.body_of_key(key).ok_or(EditError::NoSuchBody)?;
+        self.add_force(&ForceDef { body, ..*def })?;
+        Ok(())
+    }
+
+    /// Adds a constant force at a point of the body at place `f.body` in creation order
+    /// (as a [`crate::WorldDef`] names it; the point is in the body's shape frame). The
+    /// program builds a scene's forces so; a library user names the body by key
+    /// ([`World::create_force`]).
+    #[doc(hidden)]
     pub fn add_force(&mut self, f: &ForceDef) -> Result<(), BuildError> {
         let Some(b) = self.bodies.get(f.body) else {
             return Err(BuildError::NoSuchBody {

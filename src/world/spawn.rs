@@ -7,7 +7,7 @@
 use std::collections::VecDeque;
 use std::sync::Arc;
 
-use super::{BodyKey, World};
+use super::{BodyKey, EditError, World};
 use crate::defs::{BodyType, MotionDef, SpawnDef};
 use crate::math::Vec2;
 use crate::world::BuildError;
@@ -61,8 +61,20 @@ impl MotionDef {
 }
 
 impl World {
-    /// Puts a kinematic body on a path ([`MotionDef`]): from the next step on, its
-    /// velocity is set before each step so that it ends the step on the path.
+    /// Puts the kinematic body of `key` on a path ([`MotionDef`]; `def.body` is not
+    /// read): from the next step on, its velocity is set before each step so that it
+    /// ends the step on the path. A stale key is refused ([`EditError::NoSuchBody`]),
+    /// and so is a body that is not kinematic or a path that is not finite
+    /// ([`EditError::Build`]); either way the world is unchanged.
+    pub fn create_motion(&mut self, key: BodyKey, def: &MotionDef) -> Result<(), EditError> {
+        let body = self.body_of_key(key).ok_or(EditError::NoSuchBody)?;
+        self.add_motion(&MotionDef { body, ..*def })?;
+        Ok(())
+    }
+
+    /// [`World::create_motion`] for the body at place `def.body` in creation order (as
+    /// a [`crate::WorldDef`] names it): the program builds a scene's paths so.
+    #[doc(hidden)]
     pub fn add_motion(&mut self, def: &MotionDef) -> Result<(), BuildError> {
         let count = self.bodies.len();
         let Some(b) = self.bodies.get(def.body) else {
