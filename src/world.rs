@@ -8,7 +8,7 @@ use crate::collision::broad_phase::BroadPhase;
 use crate::collision::collide::Collider;
 use crate::defs::{BodyModel, DragDef, SolverSettings};
 use crate::joint::{Joint, MouseJoint};
-use crate::math::{Aabb, Vec2, cross};
+use crate::math::{Aabb, Vec2};
 use crate::parallel::{self, Pool};
 pub use crate::step::StepStats;
 use crate::step::integrate::{self, PointForce};
@@ -54,7 +54,10 @@ pub enum StepError {
     NonFinite {
         /// The body's name.
         name: String,
-        /// The body's index in the world.
+        /// The body's key.
+        body: BodyKey,
+        /// The body's place in creation order (0: the first; a scene file's order), as
+        /// the message gives it.
         index: usize,
         /// The world's step count with the failed step counted (1: the first step).
         step: u64,
@@ -400,12 +403,13 @@ impl World {
     /// Applies a force (N) at a world point to body `body` (an index) for the next step
     /// only (the window's force emitter); nothing for a body that is not dynamic. The
     /// program's; a library user names a body by key ([`World::apply_force`]).
+    #[cfg(any(feature = "app", test))]
     pub(crate) fn apply_force_index(&mut self, body: BodyId, force: Vec2, world_point: Vec2) {
         if let Some(b) = self.bodies.get_mut(body)
             && b.is_dynamic()
         {
             b.force += force;
-            b.torque += cross(world_point - b.position, force);
+            b.torque += crate::math::cross(world_point - b.position, force);
         }
     }
 
@@ -577,6 +581,8 @@ impl World {
         };
         StepError::NonFinite {
             name: b.name.clone(),
+            // the step gave every body its key before it began
+            body: self.body_keys.body(i),
             index: i,
             step: self.step_count,
             what,

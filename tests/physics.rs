@@ -574,8 +574,11 @@ fn a_runaway_world_names_the_body() {
         let err = (0..100)
             .find_map(|_| w.step().err())
             .unwrap_or_else(|| panic!("{kind:?}: the state overflows"));
-        let StepError::NonFinite { name, step, .. } = &err;
+        let StepError::NonFinite {
+            name, step, body, ..
+        } = &err;
         assert_eq!(name, "rocket", "{kind:?}");
+        assert_eq!(Some(*body), w.find_body("rocket"), "{kind:?}");
         assert!(err.to_string().contains("rocket"));
         // the step that failed is the one reported, and the world stops counting there
         assert_eq!(*step, w.step_count(), "{kind:?}");
