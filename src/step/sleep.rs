@@ -391,3 +391,26 @@ impl Sleep {
         }
     }
 }
+
+/// Whether a step would change nothing: every dynamic body asleep and still (nothing to
+/// wake it: see [`Sleep::wake_reached`]), no kinematic body moving, no contact awake (the
+/// step before put them aside), no point force and no mouse joint. Such a step needs no
+/// solver: the bodies stay as they are, to the bit.
+pub(crate) fn at_rest(
+    bodies: &[Body],
+    contacts: &[Contact],
+    forces: &[PointForce],
+    mouse: Option<MouseJoint>,
+) -> bool {
+    contacts.is_empty()
+        && forces.is_empty()
+        && mouse.is_none()
+        && bodies.iter().all(|b| {
+            !b.is_mover()
+                && (!b.asleep
+                    || (b.velocity == Vec2::ZERO
+                        && b.angular_velocity == 0.0
+                        && b.force == Vec2::ZERO
+                        && b.torque == 0.0))
+        })
+}
