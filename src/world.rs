@@ -457,6 +457,7 @@ impl World {
         // until collide finds otherwise
         self.sleep.none_asleep = false;
         self.collider.movers_found = false;
+        self.collider.boxes_found = false;
         let mut clock = StageClock::start();
         let one_sided = self.has_one_sided();
         if one_sided {
