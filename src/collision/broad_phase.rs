@@ -423,8 +423,8 @@ impl BroadPhase {
     }
 
     /// [`BroadPhase::refresh_kept`]'s update of the kept boxes and pairs when only a few
-    /// bodies (at most [`ONE_BY_ONE`]) have left their kept boxes (or changed whether they may
-    /// move, or their filter): their boxes are kept anew and their pairs found again,
+    /// bodies (at most [`ONE_BY_ONE`]) have left their kept boxes (or changed whether
+    /// they may move, or their filter): their boxes are kept anew and their pairs found again,
     /// each against every kept box; every other pair stands, its two boxes unchanged.
     /// The kept pairs are then every pair of kept boxes (that the filters let touch),
     /// sorted, as after a rebuild, and this step's pairs the same. Returns false, and
@@ -444,10 +444,8 @@ impl BroadPhase {
         let filtered = !self.kept_filters.is_empty();
         self.few.clear();
         for (i, b) in aabbs.iter().enumerate() {
-            let holds = self.kept_boxes[i].contains(b)
-                && self.kept_moves[i] == may_move(i)
-                && (!filtered || self.kept_filters[i] == filter(i));
-            if !holds {
+            // the caller's test, body by body
+            if !(self.kept_holds(i, b, may_move(i)) && self.kept_filter_holds(i, &filter(i))) {
                 if self.few.len() == ONE_BY_ONE {
                     return false;
                 }
