@@ -12,7 +12,7 @@ use crate::math::{Aabb, Vec2};
 use crate::parallel::{self, Pool};
 pub use crate::step::StepStats;
 use crate::step::integrate::{self, PointForce};
-use crate::step::sleep::Sleep;
+use crate::step::sleep::{self, Sleep};
 use crate::step::{StageClock, StepContext, StepState, Stepper, new_stepper};
 use std::sync::Arc;
 
@@ -473,6 +473,7 @@ impl World {
         // until collide finds otherwise
         self.sleep.none_asleep = false;
         self.collider.movers_found = false;
+        self.collider.boxes_found = false;
         let mut clock = StageClock::start();
         let one_sided = self.has_one_sided();
         if one_sided {
@@ -504,7 +505,14 @@ impl World {
             may_break: self.may_break,
         };
         let stepper = self.stepper.as_mut().expect("a stepper of this kind");
-        let mut stats = stepper.step(&mut state, &cx, &mut clock);
+        // a world at rest steps to itself: no solver runs (Box2D's sleeping solver sets
+        // cost nothing a step either)
+        let at_rest = sleep::at_rest(state.bodies, state.contacts, state.forces, state.mouse);
+        let mut stats = if at_rest {
+            StepStats::default()
+        } else {
+            stepper.step(&mut state, &cx, &mut clock)
+        };
         let ended = state.ended;
         self.sleep.unpark_joints(&mut self.joints);
         self.break_joints(cx.h, cx.dt);
@@ -536,7 +544,7 @@ impl World {
             Some(true) => Err(self.first_non_finite()),
             None => self.end_step(),
         };
-        if let Some(started) = started {
+        if let Some(started) = started.filter(|_| !at_rest) {
             self.tuner
                 .record(self.step_many, started.elapsed(), self.threads);
         }

@@ -64,6 +64,12 @@ fn a_stack_at_rest_falls_asleep_and_stops_costing() {
             0,
             "{kind:?}: contacts solved while asleep"
         );
+        // a world at rest runs no solver at all
+        assert_eq!(
+            w.stats().iterations,
+            0,
+            "{kind:?}: a solver swept a world at rest"
+        );
         assert!(
             w.bodies()
                 .all(|(_, b)| b.velocity == sandbox2d::math::Vec2::ZERO)

@@ -84,6 +84,10 @@ pub(crate) struct Collider {
     /// Whether this step's broad phase found `dynamic` for every body with none asleep:
     /// it then says which bodies are dynamic ([`Collider::movers`]).
     pub(crate) movers_found: bool,
+    /// Whether this step's wake pass left every body's swept box of this step in
+    /// `aabbs` (the broad phase then takes the sleeping bodies' as they are: they do not
+    /// move). Cleared by each broad phase.
+    pub(crate) boxes_found: bool,
     /// Per block of pairs: the contacts the narrow phase found (scratch).
     narrow_out: NarrowScratch,
     /// Each block's first contact (scratch).
@@ -158,6 +162,8 @@ impl Collider {
         let flags = AtomicU32::new(0);
         let broad = &self.broad;
         let kept = broad.kept_count() == n;
+        // (the wake pass sized `aabbs` for these bodies when it found their boxes)
+        let found = std::mem::take(&mut self.boxes_found);
         parallel::chunks_mut3(
             pool,
             &mut self.aabbs,
@@ -178,14 +184,22 @@ impl Collider {
                         0
                     };
                     f |= if b.has_sensor() { SENSORS } else { 0 };
-                    let bb = b.aabb();
-                    // the most any point of the body moves in h: h (|v| + |w| r)
-                    let r = 0.5 * (bb.max - bb.min).length();
-                    *re = (
-                        h * (b.velocity.length() + b.angular_velocity.abs() * r),
-                        h * b.angular_velocity.abs() * r,
-                    );
-                    *bx = swept_box(b, bb, h, margin);
+                    if found && b.asleep {
+                        // a sleeper is still (the wake pass woke any that was not): its
+                        // box is the one the wake pass found, and it reaches nothing
+                        debug_assert!(*bx == swept_box(b, b.aabb(), h, margin));
+                        debug_assert!(b.velocity == Vec2::ZERO && b.angular_velocity == 0.0);
+                        *re = (0.0, 0.0);
+                    } else {
+                        let bb = b.aabb();
+                        // the most any point of the body moves in h: h (|v| + |w| r)
+                        let r = 0.5 * (bb.max - bb.min).length();
+                        *re = (
+                            h * (b.velocity.length() + b.angular_velocity.abs() * r),
+                            h * b.angular_velocity.abs() * r,
+                        );
+                        *bx = swept_box(b, bb, h, margin);
+                    }
                     // a sleeping body is found only by the awake bodies near it, as a
                     // static one
                     *dy = b.is_dynamic() && !b.asleep;

@@ -159,17 +159,7 @@ impl Sleep {
         }
         // nothing awake moves: nothing can reach a sleeping island
         if movers {
-            collider.aabbs.clear();
-            collider.dynamic.clear();
-            self.wake_sized.clear();
-            for b in bodies.iter() {
-                collider.aabbs.push(swept_box(b, b.aabb(), h, margin));
-                // the movers look for sleepers; sleepers and static bodies are looked up
-                collider.dynamic.push(b.is_mover());
-                // the grid's cells fit the dynamic bodies, asleep or not: a few large
-                // movers must not put many small sleepers in one cell
-                self.wake_sized.push(b.is_dynamic());
-            }
+            Self::find_boxes(bodies, collider, &mut self.wake_sized, h, margin);
         }
         let mut first = true;
         loop {
@@ -212,21 +202,37 @@ impl Sleep {
                 }
             }
             self.wake_islands(bodies, contacts, &mut wake);
-            movers = true;
-            if collider.aabbs.len() != bodies.len() {
-                // the first round had no mover (a pushed sleeper woke): the boxes now
-                collider.aabbs.clear();
-                self.wake_sized.clear();
-                collider.dynamic.clear();
-                for b in bodies.iter() {
-                    collider.aabbs.push(swept_box(b, b.aabb(), h, margin));
-                    self.wake_sized.push(b.is_dynamic());
-                    collider.dynamic.push(b.is_mover());
-                }
+            if !movers {
+                // the first round had no mover (a pushed sleeper woke): the boxes now,
+                // and the next round looks from the bodies that woke
+                Self::find_boxes(bodies, collider, &mut self.wake_sized, h, margin);
+                movers = true;
             }
             wake.clear();
         }
         self.to_wake = wake;
+    }
+
+    /// Every body's swept box of this step into the collider's boxes (found there by
+    /// its broad phase too), whether it looks for sleepers (a mover) into its flags, and
+    /// whether it sizes the grid's cells (a dynamic body, asleep or not: a few large
+    /// movers must not put many small sleepers in one cell) into `sized`.
+    fn find_boxes(
+        bodies: &[Body],
+        collider: &mut Collider,
+        sized: &mut Vec<bool>,
+        h: f32,
+        margin: f32,
+    ) {
+        collider.aabbs.clear();
+        collider.dynamic.clear();
+        sized.clear();
+        for b in bodies {
+            collider.aabbs.push(swept_box(b, b.aabb(), h, margin));
+            collider.dynamic.push(b.is_mover());
+            sized.push(b.is_dynamic());
+        }
+        collider.boxes_found = true;
     }
 
     /// Takes the joints whose bodies all sleep or do not move out of `joints` for this
@@ -390,4 +396,27 @@ impl Sleep {
             }
         }
     }
+}
+
+/// Whether a step would change nothing: every dynamic body asleep and still (nothing to
+/// wake it: see [`Sleep::wake_reached`]), no kinematic body moving, no contact awake (the
+/// step before put them aside), no point force and no mouse joint. Such a step needs no
+/// solver: the bodies stay as they are, to the bit.
+pub(crate) fn at_rest(
+    bodies: &[Body],
+    contacts: &[Contact],
+    forces: &[PointForce],
+    mouse: Option<MouseJoint>,
+) -> bool {
+    contacts.is_empty()
+        && forces.is_empty()
+        && mouse.is_none()
+        && bodies.iter().all(|b| {
+            !b.is_mover()
+                && (!b.asleep
+                    || (b.velocity == Vec2::ZERO
+                        && b.angular_velocity == 0.0
+                        && b.force == Vec2::ZERO
+                        && b.torque == 0.0))
+        })
 }
