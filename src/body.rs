@@ -4,7 +4,9 @@ use crate::defs::{BodyModel, BodyType, Color};
 use crate::math::{Rot, Transform, Vec2};
 use crate::shape::Shape;
 
-/// Index of a body in its world, in creation order.
+/// A body's place in its world's creation order: what definitions ([`crate::defs::JointDef`],
+/// forces, paths) and scene files name bodies by. The world's API names them by
+/// [`crate::BodyKey`].
 pub type BodyId = usize;
 
 /// The bytes at the start of a [`Body`] that every step's passes over the bodies read

@@ -92,10 +92,10 @@ pub mod threads {
     pub use crate::world::{ThreadUse, Threads};
 }
 
-pub use body::{Body, BodyId};
+pub use body::Body;
 pub use defs::*;
 pub use draw::{Camera, DrawList};
-pub use joint::{Joint, JointId, MouseJoint};
+pub use joint::{Joint, MouseJoint};
 pub use world::{
     BodyKey, BuildError, ContactEvent, DEFAULT_HIT_SPEED, EditError, EventKind, HitEvent,
     JointBreakEvent, JointKey, QUERY_MARGIN, QueryShape, RayHit, RemoveError, SHAPE_CAST_TOLERANCE,

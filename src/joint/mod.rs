@@ -43,7 +43,8 @@ pub(crate) mod xpbd;
 
 pub use mouse::MouseJoint;
 
-/// Index of a joint in its world, in creation order.
+/// A joint's place in its world's creation order (the world's API names joints by
+/// [`crate::JointKey`]).
 pub type JointId = usize;
 
 /// A joint between bodies `a` and `b`.
