@@ -8,6 +8,7 @@
 
 use crate::defs::Filter;
 use crate::math::{Aabb, Vec2};
+use std::ops::Range;
 
 /// A candidate pair of body indices, a < b.
 pub type Pair = (u32, u32);
@@ -321,7 +322,8 @@ impl BroadPhase {
                 .iter()
                 .enumerate()
                 .all(|(i, b)| self.kept_holds(i, b, may_move(i)));
-        self.find_pairs_kept_checked(aabbs, moves, holds, may_move, None, can_collide);
+        let left = if holds { 0..0 } else { 0..aabbs.len() };
+        self.find_pairs_kept_checked(aabbs, moves, left, may_move, None, can_collide);
     }
 
     /// Bodies the kept boxes are for (0 before the first [`BroadPhase::find_pairs_kept`]).
@@ -347,19 +349,21 @@ impl BroadPhase {
     }
 
     /// [`BroadPhase::find_pairs_kept`] where the caller has checked whether the kept
-    /// boxes hold (`holds`: the kept boxes are for `aabbs.len()` bodies and
-    /// [`BroadPhase::kept_holds`] holds for each), in a pass over the bodies it makes
-    /// anyway. `filter_of`, as for [`BroadPhase::refresh_kept`].
+    /// boxes hold, in a pass over the bodies it makes anyway: `left` runs from the first
+    /// to the last body for which [`BroadPhase::kept_holds`] or
+    /// [`BroadPhase::kept_filter_holds`] fails (empty when the kept boxes are for
+    /// `aabbs.len()` bodies and hold for each; `0..aabbs.len()` when they are not).
+    /// `filter_of`, as for [`BroadPhase::refresh_kept`].
     pub fn find_pairs_kept_checked(
         &mut self,
         aabbs: &[Aabb],
         moves: &[bool],
-        holds: bool,
+        left: Range<usize>,
         may_move: impl Fn(usize) -> bool,
         filter_of: Option<&dyn Fn(usize) -> Filter>,
         can_collide: impl Fn(u32, u32) -> bool,
     ) {
-        self.refresh_kept(aabbs, holds, may_move, filter_of);
+        self.refresh_kept(aabbs, left, may_move, filter_of);
         self.pairs.clear();
         for &(a, b) in &self.kept_pairs {
             if Self::kept_pair_holds(aabbs, moves, a, b) && can_collide(a, b) {
@@ -369,23 +373,24 @@ impl BroadPhase {
     }
 
     /// The first half of [`BroadPhase::find_pairs_kept_checked`]: rebuilds the kept
-    /// boxes and pairs unless `holds`. The caller then filters
+    /// boxes and pairs unless they hold (`left` empty, as for
+    /// [`BroadPhase::find_pairs_kept_checked`]). The caller then filters
     /// [`BroadPhase::kept_pairs`] itself, with [`BroadPhase::kept_pair_holds`] and its
     /// own test, in a pass over the pairs it makes anyway (the narrow phase); `pairs`
     /// is left empty.
     ///
     /// With `filter_of` (each body's collision filter), a rebuild keeps only the pairs
     /// whose filters let them touch, and remembers the filters: while they stay the same
-    /// ([`BroadPhase::kept_filter_holds`], which `holds` must then include) the kept
+    /// ([`BroadPhase::kept_filter_holds`], which `left` must then include) the kept
     /// pairs still hold every pair of the step. Without it every pair of boxes is kept.
     pub fn refresh_kept(
         &mut self,
         aabbs: &[Aabb],
-        holds: bool,
+        left: Range<usize>,
         may_move: impl Fn(usize) -> bool,
         filter_of: Option<&dyn Fn(usize) -> Filter>,
     ) {
-        if !holds && !self.refresh_few(aabbs, &may_move, filter_of) {
+        if !left.is_empty() && !self.refresh_few(aabbs, left, &may_move, filter_of) {
             let mut fat = std::mem::take(&mut self.kept_boxes);
             let mut fat_moves = std::mem::take(&mut self.kept_moves);
             fat.clear();
@@ -427,12 +432,14 @@ impl BroadPhase {
     /// they may move, or their filter): their boxes are kept anew and their pairs found again,
     /// each against every kept box; every other pair stands, its two boxes unchanged.
     /// The kept pairs are then every pair of kept boxes (that the filters let touch),
-    /// sorted, as after a rebuild, and this step's pairs the same. Returns false, and
+    /// sorted, as after a rebuild, and this step's pairs the same. Only the bodies in
+    /// `left` are looked at (as for [`BroadPhase::find_pairs_kept_checked`]). Returns false, and
     /// changes nothing, where a rebuild is due (more bodies left, the body count changed,
     /// or the filters refused every pair).
     fn refresh_few(
         &mut self,
         aabbs: &[Aabb],
+        left: Range<usize>,
         may_move: &impl Fn(usize) -> bool,
         filter_of: Option<&dyn Fn(usize) -> Filter>,
     ) -> bool {
@@ -443,7 +450,7 @@ impl BroadPhase {
         let filter = |i: usize| filter_of.map_or(Filter::default(), |f| f(i));
         let filtered = !self.kept_filters.is_empty();
         self.few.clear();
-        for (i, b) in aabbs.iter().enumerate() {
+        for (i, b) in aabbs.iter().enumerate().take(left.end).skip(left.start) {
             // the caller's test, body by body
             if !(self.kept_holds(i, b, may_move(i)) && self.kept_filter_holds(i, &filter(i))) {
                 if self.few.len() == ONE_BY_ONE {
@@ -956,15 +963,12 @@ mod tests {
         let mut filters = vec![apart; n];
         let mut bp = BroadPhase::default();
         let step = |bp: &mut BroadPhase, filters: &[Filter]| {
-            let holds = bp.kept_count() == n
-                && (0..n).all(|i| {
-                    bp.kept_holds(i, &boxes[i], true) && bp.kept_filter_holds(i, &filters[i])
-                });
+            let left = left_of(bp, &boxes, &moves, filters);
             let of = |i: usize| filters[i];
             bp.find_pairs_kept_checked(
                 &boxes,
                 &moves,
-                holds,
+                left,
                 |_| true,
                 Some(&of),
                 |a, b| filters[a as usize].collides(&filters[b as usize]),
@@ -991,8 +995,29 @@ mod tests {
         assert_eq!(bp.rebuilds, 2);
         // unfiltered, every pair of boxes is kept
         let mut all = BroadPhase::default();
-        all.refresh_kept(&boxes, false, |_| true, None);
+        all.refresh_kept(&boxes, 0..n, |_| true, None);
         assert_eq!(all.kept_pairs().len(), n * (n - 1) / 2);
+    }
+
+    /// The bodies from the first to the last whose kept box or filter no longer holds,
+    /// as the collide's pass finds them (all of them before the first rebuild).
+    fn left_of(
+        bp: &BroadPhase,
+        boxes: &[Aabb],
+        moves: &[bool],
+        filters: &[Filter],
+    ) -> Range<usize> {
+        let n = boxes.len();
+        if bp.kept_count() != n {
+            return 0..n;
+        }
+        let fails = |i: &usize| {
+            !(bp.kept_holds(*i, &boxes[*i], moves[*i]) && bp.kept_filter_holds(*i, &filters[*i]))
+        };
+        match ((0..n).find(fails), (0..n).rev().find(fails)) {
+            (Some(first), Some(last)) => first..last + 1,
+            _ => 0..0,
+        }
     }
 
     /// Boxes scattered over a 40 x 20 m field, mixed sizes, one of them huge.
@@ -1068,14 +1093,10 @@ mod tests {
             if step % 3 == 0 {
                 filters[1 + rnd() % (n - 1)] = category(rnd());
             }
-            let holds = kept.kept_count() == n
-                && (0..n).all(|i| {
-                    kept.kept_holds(i, &boxes[i], moves[i])
-                        && kept.kept_filter_holds(i, &filters[i])
-                });
+            let left = left_of(&kept, &boxes, &moves, &filters);
             let of = |i: usize| filters[i];
             let can = |a: u32, b: u32| filters[a as usize].collides(&filters[b as usize]);
-            kept.find_pairs_kept_checked(&boxes, &moves, holds, |i| moves[i], Some(&of), can);
+            kept.find_pairs_kept_checked(&boxes, &moves, left, |i| moves[i], Some(&of), can);
             fresh.find_pairs(&boxes, &moves, can);
             assert!(!fresh.pairs.is_empty());
             assert_eq!(kept.pairs, fresh.pairs, "step {step}");

@@ -9,7 +9,7 @@
 //! collide, and the collide keeps the contacts of sleeping pairs aside.
 
 use std::sync::Mutex;
-use std::sync::atomic::{AtomicU32, Ordering};
+use std::sync::atomic::{AtomicU32, AtomicUsize, Ordering};
 
 use super::broad_phase::BroadPhase;
 use super::contact_cache::{CacheCursor, match_points};
@@ -157,9 +157,10 @@ impl Collider {
         const ASLEEP: u32 = 1;
         const FILTERED: u32 = 2;
         const SENSORS: u32 = 4;
-        // the broad phase's kept boxes still hold every body (checked in the same pass)
-        const LEFT: u32 = 8;
         let flags = AtomicU32::new(0);
+        // the first and the last body whose kept box no longer holds (checked in the
+        // same pass; none: first > last)
+        let (first_left, last_left) = (AtomicUsize::new(usize::MAX), AtomicUsize::new(0));
         let broad = &self.broad;
         let kept = broad.kept_count() == n;
         // (the wake pass sized `aabbs` for these bodies when it found their boxes)
@@ -173,6 +174,7 @@ impl Collider {
             &|_, offset, aabbs, reach, dynamic| {
                 let bodies = &bodies[offset..];
                 let mut f = 0u32;
+                let (mut first, mut last) = (usize::MAX, 0);
                 for (i, ((bx, re), dy)) in aabbs.iter_mut().zip(reach).zip(dynamic).enumerate() {
                     // the box reads the shape too
                     prefetch(bodies, i + BODY_AHEAD, SHAPE_BYTES);
@@ -207,10 +209,15 @@ impl Collider {
                         && !(broad.kept_holds(offset + i, bx, b.is_dynamic())
                             && broad.kept_filter_holds(offset + i, &b.filter))
                     {
-                        f |= LEFT;
+                        first = first.min(offset + i);
+                        last = offset + i;
                     }
                 }
                 flags.fetch_or(f, Ordering::Relaxed);
+                if first <= last {
+                    first_left.fetch_min(first, Ordering::Relaxed);
+                    last_left.fetch_max(last, Ordering::Relaxed);
+                }
                 0.0
             },
         );
@@ -220,7 +227,11 @@ impl Collider {
         let any_asleep = flags & ASLEEP != 0;
         // (with none asleep, `dynamic` is whether each body is dynamic)
         self.movers_found = !any_asleep;
-        let holds = kept && flags & LEFT == 0;
+        let left = if kept {
+            first_left.into_inner()..last_left.into_inner() + 1
+        } else {
+            0..n
+        };
         self.filtered = filtered;
         self.has_sensors = sensors;
         // a sensor is there to be heard
@@ -232,7 +243,7 @@ impl Collider {
         let filter_of = filtered.then_some(&filter_of as &dyn Fn(usize) -> Filter);
         if !sensors {
             self.broad
-                .refresh_kept(&self.aabbs, holds, |i| bodies[i].is_dynamic(), filter_of);
+                .refresh_kept(&self.aabbs, left, |i| bodies[i].is_dynamic(), filter_of);
         } else {
             let test = PairTest {
                 bodies,
@@ -244,7 +255,7 @@ impl Collider {
             self.broad.find_pairs_kept_checked(
                 &self.aabbs,
                 &self.dynamic,
-                holds,
+                left,
                 |i| bodies[i].is_dynamic(),
                 filter_of,
                 |a, b| test.may_collide(a, b),
