@@ -48,6 +48,7 @@
 #[doc = include_str!("../README.md")]
 struct ReadmeExample;
 
+pub(crate) mod awake;
 pub mod body;
 pub mod collision;
 pub mod compound;

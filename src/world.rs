@@ -474,6 +474,7 @@ impl World {
         self.sleep.none_asleep = false;
         self.collider.movers_found = false;
         self.collider.boxes_found = false;
+        self.collider.awake.forget();
         let mut clock = StageClock::start();
         let one_sided = self.has_one_sided();
         if one_sided {
@@ -573,6 +574,12 @@ impl World {
     #[cfg(test)]
     pub(crate) fn stepper_as<T: 'static>(&self) -> Option<&T> {
         self.stepper.as_ref()?.as_any().downcast_ref::<T>()
+    }
+
+    /// The solver that ran the last step, as its own type, to change (for tests).
+    #[cfg(test)]
+    pub(crate) fn stepper_as_mut<T: 'static>(&mut self) -> Option<&mut T> {
+        self.stepper.as_mut()?.as_any_mut().downcast_mut::<T>()
     }
 
     /// The error for body `i`, whose state is not finite.

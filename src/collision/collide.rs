@@ -14,6 +14,7 @@ use std::sync::atomic::{AtomicU32, AtomicUsize, Ordering};
 use super::broad_phase::BroadPhase;
 use super::contact_cache::{CacheCursor, match_points};
 use super::{Manifold, sat};
+use crate::awake::AwakeMarks;
 use crate::body::{Body, SHAPE_BYTES};
 use crate::defs::{BodyType, Filter};
 use crate::math::{Aabb, BODY_AHEAD, BODY_PASS_BLOCK, Vec2, prefetch};
@@ -88,6 +89,9 @@ pub(crate) struct Collider {
     /// `aabbs` (the broad phase then takes the sleeping bodies' as they are: they do not
     /// move). Cleared by each broad phase.
     pub(crate) boxes_found: bool,
+    /// The blocks of bodies this step's broad phase found awake (see [`crate::awake`]);
+    /// forgotten at each collide's start.
+    pub(crate) awake: AwakeMarks,
     /// Per block of pairs: the contacts the narrow phase found (scratch).
     narrow_out: NarrowScratch,
     /// Each block's first contact (scratch).
@@ -165,6 +169,8 @@ impl Collider {
         let kept = broad.kept_count() == n;
         // (the wake pass sized `aabbs` for these bodies when it found their boxes)
         let found = std::mem::take(&mut self.boxes_found);
+        self.awake.start(n);
+        let awake = &self.awake;
         parallel::chunks_mut3(
             pool,
             &mut self.aabbs,
@@ -174,12 +180,19 @@ impl Collider {
             &|_, offset, aabbs, reach, dynamic| {
                 let bodies = &bodies[offset..];
                 let mut f = 0u32;
+                let mut marked = usize::MAX;
                 let (mut first, mut last) = (usize::MAX, 0);
                 for (i, ((bx, re), dy)) in aabbs.iter_mut().zip(reach).zip(dynamic).enumerate() {
                     // the box reads the shape too
                     prefetch(bodies, i + BODY_AHEAD, SHAPE_BYTES);
                     let b = &bodies[i];
-                    f |= if b.asleep { ASLEEP } else { 0 };
+                    if b.asleep {
+                        f |= ASLEEP;
+                    } else if (offset + i) / BODY_PASS_BLOCK != marked {
+                        // (once a block: the threads' marks share a cache line)
+                        marked = (offset + i) / BODY_PASS_BLOCK;
+                        awake.mark(offset + i);
+                    }
                     f |= if b.filter != Filter::default() {
                         FILTERED
                     } else {
@@ -221,6 +234,7 @@ impl Collider {
                 0.0
             },
         );
+        self.awake.finish();
         self.reach_h = h;
         let flags = flags.into_inner();
         let (filtered, sensors) = (flags & FILTERED != 0, flags & SENSORS != 0);
@@ -317,6 +331,7 @@ impl Collider {
             has_sensors: self.has_sensors,
             speculative,
             margin,
+            awake: &self.awake,
         };
         let pairs = narrow.pairs.len();
         match pool {
@@ -431,6 +446,9 @@ struct Narrow<'a> {
     has_sensors: bool,
     speculative: Speculative,
     margin: f32,
+    /// The blocks of bodies the broad phase found awake: a kept pair whose first body's
+    /// block sleeps is skipped with its block (see [`Narrow::run`]).
+    awake: &'a AwakeMarks,
 }
 
 impl Narrow<'_> {
@@ -445,13 +463,27 @@ impl Narrow<'_> {
         let from = self.old.partition_point(|c| (c.a, c.b) < first);
         let mut cache = CacheCursor::new(&self.old[from..]);
         let mut deepest = 0.0f32;
-        for (i, &(a, b)) in pairs.iter().enumerate() {
-            if let Some(t) = &self.test
-                && !t.holds(a, b)
-            {
-                continue;
+        let mut i = 0;
+        while i < pairs.len() {
+            let (a, b) = pairs[i];
+            i += 1;
+            if let Some(t) = &self.test {
+                if !self.awake.is_awake(a as usize) {
+                    // every body of a's block sleeps: no kept pair of a sleeper is a pair
+                    // this step (the wake pass woke every island an awake body's box
+                    // reaches), so the pairs from that block go by at once (sorted by
+                    // their first body)
+                    let next = (a as usize / BODY_PASS_BLOCK + 1) * BODY_PASS_BLOCK;
+                    let from = i - 1;
+                    i = from + pairs[from..].partition_point(|p| (p.0 as usize) < next);
+                    debug_assert!(pairs[from..i].iter().all(|&(a, b)| !t.holds(a, b)));
+                    continue;
+                }
+                if !t.holds(a, b) {
+                    continue;
+                }
             }
-            if let Some(&(na, nb)) = pairs.get(i + PAIR_AHEAD) {
+            if let Some(&(na, nb)) = pairs.get(i - 1 + PAIR_AHEAD) {
                 prefetch(self.bodies, na as usize, SHAPE_BYTES);
                 prefetch(self.bodies, nb as usize, SHAPE_BYTES);
             }

@@ -298,6 +298,10 @@ pub(crate) trait Stepper: std::fmt::Debug + Send + Sync {
     /// The stepper as `Any`, for `World::stepper_as` (unit tests).
     #[cfg(test)]
     fn as_any(&self) -> &dyn std::any::Any;
+
+    /// The stepper as mutable `Any`, for `World::stepper_as_mut` (unit tests).
+    #[cfg(test)]
+    fn as_any_mut(&mut self) -> &mut dyn std::any::Any;
 }
 
 impl Clone for Box<dyn Stepper> {

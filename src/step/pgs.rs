@@ -52,6 +52,11 @@ impl Stepper for PgsStepper {
     fn as_any(&self) -> &dyn std::any::Any {
         self
     }
+
+    #[cfg(test)]
+    fn as_any_mut(&mut self) -> &mut dyn std::any::Any {
+        self
+    }
 }
 
 impl PgsStepper {

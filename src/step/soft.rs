@@ -39,6 +39,8 @@ impl Stepper for SoftStepper {
         // contacts): a fast body meets what it would pass through
         let penetration = state.collide(cx.dt, cx.margin, Speculative::MarginOrMotion, clock);
         self.soft.set_deepest(penetration);
+        // the body passes skip the blocks where every body sleeps
+        self.soft.set_awake(&state.collider.awake);
         // without drag (or bodies' own damping) the forces change every substep's
         // velocities by the same amount: integrate once, and the solver adds that
         // increment in the later substeps
@@ -127,6 +129,11 @@ impl Stepper for SoftStepper {
     fn as_any(&self) -> &dyn std::any::Any {
         self
     }
+
+    #[cfg(test)]
+    fn as_any_mut(&mut self) -> &mut dyn std::any::Any {
+        self
+    }
 }
 
 #[cfg(test)]
@@ -185,6 +192,69 @@ mod tests {
         w.wake_index(1);
         w.step().unwrap();
         assert_eq!(w.collider.movers(w.bodies.len()), all);
+    }
+
+    #[test]
+    fn the_body_passes_skip_blocks_where_every_body_sleeps_and_read_no_sleeper() {
+        // A ball (body 0) drifts at 2 m/s in zero gravity towards a wall of 24 x 40
+        // boxes that start asleep: 961 bodies, four blocks of the body passes; the
+        // ball's block holds 255 sleepers, the other three only sleepers
+        let sc = crate::scene::load_str(
+            "name = \"wall\"\n[world]\ngravity = [0.0, 0.0]\n\
+             [solver]\nkind = \"soft\"\nsleep = true\n\
+             [[body]]\nname = \"ball\"\nshape = { circle = 0.5 }\nposition = [-3.0, 0.0]\nvelocity = [2.0, 0.0]\n\
+             [[grid]]\nrows = 40\ncolumns = 24\nspacing = [0.5, 0.5]\norigin = [0.0, -10.0]\n\
+             shape = { box = [0.5, 0.5] }\nawake = false\n",
+            "wall.toml",
+        )
+        .unwrap();
+        let mut w = World::from_def(&sc.world, SolverSettings::soft()).unwrap();
+        let n = w.bodies.len();
+        assert_eq!(n, 961);
+        let dt = w.settings.dt;
+        let start: Vec<_> = w.bodies.iter().map(|b| b.position).collect();
+        let mut woke = None;
+        for k in 1..=120 {
+            // every sleeper's entry in the solver is NaN: a pass or a row that read one
+            // the step did not load would put NaN into the world
+            let bodies = w.bodies.clone();
+            if let Some(st) = w.stepper_as_mut::<SoftStepper>() {
+                st.soft.poison_sleepers(&bodies);
+            }
+            w.step().unwrap_or_else(|e| panic!("step {k}: {e}"));
+            let st = w.stepper_as::<SoftStepper>().unwrap();
+            if w.bodies.iter().filter(|b| b.asleep).count() == n - 1 {
+                // only the ball's block is visited
+                assert_eq!(
+                    st.soft.awake_blocks(),
+                    &[true, false, false, false],
+                    "step {k}"
+                );
+                // the ball flies free: x = x0 + v t
+                let x = -3.0 + 2.0 * dt * k as f32;
+                assert!((w.bodies[0].position.x - x).abs() < 1e-4, "step {k}");
+            } else {
+                woke.get_or_insert(k);
+            }
+            assert!(
+                w.bodies
+                    .iter()
+                    .all(|b| b.position.is_finite() && b.velocity.is_finite())
+            );
+        }
+        // the ball's edge reaches the wall's (x = -0.25) at t = 2.25 / 2 s, step 68, and
+        // wakes the boxes it reaches
+        let woke = woke.expect("the ball woke the wall");
+        assert!((66..=69).contains(&woke), "woke at step {woke}");
+        assert!(w.bodies.iter().skip(1).any(|b| !b.asleep));
+        assert!(w.bodies[0].position.x < 0.0, "the ball stopped at the wall");
+        let moved = w
+            .bodies
+            .iter()
+            .zip(&start)
+            .filter(|(b, s)| b.position != **s)
+            .count();
+        assert!(moved > 1, "the wall was pushed");
     }
 
     /// The built-in pyramid (base 20, 210 boxes) under the soft step, after `n` steps.

@@ -148,4 +148,9 @@ impl Stepper for XpbdStepper {
     fn as_any(&self) -> &dyn std::any::Any {
         self
     }
+
+    #[cfg(test)]
+    fn as_any_mut(&mut self) -> &mut dyn std::any::Any {
+        self
+    }
 }

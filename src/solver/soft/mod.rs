@@ -32,6 +32,7 @@
 //! the same arithmetic as the SSE one (no fused multiply-adds), so the same bits.
 
 use super::contact_cache::Contact;
+use crate::awake::{AwakeMarks, each_awake};
 use crate::body::Body;
 use crate::body::HOT_BYTES;
 use crate::defs::{BodyModel, BodyType, SolverSettings};
@@ -369,6 +370,9 @@ pub struct SoftSolver {
     deepest: f32,
     /// Whether the last `prepare_integrating` coloured the contacts beside its load pass.
     colored_beside_load: bool,
+    /// Per block of bodies, whether the step's body passes visit it (the collide found a
+    /// body in it awake; empty: every block). See [`crate::awake`].
+    awake: Vec<bool>,
 }
 
 impl SoftSolver {
@@ -376,6 +380,45 @@ impl SoftSolver {
     /// collide returns it; 0 if not known).
     pub fn set_deepest(&mut self, deepest: f32) {
         self.deepest = deepest;
+    }
+
+    /// Fills the solver's entries of the bodies that sleep with NaN (tests: a body pass
+    /// or a constraint that read a sleeper's entry the step did not load would spread
+    /// them into the world).
+    #[cfg(test)]
+    pub(crate) fn poison_sleepers(&mut self, bodies: &[Body]) {
+        let nan = Vec2::splat(f32::NAN);
+        for (i, b) in bodies.iter().enumerate().take(self.moves.len()) {
+            if b.asleep {
+                self.bodies[i] = SoftBody {
+                    v: nan,
+                    w: f32::NAN,
+                    dtheta: f32::NAN,
+                    dp: nan,
+                    dq: Rot {
+                        c: f32::NAN,
+                        s: f32::NAN,
+                    },
+                };
+                self.inv_mass[i] = (f32::NAN, f32::NAN);
+                if let Some(inc) = self.increments.get_mut(i) {
+                    *inc = (nan, f32::NAN);
+                }
+            }
+        }
+    }
+
+    /// Per block of bodies, whether this step's body passes visit it (empty: all).
+    #[cfg(test)]
+    pub(crate) fn awake_blocks(&self) -> &[bool] {
+        &self.awake
+    }
+
+    /// Tells the step's body passes which blocks of bodies to visit: those the collide
+    /// found awake, or every block if it found none (see [`crate::awake`]). A skipped
+    /// block's entries keep whatever they held: no constraint reads a sleeping body.
+    pub(crate) fn set_awake(&mut self, marks: &AwakeMarks) {
+        marks.copy_into(&mut self.awake);
     }
 
     /// Builds this step's constraints from the contacts (collided at the step's start)
@@ -434,37 +477,40 @@ impl SoftSolver {
         let increments = Disjoint::new(&mut self.increments);
         let all = Disjoint::new(bodies);
         let shared_range = SharedMassRange::new();
+        let awake = &self.awake[..];
         let load = |t: usize, r: std::ops::Range<usize>| {
-            // SAFETY: each block takes only its own range of each slice
-            let (soft, moves, inv_mass, increments, bodies) = unsafe {
-                (
-                    soft.range(r.clone()),
-                    moves.range(r.clone()),
-                    inv_mass.range(r.clone()),
-                    increments.range(r.clone()),
-                    all.range(r),
-                )
-            };
             let mut range = MassRange::default();
-            for i in 0..bodies.len() {
-                prefetch(bodies, i + BODY_AHEAD, HOT_BYTES);
-                let b = &mut bodies[i];
-                let (v0, w0) = (b.velocity, b.angular_velocity);
-                if b.is_dynamic() && !b.asleep {
-                    (b.velocity, b.angular_velocity) = b.free_velocity(h, gravity);
-                }
-                // the constraints are built from the velocities before the step (restitution
-                // keeps each point's approach speed): the new ones wait in `increments`
-                increments[i] = (b.velocity, b.angular_velocity);
-                soft[i] = SoftBody {
-                    v: v0,
-                    w: w0,
-                    ..SoftBody::default()
+            each_awake(awake, r, |r| {
+                // SAFETY: each block takes only its own range of each slice
+                let (soft, moves, inv_mass, increments, bodies) = unsafe {
+                    (
+                        soft.range(r.clone()),
+                        moves.range(r.clone()),
+                        inv_mass.range(r.clone()),
+                        increments.range(r.clone()),
+                        all.range(r),
+                    )
                 };
-                moves[i] = b.is_dynamic();
-                inv_mass[i] = (b.inv_mass, b.inv_inertia);
-                range.add(moves[i], b.inv_mass);
-            }
+                for i in 0..bodies.len() {
+                    prefetch(bodies, i + BODY_AHEAD, HOT_BYTES);
+                    let b = &mut bodies[i];
+                    let (v0, w0) = (b.velocity, b.angular_velocity);
+                    if b.is_dynamic() && !b.asleep {
+                        (b.velocity, b.angular_velocity) = b.free_velocity(h, gravity);
+                    }
+                    // the constraints are built from the velocities before the step (restitution
+                    // keeps each point's approach speed): the new ones wait in `increments`
+                    increments[i] = (b.velocity, b.angular_velocity);
+                    soft[i] = SoftBody {
+                        v: v0,
+                        w: w0,
+                        ..SoftBody::default()
+                    };
+                    moves[i] = b.is_dynamic();
+                    inv_mass[i] = (b.inv_mass, b.inv_inertia);
+                    range.add(moves[i], b.inv_mass);
+                }
+            });
             range.publish(&shared_range, t);
             0.0
         };
@@ -534,16 +580,20 @@ impl SoftSolver {
         // then take the new velocities and keep their increments, as take_increments
         // does (a pass over the solver's own small arrays)
         let n = self.increments.len();
+        let awake = &self.awake[..];
         parallel::chunks_mut2(
             pool,
             &mut self.bodies[..n],
             &mut self.increments,
             BODY_BLOCK,
-            &|_, _, soft, increments| {
-                for (s, inc) in soft.iter_mut().zip(increments) {
-                    let (v, w) = *inc;
-                    take_velocity(s, inc, v, w);
-                }
+            &|_, offset, soft, increments| {
+                each_awake(awake, offset..offset + soft.len(), |r| {
+                    let r = r.start - offset..r.end - offset;
+                    for (s, inc) in soft[r.clone()].iter_mut().zip(&mut increments[r]) {
+                        let (v, w) = *inc;
+                        take_velocity(s, inc, v, w);
+                    }
+                });
                 0.0
             },
         );
@@ -566,6 +616,7 @@ impl SoftSolver {
     fn load_bodies(&mut self, bodies: &[Body], pool: Option<&Pool>) {
         let nb = bodies.len();
         let shared_range = SharedMassRange::new();
+        let awake = &self.awake[..];
         // one pass over the bodies (large: each read is a cache miss on a big scene),
         // split between the threads
         parallel::chunks_mut3(
@@ -575,20 +626,28 @@ impl SoftSolver {
             &mut self.inv_mass[..],
             BODY_PASS_BLOCK,
             &|t, offset, soft, moves, inv_mass| {
-                let bodies = &bodies[offset..];
                 let mut range = MassRange::default();
-                for (i, ((s, m), im)) in soft.iter_mut().zip(moves).zip(inv_mass).enumerate() {
-                    prefetch(bodies, i + BODY_AHEAD, HOT_BYTES);
-                    let b = &bodies[i];
-                    *s = SoftBody {
-                        v: b.velocity,
-                        w: b.angular_velocity,
-                        ..SoftBody::default()
-                    };
-                    *m = b.is_dynamic();
-                    *im = (b.inv_mass, b.inv_inertia);
-                    range.add(*m, b.inv_mass);
-                }
+                each_awake(awake, offset..offset + soft.len(), |r| {
+                    let bodies = &bodies[r.clone()];
+                    let r = r.start - offset..r.end - offset;
+                    let (soft, moves, inv_mass) = (
+                        &mut soft[r.clone()],
+                        &mut moves[r.clone()],
+                        &mut inv_mass[r],
+                    );
+                    for (i, ((s, m), im)) in soft.iter_mut().zip(moves).zip(inv_mass).enumerate() {
+                        prefetch(bodies, i + BODY_AHEAD, HOT_BYTES);
+                        let b = &bodies[i];
+                        *s = SoftBody {
+                            v: b.velocity,
+                            w: b.angular_velocity,
+                            ..SoftBody::default()
+                        };
+                        *m = b.is_dynamic();
+                        *im = (b.inv_mass, b.inv_inertia);
+                        range.add(*m, b.inv_mass);
+                    }
+                });
                 range.publish(&shared_range, t);
                 0.0
             },
@@ -615,18 +674,23 @@ impl SoftSolver {
         let n = bodies.len().min(self.bodies.len());
         self.increments.clear();
         self.increments.resize(n, (Vec2::ZERO, 0.0));
+        let awake = &self.awake[..];
         parallel::chunks_mut2(
             pool,
             &mut self.bodies[..n],
             &mut self.increments,
             BODY_PASS_BLOCK,
             &|_, offset, soft, increments| {
-                let bodies = &bodies[offset..];
-                for (i, (s, inc)) in soft.iter_mut().zip(increments).enumerate() {
-                    prefetch(bodies, i + BODY_AHEAD, HOT_BYTES);
-                    let b = &bodies[i];
-                    take_velocity(s, inc, b.velocity, b.angular_velocity);
-                }
+                each_awake(awake, offset..offset + soft.len(), |r| {
+                    let bodies = &bodies[r.clone()];
+                    let r = r.start - offset..r.end - offset;
+                    let (soft, increments) = (&mut soft[r.clone()], &mut increments[r]);
+                    for (i, (s, inc)) in soft.iter_mut().zip(increments).enumerate() {
+                        prefetch(bodies, i + BODY_AHEAD, HOT_BYTES);
+                        let b = &bodies[i];
+                        take_velocity(s, inc, b.velocity, b.angular_velocity);
+                    }
+                });
                 0.0
             },
         );
@@ -644,26 +708,29 @@ impl SoftSolver {
             &mut bodies[..n],
             BODY_PASS_BLOCK,
             &|_, offset, bodies| {
-                let (soft, moves) = (&self.bodies[offset..], &self.moves[offset..]);
                 let mut bad = false;
-                for (i, (s, &m)) in soft.iter().zip(moves).take(bodies.len()).enumerate() {
-                    prefetch(bodies, i + BODY_AHEAD, HOT_BYTES);
-                    let b = &mut bodies[i];
-                    b.force = Vec2::ZERO;
-                    b.torque = 0.0;
-                    if m {
-                        b.velocity = s.v;
-                        b.angular_velocity = s.w;
-                    }
-                    if b.body_type != BodyType::Static {
-                        b.position += s.dp;
-                        if b.model == BodyModel::Rigid {
-                            b.angle += s.dtheta;
-                            b.rot = Rot::from_angle(b.angle);
+                each_awake(&self.awake, offset..offset + bodies.len(), |r| {
+                    let (soft, moves) = (&self.bodies[r.clone()], &self.moves[r.clone()]);
+                    let bodies = &mut bodies[r.start - offset..r.end - offset];
+                    for (i, (s, &m)) in soft.iter().zip(moves).take(bodies.len()).enumerate() {
+                        prefetch(bodies, i + BODY_AHEAD, HOT_BYTES);
+                        let b = &mut bodies[i];
+                        b.force = Vec2::ZERO;
+                        b.torque = 0.0;
+                        if m {
+                            b.velocity = s.v;
+                            b.angular_velocity = s.w;
                         }
+                        if b.body_type != BodyType::Static {
+                            b.position += s.dp;
+                            if b.model == BodyModel::Rigid {
+                                b.angle += s.dtheta;
+                                b.rot = Rot::from_angle(b.angle);
+                            }
+                        }
+                        bad |= !b.is_finite();
                     }
-                    bad |= !b.is_finite();
-                }
+                });
                 if bad { 1.0 } else { 0.0 }
             },
         );

@@ -226,6 +226,7 @@ impl SoftSolver {
         let bodies = BodyPtr::new(&mut self.bodies, self.sink);
         let wide = Disjoint::new(&mut self.wide);
         let ahead_blocks = &self.ahead_blocks.0;
+        let awake = &self.awake[..];
         // each share's part of a phase
         let share = |p: usize, j: usize| -> std::ops::Range<usize> {
             match plan[p] {
@@ -275,11 +276,13 @@ impl SoftSolver {
                     f32::NEG_INFINITY
                 }
                 Pass::Increments => {
-                    add_increments(unsafe { bodies.range(r.clone()) }, &increments[r]);
+                    each_awake(awake, r, |r| {
+                        add_increments(unsafe { bodies.range(r.clone()) }, &increments[r]);
+                    });
                     f32::NEG_INFINITY
                 }
                 Pass::Integrate => {
-                    integrate_range(unsafe { bodies.range(r) }, h);
+                    each_awake(awake, r, |r| integrate_range(unsafe { bodies.range(r) }, h));
                     f32::NEG_INFINITY
                 }
                 Pass::WarmStart | Pass::Sweep | Pass::Relax => {
