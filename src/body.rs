@@ -1,7 +1,7 @@
 //! Bodies: the state the integrator advances, and the mass properties found from the shape.
 
 use crate::defs::{BodyModel, BodyType, Color};
-use crate::math::{Rot, Transform, Vec2};
+use crate::math::{Aabb, Rot, Transform, Vec2};
 use crate::shape::Shape;
 
 /// A body's place in its world's creation order: what definitions ([`crate::defs::JointDef`],
@@ -108,6 +108,11 @@ pub struct Body {
     /// The speed (m/s) below which it counts as at rest for sleeping.
     #[serde(default = "default_sleep_threshold")]
     pub sleep_threshold: f32,
+    /// While asleep: its bounding box, found the first time the wake pass needs it (a
+    /// sleeper does not move, and whatever moves or reshapes it wakes it first);
+    /// cleared when it wakes.
+    #[serde(skip)]
+    pub(crate) rest_box: Option<Aabb>,
 }
 
 fn default_sleep_threshold() -> f32 {

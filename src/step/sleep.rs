@@ -70,6 +70,7 @@ impl Sleep {
             if b.asleep && b.island == island {
                 b.asleep = false;
                 b.sleep_time = 0.0;
+                b.rest_box = None;
             }
         }
         let (mut back, mut kept) = (Vec::new(), Vec::new());
@@ -106,6 +107,7 @@ impl Sleep {
             if b.asleep && islands.binary_search(&b.island).is_ok() {
                 b.asleep = false;
                 b.sleep_time = 0.0;
+                b.rest_box = None;
             }
         }
         let (mut back, mut kept) = (Vec::new(), Vec::new());
@@ -216,9 +218,10 @@ impl Sleep {
     /// Every body's swept box of this step into the collider's boxes (found there by
     /// its broad phase too), whether it looks for sleepers (a mover) into its flags, and
     /// whether it sizes the grid's cells (a dynamic body, asleep or not: a few large
-    /// movers must not put many small sleepers in one cell) into `sized`.
+    /// movers must not put many small sleepers in one cell) into `sized`. A sleeper's
+    /// box is found once and kept with it until it wakes.
     fn find_boxes(
-        bodies: &[Body],
+        bodies: &mut [Body],
         collider: &mut Collider,
         sized: &mut Vec<bool>,
         h: f32,
@@ -228,7 +231,15 @@ impl Sleep {
         collider.dynamic.clear();
         sized.clear();
         for b in bodies {
-            collider.aabbs.push(swept_box(b, b.aabb(), h, margin));
+            let bb = match (b.asleep, b.rest_box) {
+                (true, Some(bb)) => {
+                    debug_assert!(bb == b.aabb(), "a sleeper's kept box is its box");
+                    bb
+                }
+                (true, None) => *b.rest_box.insert(b.aabb()),
+                _ => b.aabb(),
+            };
+            collider.aabbs.push(swept_box(b, bb, h, margin));
             collider.dynamic.push(b.is_mover());
             sized.push(b.is_dynamic());
         }
@@ -390,6 +401,7 @@ impl Sleep {
             let r = uf_root(&mut self.islands, i as u32);
             if least[r as usize] >= TIME_TO_SLEEP {
                 b.asleep = true;
+                b.rest_box = None;
                 b.island = r;
                 b.velocity = Vec2::ZERO;
                 b.angular_velocity = 0.0;

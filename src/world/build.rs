@@ -452,6 +452,7 @@ impl World {
             linear_damping: def.linear_damping,
             angular_damping: def.angular_damping,
             sleep_threshold: def.sleep_threshold,
+            rest_box: None,
         };
         if dynamic && let Some((input, what)) = energy_problem(&body, gravity) {
             return Err(derived(input, what));
