@@ -234,11 +234,14 @@ impl Collider {
                 0.0
             },
         );
-        self.awake.finish();
         self.reach_h = h;
         let flags = flags.into_inner();
         let (filtered, sensors) = (flags & FILTERED != 0, flags & SENSORS != 0);
         let any_asleep = flags & ASLEEP != 0;
+        if any_asleep {
+            // (with none asleep every block is awake: the passes after need not look)
+            self.awake.finish();
+        }
         // (with none asleep, `dynamic` is whether each body is dynamic)
         self.movers_found = !any_asleep;
         let left = if kept {
