@@ -147,24 +147,12 @@ impl Sleep {
     ) {
         let mut wake = std::mem::take(&mut self.to_wake);
         wake.clear();
-        let mut movers = false;
-        for b in bodies.iter() {
-            if b.asleep
-                && (b.velocity != Vec2::ZERO
-                    || b.angular_velocity != 0.0
-                    || b.force != Vec2::ZERO
-                    || b.torque != 0.0)
-            {
-                wake.push(b.island);
-            }
-            movers |= b.is_mover();
-        }
-        // nothing awake moves: nothing can reach a sleeping island
-        if movers {
-            Self::find_boxes(bodies, collider, &mut self.wake_sized, h, margin);
-        }
+        // (one pass: the boxes, and the sleepers pushed since they fell asleep)
+        let mut movers =
+            Self::find_boxes(bodies, collider, &mut self.wake_sized, &mut wake, h, margin);
         let mut first = true;
         loop {
+            // (nothing awake moves in the first round: nothing can reach a sleeping island)
             if movers {
                 let bs = &*bodies;
                 let (aabbs, look, sized) = (&collider.aabbs, &collider.dynamic, &self.wake_sized);
@@ -197,19 +185,13 @@ impl Sleep {
             if wake.is_empty() {
                 break;
             }
-            // the next round looks from the bodies this one wakes
-            if movers {
-                for (look, b) in collider.dynamic.iter_mut().zip(bodies.iter()) {
-                    *look = b.asleep && wake.binary_search(&b.island).is_ok();
-                }
+            // the next round looks from the bodies this one wakes (with no mover in the
+            // first round, a pushed sleeper's)
+            for (look, b) in collider.dynamic.iter_mut().zip(bodies.iter()) {
+                *look = b.asleep && wake.binary_search(&b.island).is_ok();
             }
             self.wake_islands(bodies, contacts, &mut wake);
-            if !movers {
-                // the first round had no mover (a pushed sleeper woke): the boxes now,
-                // and the next round looks from the bodies that woke
-                Self::find_boxes(bodies, collider, &mut self.wake_sized, h, margin);
-                movers = true;
-            }
+            movers = true;
             wake.clear();
         }
         self.to_wake = wake;
@@ -218,32 +200,49 @@ impl Sleep {
     /// Every body's swept box of this step into the collider's boxes (found there by
     /// its broad phase too), whether it looks for sleepers (a mover) into its flags, and
     /// whether it sizes the grid's cells (a dynamic body, asleep or not: a few large
-    /// movers must not put many small sleepers in one cell) into `sized`. A sleeper's
-    /// box is found once and kept with it until it wakes.
+    /// movers must not put many small sleepers in one cell) into `sized`; the island of
+    /// each sleeper pushed, set moving or given a force since it fell asleep into
+    /// `pushed`. A sleeper's box is found once and kept with it until it wakes. Returns
+    /// whether some body moves (a mover).
     fn find_boxes(
         bodies: &mut [Body],
         collider: &mut Collider,
         sized: &mut Vec<bool>,
+        pushed: &mut Vec<u32>,
         h: f32,
         margin: f32,
-    ) {
+    ) -> bool {
         collider.aabbs.clear();
         collider.dynamic.clear();
         sized.clear();
+        let mut movers = false;
         for b in bodies {
-            let bb = match (b.asleep, b.rest_box) {
-                (true, Some(bb)) => {
-                    debug_assert!(bb == b.aabb(), "a sleeper's kept box is its box");
-                    bb
-                }
-                (true, None) => *b.rest_box.insert(b.aabb()),
-                _ => b.aabb(),
+            if b.asleep
+                && (b.velocity != Vec2::ZERO
+                    || b.angular_velocity != 0.0
+                    || b.force != Vec2::ZERO
+                    || b.torque != 0.0)
+            {
+                pushed.push(b.island);
+            }
+            // (an awake body's box is found afresh: its kept one, far into the body, is
+            // not read)
+            let bb = if !b.asleep {
+                b.aabb()
+            } else if let Some(bb) = b.rest_box {
+                debug_assert!(bb == b.aabb(), "a sleeper's kept box is its box");
+                bb
+            } else {
+                *b.rest_box.insert(b.aabb())
             };
             collider.aabbs.push(swept_box(b, bb, h, margin));
-            collider.dynamic.push(b.is_mover());
+            let mover = b.is_mover();
+            movers |= mover;
+            collider.dynamic.push(mover);
             sized.push(b.is_dynamic());
         }
         collider.boxes_found = true;
+        movers
     }
 
     /// Takes the joints whose bodies all sleep or do not move out of `joints` for this
