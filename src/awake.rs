@@ -108,9 +108,23 @@ pub(crate) fn each_awake(awake: &[bool], r: Range<usize>, mut f: impl FnMut(Rang
     }
 }
 
+/// [`each_awake`] over the `len` bodies from `offset` (a pass's block of them), each part
+/// given relative to `offset`.
+#[inline]
+pub(crate) fn each_awake_in(
+    awake: &[bool],
+    offset: usize,
+    len: usize,
+    mut f: impl FnMut(Range<usize>),
+) {
+    each_awake(awake, offset..offset + len, |r| {
+        f(r.start - offset..r.end - offset)
+    });
+}
+
 #[cfg(test)]
 mod tests {
-    use super::{AwakeMarks, each_awake};
+    use super::{AwakeMarks, each_awake, each_awake_in};
     use crate::math::BODY_PASS_BLOCK;
 
     /// The indices `each_awake` visits, one by one.
@@ -153,6 +167,10 @@ mod tests {
         }
         // no marks: everything
         assert_eq!(visited(&[], 5..9), vec![5, 6, 7, 8]);
+        // from an offset, the parts relative to it
+        let mut parts = Vec::new();
+        each_awake_in(&[true, false, true], b - 2, 2 * b + 4, |r| parts.push(r));
+        assert_eq!(parts, vec![0..2, b + 2..2 * b + 4]);
     }
 
     #[test]

@@ -32,7 +32,7 @@
 //! the same arithmetic as the SSE one (no fused multiply-adds), so the same bits.
 
 use super::contact_cache::Contact;
-use crate::awake::{AwakeMarks, each_awake};
+use crate::awake::{AwakeMarks, each_awake, each_awake_in};
 use crate::body::Body;
 use crate::body::HOT_BYTES;
 use crate::defs::{BodyModel, BodyType, SolverSettings};
@@ -587,8 +587,7 @@ impl SoftSolver {
             &mut self.increments,
             BODY_BLOCK,
             &|_, offset, soft, increments| {
-                each_awake(awake, offset..offset + soft.len(), |r| {
-                    let r = r.start - offset..r.end - offset;
+                each_awake_in(awake, offset, soft.len(), |r| {
                     for (s, inc) in soft[r.clone()].iter_mut().zip(&mut increments[r]) {
                         let (v, w) = *inc;
                         take_velocity(s, inc, v, w);
@@ -627,9 +626,9 @@ impl SoftSolver {
             BODY_PASS_BLOCK,
             &|t, offset, soft, moves, inv_mass| {
                 let mut range = MassRange::default();
-                each_awake(awake, offset..offset + soft.len(), |r| {
+                let bodies = &bodies[offset..];
+                each_awake_in(awake, offset, soft.len(), |r| {
                     let bodies = &bodies[r.clone()];
-                    let r = r.start - offset..r.end - offset;
                     let (soft, moves, inv_mass) = (
                         &mut soft[r.clone()],
                         &mut moves[r.clone()],
@@ -681,9 +680,9 @@ impl SoftSolver {
             &mut self.increments,
             BODY_PASS_BLOCK,
             &|_, offset, soft, increments| {
-                each_awake(awake, offset..offset + soft.len(), |r| {
+                let bodies = &bodies[offset..];
+                each_awake_in(awake, offset, soft.len(), |r| {
                     let bodies = &bodies[r.clone()];
-                    let r = r.start - offset..r.end - offset;
                     let (soft, increments) = (&mut soft[r.clone()], &mut increments[r]);
                     for (i, (s, inc)) in soft.iter_mut().zip(increments).enumerate() {
                         prefetch(bodies, i + BODY_AHEAD, HOT_BYTES);
@@ -709,9 +708,10 @@ impl SoftSolver {
             BODY_PASS_BLOCK,
             &|_, offset, bodies| {
                 let mut bad = false;
-                each_awake(&self.awake, offset..offset + bodies.len(), |r| {
-                    let (soft, moves) = (&self.bodies[r.clone()], &self.moves[r.clone()]);
-                    let bodies = &mut bodies[r.start - offset..r.end - offset];
+                let (soft, moves) = (&self.bodies[offset..], &self.moves[offset..]);
+                each_awake_in(&self.awake, offset, bodies.len(), |r| {
+                    let (soft, moves) = (&soft[r.clone()], &moves[r.clone()]);
+                    let bodies = &mut bodies[r];
                     for (i, (s, &m)) in soft.iter().zip(moves).take(bodies.len()).enumerate() {
                         prefetch(bodies, i + BODY_AHEAD, HOT_BYTES);
                         let b = &mut bodies[i];
