@@ -159,6 +159,25 @@ impl Body {
             && self.angular_velocity.is_finite()
     }
 
+    /// No velocity, spin, force or torque: a sleeper that is not still was pushed, set
+    /// moving or given a force since it fell asleep, and wakes.
+    #[inline]
+    pub(crate) fn is_still(&self) -> bool {
+        self.velocity == Vec2::ZERO
+            && self.angular_velocity == 0.0
+            && self.force == Vec2::ZERO
+            && self.torque == 0.0
+    }
+
+    /// Adds `force` (N) at `world_point`, and a `torque` (N m) of its own, to this
+    /// step's force and torque (no torque of its own: -0.0, which adding changes no
+    /// bit of).
+    #[inline]
+    pub(crate) fn add_force_at(&mut self, force: Vec2, world_point: Vec2, torque: f32) {
+        self.force += force;
+        self.torque += crate::math::cross(world_point - self.position, force) + torque;
+    }
+
     /// An awake dynamic body, or a kinematic one that moves: what wakes a sleeping
     /// island it reaches.
     #[inline]

@@ -408,8 +408,7 @@ impl World {
         if let Some(b) = self.bodies.get_mut(body)
             && b.is_dynamic()
         {
-            b.force += force;
-            b.torque += crate::math::cross(world_point - b.position, force);
+            b.add_force_at(force, world_point, -0.0);
         }
     }
 

@@ -66,32 +66,17 @@ impl Sleep {
         contacts: &mut Vec<Contact>,
         island: u32,
     ) {
-        for b in bodies.iter_mut() {
-            if b.asleep && b.island == island {
-                b.asleep = false;
-                b.sleep_time = 0.0;
-                b.rest_box = None;
-            }
-        }
-        let (mut back, mut kept) = (Vec::new(), Vec::new());
-        for c in self.contacts.drain(..) {
-            if bodies[c.a as usize].asleep || bodies[c.b as usize].asleep {
-                kept.push(c);
-            } else {
-                back.push(c);
-            }
-        }
-        self.contacts = kept;
-        if !back.is_empty() {
-            // the cache is read as one list sorted by pair
-            contacts.extend(back);
-            contacts.sort_by_key(|c| (c.a, c.b));
-        }
+        let mut one = std::mem::take(&mut self.to_wake);
+        one.clear();
+        one.push(island);
+        self.wake_islands(bodies, contacts, &mut one);
+        self.to_wake = one;
     }
 
     /// Wakes the sleeping islands labelled in `islands` (any order, repeats allowed) in
-    /// one pass over the bodies and the kept contacts, as [`Sleep::wake_island`] would
-    /// one by one.
+    /// one pass over the bodies and the kept contacts, with the kept contacts of every
+    /// pair no longer asleep put back in `contacts` (the cache, sorted by pair), so
+    /// they start warm.
     pub(crate) fn wake_islands(
         &mut self,
         bodies: &mut [Body],
@@ -217,12 +202,7 @@ impl Sleep {
         sized.clear();
         let mut movers = false;
         for b in bodies {
-            if b.asleep
-                && (b.velocity != Vec2::ZERO
-                    || b.angular_velocity != 0.0
-                    || b.force != Vec2::ZERO
-                    || b.torque != 0.0)
-            {
+            if b.asleep && !b.is_still() {
                 pushed.push(b.island);
             }
             // (an awake body's box is found afresh: its kept one, far into the body, is
@@ -307,14 +287,12 @@ impl Sleep {
     ) {
         if !settings.sleep {
             if !self.none_asleep && (bodies.iter().any(|b| b.asleep) || !self.contacts.is_empty()) {
-                let islands: Vec<u32> = bodies
+                let mut islands: Vec<u32> = bodies
                     .iter()
                     .filter(|b| b.asleep)
                     .map(|b| b.island)
                     .collect();
-                for i in islands {
-                    self.wake_island(bodies, contacts, i);
-                }
+                self.wake_islands(bodies, contacts, &mut islands);
             }
             return;
         }
@@ -422,12 +400,7 @@ pub(crate) fn at_rest(
     contacts.is_empty()
         && forces.is_empty()
         && mouse.is_none()
-        && bodies.iter().all(|b| {
-            !b.is_mover()
-                && (!b.asleep
-                    || (b.velocity == Vec2::ZERO
-                        && b.angular_velocity == 0.0
-                        && b.force == Vec2::ZERO
-                        && b.torque == 0.0))
-        })
+        && bodies
+            .iter()
+            .all(|b| !b.is_mover() && (!b.asleep || b.is_still()))
 }

@@ -315,8 +315,7 @@ impl World {
             return Err(self.not_applicable(i, "only a dynamic body takes a force"));
         }
         let b = &mut self.bodies[i];
-        b.force += force;
-        b.torque += cross(world_point - b.position, force) + torque;
+        b.add_force_at(force, world_point, torque);
         self.wake_index(i);
         Ok(())
     }
