@@ -10,7 +10,7 @@
 //! in the collide's pass and not again in every pass of every substep.
 
 use std::ops::Range;
-use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicU32, Ordering};
 
 use crate::math::BODY_PASS_BLOCK;
 
@@ -74,6 +74,115 @@ impl AwakeMarks {
         out.clear();
         if self.found {
             out.extend(self.marks.iter().map(|m| m.load(Ordering::Relaxed)));
+        }
+    }
+}
+
+impl AwakeMarks {
+    /// Whether block `k` was marked by this step's pass (false when the marks are not
+    /// this step's: then no block is known to sleep).
+    fn sleeps(&self, k: usize) -> bool {
+        self.found
+            && self
+                .marks
+                .get(k)
+                .is_some_and(|m| !m.load(Ordering::Relaxed))
+    }
+}
+
+/// Rest blocks: the blocks where every body slept through the last step, whose entries
+/// in the collide's arrays (swept box, reach, flags, whether it sizes the wake pass's
+/// grid) still hold from then. Their bodies are still and unchanged (anything that
+/// moves, pushes or reshapes a sleeper wakes its island first, which takes its block
+/// off), so the wake pass and the broad phase skip them and a world that is mostly
+/// asleep pays for its sleeping blocks in no pass of the step. Known only for the same
+/// bodies (count and order: adding, removing or restoring bodies forgets them) and the
+/// same step and margin the boxes were swept for; debug builds check every skipped
+/// entry against a fresh one.
+#[derive(Debug, Default)]
+pub(crate) struct RestBlocks {
+    /// Per block: every body in it sleeps and its entries hold.
+    blocks: Vec<bool>,
+    /// Per block: the broad phase's filter and sensor flags of its bodies, as its last
+    /// visit found them.
+    flags: Vec<AtomicU32>,
+    /// The body count and the step and margin (bits) of the boxes.
+    seen: (usize, u32, u32),
+    /// The world's count of edits to its bodies (added, removed, reshaped, restored)
+    /// when the blocks were found.
+    edits: u64,
+}
+
+impl Clone for RestBlocks {
+    /// A copy knows no rest block: its next step visits every body.
+    fn clone(&self) -> Self {
+        RestBlocks::default()
+    }
+}
+
+impl RestBlocks {
+    /// Knows no rest block (until a step's end finds them again).
+    pub(crate) fn forget(&mut self) {
+        self.blocks.clear();
+    }
+
+    /// A step's start in a world whose bodies have been edited `edits` times: forgets
+    /// the rest blocks if they were edited since they were found.
+    pub(crate) fn since_edits(&mut self, edits: u64) {
+        if edits != self.edits {
+            self.blocks.clear();
+            self.edits = edits;
+        }
+    }
+
+    /// A collide's start for `bodies` bodies and boxes swept over `h` with `margin`:
+    /// forgets the rest blocks unless the boxes were found for the same.
+    pub(crate) fn begin(&mut self, bodies: usize, h: f32, margin: f32) {
+        let seen = (bodies, h.to_bits(), margin.to_bits());
+        if seen != self.seen {
+            self.blocks.clear();
+            self.seen = seen;
+        }
+        let blocks = bodies.div_ceil(crate::math::BODY_PASS_BLOCK);
+        self.flags.truncate(blocks);
+        self.flags.resize_with(blocks, || AtomicU32::new(0));
+    }
+
+    /// Whether block `k`'s bodies all sleep with their entries as the last visit left
+    /// them.
+    #[inline]
+    pub(crate) fn is_rest(&self, k: usize) -> bool {
+        self.blocks.get(k).copied().unwrap_or(false)
+    }
+
+    /// Body `i` wakes (or changes): its block is visited again.
+    #[inline]
+    pub(crate) fn wake(&mut self, i: usize) {
+        if let Some(b) = self.blocks.get_mut(i / crate::math::BODY_PASS_BLOCK) {
+            *b = false;
+        }
+    }
+
+    /// The flags block `k`'s visit found (see [`RestBlocks::is_rest`]).
+    #[inline]
+    pub(crate) fn flags(&self, k: usize) -> u32 {
+        self.flags[k].load(Ordering::Relaxed)
+    }
+
+    /// Records block `k`'s flags from its visit (from any thread of the pass).
+    #[inline]
+    pub(crate) fn set_flags(&self, k: usize, f: u32) {
+        self.flags[k].store(f, Ordering::Relaxed);
+    }
+
+    /// A step's end, before anything falls asleep or wakes: the rest blocks of the next
+    /// step are the blocks this step's pass found asleep (`marks`; a block that falls
+    /// asleep now has its boxes swept with its last velocities, so it waits a step).
+    pub(crate) fn keep(&mut self, marks: &AwakeMarks) {
+        let blocks = self.seen.0.div_ceil(crate::math::BODY_PASS_BLOCK);
+        self.blocks.clear();
+        if marks.found {
+            self.blocks.extend((0..blocks).map(|k| marks.sleeps(k)));
         }
     }
 }

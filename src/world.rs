@@ -474,6 +474,7 @@ impl World {
         self.collider.movers_found = false;
         self.collider.boxes_found = false;
         self.collider.awake.forget();
+        self.sleep.rest.since_edits(self.edits);
         let mut clock = StageClock::start();
         let one_sided = self.has_one_sided();
         if one_sided {
@@ -532,6 +533,7 @@ impl World {
             &self.forces,
             self.mouse.as_ref(),
             &self.settings,
+            &self.collider.awake,
         );
         if self.record_events {
             self.update_events();

@@ -14,7 +14,7 @@ use std::sync::atomic::{AtomicU32, AtomicUsize, Ordering};
 use super::broad_phase::BroadPhase;
 use super::contact_cache::{CacheCursor, match_points};
 use super::{Manifold, sat};
-use crate::awake::AwakeMarks;
+use crate::awake::{AwakeMarks, RestBlocks};
 use crate::body::{Body, SHAPE_BYTES};
 use crate::defs::{BodyType, Filter};
 use crate::math::{Aabb, BODY_AHEAD, BODY_PASS_BLOCK, Vec2, prefetch};
@@ -143,9 +143,11 @@ impl Collider {
         bodies: &[Body],
         h: f32,
         margin: f32,
+        rest: &RestBlocks,
         pool: Option<&Pool>,
     ) {
-        // sized, not cleared: the pass below writes every body's entry
+        // sized, not cleared: the pass below writes every body's entry but the rest
+        // blocks' (which the wake pass found as they are)
         let n = bodies.len();
         self.aabbs.resize(
             n,
@@ -169,6 +171,8 @@ impl Collider {
         let kept = broad.kept_count() == n;
         // (the wake pass sized `aabbs` for these bodies when it found their boxes)
         let found = std::mem::take(&mut self.boxes_found);
+        // (the rest blocks count only after a wake pass: with none asleep there are none)
+        let known = found.then_some(rest);
         self.awake.start(n);
         let awake = &self.awake;
         parallel::chunks_mut3(
@@ -180,51 +184,89 @@ impl Collider {
             &|_, offset, aabbs, reach, dynamic| {
                 let bodies = &bodies[offset..];
                 let mut f = 0u32;
-                let mut marked = usize::MAX;
                 let (mut first, mut last) = (usize::MAX, 0);
-                for (i, ((bx, re), dy)) in aabbs.iter_mut().zip(reach).zip(dynamic).enumerate() {
-                    // the box reads the shape too
-                    prefetch(bodies, i + BODY_AHEAD, SHAPE_BYTES);
-                    let b = &bodies[i];
-                    if b.asleep {
-                        f |= ASLEEP;
-                    } else if (offset + i) / BODY_PASS_BLOCK != marked {
-                        // (once a block: the threads' marks share a cache line)
-                        marked = (offset + i) / BODY_PASS_BLOCK;
-                        awake.mark(offset + i);
+                // block by block (the chunks are whole blocks): a rest block holds only
+                // sleepers whose entries the wake pass kept, their flags as last found
+                for start in (0..aabbs.len()).step_by(BODY_PASS_BLOCK) {
+                    let end = (start + BODY_PASS_BLOCK).min(aabbs.len());
+                    let block = (offset + start) / BODY_PASS_BLOCK;
+                    let rest = known.filter(|r| r.is_rest(block));
+                    if let Some(rest) = rest {
+                        f |= ASLEEP | rest.flags(block);
+                        if !cfg!(debug_assertions) {
+                            continue;
+                        }
                     }
-                    f |= if b.filter != Filter::default() {
-                        FILTERED
-                    } else {
-                        0
-                    };
-                    f |= if b.has_sensor() { SENSORS } else { 0 };
-                    if found && b.asleep {
-                        // a sleeper is still (the wake pass woke any that was not): its
-                        // box is the one the wake pass found, and it reaches nothing
-                        debug_assert!(*bx == swept_box(b, b.aabb(), h, margin));
-                        debug_assert!(b.velocity == Vec2::ZERO && b.angular_velocity == 0.0);
-                        *re = (0.0, 0.0);
-                    } else {
-                        let bb = b.aabb();
-                        // the most any point of the body moves in h: h (|v| + |w| r)
-                        let r = 0.5 * (bb.max - bb.min).length();
-                        *re = (
-                            h * (b.velocity.length() + b.angular_velocity.abs() * r),
-                            h * b.angular_velocity.abs() * r,
-                        );
-                        *bx = swept_box(b, bb, h, margin);
-                    }
-                    // a sleeping body is found only by the awake bodies near it, as a
-                    // static one
-                    *dy = b.is_dynamic() && !b.asleep;
-                    if kept
-                        && !(broad.kept_holds(offset + i, bx, b.is_dynamic())
-                            && broad.kept_filter_holds(offset + i, &b.filter))
+                    let mut fb = 0u32;
+                    let mut marked = false;
+                    let mut left = false;
+                    for (i, ((bx, re), dy)) in aabbs[start..end]
+                        .iter_mut()
+                        .zip(&mut reach[start..end])
+                        .zip(&mut dynamic[start..end])
+                        .enumerate()
                     {
-                        first = first.min(offset + i);
-                        last = offset + i;
+                        let i = start + i;
+                        // the box reads the shape too
+                        prefetch(bodies, i + BODY_AHEAD, SHAPE_BYTES);
+                        let b = &bodies[i];
+                        let at = offset + i;
+                        if rest.is_some() {
+                            debug_assert!(*re == (0.0, 0.0) && !*dy, "a rest block's entries hold");
+                        }
+                        if b.asleep {
+                            fb |= ASLEEP;
+                        } else if !marked {
+                            // (once a block: the threads' marks share a cache line)
+                            marked = true;
+                            awake.mark(at);
+                        }
+                        fb |= if b.filter != Filter::default() {
+                            FILTERED
+                        } else {
+                            0
+                        };
+                        fb |= if b.has_sensor() { SENSORS } else { 0 };
+                        if found && b.asleep {
+                            // a sleeper is still (the wake pass woke any that was not):
+                            // its box is the one the wake pass found, and it reaches
+                            // nothing
+                            debug_assert!(*bx == swept_box(b, b.aabb(), h, margin));
+                            debug_assert!(b.velocity == Vec2::ZERO && b.angular_velocity == 0.0);
+                            *re = (0.0, 0.0);
+                        } else {
+                            let bb = b.aabb();
+                            // the most any point of the body moves in h: h (|v| + |w| r)
+                            let r = 0.5 * (bb.max - bb.min).length();
+                            *re = (
+                                h * (b.velocity.length() + b.angular_velocity.abs() * r),
+                                h * b.angular_velocity.abs() * r,
+                            );
+                            *bx = swept_box(b, bb, h, margin);
+                        }
+                        // a sleeping body is found only by the awake bodies near it, as a
+                        // static one
+                        *dy = b.is_dynamic() && !b.asleep;
+                        if kept
+                            && !(broad.kept_holds(at, bx, b.is_dynamic())
+                                && broad.kept_filter_holds(at, &b.filter))
+                        {
+                            first = first.min(at);
+                            last = at;
+                            left = true;
+                        }
                     }
+                    if let Some(rest) = rest {
+                        // (debug builds: the skipped block's entries are what a visit
+                        // finds, its flags the same and its kept boxes holding)
+                        assert!(!marked && fb == ASLEEP | rest.flags(block));
+                        assert!(!left, "a rest block's kept boxes hold");
+                        continue;
+                    }
+                    if let Some(r) = known {
+                        r.set_flags(block, fb & !ASLEEP);
+                    }
+                    f |= fb;
                 }
                 flags.fetch_or(f, Ordering::Relaxed);
                 if first <= last {

@@ -220,7 +220,8 @@ impl StepState<'_> {
                 return 0.0;
             }
         }
-        self.collider.broad_phase(self.bodies, h, margin, self.pool);
+        self.collider
+            .broad_phase(self.bodies, h, margin, &self.sleep.rest, self.pool);
         clock.lap(Stage::Broad);
         let deepest = self.collider.narrow_phase(
             self.bodies,

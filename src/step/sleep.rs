@@ -8,6 +8,7 @@
 //! every sleeping island an awake body's (or a moving kinematic body's) box reaches
 //! wakes, with its kept contacts put back in the cache so they start warm.
 
+use crate::awake::{AwakeMarks, RestBlocks, each_awake};
 use crate::body::Body;
 use crate::collision::Contact;
 use crate::collision::collide::{Collider, swept_box};
@@ -43,6 +44,11 @@ pub(crate) struct Sleep {
     /// none is asleep at the step's end either: only [`Sleep::update`] puts bodies to
     /// sleep), so the end of the step need not look again.
     pub(crate) none_asleep: bool,
+    /// The blocks of bodies that slept through the last step, which the wake pass and
+    /// the broad phase skip (see [`RestBlocks`]).
+    pub(crate) rest: RestBlocks,
+    /// This step's awake blocks as flags (scratch of the sleep pass).
+    awake_blocks: Vec<bool>,
 }
 
 /// Whether some body is asleep: a pass over the bodies (large), split between the
@@ -88,8 +94,9 @@ impl Sleep {
         if islands.is_empty() {
             return;
         }
-        for b in bodies.iter_mut() {
+        for (i, b) in bodies.iter_mut().enumerate() {
             if b.asleep && islands.binary_search(&b.island).is_ok() {
+                self.rest.wake(i);
                 b.asleep = false;
                 b.sleep_time = 0.0;
                 b.rest_box = None;
@@ -133,8 +140,16 @@ impl Sleep {
         let mut wake = std::mem::take(&mut self.to_wake);
         wake.clear();
         // (one pass: the boxes, and the sleepers pushed since they fell asleep)
-        let mut movers =
-            Self::find_boxes(bodies, collider, &mut self.wake_sized, &mut wake, h, margin);
+        self.rest.begin(bodies.len(), h, margin);
+        let mut movers = Self::find_boxes(
+            bodies,
+            collider,
+            &self.rest,
+            &mut self.wake_sized,
+            &mut wake,
+            h,
+            margin,
+        );
         let mut first = true;
         loop {
             // (nothing awake moves in the first round: nothing can reach a sleeping island)
@@ -187,39 +202,72 @@ impl Sleep {
     /// whether it sizes the grid's cells (a dynamic body, asleep or not: a few large
     /// movers must not put many small sleepers in one cell) into `sized`; the island of
     /// each sleeper pushed, set moving or given a force since it fell asleep into
-    /// `pushed`. A sleeper's box is found once and kept with it until it wakes. Returns
-    /// whether some body moves (a mover).
+    /// `pushed`. A sleeper's box is found once and kept with it until it wakes; the
+    /// `rest` blocks' entries are kept as they are. Returns whether some body moves (a
+    /// mover).
     fn find_boxes(
         bodies: &mut [Body],
         collider: &mut Collider,
+        rest: &RestBlocks,
         sized: &mut Vec<bool>,
         pushed: &mut Vec<u32>,
         h: f32,
         margin: f32,
     ) -> bool {
-        collider.aabbs.clear();
-        collider.dynamic.clear();
-        sized.clear();
+        let n = bodies.len();
+        // sized, not cleared: a rest block's entries hold from the step it was visited
+        let empty = crate::math::Aabb {
+            min: Vec2::ZERO,
+            max: Vec2::ZERO,
+        };
+        collider.aabbs.resize(n, empty);
+        collider.dynamic.resize(n, false);
+        sized.resize(n, false);
         let mut movers = false;
-        for b in bodies {
-            if b.asleep && !b.is_still() {
-                pushed.push(b.island);
+        for (k, start) in (0..n).step_by(BODY_PASS_BLOCK).enumerate() {
+            let end = (start + BODY_PASS_BLOCK).min(n);
+            if rest.is_rest(k) {
+                #[cfg(debug_assertions)]
+                for (i, b) in bodies[start..end].iter().enumerate() {
+                    let i = start + i;
+                    assert!(
+                        b.asleep && b.is_still(),
+                        "a rest block's body {i} sleeps still"
+                    );
+                    let bb = b.rest_box.expect("a rest block's sleeper keeps its box");
+                    assert!(bb == b.aabb(), "a sleeper's kept box is its box");
+                    assert!(collider.aabbs[i] == swept_box(b, bb, h, margin));
+                    assert!(!collider.dynamic[i] && sized[i] == b.is_dynamic());
+                }
+                continue;
             }
-            // (an awake body's box is found afresh: its kept one, far into the body, is
-            // not read)
-            let bb = if !b.asleep {
-                b.aabb()
-            } else if let Some(bb) = b.rest_box {
-                debug_assert!(bb == b.aabb(), "a sleeper's kept box is its box");
-                bb
-            } else {
-                *b.rest_box.insert(b.aabb())
-            };
-            collider.aabbs.push(swept_box(b, bb, h, margin));
-            let mover = b.is_mover();
-            movers |= mover;
-            collider.dynamic.push(mover);
-            sized.push(b.is_dynamic());
+            for ((b, bx), (mover, size)) in bodies[start..end]
+                .iter_mut()
+                .zip(&mut collider.aabbs[start..end])
+                .zip(
+                    collider.dynamic[start..end]
+                        .iter_mut()
+                        .zip(&mut sized[start..end]),
+                )
+            {
+                if b.asleep && !b.is_still() {
+                    pushed.push(b.island);
+                }
+                // (an awake body's box is found afresh: its kept one, far into the body,
+                // is not read)
+                let bb = if !b.asleep {
+                    b.aabb()
+                } else if let Some(bb) = b.rest_box {
+                    debug_assert!(bb == b.aabb(), "a sleeper's kept box is its box");
+                    bb
+                } else {
+                    *b.rest_box.insert(b.aabb())
+                };
+                *bx = swept_box(b, bb, h, margin);
+                *mover = b.is_mover();
+                movers |= *mover;
+                *size = b.is_dynamic();
+            }
         }
         collider.boxes_found = true;
         movers
@@ -284,8 +332,10 @@ impl Sleep {
         forces: &[PointForce],
         mouse: Option<&MouseJoint>,
         settings: &SolverSettings,
+        awake: &AwakeMarks,
     ) {
         if !settings.sleep {
+            self.rest.forget();
             if !self.none_asleep && (bodies.iter().any(|b| b.asleep) || !self.contacts.is_empty()) {
                 let mut islands: Vec<u32> = bodies
                     .iter()
@@ -296,16 +346,32 @@ impl Sleep {
             }
             return;
         }
+        // (before anything falls asleep: a block that falls asleep now rests from the
+        // step after next)
+        self.rest.keep(awake);
         let dt = settings.dt;
         let n = bodies.len();
-        for b in bodies.iter_mut() {
-            if !b.is_dynamic() || b.asleep {
-                continue;
+        // the blocks where every body sleeps hold no timer to run and none to read
+        let blocks = &mut self.awake_blocks;
+        awake.copy_into(blocks);
+        let mut ready = false;
+        each_awake(blocks, 0..n, |r| {
+            for b in &mut bodies[r] {
+                if !b.is_dynamic() || b.asleep {
+                    continue;
+                }
+                let r = b.shape.radius();
+                let linear = b.sleep_threshold;
+                let slow = b.velocity.length() + (b.angular_velocity * r).abs() < linear;
+                b.sleep_time = if slow { b.sleep_time + dt } else { 0.0 };
             }
-            let r = b.shape.radius();
-            let linear = b.sleep_threshold;
-            let slow = b.velocity.length() + (b.angular_velocity * r).abs() < linear;
-            b.sleep_time = if slow { b.sleep_time + dt } else { 0.0 };
+        });
+        #[cfg(debug_assertions)]
+        for (i, b) in bodies.iter().enumerate() {
+            assert!(
+                b.asleep || awake.is_awake(i),
+                "an awake body {i} in a sleeping block"
+            );
         }
         // what keeps a body awake whatever its speed
         for f in forces {
@@ -334,10 +400,12 @@ impl Sleep {
                 bodies[c.a as usize].sleep_time = 0.0;
             }
         }
-        if bodies
-            .iter()
-            .all(|b| !b.is_dynamic() || b.asleep || b.sleep_time < TIME_TO_SLEEP)
-        {
+        each_awake(blocks, 0..n, |r| {
+            ready |= bodies[r]
+                .iter()
+                .any(|b| b.is_dynamic() && !b.asleep && b.sleep_time >= TIME_TO_SLEEP);
+        });
+        if !ready {
             return;
         }
         // islands: union-find over awake dynamic bodies joined by contacts and joints

@@ -139,6 +139,7 @@ impl Stepper for SoftStepper {
 #[cfg(test)]
 mod tests {
     use crate::defs::{SolverKind, SolverSettings};
+    use crate::math::Vec2;
     use crate::solver::soft::{SoftSolver, testing};
     use crate::step::soft::SoftStepper;
     use crate::world::World;
@@ -194,21 +195,99 @@ mod tests {
         assert_eq!(w.collider.movers(w.bodies.len()), all);
     }
 
-    #[test]
-    fn the_body_passes_skip_blocks_where_every_body_sleeps_and_read_no_sleeper() {
-        // A ball (body 0) drifts at 2 m/s in zero gravity towards a wall of 24 x 40
-        // boxes that start asleep: 961 bodies, four blocks of the body passes; the
-        // ball's block holds 255 sleepers, the other three only sleepers
+    /// A ball (body 0) drifting at 2 m/s in zero gravity towards a wall of 24 x 40 boxes
+    /// of 0.5 m, `spacing` apart, that start asleep: 961 bodies, four blocks of the body
+    /// passes; the ball's block holds 255 sleepers, the other three only sleepers. The
+    /// ball's edge reaches the wall's (x = -0.25) at t = 2.25 / 2 s, step 68.
+    fn ball_and_sleeping_wall(settings: SolverSettings, spacing: f32) -> World {
         let sc = crate::scene::load_str(
-            "name = \"wall\"\n[world]\ngravity = [0.0, 0.0]\n\
+            &format!("name = \"wall\"\n[world]\ngravity = [0.0, 0.0]\n\
              [solver]\nkind = \"soft\"\nsleep = true\n\
-             [[body]]\nname = \"ball\"\nshape = { circle = 0.5 }\nposition = [-3.0, 0.0]\nvelocity = [2.0, 0.0]\n\
-             [[grid]]\nrows = 40\ncolumns = 24\nspacing = [0.5, 0.5]\norigin = [0.0, -10.0]\n\
-             shape = { box = [0.5, 0.5] }\nawake = false\n",
+             [[body]]\nname = \"ball\"\nshape = {{ circle = 0.5 }}\nposition = [-3.0, 0.0]\nvelocity = [2.0, 0.0]\n\
+             [[grid]]\nrows = 40\ncolumns = 24\nspacing = [{spacing}, {spacing}]\norigin = [0.0, -10.0]\n\
+             shape = {{ box = [0.5, 0.5] }}\nawake = false\n"),
             "wall.toml",
         )
         .unwrap();
-        let mut w = World::from_def(&sc.world, SolverSettings::soft()).unwrap();
+        World::from_def(&sc.world, settings).unwrap()
+    }
+
+    #[test]
+    fn rest_blocks_skip_the_sleeping_wall_and_change_no_bit() {
+        // Boxes 0.5 m apart (each wakes alone). Under each solver, the same world stepped twice: once as it is, once with the
+        // rest blocks forgotten before every step (every body visited). The skipped
+        // blocks' entries are checked against fresh ones in debug builds; here every
+        // body's state must match to the bit, through the ball's flight (the wall's
+        // blocks rest), an impulse to a sleeper, a body removed, and the wall waking
+        let bits = |w: &World| -> Vec<u32> {
+            w.bodies
+                .iter()
+                .flat_map(|b| {
+                    [
+                        b.position.x,
+                        b.position.y,
+                        b.angle,
+                        b.velocity.x,
+                        b.velocity.y,
+                    ]
+                })
+                .map(f32::to_bits)
+                .collect()
+        };
+        for kind in SolverKind::ALL {
+            let mut a = ball_and_sleeping_wall(SolverSettings::defaults(kind), 1.0);
+            let mut b = ball_and_sleeping_wall(SolverSettings::defaults(kind), 1.0);
+            assert!(a.settings.sleep);
+            let rest = |w: &World| (0..4).map(|k| w.sleep.rest.is_rest(k)).collect::<Vec<_>>();
+            for k in 1..=100 {
+                b.sleep.rest.forget();
+                a.step().unwrap();
+                b.step().unwrap();
+                assert_eq!(bits(&a), bits(&b), "{kind:?} step {k}");
+                match k {
+                    // from the second step the wall's three blocks rest (the first
+                    // visits them)
+                    2..=29 => assert_eq!(rest(&a), [false, true, true, true], "{kind:?} {k}"),
+                    30 => {
+                        // a push wakes a sleeper in block 2: that block is visited
+                        // again
+                        for w in [&mut a, &mut b] {
+                            let key = w.body_key(600).unwrap();
+                            w.apply_impulse(key, Vec2::new(0.0, 0.01), w.bodies[600].position)
+                                .unwrap();
+                        }
+                        assert_eq!(rest(&a), [false, true, false, true]);
+                    }
+                    40 => {
+                        // removing a body shifts the later ones, and a sleeper added
+                        // far away keeps the count: nothing rests until the next
+                        // step's end finds it again
+                        for w in [&mut a, &mut b] {
+                            let key = w.body_key(700).unwrap();
+                            w.remove_body(key).unwrap();
+                            let late = crate::defs::BodyDef {
+                                name: "late".into(),
+                                position: Vec2::new(50.0, 50.0),
+                                awake: false,
+                                ..Default::default()
+                            };
+                            w.create_body(&late).unwrap();
+                        }
+                        assert_eq!(a.bodies.len(), 961);
+                    }
+                    _ => {}
+                }
+            }
+            assert!(
+                a.bodies.iter().skip(1).any(|b| !b.asleep),
+                "{kind:?}: the wall woke"
+            );
+        }
+    }
+
+    #[test]
+    fn the_body_passes_skip_blocks_where_every_body_sleeps_and_read_no_sleeper() {
+        let mut w = ball_and_sleeping_wall(SolverSettings::soft(), 0.5);
         let n = w.bodies.len();
         assert_eq!(n, 961);
         let dt = w.settings.dt;
@@ -242,8 +321,7 @@ mod tests {
                     .all(|b| b.position.is_finite() && b.velocity.is_finite())
             );
         }
-        // the ball's edge reaches the wall's (x = -0.25) at t = 2.25 / 2 s, step 68, and
-        // wakes the boxes it reaches
+        // the ball reaches the wall at step 68, and wakes the boxes it reaches
         let woke = woke.expect("the ball woke the wall");
         assert!((66..=69).contains(&woke), "woke at step {woke}");
         assert!(w.bodies.iter().skip(1).any(|b| !b.asleep));
