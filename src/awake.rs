@@ -6,8 +6,11 @@
 //! contacts are kept aside and its joints parked). The collide's pass over the bodies
 //! marks the blocks that hold a body that is not asleep ([`AwakeMarks`]); the solver's
 //! passes after it (load, force increments, integration, the end of the step) visit only
-//! those ([`each_awake`]), so a world that is mostly asleep pays for its sleeping blocks
-//! in the collide's pass and not again in every pass of every substep.
+//! those ([`each_awake`]), and so does the sleep pass's timers. A block the marks found
+//! asleep, still asleep at the next step, is a rest block ([`RestBlocks`]): its entries
+//! in the collide's arrays hold, so the next step's wake pass and broad phase skip it
+//! too, and a world that is mostly asleep pays for its sleeping blocks in no pass of the
+//! step.
 
 use std::ops::Range;
 use std::sync::atomic::{AtomicBool, AtomicU32, Ordering};
