@@ -429,29 +429,36 @@ impl Sleep {
                 union(parent, j.a, j.b);
             }
         }
-        // an island sleeps when its least rested body has rested long enough
+        // an island sleeps when its least rested body has rested long enough (the
+        // sleeping blocks hold no awake body to look at)
         let least = &mut self.least_rest;
         least.clear();
         least.resize(n, f32::INFINITY);
-        for (i, b) in bodies.iter().enumerate() {
-            if b.is_dynamic() && !b.asleep {
-                let r = uf_root(parent, i as u32) as usize;
-                least[r] = least[r].min(b.sleep_time);
+        each_awake(blocks, 0..n, |r| {
+            for i in r {
+                let b = &bodies[i];
+                if b.is_dynamic() && !b.asleep {
+                    let r = uf_root(parent, i as u32) as usize;
+                    least[r] = least[r].min(b.sleep_time);
+                }
             }
-        }
-        for (i, b) in bodies.iter_mut().enumerate() {
-            if !b.is_dynamic() || b.asleep {
-                continue;
+        });
+        each_awake(blocks, 0..n, |r| {
+            for i in r {
+                let b = &mut bodies[i];
+                if !b.is_dynamic() || b.asleep {
+                    continue;
+                }
+                let r = uf_root(parent, i as u32);
+                if least[r as usize] >= TIME_TO_SLEEP {
+                    b.asleep = true;
+                    b.rest_box = None;
+                    b.island = r;
+                    b.velocity = Vec2::ZERO;
+                    b.angular_velocity = 0.0;
+                }
             }
-            let r = uf_root(&mut self.islands, i as u32);
-            if least[r as usize] >= TIME_TO_SLEEP {
-                b.asleep = true;
-                b.rest_box = None;
-                b.island = r;
-                b.velocity = Vec2::ZERO;
-                b.angular_velocity = 0.0;
-            }
-        }
+        });
     }
 }
 
