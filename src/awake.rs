@@ -71,6 +71,16 @@ impl AwakeMarks {
                 .is_none_or(|m| m.load(Ordering::Relaxed))
     }
 
+    /// Whether this step's pass found every body of block `k` asleep (false when the
+    /// marks are not this step's: then no block is known to sleep).
+    fn sleeps(&self, k: usize) -> bool {
+        self.found
+            && self
+                .marks
+                .get(k)
+                .is_some_and(|m| !m.load(Ordering::Relaxed))
+    }
+
     /// Copies this step's marks into `out`, one flag per block; empty (every block
     /// visited) when they are not this step's.
     pub(crate) fn copy_into(&self, out: &mut Vec<bool>) {
@@ -78,18 +88,6 @@ impl AwakeMarks {
         if self.found {
             out.extend(self.marks.iter().map(|m| m.load(Ordering::Relaxed)));
         }
-    }
-}
-
-impl AwakeMarks {
-    /// Whether block `k` was marked by this step's pass (false when the marks are not
-    /// this step's: then no block is known to sleep).
-    fn sleeps(&self, k: usize) -> bool {
-        self.found
-            && self
-                .marks
-                .get(k)
-                .is_some_and(|m| !m.load(Ordering::Relaxed))
     }
 }
 
@@ -236,7 +234,7 @@ pub(crate) fn each_awake_in(
 
 #[cfg(test)]
 mod tests {
-    use super::{AwakeMarks, each_awake, each_awake_in};
+    use super::{AwakeMarks, RestBlocks, each_awake, each_awake_in};
     use crate::math::BODY_PASS_BLOCK;
 
     /// The indices `each_awake` visits, one by one.
@@ -283,6 +281,51 @@ mod tests {
         let mut parts = Vec::new();
         each_awake_in(&[true, false, true], b - 2, 2 * b + 4, |r| parts.push(r));
         assert_eq!(parts, vec![0..2, b + 2..2 * b + 4]);
+    }
+
+    #[test]
+    fn rest_blocks_are_the_blocks_found_asleep_until_a_wake_or_a_change() {
+        let b = BODY_PASS_BLOCK;
+        let rest = |r: &RestBlocks| (0..4).map(|k| r.is_rest(k)).collect::<Vec<_>>();
+        let mut m = AwakeMarks::default();
+        let mut r = RestBlocks::default();
+        r.since_edits(0);
+        r.begin(3 * b + 1, 0.25, 0.1);
+        // marks not found (no pass, or none asleep): nothing rests
+        m.start(3 * b + 1);
+        m.mark(b);
+        r.keep(&m);
+        assert_eq!(rest(&r), [false; 4]);
+        // found: the blocks with no mark rest (the last, short one too)
+        m.finish();
+        r.keep(&m);
+        assert_eq!(rest(&r), [true, false, true, true]);
+        // the same bodies, step and margin keep them; a wake takes one block off
+        r.begin(3 * b + 1, 0.25, 0.1);
+        r.wake(2 * b + 7);
+        assert_eq!(rest(&r), [true, false, false, true]);
+        // another count, step or margin, or an edit, forgets them all
+        for change in 0..4 {
+            r.keep(&m);
+            assert_eq!(rest(&r), [true, false, true, true]);
+            match change {
+                0 => r.begin(3 * b + 2, 0.25, 0.1),
+                1 => r.begin(3 * b + 1, 0.5, 0.1),
+                2 => r.begin(3 * b + 1, 0.25, 0.2),
+                _ => r.since_edits(1),
+            }
+            assert_eq!(rest(&r), [false; 4], "change {change}");
+            // (back to the first settings)
+            r.begin(3 * b + 1, 0.25, 0.1);
+        }
+        // the same edit count keeps them; a copy knows none
+        r.keep(&m);
+        r.since_edits(1);
+        assert_eq!(rest(&r), [true, false, true, true]);
+        assert_eq!(rest(&r.clone()), [false; 4]);
+        // flags as the last visit found them
+        r.set_flags(2, 6);
+        assert_eq!(r.flags(2), 6);
     }
 
     #[test]
