@@ -21,8 +21,9 @@ use crate::math::BODY_PASS_BLOCK;
 #[derive(Debug, Default)]
 pub(crate) struct AwakeMarks {
     marks: Vec<AtomicBool>,
-    /// Whether `marks` are this step's (the collide's pass ran).
-    found: bool,
+    /// This step's marks, one flag per block, once the pass is over (empty until then:
+    /// every block counts as awake).
+    blocks: Vec<bool>,
 }
 
 impl Clone for AwakeMarks {
@@ -35,12 +36,12 @@ impl Clone for AwakeMarks {
 impl AwakeMarks {
     /// Forgets the marks (until [`AwakeMarks::start`] and [`AwakeMarks::finish`]).
     pub(crate) fn forget(&mut self) {
-        self.found = false;
+        self.blocks.clear();
     }
 
     /// Clears the marks of `bodies` bodies' blocks for a pass to mark.
     pub(crate) fn start(&mut self, bodies: usize) {
-        self.found = false;
+        self.blocks.clear();
         let blocks = bodies.div_ceil(BODY_PASS_BLOCK);
         self.marks.truncate(blocks);
         for m in &mut self.marks {
@@ -57,37 +58,34 @@ impl AwakeMarks {
 
     /// The pass is over: the marks are this step's.
     pub(crate) fn finish(&mut self) {
-        self.found = true;
+        self.blocks.clear();
+        self.blocks
+            .extend(self.marks.iter_mut().map(|m| *m.get_mut()));
     }
 
     /// Whether body `i`'s block holds a body that is not asleep (every block does when
     /// the marks are not this step's).
     #[inline]
     pub(crate) fn is_awake(&self, i: usize) -> bool {
-        !self.found
-            || self
-                .marks
-                .get(i / BODY_PASS_BLOCK)
-                .is_none_or(|m| m.load(Ordering::Relaxed))
+        self.blocks.get(i / BODY_PASS_BLOCK).is_none_or(|&m| m)
     }
 
     /// Whether this step's pass found every body of block `k` asleep (false when the
     /// marks are not this step's: then no block is known to sleep).
     fn sleeps(&self, k: usize) -> bool {
-        self.found
-            && self
-                .marks
-                .get(k)
-                .is_some_and(|m| !m.load(Ordering::Relaxed))
+        self.blocks.get(k) == Some(&false)
+    }
+
+    /// This step's marks, one flag per block; empty (every block visited) when they are
+    /// not this step's (for [`each_awake`]).
+    pub(crate) fn blocks(&self) -> &[bool] {
+        &self.blocks
     }
 
     /// Copies this step's marks into `out`, one flag per block; empty (every block
     /// visited) when they are not this step's.
     pub(crate) fn copy_into(&self, out: &mut Vec<bool>) {
-        out.clear();
-        if self.found {
-            out.extend(self.marks.iter().map(|m| m.load(Ordering::Relaxed)));
-        }
+        out.clone_from(&self.blocks);
     }
 }
 
@@ -182,7 +180,7 @@ impl RestBlocks {
     pub(crate) fn keep(&mut self, marks: &AwakeMarks) {
         let blocks = self.seen.0.div_ceil(crate::math::BODY_PASS_BLOCK);
         self.blocks.clear();
-        if marks.found {
+        if !marks.blocks.is_empty() {
             self.blocks.extend((0..blocks).map(|k| marks.sleeps(k)));
         }
     }

@@ -47,8 +47,6 @@ pub(crate) struct Sleep {
     /// The blocks of bodies that slept through the last step, which the wake pass and
     /// the broad phase skip (see [`RestBlocks`]).
     pub(crate) rest: RestBlocks,
-    /// This step's awake blocks as flags (scratch of the sleep pass).
-    awake_blocks: Vec<bool>,
 }
 
 /// Whether some body is asleep: a pass over the bodies (large), split between the
@@ -352,8 +350,7 @@ impl Sleep {
         let dt = settings.dt;
         let n = bodies.len();
         // the blocks where every body sleeps hold no timer to run and none to read
-        let blocks = &mut self.awake_blocks;
-        awake.copy_into(blocks);
+        let blocks = awake.blocks();
         let mut ready = false;
         each_awake(blocks, 0..n, |r| {
             for b in &mut bodies[r] {
