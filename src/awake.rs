@@ -15,7 +15,7 @@
 use std::ops::Range;
 use std::sync::atomic::{AtomicBool, AtomicU32, Ordering};
 
-use crate::math::BODY_PASS_BLOCK;
+use crate::math::{Aabb, BODY_PASS_BLOCK};
 
 /// The blocks the collide's pass found awake this step, marked from the pass's threads.
 #[derive(Debug, Default)]
@@ -105,6 +105,9 @@ pub(crate) struct RestBlocks {
     /// Per block: the broad phase's filter and sensor flags of its bodies, as its last
     /// visit found them.
     flags: Vec<AtomicU32>,
+    /// Per block: while it rests, the bounds of its bodies' swept boxes, once the wake
+    /// pass has found them (`None` before, and for a block that does not rest).
+    bounds: Vec<Option<Aabb>>,
     /// The body count and the step and margin (bits) of the boxes.
     seen: (usize, u32, u32),
     /// The world's count of edits to its bodies (added, removed, reshaped, restored)
@@ -123,13 +126,14 @@ impl RestBlocks {
     /// Knows no rest block (until a step's end finds them again).
     pub(crate) fn forget(&mut self) {
         self.blocks.clear();
+        self.bounds.clear();
     }
 
     /// A step's start in a world whose bodies have been edited `edits` times: forgets
     /// the rest blocks if they were edited since they were found.
     pub(crate) fn since_edits(&mut self, edits: u64) {
         if edits != self.edits {
-            self.blocks.clear();
+            self.forget();
             self.edits = edits;
         }
     }
@@ -139,7 +143,7 @@ impl RestBlocks {
     pub(crate) fn begin(&mut self, bodies: usize, h: f32, margin: f32) {
         let seen = (bodies, h.to_bits(), margin.to_bits());
         if seen != self.seen {
-            self.blocks.clear();
+            self.forget();
             self.seen = seen;
         }
         let blocks = bodies.div_ceil(crate::math::BODY_PASS_BLOCK);
@@ -157,8 +161,30 @@ impl RestBlocks {
     /// Body `i` wakes (or changes): its block is visited again.
     #[inline]
     pub(crate) fn wake(&mut self, i: usize) {
-        if let Some(b) = self.blocks.get_mut(i / crate::math::BODY_PASS_BLOCK) {
+        let k = i / crate::math::BODY_PASS_BLOCK;
+        if let Some(b) = self.blocks.get_mut(k) {
             *b = false;
+        }
+        if let Some(b) = self.bounds.get_mut(k) {
+            *b = None;
+        }
+    }
+
+    /// Per block, where it rests and its bounds are known, the bounds of its bodies'
+    /// swept boxes (see [`RestBlocks::bound`]); `None` elsewhere.
+    pub(crate) fn bounds(&self) -> &[Option<Aabb>] {
+        &self.bounds
+    }
+
+    /// Rest block `k`'s bounds, from its bodies' swept boxes `boxes` (its entries, which
+    /// hold while it rests): found once, on the first wake pass it rests through.
+    pub(crate) fn bound(&mut self, k: usize, boxes: &[Aabb]) {
+        debug_assert!(self.is_rest(k));
+        if self.bounds.len() <= k {
+            self.bounds.resize(k + 1, None);
+        }
+        if self.bounds[k].is_none() {
+            self.bounds[k] = boxes.iter().copied().reduce(|a, b| a.union(&b));
         }
     }
 
@@ -178,10 +204,20 @@ impl RestBlocks {
     /// step are the blocks this step's pass found asleep (`marks`; a block that falls
     /// asleep now has its boxes swept with its last velocities, so it waits a step).
     pub(crate) fn keep(&mut self, marks: &AwakeMarks) {
+        if marks.blocks.is_empty() {
+            self.forget();
+            return;
+        }
         let blocks = self.seen.0.div_ceil(crate::math::BODY_PASS_BLOCK);
-        self.blocks.clear();
-        if !marks.blocks.is_empty() {
-            self.blocks.extend((0..blocks).map(|k| marks.sleeps(k)));
+        self.blocks.resize(blocks, false);
+        self.bounds.resize(blocks, None);
+        for (k, (rests, bounds)) in self.blocks.iter_mut().zip(&mut self.bounds).enumerate() {
+            let now = marks.sleeps(k);
+            // a block's bounds hold while it rests on
+            if !(now && *rests) {
+                *bounds = None;
+            }
+            *rests = now;
         }
     }
 }
@@ -233,7 +269,7 @@ pub(crate) fn each_awake_in(
 #[cfg(test)]
 mod tests {
     use super::{AwakeMarks, RestBlocks, each_awake, each_awake_in};
-    use crate::math::BODY_PASS_BLOCK;
+    use crate::math::{Aabb, BODY_PASS_BLOCK, Vec2};
 
     /// The indices `each_awake` visits, one by one.
     fn visited(awake: &[bool], r: std::ops::Range<usize>) -> Vec<usize> {
@@ -324,6 +360,67 @@ mod tests {
         // flags as the last visit found them
         r.set_flags(2, 6);
         assert_eq!(r.flags(2), 6);
+    }
+
+    #[test]
+    fn a_rest_blocks_bounds_hold_its_boxes_while_it_rests_on() {
+        let b = BODY_PASS_BLOCK;
+        let boxes: Vec<Aabb> = (0..3 * b)
+            .map(|i| {
+                let min = Vec2::new(i as f32, -(i as f32) * 0.5);
+                Aabb {
+                    min,
+                    max: min + Vec2::splat(1.0),
+                }
+            })
+            .collect();
+        let bounds = |r: &RestBlocks| {
+            (0..3)
+                .map(|k| r.bounds().get(k).copied().flatten())
+                .collect::<Vec<_>>()
+        };
+        let mut m = AwakeMarks::default();
+        let mut r = RestBlocks::default();
+        r.since_edits(0);
+        r.begin(3 * b, 0.25, 0.1);
+        m.start(3 * b);
+        m.mark(b + 5);
+        m.finish();
+        r.keep(&m);
+        // resting, but not found yet by a wake pass
+        assert_eq!(bounds(&r), [None; 3]);
+        for k in [0, 2] {
+            r.bound(k, &boxes[k * b..(k + 1) * b]);
+        }
+        let want = |k: usize| {
+            let run = &boxes[k * b..(k + 1) * b];
+            Some(Aabb {
+                min: Vec2::new(run[0].min.x, run[b - 1].min.y),
+                max: Vec2::new(run[b - 1].max.x, run[0].max.y),
+            })
+        };
+        assert_eq!(bounds(&r), [want(0), None, want(2)]);
+        // kept while the block rests on (a later visit does not find them again)
+        r.keep(&m);
+        r.bound(0, &boxes[..1]);
+        assert_eq!(bounds(&r), [want(0), None, want(2)]);
+        // a wake drops its block's; a block that wakes in a pass loses them too
+        r.wake(2 * b + 1);
+        assert_eq!(bounds(&r), [want(0), None, None]);
+        m.start(3 * b);
+        m.mark(3);
+        m.finish();
+        r.keep(&m);
+        assert_eq!(bounds(&r), [None; 3]);
+        // a change forgets them with the blocks
+        m.start(3 * b);
+        m.finish();
+        r.keep(&m);
+        r.keep(&m);
+        r.bound(1, &boxes[b..2 * b]);
+        assert!(bounds(&r)[1].is_some());
+        r.since_edits(1);
+        assert_eq!(bounds(&r), [None; 3]);
     }
 
     #[test]

@@ -7,7 +7,7 @@
 //! output is sorted by (a, b), so the step order does not depend on the grid.
 
 use crate::defs::Filter;
-use crate::math::{Aabb, Vec2};
+use crate::math::{Aabb, BODY_PASS_BLOCK, Vec2};
 use std::ops::Range;
 
 /// A candidate pair of body indices, a < b.
@@ -121,33 +121,47 @@ impl BroadPhase {
         moves: &[bool],
         can_collide: impl Fn(u32, u32) -> bool,
     ) {
-        self.find_pairs_sized(aabbs, moves, moves, can_collide);
+        self.find_pairs_sized(aabbs, moves, moves, &[], can_collide);
     }
 
     /// [`BroadPhase::find_pairs`] with the grid's cells sized by the boxes `sized` marks
     /// rather than by the moving ones: the pairs are the same (the grid only decides how
     /// fast they are found). Waking uses it: there the few awake bodies move, and a
     /// grid sized by one large mover would put thousands of small sleepers in a cell.
+    ///
+    /// `blocks`, per block of [`BODY_PASS_BLOCK`] bodies (empty, or shorter, for none):
+    /// `Some(bounds)` where no body of the block moves and each one's box lies inside
+    /// `bounds`. While a few bodies move (each then tested against every box), a block
+    /// whose bounds a mover's box misses is passed over whole: a world of sleeping
+    /// blocks pays for one box a block, not one a body.
     pub fn find_pairs_sized(
         &mut self,
         aabbs: &[Aabb],
         moves: &[bool],
         sized: &[bool],
+        blocks: &[Option<Aabb>],
         can_collide: impl Fn(u32, u32) -> bool,
     ) {
         let mut pairs = std::mem::take(&mut self.pairs);
         pairs.clear();
         let mut few = std::mem::take(&mut self.few);
         few.clear();
-        for (i, _) in moves.iter().enumerate().filter(|(_, m)| **m) {
-            if few.len() > ONE_BY_ONE {
-                break;
+        'find: for (k, start) in (0..moves.len()).step_by(BODY_PASS_BLOCK).enumerate() {
+            if matches!(blocks.get(k), Some(Some(_))) {
+                // (none of its bodies moves)
+                continue;
             }
-            few.push(i as u32);
+            let end = (start + BODY_PASS_BLOCK).min(moves.len());
+            for (i, _) in moves[start..end].iter().enumerate().filter(|(_, m)| **m) {
+                if few.len() > ONE_BY_ONE {
+                    break 'find;
+                }
+                few.push((start + i) as u32);
+            }
         }
         if few.len() <= ONE_BY_ONE {
             // a few movers: each against every box, no grid
-            pairs_of_few(aabbs, &few, moves, &can_collide, &mut pairs);
+            pairs_of_few(aabbs, &few, moves, blocks, &can_collide, &mut pairs);
         } else {
             self.each_pair(aabbs, moves, sized, &can_collide, &mut |p| {
                 pairs.push(p);
@@ -479,7 +493,14 @@ impl BroadPhase {
             (moves[a] || moves[b]) && (!filtered || filters[a].collides(&filters[b]))
         };
         self.pairs.clear();
-        pairs_of_few(&self.kept_boxes, &self.few, redo, &touch, &mut self.pairs);
+        pairs_of_few(
+            &self.kept_boxes,
+            &self.few,
+            redo,
+            &[],
+            &touch,
+            &mut self.pairs,
+        );
         self.pairs.sort_unstable();
         // the two sorted lists merged (no pair is in both: every new one has a body
         // redone, no old one has)
@@ -520,8 +541,13 @@ impl BroadPhase {
     }
 
     /// Sorts the pairs by (a, b): a counting sort by a, then each (short) run of equal a
-    /// by insertion. The same order as `sort_unstable`, in linear time.
+    /// by insertion. The same order as `sort_unstable`, in linear time; a few pairs
+    /// among many bodies (waking) by `sort_unstable` itself, which visits no body.
     fn sort_pairs(&mut self, bodies: usize) {
+        if self.pairs.len() * 16 < bodies {
+            self.pairs.sort_unstable();
+            return;
+        }
         let start = &mut self.pair_start;
         start.clear();
         start.resize(bodies + 1, 0);
@@ -689,25 +715,48 @@ impl BroadPhase {
 /// each with its `marked` entry set) where `accept` holds, into `out` (a < b, in no
 /// particular order): each of them against every box, the pairs of two of them once.
 /// A pair with no moving body (`marked` is `moves`) or of two unmarked bodies is never
-/// reported.
+/// reported. A block of `blocks` (see [`BroadPhase::find_pairs_sized`]) whose bounds
+/// a body's box misses is passed over for that body.
 fn pairs_of_few(
     aabbs: &[Aabb],
     few: &[u32],
     marked: &[bool],
+    blocks: &[Option<Aabb>],
     accept: &impl Fn(u32, u32) -> bool,
     out: &mut Vec<Pair>,
 ) {
+    let n = aabbs.len();
     for &i in few {
         let bi = aabbs[i as usize];
-        for (j, bj) in aabbs.iter().enumerate() {
-            // a pair of two of the few is reported from its lower body
-            if (marked[j] && j <= i as usize) || !bi.overlaps(bj) {
+        let mut start = 0;
+        while start < n {
+            let (block, end) = if blocks.is_empty() {
+                (None, n)
+            } else {
+                let end = (start + BODY_PASS_BLOCK).min(n);
+                (blocks.get(start / BODY_PASS_BLOCK).copied().flatten(), end)
+            };
+            let run = start..end;
+            start = end;
+            if let Some(bounds) = block
+                && !bi.overlaps(&bounds)
+            {
+                debug_assert!(
+                    run.clone().all(|j| !marked[j] && !bi.overlaps(&aabbs[j])),
+                    "a block's bounds hold its boxes, none of them moving"
+                );
                 continue;
             }
-            let j = j as u32;
-            let p = if i < j { (i, j) } else { (j, i) };
-            if accept(p.0, p.1) {
-                out.push(p);
+            for (j, bj) in run.clone().zip(&aabbs[run]) {
+                // a pair of two of the few is reported from its lower body
+                if (marked[j] && j <= i as usize) || !bi.overlaps(bj) {
+                    continue;
+                }
+                let j = j as u32;
+                let p = if i < j { (i, j) } else { (j, i) };
+                if accept(p.0, p.1) {
+                    out.push(p);
+                }
             }
         }
     }
@@ -1063,6 +1112,56 @@ mod tests {
             assert!(count < 2 || !brute.is_empty(), "{count} movers");
             assert_eq!(bp.pairs, brute, "{count} movers");
         }
+    }
+
+    #[test]
+    fn a_few_movers_pass_over_the_blocks_their_boxes_miss_and_find_the_same_pairs() {
+        // four blocks of boxes: the first holds the movers; the second lies beside them
+        // (its bounds reached), the third far off (missed), the fourth far off too but
+        // with one box reaching back to the movers (its bounds reached again)
+        let b = BODY_PASS_BLOCK;
+        let mut boxes = scatter(31, 4 * b - 1);
+        for (i, bx) in boxes.iter_mut().enumerate() {
+            if i >= 2 * b {
+                bx.min.x += 1000.0;
+                bx.max.x += 1000.0;
+            }
+        }
+        boxes[3 * b + 9] = aabb(-5.0, -5.0, 5.0, 5.0);
+        let n = boxes.len();
+        let mut moves = vec![false; n];
+        for k in 0..9 {
+            moves[k * 23 + 1] = true;
+        }
+        let bounds: Vec<Option<Aabb>> = (0..4)
+            .map(|k| {
+                let run = &boxes[k * b..((k + 1) * b).min(n)];
+                (k > 0).then(|| run.iter().copied().reduce(|x, y| x.union(&y)).unwrap())
+            })
+            .collect();
+        let can = |a: u32, b: u32| !(a + b).is_multiple_of(7);
+        let mut plain = BroadPhase::default();
+        plain.find_pairs(&boxes, &moves, can);
+        let mut bounded = BroadPhase::default();
+        bounded.find_pairs_sized(&boxes, &moves, &moves, &bounds, can);
+        let mut brute = Vec::new();
+        for a in 0..n {
+            for c in a + 1..n {
+                if (moves[a] || moves[c]) && boxes[a].overlaps(&boxes[c]) && can(a as u32, c as u32)
+                {
+                    brute.push((a as u32, c as u32));
+                }
+            }
+        }
+        assert!(brute.iter().any(|&(_, c)| c as usize == 3 * b + 9));
+        assert!(
+            brute
+                .iter()
+                .any(|&(_, c)| (b..2 * b).contains(&(c as usize)))
+        );
+        assert!(!boxes[..b].iter().any(|x| x.overlaps(&bounds[2].unwrap())));
+        assert_eq!(plain.pairs, brute);
+        assert_eq!(bounded.pairs, brute);
     }
 
     #[test]

@@ -142,7 +142,7 @@ impl Sleep {
         let mut movers = Self::find_boxes(
             bodies,
             collider,
-            &self.rest,
+            &mut self.rest,
             &mut self.wake_sized,
             &mut wake,
             h,
@@ -154,10 +154,14 @@ impl Sleep {
             if movers {
                 let bs = &*bodies;
                 let (aabbs, look, sized) = (&collider.aabbs, &collider.dynamic, &self.wake_sized);
-                collider.broad.find_pairs_sized(aabbs, look, sized, |a, b| {
-                    let (ba, bb) = (&bs[a as usize], &bs[b as usize]);
-                    (ba.asleep && bb.is_mover()) || (bb.asleep && ba.is_mover())
-                });
+                // (a rest block's bounds: its sleepers no mover's box reaches go by whole)
+                let bounds = self.rest.bounds();
+                collider
+                    .broad
+                    .find_pairs_sized(aabbs, look, sized, bounds, |a, b| {
+                        let (ba, bb) = (&bs[a as usize], &bs[b as usize]);
+                        (ba.asleep && bb.is_mover()) || (bb.asleep && ba.is_mover())
+                    });
                 for &(a, b) in &collider.broad.pairs {
                     for i in [a, b] {
                         let body = &bodies[i as usize];
@@ -201,12 +205,12 @@ impl Sleep {
     /// movers must not put many small sleepers in one cell) into `sized`; the island of
     /// each sleeper pushed, set moving or given a force since it fell asleep into
     /// `pushed`. A sleeper's box is found once and kept with it until it wakes; the
-    /// `rest` blocks' entries are kept as they are. Returns whether some body moves (a
-    /// mover).
+    /// `rest` blocks' entries are kept as they are (their bounds found once). Returns
+    /// whether some body moves (a mover).
     fn find_boxes(
         bodies: &mut [Body],
         collider: &mut Collider,
-        rest: &RestBlocks,
+        rest: &mut RestBlocks,
         sized: &mut Vec<bool>,
         pushed: &mut Vec<u32>,
         h: f32,
@@ -237,6 +241,7 @@ impl Sleep {
                     assert!(collider.aabbs[i] == swept_box(b, bb, h, margin));
                     assert!(!collider.dynamic[i] && sized[i] == b.is_dynamic());
                 }
+                rest.bound(k, &collider.aabbs[start..end]);
                 continue;
             }
             for ((b, bx), (mover, size)) in bodies[start..end]
