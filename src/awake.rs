@@ -180,11 +180,10 @@ impl RestBlocks {
     /// hold while it rests): found once, on the first wake pass it rests through.
     pub(crate) fn bound(&mut self, k: usize, boxes: &[Aabb]) {
         debug_assert!(self.is_rest(k));
-        if self.bounds.len() <= k {
-            self.bounds.resize(k + 1, None);
-        }
-        if self.bounds[k].is_none() {
-            self.bounds[k] = boxes.iter().copied().reduce(|a, b| a.union(&b));
+        // (`keep` sizes the bounds with the blocks)
+        let bounds = &mut self.bounds[k];
+        if bounds.is_none() {
+            *bounds = boxes.iter().copied().reduce(|a, b| a.union(&b));
         }
     }
 
