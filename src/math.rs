@@ -120,8 +120,8 @@ pub fn cross_vs(v: Vec2, s: f32) -> Vec2 {
     Vec2::new(s * v.y, -s * v.x)
 }
 
-/// An axis-aligned bounding box.
-#[derive(Clone, Copy, Debug, PartialEq)]
+/// An axis-aligned bounding box (the default: a point at the origin).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct Aabb {
     /// The lower-left corner (smallest x and y, m).
     pub min: Vec2,

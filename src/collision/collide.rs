@@ -149,13 +149,7 @@ impl Collider {
         // sized, not cleared: the pass below writes every body's entry but the rest
         // blocks' (which the wake pass found as they are)
         let n = bodies.len();
-        self.aabbs.resize(
-            n,
-            Aabb {
-                min: Vec2::ZERO,
-                max: Vec2::ZERO,
-            },
-        );
+        self.aabbs.resize(n, Aabb::default());
         self.dynamic.resize(n, false);
         self.reach.resize(n, (0.0, 0.0));
         // the flags are read off the bodies each step, so bodies pushed straight into

@@ -218,11 +218,7 @@ impl Sleep {
     ) -> bool {
         let n = bodies.len();
         // sized, not cleared: a rest block's entries hold from the step it was visited
-        let empty = crate::math::Aabb {
-            min: Vec2::ZERO,
-            max: Vec2::ZERO,
-        };
-        collider.aabbs.resize(n, empty);
+        collider.aabbs.resize(n, crate::math::Aabb::default());
         collider.dynamic.resize(n, false);
         sized.resize(n, false);
         let mut movers = false;
