@@ -1,6 +1,6 @@
 //! Awake blocks: which blocks of bodies a step's body passes visit.
 //!
-//! The bodies are cut into blocks of [`BODY_PASS_BLOCK`] in creation order. A block all
+//! The bodies are cut into blocks of [`AWAKE_BLOCK`] in creation order. A block all
 //! of whose bodies sleep holds nothing a body pass of the solve changes: a sleeper is
 //! still, has no force (the wake pass wakes one that has), and is in no constraint (its
 //! contacts are kept aside and its joints parked). The collide's pass over the bodies
@@ -15,7 +15,7 @@
 use std::ops::Range;
 use std::sync::atomic::{AtomicBool, AtomicU32, Ordering};
 
-use crate::math::{Aabb, BODY_PASS_BLOCK};
+use crate::math::{AWAKE_BLOCK, Aabb};
 
 /// The blocks the collide's pass found awake this step, marked from the pass's threads.
 #[derive(Debug, Default)]
@@ -42,7 +42,7 @@ impl AwakeMarks {
     /// Clears the marks of `bodies` bodies' blocks for a pass to mark.
     pub(crate) fn start(&mut self, bodies: usize) {
         self.blocks.clear();
-        let blocks = bodies.div_ceil(BODY_PASS_BLOCK);
+        let blocks = bodies.div_ceil(AWAKE_BLOCK);
         self.marks.truncate(blocks);
         for m in &mut self.marks {
             *m.get_mut() = false;
@@ -53,7 +53,7 @@ impl AwakeMarks {
     /// Marks body `i`'s block awake (from any thread of the pass).
     #[inline(always)]
     pub(crate) fn mark(&self, i: usize) {
-        self.marks[i / BODY_PASS_BLOCK].store(true, Ordering::Relaxed);
+        self.marks[i / AWAKE_BLOCK].store(true, Ordering::Relaxed);
     }
 
     /// The pass is over: the marks are this step's.
@@ -67,7 +67,21 @@ impl AwakeMarks {
     /// the marks are not this step's).
     #[inline]
     pub(crate) fn is_awake(&self, i: usize) -> bool {
-        self.blocks.get(i / BODY_PASS_BLOCK).is_none_or(|&m| m)
+        self.blocks.get(i / AWAKE_BLOCK).is_none_or(|&m| m)
+    }
+
+    /// The first body at or after `i` whose block holds a body that is not asleep
+    /// (`usize::MAX` when there is none): a pass that meets a sleeping block goes on
+    /// from there, past every sleeping block after it too.
+    pub(crate) fn next_awake(&self, i: usize) -> usize {
+        let k = i / AWAKE_BLOCK;
+        if self.is_awake(i) {
+            return i;
+        }
+        self.blocks[k + 1..]
+            .iter()
+            .position(|&m| m)
+            .map_or(usize::MAX, |d| (k + 1 + d) * AWAKE_BLOCK)
     }
 
     /// Whether this step's pass found every body of block `k` asleep (false when the
@@ -146,7 +160,7 @@ impl RestBlocks {
             self.forget();
             self.seen = seen;
         }
-        let blocks = bodies.div_ceil(crate::math::BODY_PASS_BLOCK);
+        let blocks = bodies.div_ceil(AWAKE_BLOCK);
         self.flags.truncate(blocks);
         self.flags.resize_with(blocks, || AtomicU32::new(0));
     }
@@ -161,7 +175,7 @@ impl RestBlocks {
     /// Body `i` wakes (or changes): its block is visited again.
     #[inline]
     pub(crate) fn wake(&mut self, i: usize) {
-        let k = i / crate::math::BODY_PASS_BLOCK;
+        let k = i / AWAKE_BLOCK;
         if let Some(b) = self.blocks.get_mut(k) {
             *b = false;
         }
@@ -207,7 +221,7 @@ impl RestBlocks {
             self.forget();
             return;
         }
-        let blocks = self.seen.0.div_ceil(crate::math::BODY_PASS_BLOCK);
+        let blocks = self.seen.0.div_ceil(AWAKE_BLOCK);
         self.blocks.resize(blocks, false);
         self.bounds.resize(blocks, None);
         for (k, (rests, bounds)) in self.blocks.iter_mut().zip(&mut self.bounds).enumerate() {
@@ -233,20 +247,26 @@ pub(crate) fn each_awake(awake: &[bool], r: Range<usize>, mut f: impl FnMut(Rang
         }
         return;
     }
+    // (a run of blocks of one kind is found by a scan of the flags, so a world of
+    // sleeping blocks costs a pass a few bytes a block)
+    let blocks = awake.len();
     let mut at = r.start;
     while at < r.end {
-        let block = at / BODY_PASS_BLOCK;
-        let block_end = ((block + 1) * BODY_PASS_BLOCK).min(r.end);
-        if awake.get(block).copied().unwrap_or(true) {
-            // extend over the following awake blocks
-            let mut end = block_end;
-            while end < r.end && awake.get(end / BODY_PASS_BLOCK).copied().unwrap_or(true) {
-                end = ((end / BODY_PASS_BLOCK + 1) * BODY_PASS_BLOCK).min(r.end);
-            }
+        let k = at / AWAKE_BLOCK;
+        if awake.get(k).copied().unwrap_or(true) {
+            // to the next sleeping block (past the flags, every block is awake)
+            let end = awake
+                .get(k..)
+                .and_then(|w| w.iter().position(|&m| !m))
+                .map_or(r.end, |d| ((k + d) * AWAKE_BLOCK).min(r.end));
             f(at..end);
             at = end;
         } else {
-            at = block_end;
+            // to the next awake block
+            at = awake[k..]
+                .iter()
+                .position(|&m| m)
+                .map_or(blocks * AWAKE_BLOCK, |d| (k + d) * AWAKE_BLOCK);
         }
     }
 }
@@ -268,7 +288,7 @@ pub(crate) fn each_awake_in(
 #[cfg(test)]
 mod tests {
     use super::{AwakeMarks, RestBlocks, each_awake, each_awake_in};
-    use crate::math::{Aabb, BODY_PASS_BLOCK, Vec2};
+    use crate::math::{AWAKE_BLOCK, Aabb, Vec2};
 
     /// The indices `each_awake` visits, one by one.
     fn visited(awake: &[bool], r: std::ops::Range<usize>) -> Vec<usize> {
@@ -287,7 +307,7 @@ mod tests {
 
     #[test]
     fn each_awake_visits_exactly_the_indices_of_awake_blocks() {
-        let b = BODY_PASS_BLOCK;
+        let b = AWAKE_BLOCK;
         // every pattern of five blocks, and ranges cut anywhere
         for pattern in 0..32u32 {
             let awake: Vec<bool> = (0..5).map(|k| pattern & (1 << k) != 0).collect();
@@ -317,8 +337,27 @@ mod tests {
     }
 
     #[test]
+    fn next_awake_is_the_first_body_on_in_an_awake_block() {
+        let b = AWAKE_BLOCK;
+        let mut m = AwakeMarks::default();
+        // marks not found: every body counts as awake
+        assert_eq!(m.next_awake(b + 3), b + 3);
+        // blocks 0 and 3 of five awake
+        m.start(5 * b);
+        m.mark(5);
+        m.mark(3 * b + 9);
+        m.finish();
+        for i in 0..5 * b {
+            let want = (i..5 * b).find(|&j| m.is_awake(j)).unwrap_or(usize::MAX);
+            assert_eq!(m.next_awake(i), want, "from {i}");
+        }
+        assert_eq!(m.next_awake(b), 3 * b);
+        assert_eq!(m.next_awake(4 * b + 1), usize::MAX);
+    }
+
+    #[test]
     fn rest_blocks_are_the_blocks_found_asleep_until_a_wake_or_a_change() {
-        let b = BODY_PASS_BLOCK;
+        let b = AWAKE_BLOCK;
         let rest = |r: &RestBlocks| (0..4).map(|k| r.is_rest(k)).collect::<Vec<_>>();
         let mut m = AwakeMarks::default();
         let mut r = RestBlocks::default();
@@ -363,7 +402,7 @@ mod tests {
 
     #[test]
     fn a_rest_blocks_bounds_hold_its_boxes_while_it_rests_on() {
-        let b = BODY_PASS_BLOCK;
+        let b = AWAKE_BLOCK;
         let boxes: Vec<Aabb> = (0..3 * b)
             .map(|i| {
                 let min = Vec2::new(i as f32, -(i as f32) * 0.5);
@@ -426,23 +465,21 @@ mod tests {
     fn marks_count_only_when_the_pass_finished() {
         let mut m = AwakeMarks::default();
         let mut out = vec![true];
-        m.start(3 * BODY_PASS_BLOCK + 1);
-        m.mark(BODY_PASS_BLOCK + 3);
+        m.start(3 * AWAKE_BLOCK + 1);
+        m.mark(AWAKE_BLOCK + 3);
         m.copy_into(&mut out);
         assert!(out.is_empty(), "not found yet: visit every block");
         m.finish();
         m.copy_into(&mut out);
         assert_eq!(out, vec![false, true, false, false]);
-        let awake: Vec<usize> = (0..5 * BODY_PASS_BLOCK)
-            .filter(|&i| m.is_awake(i))
-            .collect();
+        let awake: Vec<usize> = (0..5 * AWAKE_BLOCK).filter(|&i| m.is_awake(i)).collect();
         // (past the marked blocks counts as awake)
-        let want: Vec<usize> = (BODY_PASS_BLOCK..2 * BODY_PASS_BLOCK)
-            .chain(4 * BODY_PASS_BLOCK..5 * BODY_PASS_BLOCK)
+        let want: Vec<usize> = (AWAKE_BLOCK..2 * AWAKE_BLOCK)
+            .chain(4 * AWAKE_BLOCK..5 * AWAKE_BLOCK)
             .collect();
         assert_eq!(awake, want);
         // a new pass starts from nothing marked
-        m.start(2 * BODY_PASS_BLOCK);
+        m.start(2 * AWAKE_BLOCK);
         m.finish();
         m.copy_into(&mut out);
         assert_eq!(out, vec![false, false]);

@@ -188,12 +188,34 @@ pub(crate) fn uf_union(parent: &mut [u32], a: u32, b: u32) {
     }
 }
 
+/// The first index of sorted `items` where `before` fails (as `partition_point`), found
+/// by probing 1, 2, 4, ... items from the start and then searching the last span: the
+/// cost grows with the answer's distance from the start, not with the slice (a walk
+/// that skips ahead along a long sorted list reads only the items near its place).
+pub(crate) fn gallop<T>(items: &[T], before: impl Fn(&T) -> bool) -> usize {
+    // every item before `at` is before; the answer is at most `at + step - 1` once the
+    // probe fails
+    let (mut at, mut step) = (0, 1);
+    while at + step <= items.len() && before(&items[at + step - 1]) {
+        at += step;
+        step *= 2;
+    }
+    let end = (at + step).min(items.len());
+    at + items[at..end].partition_point(before)
+}
+
 /// How many items ahead the passes over the bodies ask for the next ones: a body is
 /// hundreds of bytes, and the passes read its first cache line only.
 pub(crate) const BODY_AHEAD: usize = 8;
 
 /// Bodies per block of a parallel pass over the bodies.
 pub(crate) const BODY_PASS_BLOCK: usize = 256;
+
+/// Bodies per awake block (see [`crate::awake`]): the grain at which the step's passes
+/// leave sleeping bodies out. Small, so an awake body among sleepers costs the passes a
+/// few of its neighbours, not a pass block of them; a pass block holds whole ones.
+pub(crate) const AWAKE_BLOCK: usize = 64;
+const _: () = assert!(BODY_PASS_BLOCK.is_multiple_of(AWAKE_BLOCK));
 
 /// Asks the cache for the first `bytes` bytes of `items[i]` (all of it for
 /// `usize::MAX`; nothing past the slice's end). A hint only: no result depends on it.
@@ -261,5 +283,24 @@ mod tests {
         let direct = b.apply(v);
         let via = a.apply(rel.apply(v));
         assert!((direct - via).length() < 1e-5);
+    }
+
+    #[test]
+    fn gallop_finds_where_partition_point_does() {
+        // every length to past a few doublings, every answer in each
+        for len in 0..70usize {
+            let items: Vec<usize> = (0..len).collect();
+            for cut in 0..=len {
+                assert_eq!(gallop(&items, |&x| x < cut), cut, "len {len}, cut {cut}");
+            }
+        }
+        // runs of equal items
+        let items = [1, 1, 2, 2, 2, 2, 2, 3, 9, 9];
+        for cut in 0..11 {
+            assert_eq!(
+                gallop(&items, |&x| x < cut),
+                items.partition_point(|&x| x < cut)
+            );
+        }
     }
 }

@@ -409,6 +409,10 @@ impl World {
             && b.is_dynamic()
         {
             b.add_force_at(force, world_point, -0.0);
+            if b.asleep {
+                // the next wake pass wakes a pushed sleeper: its block is visited again
+                self.sleep.rest.wake(body);
+            }
         }
     }
 

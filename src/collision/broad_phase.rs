@@ -7,7 +7,7 @@
 //! output is sorted by (a, b), so the step order does not depend on the grid.
 
 use crate::defs::Filter;
-use crate::math::{Aabb, BODY_PASS_BLOCK, Vec2};
+use crate::math::{AWAKE_BLOCK, Aabb, Vec2};
 use std::ops::Range;
 
 /// A candidate pair of body indices, a < b.
@@ -129,7 +129,7 @@ impl BroadPhase {
     /// fast they are found). Waking uses it: there the few awake bodies move, and a
     /// grid sized by one large mover would put thousands of small sleepers in a cell.
     ///
-    /// `blocks`, per block of [`BODY_PASS_BLOCK`] bodies (empty, or shorter, for none):
+    /// `blocks`, per awake block of [`AWAKE_BLOCK`] bodies (empty, or shorter, for none):
     /// `Some(bounds)` where no body of the block moves and each one's box lies inside
     /// `bounds`. While a few bodies move (each then tested against every box), a block
     /// whose bounds a mover's box misses is passed over whole: a world of sleeping
@@ -146,12 +146,12 @@ impl BroadPhase {
         pairs.clear();
         let mut few = std::mem::take(&mut self.few);
         few.clear();
-        'find: for (k, start) in (0..moves.len()).step_by(BODY_PASS_BLOCK).enumerate() {
+        'find: for (k, start) in (0..moves.len()).step_by(AWAKE_BLOCK).enumerate() {
             if matches!(blocks.get(k), Some(Some(_))) {
                 // (none of its bodies moves)
                 continue;
             }
-            let end = (start + BODY_PASS_BLOCK).min(moves.len());
+            let end = (start + AWAKE_BLOCK).min(moves.len());
             for (i, _) in moves[start..end].iter().enumerate().filter(|(_, m)| **m) {
                 if few.len() > ONE_BY_ONE {
                     break 'find;
@@ -733,8 +733,8 @@ fn pairs_of_few(
             let (block, end) = if blocks.is_empty() {
                 (None, n)
             } else {
-                let end = (start + BODY_PASS_BLOCK).min(n);
-                (blocks.get(start / BODY_PASS_BLOCK).copied().flatten(), end)
+                let end = (start + AWAKE_BLOCK).min(n);
+                (blocks.get(start / AWAKE_BLOCK).copied().flatten(), end)
             };
             let run = start..end;
             start = end;
@@ -1119,7 +1119,7 @@ mod tests {
         // four blocks of boxes: the first holds the movers; the second lies beside them
         // (its bounds reached), the third far off (missed), the fourth far off too but
         // with one box reaching back to the movers (its bounds reached again)
-        let b = BODY_PASS_BLOCK;
+        let b = AWAKE_BLOCK;
         let mut boxes = scatter(31, 4 * b - 1);
         for (i, bx) in boxes.iter_mut().enumerate() {
             if i >= 2 * b {
@@ -1131,7 +1131,7 @@ mod tests {
         let n = boxes.len();
         let mut moves = vec![false; n];
         for k in 0..9 {
-            moves[k * 23 + 1] = true;
+            moves[k * 7 + 1] = true;
         }
         let bounds: Vec<Option<Aabb>> = (0..4)
             .map(|k| {

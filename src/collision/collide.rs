@@ -17,7 +17,7 @@ use super::{Manifold, sat};
 use crate::awake::{AwakeMarks, RestBlocks};
 use crate::body::{Body, SHAPE_BYTES};
 use crate::defs::{BodyType, Filter};
-use crate::math::{Aabb, BODY_AHEAD, BODY_PASS_BLOCK, Vec2, prefetch};
+use crate::math::{AWAKE_BLOCK, Aabb, BODY_AHEAD, BODY_PASS_BLOCK, Vec2, gallop, prefetch};
 use crate::parallel::{self, Pool};
 
 /// A touching pair of bodies and its manifold: a made before b; the normal points from
@@ -181,9 +181,9 @@ impl Collider {
                 let (mut first, mut last) = (usize::MAX, 0);
                 // block by block (the chunks are whole blocks): a rest block holds only
                 // sleepers whose entries the wake pass kept, their flags as last found
-                for start in (0..aabbs.len()).step_by(BODY_PASS_BLOCK) {
-                    let end = (start + BODY_PASS_BLOCK).min(aabbs.len());
-                    let block = (offset + start) / BODY_PASS_BLOCK;
+                for start in (0..aabbs.len()).step_by(AWAKE_BLOCK) {
+                    let end = (start + AWAKE_BLOCK).min(aabbs.len());
+                    let block = (offset + start) / AWAKE_BLOCK;
                     let rest = known.filter(|r| r.is_rest(block));
                     if let Some(rest) = rest {
                         f |= ASLEEP | rest.flags(block);
@@ -537,11 +537,12 @@ impl Narrow<'_> {
                 if !self.awake.is_awake(a as usize) {
                     // every body of a's block sleeps: no kept pair of a sleeper is a pair
                     // this step (the wake pass woke every island an awake body's box
-                    // reaches), so the pairs from that block go by at once (sorted by
-                    // their first body)
-                    let next = (a as usize / BODY_PASS_BLOCK + 1) * BODY_PASS_BLOCK;
+                    // reaches), so the pairs from that block, and from the sleeping
+                    // blocks after it, go by at once (sorted by their first body; found
+                    // near, so a mostly sleeping world's pass reads its awake pairs only)
+                    let next = self.awake.next_awake(a as usize);
                     let from = i - 1;
-                    i = from + pairs[from..].partition_point(|p| (p.0 as usize) < next);
+                    i = from + gallop(&pairs[from..], |p| (p.0 as usize) < next);
                     debug_assert!(pairs[from..i].iter().all(|&(a, b)| !t.holds(a, b)));
                     continue;
                 }

@@ -14,7 +14,7 @@ use crate::collision::Contact;
 use crate::collision::collide::{Collider, swept_box};
 use crate::defs::{BodyType, SolverSettings};
 use crate::joint::{Joint, MouseJoint};
-use crate::math::{BODY_PASS_BLOCK, Vec2, uf_root, uf_union};
+use crate::math::{AWAKE_BLOCK, BODY_PASS_BLOCK, Vec2, uf_root, uf_union};
 use crate::parallel::{self, Pool};
 use crate::step::integrate::PointForce;
 
@@ -222,15 +222,19 @@ impl Sleep {
         collider.dynamic.resize(n, false);
         sized.resize(n, false);
         let mut movers = false;
-        for (k, start) in (0..n).step_by(BODY_PASS_BLOCK).enumerate() {
-            let end = (start + BODY_PASS_BLOCK).min(n);
+        for (k, start) in (0..n).step_by(AWAKE_BLOCK).enumerate() {
+            let end = (start + AWAKE_BLOCK).min(n);
             if rest.is_rest(k) {
                 #[cfg(debug_assertions)]
                 for (i, b) in bodies[start..end].iter().enumerate() {
                     let i = start + i;
                     assert!(
                         b.asleep && b.is_still(),
-                        "a rest block's body {i} sleeps still"
+                        "a rest block's body {i} sleeps still (asleep {}, v {}, w {}, force {})",
+                        b.asleep,
+                        b.velocity,
+                        b.angular_velocity,
+                        b.force
                     );
                     let bb = b.rest_box.expect("a rest block's sleeper keeps its box");
                     assert!(bb == b.aabb(), "a sleeper's kept box is its box");

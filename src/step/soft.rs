@@ -196,8 +196,8 @@ mod tests {
     }
 
     /// A ball (body 0) drifting at 2 m/s in zero gravity towards a wall of 24 x 40 boxes
-    /// of 0.5 m, `spacing` apart, that start asleep: 961 bodies, four blocks of the body
-    /// passes; the ball's block holds 255 sleepers, the other three only sleepers. The
+    /// of 0.5 m, `spacing` apart, that start asleep: 961 bodies, sixteen awake blocks
+    /// (`AWAKE_BLOCK`); the ball's holds 63 sleepers, the other fifteen only sleepers. The
     /// ball's edge reaches the wall's (x = -0.25) at t = 2.25 / 2 s, step 68.
     fn ball_and_sleeping_wall(settings: SolverSettings, spacing: f32) -> World {
         let sc = crate::scene::load_str(
@@ -218,7 +218,8 @@ mod tests {
         // rest blocks forgotten before every step (every body visited). The skipped
         // blocks' entries are checked against fresh ones in debug builds; here every
         // body's state must match to the bit, through the ball's flight (the wall's
-        // blocks rest), an impulse to a sleeper, a body removed, and the wall waking
+        // blocks rest), an impulse to a sleeper, a push (the window's force) on a
+        // sleeper, a body removed, and the wall waking
         let bits = |w: &World| -> Vec<u32> {
             w.bodies
                 .iter()
@@ -238,25 +239,46 @@ mod tests {
             let mut a = ball_and_sleeping_wall(SolverSettings::defaults(kind), 1.0);
             let mut b = ball_and_sleeping_wall(SolverSettings::defaults(kind), 1.0);
             assert!(a.settings.sleep);
-            let rest = |w: &World| (0..4).map(|k| w.sleep.rest.is_rest(k)).collect::<Vec<_>>();
+            let rest = |w: &World| (0..16).map(|k| w.sleep.rest.is_rest(k)).collect::<Vec<_>>();
+            // (961 bodies: sixteen awake blocks, the ball in the first)
+            let resting = |off: &[usize]| {
+                (0..16)
+                    .map(|k| k > 0 && !off.contains(&k))
+                    .collect::<Vec<_>>()
+            };
             for k in 1..=100 {
                 b.sleep.rest.forget();
                 a.step().unwrap();
                 b.step().unwrap();
                 assert_eq!(bits(&a), bits(&b), "{kind:?} step {k}");
                 match k {
-                    // from the second step the wall's three blocks rest (the first
-                    // visits them)
-                    2..=29 => assert_eq!(rest(&a), [false, true, true, true], "{kind:?} {k}"),
+                    // from the second step the wall's blocks rest (the first visits
+                    // them)
+                    2..=29 => assert_eq!(rest(&a), resting(&[]), "{kind:?} {k}"),
                     30 => {
-                        // a push wakes a sleeper in block 2: that block is visited
+                        // an impulse wakes a sleeper in block 9: that block is visited
                         // again
                         for w in [&mut a, &mut b] {
                             let key = w.body_key(600).unwrap();
                             w.apply_impulse(key, Vec2::new(0.0, 0.01), w.bodies[600].position)
                                 .unwrap();
                         }
-                        assert_eq!(rest(&a), [false, true, false, true]);
+                        assert_eq!(rest(&a), resting(&[9]));
+                    }
+                    35 => {
+                        // a force on a sleeper in block 12 (the window's push, which
+                        // leaves the waking to the next wake pass): that block is
+                        // visited again, and its pushed sleeper wakes there
+                        for w in [&mut a, &mut b] {
+                            let at = w.bodies[800].position;
+                            w.apply_force_index(800, Vec2::new(0.0, 5.0), at);
+                        }
+                        assert!(!rest(&a)[12]);
+                        b.sleep.rest.forget();
+                        a.step().unwrap();
+                        b.step().unwrap();
+                        assert_eq!(bits(&a), bits(&b), "{kind:?} after the push");
+                        assert!(!a.bodies[800].asleep, "{kind:?}: the pushed sleeper woke");
                     }
                     40 => {
                         // removing a body shifts the later ones, and a sleeper added
@@ -304,11 +326,8 @@ mod tests {
             let st = w.stepper_as::<SoftStepper>().unwrap();
             if w.bodies.iter().filter(|b| b.asleep).count() == n - 1 {
                 // only the ball's block is visited
-                assert_eq!(
-                    st.soft.awake_blocks(),
-                    &[true, false, false, false],
-                    "step {k}"
-                );
+                let want: Vec<bool> = (0..16).map(|k| k == 0).collect();
+                assert_eq!(st.soft.awake_blocks(), &want[..], "step {k}");
                 // the ball flies free: x = x0 + v t
                 let x = -3.0 + 2.0 * dt * k as f32;
                 assert!((w.bodies[0].position.x - x).abs() < 1e-4, "step {k}");

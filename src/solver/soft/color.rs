@@ -25,7 +25,8 @@ pub(super) struct Colored {
 /// Greedy colouring, the joints first (in joint order: `joints` holds each joint's two
 /// bodies; their colours go to `joint_colors`), then the contacts in contact order: each
 /// takes the lowest colour neither of its moving bodies (`moves`) uses yet, [`OVERFLOW`]
-/// where none is free; a body that does not move takes no colour. So a colour's joints
+/// where none is free (`body_colors` holds each body's colours while it runs, clear
+/// before and after); a body that does not move takes no colour. So a colour's joints
 /// and contacts share no moving body, and its joints can be solved beside its contacts
 /// (Box2D's constraint graph, where joints and contacts share the colours too). Writes
 /// each contact's colour to `colors`, and to
@@ -48,8 +49,10 @@ pub(super) fn color_contacts(
     recolor_joints: bool,
     cut_counts: &mut Vec<[u32; OVERFLOW + 1]>,
 ) -> Colored {
-    body_colors.clear();
+    // every body's colours are clear between colourings (cleared below), so a world of
+    // many sleepers and few constraints pays for the few
     body_colors.resize(moves.len(), 0);
+    debug_assert!(body_colors.iter().all(|&c| c == 0));
     colors.resize(contacts.len(), 0);
     cut_counts.clear();
     let joint_counts = if recolor_joints {
@@ -95,6 +98,18 @@ pub(super) fn color_contacts(
             counts[color] += 1;
             *out = color as u8;
         }
+    }
+    if 4 * (contacts.len() + joints.len()) < body_colors.len() {
+        for &(a, b) in joints {
+            body_colors[a as usize] = 0;
+            body_colors[b as usize] = 0;
+        }
+        for c in contacts {
+            body_colors[c.a as usize] = 0;
+            body_colors[c.b as usize] = 0;
+        }
+    } else {
+        body_colors.fill(0);
     }
     Colored {
         counts,
