@@ -7,7 +7,7 @@
 //! output is sorted by (a, b), so the step order does not depend on the grid.
 
 use crate::defs::Filter;
-use crate::math::{AWAKE_BLOCK, Aabb, Vec2};
+use crate::math::{AWAKE_BLOCK, Aabb, Vec2, gallop};
 use std::ops::Range;
 
 /// A candidate pair of body indices, a < b.
@@ -42,6 +42,13 @@ pub struct BroadPhase {
     /// (a filtered grid of large circles) cost no memory for their pairs.
     kept_filters: Vec<Filter>,
     kept_pairs: Vec<Pair>,
+    /// Per awake block of bodies ([`AWAKE_BLOCK`]): a box holding each of its kept boxes
+    /// (found at the rebuild, grown as a few bodies' are redone), so that a few bodies'
+    /// search for their pairs passes over the blocks their boxes miss.
+    kept_bounds: Vec<Option<Aabb>>,
+    /// The kept pairs a few bodies' update takes out (scratch of
+    /// [`BroadPhase::refresh_few`]).
+    gone: Vec<Pair>,
     /// The last rebuild's filters let no two bodies touch: the kept pairs (none) hold
     /// while the filters do.
     no_pair_by_filters: bool,
@@ -435,6 +442,11 @@ impl BroadPhase {
             // many as the filter below keeps, so neither buffer grows in a steady run
             self.kept_pairs.clear();
             self.kept_pairs.extend_from_slice(&self.pairs);
+            self.kept_bounds.clear();
+            self.kept_bounds.extend(
+                fat.chunks(AWAKE_BLOCK)
+                    .map(|c| c.iter().copied().reduce(|a, b| a.union(&b))),
+            );
             (self.kept_boxes, self.kept_moves) = (fat, fat_moves);
             self.rebuilds += 1;
         }
@@ -475,52 +487,104 @@ impl BroadPhase {
         }
         self.redo.resize(n, false);
         for &i in &self.few {
-            let i = i as usize;
-            self.kept_boxes[i] = kept_box(&aabbs[i]);
-            self.kept_moves[i] = may_move(i);
-            if filtered {
-                self.kept_filters[i] = filter(i);
-            }
-            self.redo[i] = true;
+            self.redo[i as usize] = true;
         }
-        let redo = &self.redo;
-        self.kept_pairs
-            .retain(|&(a, b)| !redo[a as usize] && !redo[b as usize]);
-        let (filters, moves) = (&self.kept_filters, &self.kept_moves);
+        let Self {
+            kept_boxes,
+            kept_moves,
+            kept_filters,
+            kept_bounds,
+            kept_pairs,
+            redo,
+            few,
+            gone,
+            pairs,
+            pairs_tmp,
+            ..
+        } = self;
         // as a rebuild's grid: one of the two may move, and their filters let them touch
-        let touch = |a: u32, b: u32| {
+        let touch = |moves: &[bool], filters: &[Filter], a: u32, b: u32| {
             let (a, b) = (a as usize, b as usize);
             (moves[a] || moves[b]) && (!filtered || filters[a].collides(&filters[b]))
         };
-        self.pairs.clear();
+        // the few's pairs as kept (every kept pair with one of them), found as their new
+        // ones are below: each of their old kept boxes against every kept box, passing
+        // over the blocks whose bounds it misses
+        gone.clear();
         pairs_of_few(
-            &self.kept_boxes,
-            &self.few,
+            kept_boxes,
+            few,
             redo,
-            &[],
-            &touch,
-            &mut self.pairs,
+            kept_bounds,
+            &|a, b| touch(kept_moves, kept_filters, a, b),
+            gone,
         );
-        self.pairs.sort_unstable();
-        // the two sorted lists merged (no pair is in both: every new one has a body
-        // redone, no old one has)
-        self.pairs_tmp.clear();
-        let (old, new) = (&self.kept_pairs, &self.pairs);
-        let (mut i, mut j) = (0, 0);
-        while i < old.len() && j < new.len() {
-            if old[i] < new[j] {
-                self.pairs_tmp.push(old[i]);
-                i += 1;
-            } else {
-                self.pairs_tmp.push(new[j]);
-                j += 1;
+        gone.sort_unstable();
+        debug_assert!(
+            kept_pairs
+                .iter()
+                .filter(|&&(a, b)| redo[a as usize] || redo[b as usize])
+                .eq(gone.iter()),
+            "the few's kept pairs are the pairs of their kept boxes"
+        );
+        for &i in few.iter() {
+            let i = i as usize;
+            let fat = kept_box(&aabbs[i]);
+            kept_boxes[i] = fat;
+            kept_moves[i] = may_move(i);
+            if filtered {
+                kept_filters[i] = filter(i);
             }
+            // (a block's bounds grow to hold its new box)
+            let bound = &mut kept_bounds[i / AWAKE_BLOCK];
+            *bound = Some(bound.map_or(fat, |b| b.union(&fat)));
         }
-        self.pairs_tmp.extend_from_slice(&old[i..]);
-        self.pairs_tmp.extend_from_slice(&new[j..]);
-        std::mem::swap(&mut self.kept_pairs, &mut self.pairs_tmp);
-        for &i in &self.few {
-            self.redo[i as usize] = false;
+        pairs.clear();
+        pairs_of_few(
+            kept_boxes,
+            few,
+            redo,
+            kept_bounds,
+            &|a, b| touch(kept_moves, kept_filters, a, b),
+            pairs,
+        );
+        pairs.sort_unstable();
+        // the kept pairs without the gone ones and with the new ones, all three sorted:
+        // only the span of kept pairs from the first edit to the last is merged again
+        // (its runs between two edits copied whole; a pair may go and come back), and
+        // the pairs after it move only where the count changed
+        let first = gone.first().into_iter().chain(pairs.first()).min();
+        let last = gone.last().into_iter().chain(pairs.last()).max();
+        if let (Some(&first), Some(&last)) = (first, last) {
+            let lo = kept_pairs.partition_point(|p| *p < first);
+            let hi = lo + kept_pairs[lo..].partition_point(|p| *p <= last);
+            let span = &kept_pairs[lo..hi];
+            pairs_tmp.clear();
+            let (mut at, mut g, mut a) = (0, 0, 0);
+            loop {
+                let edit = match (gone.get(g), pairs.get(a)) {
+                    (None, None) => break,
+                    (Some(&x), None) | (None, Some(&x)) => x,
+                    (Some(&x), Some(&y)) => x.min(y),
+                };
+                let to = at + gallop(&span[at..], |p| *p < edit);
+                pairs_tmp.extend_from_slice(&span[at..to]);
+                at = to;
+                if gone.get(g) == Some(&edit) {
+                    debug_assert_eq!(span.get(at), Some(&edit));
+                    at += 1;
+                    g += 1;
+                }
+                if pairs.get(a) == Some(&edit) {
+                    pairs_tmp.push(edit);
+                    a += 1;
+                }
+            }
+            pairs_tmp.extend_from_slice(&span[at..]);
+            kept_pairs.splice(lo..hi, pairs_tmp.iter().copied());
+        }
+        for &i in few.iter() {
+            redo[i as usize] = false;
         }
         self.updates += 1;
         true
@@ -742,8 +806,8 @@ fn pairs_of_few(
                 && !bi.overlaps(&bounds)
             {
                 debug_assert!(
-                    run.clone().all(|j| !marked[j] && !bi.overlaps(&aabbs[j])),
-                    "a block's bounds hold its boxes, none of them moving"
+                    run.clone().all(|j| !bi.overlaps(&aabbs[j])),
+                    "a block's bounds hold its boxes"
                 );
                 continue;
             }
@@ -1162,6 +1226,48 @@ mod tests {
         assert!(!boxes[..b].iter().any(|x| x.overlaps(&bounds[2].unwrap())));
         assert_eq!(plain.pairs, brute);
         assert_eq!(bounded.pairs, brute);
+    }
+
+    #[test]
+    fn a_few_bodies_wandering_through_a_grid_keep_the_pairs_a_rebuild_finds() {
+        // 40 rows of 16 boxes in row order, so each awake block of 64 is four rows and
+        // a few movers' kept boxes miss most blocks' bounds; three of them wander
+        // through the grid, jumping up to two rows a step: the kept pairs stay every
+        // pair of kept boxes (the pairs a rebuild finds) and the step's pairs those
+        // found afresh
+        let (rows, cols) = (40usize, 16usize);
+        let mut boxes: Vec<Aabb> = (0..rows * cols)
+            .map(|i| {
+                let (x, y) = ((i % cols) as f32, (i / cols) as f32);
+                aabb(x, y, x + 0.9, y + 0.9)
+            })
+            .collect();
+        let n = boxes.len();
+        let moves = vec![true; n];
+        let filters = vec![Filter::default(); n];
+        let mut seed = 17u32;
+        let mut rnd = move || {
+            seed = seed.wrapping_mul(1664525).wrapping_add(1013904223);
+            (seed >> 8) as f32 / (1u32 << 24) as f32
+        };
+        let (mut kept, mut fresh) = (BroadPhase::default(), BroadPhase::default());
+        for step in 0..300 {
+            for i in [5, 300, 630] {
+                let d = Vec2::new(rnd() * 4.0 - 2.0, rnd() * 4.0 - 2.0);
+                let c = (boxes[i].min + d).clamp(Vec2::ZERO, Vec2::new(15.0, 39.0));
+                (boxes[i].min, boxes[i].max) = (c, c + Vec2::splat(0.9));
+            }
+            let left = left_of(&kept, &boxes, &moves, &filters);
+            kept.find_pairs_kept_checked(&boxes, &moves, left, |i| moves[i], None, |_, _| true);
+            fresh.find_pairs(&boxes, &moves, |_, _| true);
+            assert_eq!(kept.pairs, fresh.pairs, "step {step}");
+            let fat: Vec<Aabb> = kept.kept_boxes.clone();
+            let mut rebuilt = BroadPhase::default();
+            rebuilt.find_pairs(&fat, &moves, |_, _| true);
+            assert_eq!(kept.kept_pairs(), &rebuilt.pairs[..], "step {step}");
+        }
+        assert_eq!(kept.rebuilds, 1, "only the first step rebuilds");
+        assert!(kept.updates > 250, "{} updates", kept.updates);
     }
 
     #[test]
