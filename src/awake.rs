@@ -78,10 +78,7 @@ impl AwakeMarks {
         if self.is_awake(i) {
             return i;
         }
-        self.blocks[k + 1..]
-            .iter()
-            .position(|&m| m)
-            .map_or(usize::MAX, |d| (k + 1 + d) * AWAKE_BLOCK)
+        first_flag(&self.blocks[k + 1..], true).map_or(usize::MAX, |d| (k + 1 + d) * AWAKE_BLOCK)
     }
 
     /// Whether this step's pass found every body of block `k` asleep (false when the
@@ -235,6 +232,23 @@ impl RestBlocks {
     }
 }
 
+/// The first index of `flags` that is `want` (as `position`, but a run of 32 flags at a
+/// time, with no early exit inside a run, so the scan is a few vector compares a run:
+/// a world of thousands of sleeping blocks scans their flags in every pass).
+fn first_flag(flags: &[bool], want: bool) -> Option<usize> {
+    const RUN: usize = 32;
+    let mut runs = flags.chunks_exact(RUN);
+    for (k, run) in runs.by_ref().enumerate() {
+        if run.iter().fold(false, |any, &m| any | (m == want)) {
+            return run.iter().position(|&m| m == want).map(|i| k * RUN + i);
+        }
+    }
+    let tail = runs.remainder();
+    tail.iter()
+        .position(|&m| m == want)
+        .map(|i| flags.len() - tail.len() + i)
+}
+
 /// Calls `f` on the parts of `r` (body indices) that lie in awake blocks, each run of
 /// consecutive awake blocks as one part, in order. `awake` holds a flag per block; an
 /// empty `awake`, or an index past its blocks (the solver's own slots after the
@@ -257,15 +271,13 @@ pub(crate) fn each_awake(awake: &[bool], r: Range<usize>, mut f: impl FnMut(Rang
             // to the next sleeping block (past the flags, every block is awake)
             let end = awake
                 .get(k..)
-                .and_then(|w| w.iter().position(|&m| !m))
+                .and_then(|w| first_flag(w, false))
                 .map_or(r.end, |d| ((k + d) * AWAKE_BLOCK).min(r.end));
             f(at..end);
             at = end;
         } else {
             // to the next awake block
-            at = awake[k..]
-                .iter()
-                .position(|&m| m)
+            at = first_flag(&awake[k..], true)
                 .map_or(blocks * AWAKE_BLOCK, |d| (k + d) * AWAKE_BLOCK);
         }
     }
@@ -287,7 +299,7 @@ pub(crate) fn each_awake_in(
 
 #[cfg(test)]
 mod tests {
-    use super::{AwakeMarks, RestBlocks, each_awake, each_awake_in};
+    use super::{AwakeMarks, RestBlocks, each_awake, each_awake_in, first_flag};
     use crate::math::{AWAKE_BLOCK, Aabb, Vec2};
 
     /// The indices `each_awake` visits, one by one.
@@ -334,6 +346,34 @@ mod tests {
         let mut parts = Vec::new();
         each_awake_in(&[true, false, true], b - 2, 2 * b + 4, |r| parts.push(r));
         assert_eq!(parts, vec![0..2, b + 2..2 * b + 4]);
+    }
+
+    #[test]
+    fn first_flag_finds_what_position_finds() {
+        // every length past a few runs of 32, flags from a fixed scramble, and runs of
+        // one flag with the other at each place
+        let mut seed = 7u32;
+        for len in 0..140usize {
+            let mixed: Vec<bool> = (0..len)
+                .map(|_| {
+                    seed = seed.wrapping_mul(1664525).wrapping_add(1013904223);
+                    seed >> 28 == 0
+                })
+                .collect();
+            for want in [false, true] {
+                assert_eq!(
+                    first_flag(&mixed, want),
+                    mixed.iter().position(|&m| m == want),
+                    "len {len}"
+                );
+                for at in 0..len {
+                    let mut one = vec![!want; len];
+                    one[at] = want;
+                    assert_eq!(first_flag(&one, want), Some(at), "len {len} at {at}");
+                }
+                assert_eq!(first_flag(&vec![!want; len], want), None);
+            }
+        }
     }
 
     #[test]
