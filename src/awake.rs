@@ -78,7 +78,7 @@ impl AwakeMarks {
         if self.is_awake(i) {
             return i;
         }
-        first_flag(&self.blocks[k + 1..], true).map_or(usize::MAX, |d| (k + 1 + d) * AWAKE_BLOCK)
+        next_block(&self.blocks, k + 1, true).map_or(usize::MAX, |j| j * AWAKE_BLOCK)
     }
 
     /// Whether this step's pass found every body of block `k` asleep (false when the
@@ -249,6 +249,11 @@ fn first_flag(flags: &[bool], want: bool) -> Option<usize> {
         .map(|i| flags.len() - tail.len() + i)
 }
 
+/// The first block from `k` on whose flag is `want`, if any.
+fn next_block(flags: &[bool], k: usize, want: bool) -> Option<usize> {
+    first_flag(flags.get(k..)?, want).map(|d| k + d)
+}
+
 /// Calls `f` on the parts of `r` (body indices) that lie in awake blocks, each run of
 /// consecutive awake blocks as one part, in order. `awake` holds a flag per block; an
 /// empty `awake`, or an index past its blocks (the solver's own slots after the
@@ -269,16 +274,12 @@ pub(crate) fn each_awake(awake: &[bool], r: Range<usize>, mut f: impl FnMut(Rang
         let k = at / AWAKE_BLOCK;
         if awake.get(k).copied().unwrap_or(true) {
             // to the next sleeping block (past the flags, every block is awake)
-            let end = awake
-                .get(k..)
-                .and_then(|w| first_flag(w, false))
-                .map_or(r.end, |d| ((k + d) * AWAKE_BLOCK).min(r.end));
+            let end = next_block(awake, k, false).map_or(r.end, |j| (j * AWAKE_BLOCK).min(r.end));
             f(at..end);
             at = end;
         } else {
             // to the next awake block
-            at = first_flag(&awake[k..], true)
-                .map_or(blocks * AWAKE_BLOCK, |d| (k + d) * AWAKE_BLOCK);
+            at = next_block(awake, k, true).map_or(blocks * AWAKE_BLOCK, |j| j * AWAKE_BLOCK);
         }
     }
 }

@@ -456,7 +456,9 @@ impl BroadPhase {
     /// [`BroadPhase::refresh_kept`]'s update of the kept boxes and pairs when only a few
     /// bodies (at most [`ONE_BY_ONE`]) have left their kept boxes (or changed whether
     /// they may move, or their filter): their boxes are kept anew and their pairs found again,
-    /// each against every kept box; every other pair stands, its two boxes unchanged.
+    /// each against the kept boxes of the blocks its box reaches (`kept_bounds`), their
+    /// old pairs found the same way and taken out; every other pair stands, its two
+    /// boxes unchanged.
     /// The kept pairs are then every pair of kept boxes (that the filters let touch),
     /// sorted, as after a rebuild, and this step's pairs the same. Only the bodies in
     /// `left` are looked at (as for [`BroadPhase::find_pairs_kept_checked`]). Returns false, and
@@ -549,40 +551,7 @@ impl BroadPhase {
             pairs,
         );
         pairs.sort_unstable();
-        // the kept pairs without the gone ones and with the new ones, all three sorted:
-        // only the span of kept pairs from the first edit to the last is merged again
-        // (its runs between two edits copied whole; a pair may go and come back), and
-        // the pairs after it move only where the count changed
-        let first = gone.first().into_iter().chain(pairs.first()).min();
-        let last = gone.last().into_iter().chain(pairs.last()).max();
-        if let (Some(&first), Some(&last)) = (first, last) {
-            let lo = kept_pairs.partition_point(|p| *p < first);
-            let hi = lo + kept_pairs[lo..].partition_point(|p| *p <= last);
-            let span = &kept_pairs[lo..hi];
-            pairs_tmp.clear();
-            let (mut at, mut g, mut a) = (0, 0, 0);
-            loop {
-                let edit = match (gone.get(g), pairs.get(a)) {
-                    (None, None) => break,
-                    (Some(&x), None) | (None, Some(&x)) => x,
-                    (Some(&x), Some(&y)) => x.min(y),
-                };
-                let to = at + gallop(&span[at..], |p| *p < edit);
-                pairs_tmp.extend_from_slice(&span[at..to]);
-                at = to;
-                if gone.get(g) == Some(&edit) {
-                    debug_assert_eq!(span.get(at), Some(&edit));
-                    at += 1;
-                    g += 1;
-                }
-                if pairs.get(a) == Some(&edit) {
-                    pairs_tmp.push(edit);
-                    a += 1;
-                }
-            }
-            pairs_tmp.extend_from_slice(&span[at..]);
-            kept_pairs.splice(lo..hi, pairs_tmp.iter().copied());
-        }
+        splice_sorted(kept_pairs, gone, pairs, pairs_tmp);
         for &i in few.iter() {
             redo[i as usize] = false;
         }
@@ -775,12 +744,52 @@ impl BroadPhase {
     }
 }
 
+/// Takes the pairs of `gone` out of `list` and puts those of `added` in, all three
+/// sorted (`gone` a part of `list`; a pair may go and come back), `list` staying sorted.
+/// Only the span of `list` from the first edit to the last is merged again, its runs
+/// between two edits copied whole (`scratch` holds the merged span); the pairs after
+/// it move only where the count changes.
+fn splice_sorted(list: &mut Vec<Pair>, gone: &[Pair], added: &[Pair], scratch: &mut Vec<Pair>) {
+    let first = gone.first().into_iter().chain(added.first()).min();
+    let last = gone.last().into_iter().chain(added.last()).max();
+    let (Some(&first), Some(&last)) = (first, last) else {
+        return;
+    };
+    let lo = list.partition_point(|p| *p < first);
+    let hi = lo + list[lo..].partition_point(|p| *p <= last);
+    let span = &list[lo..hi];
+    scratch.clear();
+    let (mut at, mut g, mut a) = (0, 0, 0);
+    loop {
+        let edit = match (gone.get(g), added.get(a)) {
+            (None, None) => break,
+            (Some(&x), None) | (None, Some(&x)) => x,
+            (Some(&x), Some(&y)) => x.min(y),
+        };
+        let to = at + gallop(&span[at..], |p| *p < edit);
+        scratch.extend_from_slice(&span[at..to]);
+        at = to;
+        if gone.get(g) == Some(&edit) {
+            debug_assert_eq!(span.get(at), Some(&edit), "a gone pair is in the list");
+            at += 1;
+            g += 1;
+        }
+        if added.get(a) == Some(&edit) {
+            scratch.push(edit);
+            a += 1;
+        }
+    }
+    scratch.extend_from_slice(&span[at..]);
+    list.splice(lo..hi, scratch.iter().copied());
+}
+
 /// Every pair of overlapping boxes with a body of `few` (listed in increasing order,
 /// each with its `marked` entry set) where `accept` holds, into `out` (a < b, in no
 /// particular order): each of them against every box, the pairs of two of them once.
 /// A pair with no moving body (`marked` is `moves`) or of two unmarked bodies is never
-/// reported. A block of `blocks` (see [`BroadPhase::find_pairs_sized`]) whose bounds
-/// a body's box misses is passed over for that body.
+/// reported. `blocks`, per awake block of boxes (empty, or shorter, for none): where
+/// `Some`, bounds holding each box of the block; a block whose bounds a body's box
+/// misses is passed over for that body.
 fn pairs_of_few(
     aabbs: &[Aabb],
     few: &[u32],
@@ -1226,6 +1235,39 @@ mod tests {
         assert!(!boxes[..b].iter().any(|x| x.overlaps(&bounds[2].unwrap())));
         assert_eq!(plain.pairs, brute);
         assert_eq!(bounded.pairs, brute);
+    }
+
+    #[test]
+    fn splice_sorted_edits_a_sorted_list_as_a_set() {
+        // lists of pairs from a fixed scramble; each edit takes a random part out and
+        // puts random pairs in (some of them pairs it took out): the result is the set
+        // difference and union, sorted
+        let mut seed = 3u32;
+        let mut rnd = move |m: u32| {
+            seed = seed.wrapping_mul(1664525).wrapping_add(1013904223);
+            (seed >> 8) % m
+        };
+        let mut scratch = Vec::new();
+        for round in 0..200 {
+            let mut list: Vec<Pair> = (0..rnd(60)).map(|_| (rnd(20), rnd(20))).collect();
+            list.sort_unstable();
+            list.dedup();
+            let gone: Vec<Pair> = list.iter().copied().filter(|_| rnd(4) == 0).collect();
+            let mut added: Vec<Pair> = (0..rnd(8)).map(|_| (rnd(20), rnd(20))).collect();
+            added.extend(gone.iter().copied().filter(|_| rnd(2) == 0));
+            added.sort_unstable();
+            added.dedup();
+            added.retain(|p| gone.contains(p) || !list.contains(p));
+            let mut want: Vec<Pair> = list
+                .iter()
+                .copied()
+                .filter(|p| !gone.contains(p))
+                .chain(added.iter().copied())
+                .collect();
+            want.sort_unstable();
+            splice_sorted(&mut list, &gone, &added, &mut scratch);
+            assert_eq!(list, want, "round {round}");
+        }
     }
 
     #[test]
