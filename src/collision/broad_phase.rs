@@ -509,27 +509,29 @@ impl BroadPhase {
             let (a, b) = (a as usize, b as usize);
             (moves[a] || moves[b]) && (!filtered || filters[a].collides(&filters[b]))
         };
-        // the few's pairs as kept (every kept pair with one of them), found as their new
-        // ones are below: each of their old kept boxes against every kept box, passing
-        // over the blocks whose bounds it misses
-        gone.clear();
-        pairs_of_few(
-            kept_boxes,
-            few,
-            redo,
-            kept_bounds,
-            &|a, b| touch(kept_moves, kept_filters, a, b),
-            gone,
-        );
-        gone.sort_unstable();
+        // the few's pairs among the kept boxes as they stand, sorted: each of their kept
+        // boxes against every kept box, passing over the blocks whose bounds it misses
+        let (listed, marked) = (&*few, &*redo);
+        let pairs_of = |boxes: &[Aabb],
+                        moves: &[bool],
+                        filters: &[Filter],
+                        bounds: &[Option<Aabb>],
+                        out: &mut Vec<Pair>| {
+            out.clear();
+            let accept = |a, b| touch(moves, filters, a, b);
+            pairs_of_few(boxes, listed, marked, bounds, &accept, out);
+            out.sort_unstable();
+        };
+        // their pairs as kept (every kept pair with one of them), then their new ones
+        pairs_of(kept_boxes, kept_moves, kept_filters, kept_bounds, gone);
         debug_assert!(
             kept_pairs
                 .iter()
-                .filter(|&&(a, b)| redo[a as usize] || redo[b as usize])
+                .filter(|&&(a, b)| marked[a as usize] || marked[b as usize])
                 .eq(gone.iter()),
             "the few's kept pairs are the pairs of their kept boxes"
         );
-        for &i in few.iter() {
+        for &i in listed {
             let i = i as usize;
             let fat = kept_box(&aabbs[i]);
             kept_boxes[i] = fat;
@@ -541,16 +543,7 @@ impl BroadPhase {
             let bound = &mut kept_bounds[i / AWAKE_BLOCK];
             *bound = Some(bound.map_or(fat, |b| b.union(&fat)));
         }
-        pairs.clear();
-        pairs_of_few(
-            kept_boxes,
-            few,
-            redo,
-            kept_bounds,
-            &|a, b| touch(kept_moves, kept_filters, a, b),
-            pairs,
-        );
-        pairs.sort_unstable();
+        pairs_of(kept_boxes, kept_moves, kept_filters, kept_bounds, pairs);
         splice_sorted(kept_pairs, gone, pairs, pairs_tmp);
         for &i in few.iter() {
             redo[i as usize] = false;
