@@ -5,9 +5,12 @@
 //! the system deschedules one of the step's threads now and then, and the other waits
 //! for the block it was running (a scheduler slice, milliseconds, where a step's phase is
 //! microseconds). So a world that adapts times each step and, from time to time, tries
-//! the other choice for a few steps (a probe), keeping whichever was faster. A probe of
+//! the other choice for a few steps (a probe), keeping many threads only while they are
+//! clearly faster: where the two are alike, one thread steps (its time is the steadier,
+//! and a probe of a few steps on many threads may catch a lucky moment). A probe of
 //! one thread is cheap (one thread is never much slower than its own time), so it comes
-//! early whenever the steps on many threads grow slower than one thread was; a probe of
+//! early whenever the steps on many threads are no longer clearly faster than one thread
+//! was; a probe of
 //! many threads stops at the first step that shows it cannot win, and comes less and
 //! less often while it keeps losing. The results are the same to the bit whichever
 //! choice a step takes.
@@ -35,8 +38,11 @@ impl Threads {
 
 /// Steps a probe runs at most.
 const PROBE_STEPS: u32 = 4;
-/// A probe wins when its steps take less than this share of the current choice's.
+/// Many threads are taken when a probe of them takes less than this share of one
+/// thread's time, and kept while they take less than `KEEP` of it: in between, and when
+/// the two are alike (a busy machine), one thread steps, whose time is the steadier.
 const WIN: f64 = 0.92;
+const KEEP: f64 = 0.95;
 /// Steps between probes right after a switch, and at most.
 const FIRST_INTERVAL: u32 = 16;
 const LONGEST_INTERVAL: u32 = 1024;
@@ -119,14 +125,16 @@ impl ThreadTuner {
         if let Some((k, sum)) = self.probe {
             let (k, sum) = (k + 1, sum + t);
             let base = self.mean[cur];
-            // the probe cannot win once its steps so far took more than the current
-            // choice's would over the whole probe (and, trying one thread, once a step
-            // took half as long again: one thread's time hardly varies)
-            let lost = sum > PROBE_STEPS as f64 * base * WIN || (!many && t > 1.5 * base);
+            // the share of the current choice's time the probe must beat
+            let share = if many { WIN } else { 1.0 / KEEP };
+            // the probe cannot win once its steps so far took more than that share of the
+            // current choice's whole probe (and, trying one thread, once a step took half
+            // as long again: one thread's time hardly varies)
+            let lost = sum > PROBE_STEPS as f64 * base * share || (!many && t > 1.5 * base);
             if lost || k == PROBE_STEPS {
                 self.probe = None;
                 self.mean[other] = sum / k as f64;
-                if !lost && sum / (k as f64) < base * WIN {
+                if !lost && sum / (k as f64) < base * share {
                     self.switch(threads);
                 } else {
                     self.interval = (self.interval * 2).min(LONGEST_INTERVAL);
@@ -140,9 +148,9 @@ impl ThreadTuner {
         let m = self.mean[cur];
         let m = if m.is_nan() { t } else { m + ALPHA * (t - m) };
         self.mean[cur] = m;
-        // many threads grown slower than one thread was: try one thread at once
+        // many threads no longer clearly faster than one thread was: try one at once
         let one = self.mean[0];
-        if self.many && !one.is_nan() && m > one / WIN && self.until_probe > 2 {
+        if self.many && !one.is_nan() && m > one * KEEP && self.until_probe > 2 {
             self.until_probe = 0;
         }
         if self.until_probe == 0 {
@@ -201,6 +209,20 @@ mod tests {
         let (many, total) = run(&mut t, 1000, |_, many| if many { 3e-3 } else { 1e-3 });
         assert!(many < 30, "{many}");
         assert!(total < 1000.0 * 1e-3 * 1.1, "{total}");
+    }
+
+    #[test]
+    fn threads_no_faster_than_one_leave_the_steps_to_one() {
+        // a busy machine where two threads take one thread's time, give or take 15% a
+        // step (a fixed scramble of the step's index): two threads gain nothing, and one
+        // thread's time is the steadier, so nearly every step is on one
+        let noise = |i: usize, many: bool| {
+            let h = (i as u64 * 2 + u64::from(many)).wrapping_mul(0x9E37_79B9_7F4A_7C15) >> 40;
+            1.0 + 0.3 * (h as f64 / (1u64 << 24) as f64 - 0.5)
+        };
+        let mut t = ThreadTuner::default();
+        let (many, _) = run(&mut t, 2000, |i, m| 1e-3 * noise(i, m));
+        assert!(many < 100, "{many} of 2000 steps on two threads");
     }
 
     #[test]
