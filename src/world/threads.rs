@@ -10,9 +10,8 @@
 //! and a probe of a few steps on many threads may catch a lucky moment). A probe of
 //! one thread is cheap (one thread is never much slower than its own time), so it comes
 //! early whenever the steps on many threads are no longer clearly faster than one thread
-//! was; a probe of
-//! many threads stops at the first step that shows it cannot win, and comes less and
-//! less often while it keeps losing. The results are the same to the bit whichever
+//! was; a probe of many threads stops at the first step that shows it cannot win, and
+//! comes less and less often while it keeps losing. The results are the same to the bit whichever
 //! choice a step takes.
 
 use std::time::Duration;
