@@ -43,24 +43,26 @@ pub struct BroadPhase {
     kept_filters: Vec<Filter>,
     kept_pairs: Vec<Pair>,
     /// Per awake block of bodies ([`AWAKE_BLOCK`]): a box holding each of its kept boxes
-    /// (found at the rebuild, grown as a few bodies' are redone), so that a few bodies'
-    /// search for their pairs passes over the blocks their boxes miss.
+    /// (found at the rebuild, grown as some bodies' are redone), so that their search
+    /// for pairs passes over the blocks their boxes miss.
     kept_bounds: Vec<Option<Aabb>>,
-    /// The kept pairs a few bodies' update takes out (scratch of
-    /// [`BroadPhase::refresh_few`]).
+    /// The kept pairs an update for some bodies takes out (scratch of
+    /// [`BroadPhase::refresh_some`]).
     gone: Vec<Pair>,
     /// The last rebuild's filters let no two bodies touch: the kept pairs (none) hold
     /// while the filters do.
     no_pair_by_filters: bool,
-    /// Per body: whether it is one of the few whose kept box is being redone (scratch
-    /// of [`BroadPhase::refresh_few`], all false between calls).
+    /// Per body: whether it is one of those whose kept box is being redone (scratch
+    /// of [`BroadPhase::refresh_some`], all false between calls).
     redo: Vec<bool>,
-    /// The bodies [`BroadPhase::refresh_few`] redoes, or a few bodies that look for
+    /// The bodies [`BroadPhase::refresh_some`] redoes, or a few bodies that look for
     /// pairs (scratch).
     few: Vec<u32>,
+    /// The grid of [`pairs_of_some`] (scratch).
+    some_grid: SomeGrid,
     /// Rebuilds of the kept pairs so far.
     pub rebuilds: u64,
-    /// Updates of the kept pairs for a few bodies ([`BroadPhase::refresh_few`]) so far.
+    /// Updates of the kept pairs for some bodies ([`BroadPhase::refresh_some`]) so far.
     pub updates: u64,
     /// Candidate pairs from the last [`BroadPhase::find_pairs`], sorted.
     pub pairs: Vec<Pair>,
@@ -77,6 +79,12 @@ const KEEP_MARGIN: f32 = 0.1;
 /// moving through a wall of sleeping boxes (Box2D's smash) then costs its own box and
 /// a pass over the others, not a grid of them all.
 const ONE_BY_ONE: usize = 32;
+
+/// At most one body in this many may leave its kept box for the kept pairs to be
+/// updated for those bodies alone (a grid of their boxes that every other box looks
+/// into) rather than rebuilt over every body: a heap of small bodies jostling in one
+/// place (Box2D's junkyard) then costs a pass over the boxes, not a grid of them all.
+const SOME_SHARE: usize = 4;
 
 /// A body's kept box: its box fattened by [`KEEP_MARGIN`], or a quarter of its extent
 /// where that is less.
@@ -111,6 +119,17 @@ fn any_pair_may_touch(filters: &[Filter]) -> bool {
 
 /// A box spanning more cells than this per axis is tested against all bodies instead.
 const MAX_CELLS_PER_AXIS: i64 = 4;
+
+/// A grid's cell: twice the median of the box extents `sizes` (not empty; reordered),
+/// rounded up to 1, 1.25, 1.5 or 1.75 times a power of two (the float's mantissa cut to
+/// two bits): the grid keeps its shape, and its buffers their size, while the median
+/// wavers.
+fn cell_size(sizes: &mut [f32]) -> f32 {
+    let mid = sizes.len() / 2;
+    let (_, m, _) = sizes.select_nth_unstable_by(mid, |a, b| a.total_cmp(b));
+    const LOW: u32 = (1 << 21) - 1;
+    f32::from_bits(((2.0 * *m).max(1e-3).to_bits() + LOW) & !LOW)
+}
 
 #[inline]
 fn cell_key(ix: i64, iy: i64) -> u64 {
@@ -236,13 +255,7 @@ impl BroadPhase {
             if sizes.is_empty() || (!std::ptr::eq(sized, moves) && !moves.contains(&true)) {
                 return;
             }
-            let mid = sizes.len() / 2;
-            let (_, m, _) = sizes.select_nth_unstable_by(mid, |a, b| a.total_cmp(b));
-            // rounded up to 1, 1.25, 1.5 or 1.75 times a power of two (the float's
-            // mantissa cut to two bits): the grid keeps its shape, and its buffers their
-            // size, while the median wavers
-            const LOW: u32 = (1 << 21) - 1;
-            f32::from_bits(((2.0 * *m).max(1e-3).to_bits() + LOW) & !LOW)
+            cell_size(sizes)
         };
         let inv = 1.0 / cell;
         let to_cell = |v: Vec2| (floor_i64(v.x * inv), floor_i64(v.y * inv));
@@ -411,7 +424,7 @@ impl BroadPhase {
         may_move: impl Fn(usize) -> bool,
         filter_of: Option<&dyn Fn(usize) -> Filter>,
     ) {
-        if !left.is_empty() && !self.refresh_few(aabbs, left, &may_move, filter_of) {
+        if !left.is_empty() && !self.refresh_some(aabbs, left, &may_move, filter_of) {
             let mut fat = std::mem::take(&mut self.kept_boxes);
             let mut fat_moves = std::mem::take(&mut self.kept_moves);
             fat.clear();
@@ -453,18 +466,21 @@ impl BroadPhase {
         self.pairs.clear();
     }
 
-    /// [`BroadPhase::refresh_kept`]'s update of the kept boxes and pairs when only a few
-    /// bodies (at most [`ONE_BY_ONE`]) have left their kept boxes (or changed whether
-    /// they may move, or their filter): their boxes are kept anew and their pairs found again,
-    /// each against the kept boxes of the blocks its box reaches (`kept_bounds`), their
-    /// old pairs found the same way and taken out; every other pair stands, its two
-    /// boxes unchanged.
+    /// [`BroadPhase::refresh_kept`]'s update of the kept boxes and pairs when only some
+    /// bodies (at most one in [`SOME_SHARE`]) have left their kept boxes (or changed
+    /// whether they may move, or their filter): their boxes are kept anew and their
+    /// pairs found again, their old pairs taken out; every other pair stands, its two
+    /// boxes unchanged. Up to [`ONE_BY_ONE`] of them, each is looked up against the kept
+    /// boxes of the blocks its box reaches (`kept_bounds`), for its old pairs and its new
+    /// ones; more, their old pairs are those of the kept list with one of them, and their
+    /// new ones are found through a grid of their boxes ([`pairs_of_some`]).
     /// The kept pairs are then every pair of kept boxes (that the filters let touch),
     /// sorted, as after a rebuild, and this step's pairs the same. Only the bodies in
-    /// `left` are looked at (as for [`BroadPhase::find_pairs_kept_checked`]). Returns false, and
-    /// changes nothing, where a rebuild is due (more bodies left, the body count changed,
-    /// or the filters refused every pair).
-    fn refresh_few(
+    /// `left` are looked at (as for [`BroadPhase::find_pairs_kept_checked`]). Returns
+    /// false where a rebuild is due (more bodies left, the body count changed, the
+    /// filters refused every pair, or the bodies that left are spread too thin for
+    /// their grid); it then changes nothing the rebuild does not set afresh.
+    fn refresh_some(
         &mut self,
         aabbs: &[Aabb],
         left: Range<usize>,
@@ -478,15 +494,18 @@ impl BroadPhase {
         let filter = |i: usize| filter_of.map_or(Filter::default(), |f| f(i));
         let filtered = !self.kept_filters.is_empty();
         self.few.clear();
+        let most = ONE_BY_ONE.max(n / SOME_SHARE);
         for (i, b) in aabbs.iter().enumerate().take(left.end).skip(left.start) {
             // the caller's test, body by body
             if !(self.kept_holds(i, b, may_move(i)) && self.kept_filter_holds(i, &filter(i))) {
-                if self.few.len() == ONE_BY_ONE {
+                if self.few.len() == most {
                     return false;
                 }
                 self.few.push(i as u32);
             }
         }
+        // more than a few: their pairs through a grid of their boxes
+        let some = self.few.len() > ONE_BY_ONE;
         self.redo.resize(n, false);
         for &i in &self.few {
             self.redo[i as usize] = true;
@@ -502,6 +521,7 @@ impl BroadPhase {
             gone,
             pairs,
             pairs_tmp,
+            some_grid,
             ..
         } = self;
         // as a rebuild's grid: one of the two may move, and their filters let them touch
@@ -523,14 +543,17 @@ impl BroadPhase {
             out.sort_unstable();
         };
         // their pairs as kept (every kept pair with one of them), then their new ones
-        pairs_of(kept_boxes, kept_moves, kept_filters, kept_bounds, gone);
-        debug_assert!(
-            kept_pairs
-                .iter()
-                .filter(|&&(a, b)| marked[a as usize] || marked[b as usize])
-                .eq(gone.iter()),
-            "the few's kept pairs are the pairs of their kept boxes"
-        );
+        let with_some = |&&(a, b): &&Pair| marked[a as usize] || marked[b as usize];
+        if some {
+            gone.clear();
+            gone.extend(kept_pairs.iter().filter(with_some));
+        } else {
+            pairs_of(kept_boxes, kept_moves, kept_filters, kept_bounds, gone);
+            debug_assert!(
+                kept_pairs.iter().filter(with_some).eq(gone.iter()),
+                "the few's kept pairs are the pairs of their kept boxes"
+            );
+        }
         for &i in listed {
             let i = i as usize;
             let fat = kept_box(&aabbs[i]);
@@ -543,11 +566,31 @@ impl BroadPhase {
             let bound = &mut kept_bounds[i / AWAKE_BLOCK];
             *bound = Some(bound.map_or(fat, |b| b.union(&fat)));
         }
-        pairs_of(kept_boxes, kept_moves, kept_filters, kept_bounds, pairs);
-        splice_sorted(kept_pairs, gone, pairs, pairs_tmp);
+        let found = if some {
+            let accept = |a, b| touch(kept_moves, kept_filters, a, b);
+            let found = pairs_of_some(
+                kept_boxes,
+                listed,
+                marked,
+                kept_bounds,
+                &accept,
+                some_grid,
+                pairs,
+            );
+            pairs.sort_unstable();
+            found
+        } else {
+            pairs_of(kept_boxes, kept_moves, kept_filters, kept_bounds, pairs);
+            true
+        };
         for &i in few.iter() {
             redo[i as usize] = false;
         }
+        if !found {
+            // (the rebuild sets every kept box, pair and bound afresh)
+            return false;
+        }
+        splice_sorted(kept_pairs, gone, pairs, pairs_tmp);
         self.updates += 1;
         true
     }
@@ -826,6 +869,183 @@ fn pairs_of_few(
             }
         }
     }
+}
+
+/// The grid of [`pairs_of_some`]: where each cell's bodies start in `bodies` (a
+/// counting sort), the bodies too large for it, and the extents of the boxes.
+#[derive(Clone, Default, Debug)]
+struct SomeGrid {
+    start: Vec<u32>,
+    bodies: Vec<u32>,
+    large: Vec<u32>,
+    sizes: Vec<f32>,
+}
+
+/// [`pairs_of_few`] for more bodies (`some`, in increasing order, each with its `marked`
+/// entry set): the same pairs, but found through a grid of their boxes, into which every
+/// other box looks (passing over the blocks whose `blocks` bounds miss all of theirs),
+/// a pass over the boxes rather than a pass for each of them. The boxes of `some` too
+/// large for the grid are tested against every box. Returns false, with `out` left
+/// as it may be, when their boxes are spread too thin for a dense grid (then a grid of
+/// every box costs less).
+fn pairs_of_some(
+    aabbs: &[Aabb],
+    some: &[u32],
+    marked: &[bool],
+    blocks: &[Option<Aabb>],
+    accept: &impl Fn(u32, u32) -> bool,
+    grid: &mut SomeGrid,
+    out: &mut Vec<Pair>,
+) -> bool {
+    out.clear();
+    let Some(&first) = some.first() else {
+        return true;
+    };
+    let SomeGrid {
+        start,
+        bodies,
+        large,
+        sizes,
+    } = grid;
+    sizes.clear();
+    sizes.extend(some.iter().map(|&i| {
+        let b = &aabbs[i as usize];
+        (b.max - b.min).max_element()
+    }));
+    let inv = 1.0 / cell_size(sizes);
+    let cells = |b: &Aabb| {
+        let (x0, y0) = (floor_i64(b.min.x * inv), floor_i64(b.min.y * inv));
+        let (x1, y1) = (floor_i64(b.max.x * inv), floor_i64(b.max.y * inv));
+        let small = x1 - x0 < MAX_CELLS_PER_AXIS
+            && y1 - y0 < MAX_CELLS_PER_AXIS
+            && b.min.is_finite()
+            && b.max.is_finite();
+        small.then_some([x0, y0, x1, y1])
+    };
+    // the grid's bounds, and a box holding every box of `some`
+    large.clear();
+    let mut reach = aabbs[first as usize];
+    let (mut gx0, mut gy0, mut gx1, mut gy1) = (i64::MAX, i64::MAX, i64::MIN, i64::MIN);
+    for &i in some {
+        let b = &aabbs[i as usize];
+        reach = reach.union(b);
+        match cells(b) {
+            Some([x0, y0, x1, y1]) => {
+                (gx0, gy0, gx1, gy1) = (gx0.min(x0), gy0.min(y0), gx1.max(x1), gy1.max(y1));
+            }
+            None => large.push(i),
+        }
+    }
+    let small = some.len() - large.len();
+    let (w, h) = if small > 0 {
+        ((gx1 - gx0 + 1) as usize, (gy1 - gy0 + 1) as usize)
+    } else {
+        (0, 0)
+    };
+    if w.saturating_mul(h) > (8 * small).max(1 << 16) {
+        return false;
+    }
+    // the counting sort: a cell's bodies in increasing order
+    let cell_of = |ix: i64, iy: i64| (iy - gy0) as usize * w + (ix - gx0) as usize;
+    start.clear();
+    start.resize(w * h + 1, 0);
+    let each_cell = |[x0, y0, x1, y1]: [i64; 4], f: &mut dyn FnMut(usize)| {
+        for iy in y0..=y1 {
+            for ix in x0..=x1 {
+                f(cell_of(ix, iy));
+            }
+        }
+    };
+    for &i in some {
+        if let Some(r) = cells(&aabbs[i as usize]) {
+            each_cell(r, &mut |c| start[c + 1] += 1);
+        }
+    }
+    for c in 1..start.len() {
+        start[c] += start[c - 1];
+    }
+    bodies.clear();
+    bodies.resize(start[w * h] as usize, 0);
+    for &i in some {
+        if let Some(r) = cells(&aabbs[i as usize]) {
+            // (start[c] runs over c's slots, ending at c + 1's first)
+            each_cell(r, &mut |c| {
+                bodies[start[c] as usize] = i;
+                start[c] += 1;
+            });
+        }
+    }
+    // back to where each cell starts
+    for c in (1..start.len()).rev() {
+        start[c] = start[c - 1];
+    }
+    start[0] = 0;
+    // a pair with one of `some` is reported while looking from its other body, a pair
+    // of two of them (both in the grid, or both too large for it) from the lower one
+    let mut report = |j: u32, i: u32| {
+        let p = if i < j { (i, j) } else { (j, i) };
+        if accept(p.0, p.1) {
+            out.push(p);
+        }
+    };
+    let n = aabbs.len();
+    for (k, from) in (0..n).step_by(AWAKE_BLOCK).enumerate() {
+        if blocks
+            .get(k)
+            .copied()
+            .flatten()
+            .is_some_and(|b| !b.overlaps(&reach))
+        {
+            continue;
+        }
+        for j in from..(from + AWAKE_BLOCK).min(n) {
+            let bj = &aabbs[j];
+            if !bj.overlaps(&reach) {
+                continue;
+            }
+            let j = j as u32;
+            let j_large = marked[j as usize] && large.contains(&j);
+            for &i in large.iter() {
+                if i != j && !(j_large && i < j) && bj.overlaps(&aabbs[i as usize]) {
+                    report(j, i);
+                }
+            }
+            if small == 0 || j_large {
+                continue;
+            }
+            let Some([x0, y0, x1, y1]) = cells(bj) else {
+                // a large box not among them (a ground): against each in the grid
+                for &i in some {
+                    let bi = &aabbs[i as usize];
+                    if cells(bi).is_some() && bj.overlaps(bi) {
+                        report(j, i);
+                    }
+                }
+                continue;
+            };
+            let j_marked = marked[j as usize];
+            // the cells of the grid the box covers
+            let (x0, y0) = (x0.max(gx0), y0.max(gy0));
+            let (x1, y1) = (x1.min(gx1), y1.min(gy1));
+            for iy in y0..=y1 {
+                for ix in x0..=x1 {
+                    let c = cell_of(ix, iy);
+                    for &i in &bodies[start[c] as usize..start[c + 1] as usize] {
+                        let bi = &aabbs[i as usize];
+                        if (j_marked && i <= j) || !bj.overlaps(bi) {
+                            continue;
+                        }
+                        // once: from the cell holding the overlap's lower-left corner
+                        let corner = bj.min.max(bi.min);
+                        if (floor_i64(corner.x * inv), floor_i64(corner.y * inv)) == (ix, iy) {
+                            report(j, i);
+                        }
+                    }
+                }
+            }
+        }
+    }
+    true
 }
 
 /// floor(x) as an integer, without a libm call: truncate, then step down below zero.
@@ -1303,6 +1523,74 @@ mod tests {
         }
         assert_eq!(kept.rebuilds, 1, "only the first step rebuilds");
         assert!(kept.updates > 250, "{} updates", kept.updates);
+    }
+
+    #[test]
+    fn some_bodies_jumping_about_keep_the_pairs_a_rebuild_finds() {
+        // 600 boxes of mixed sizes over a ground, under filters; each step 40 to 140 of
+        // them (more than are looked up one by one, at most a quarter) jump, now and then
+        // one of them swelling past the grid's cells or a filter changing: the kept
+        // pairs stay every pair of kept boxes the filters let touch, and the step's
+        // pairs those found afresh
+        let mut boxes = scatter(7, 599);
+        let n = boxes.len();
+        let moves: Vec<bool> = (0..n).map(|i| i != 0).collect();
+        let category = |k: usize| Filter {
+            category: 1 << (k % 3),
+            mask: if k % 3 == 2 { 1 } else { 0xffff },
+            group: 0,
+        };
+        let mut filters: Vec<Filter> = (0..n).map(category).collect();
+        let mut seed = 11u32;
+        let mut rnd = move || {
+            seed = seed.wrapping_mul(1664525).wrapping_add(1013904223);
+            (seed >> 8) as usize
+        };
+        let (mut kept, mut fresh) = (BroadPhase::default(), BroadPhase::default());
+        let mut some_steps = 0;
+        for step in 0..150 {
+            let count = 40 + rnd() % 100;
+            for _ in 0..count {
+                let i = 1 + rnd() % (n - 1);
+                let d = Vec2::new(
+                    (rnd() % 100) as f32 * 0.04 - 2.0,
+                    (rnd() % 100) as f32 * 0.04 - 2.0,
+                );
+                (boxes[i].min, boxes[i].max) = (boxes[i].min + d, boxes[i].max + d);
+                if rnd() % 50 == 0 {
+                    boxes[i].max = boxes[i].min + Vec2::new(15.0, 12.0);
+                }
+            }
+            if step % 4 == 0 {
+                filters[1 + rnd() % (n - 1)] = category(rnd());
+            }
+            let left = left_of(&kept, &boxes, &moves, &filters);
+            let leaving = left
+                .clone()
+                .filter(|&i| {
+                    kept.kept_count() == n
+                        && !(kept.kept_holds(i, &boxes[i], moves[i])
+                            && kept.kept_filter_holds(i, &filters[i]))
+                })
+                .count();
+            some_steps += usize::from(leaving > ONE_BY_ONE && leaving <= n / SOME_SHARE);
+            let of = |i: usize| filters[i];
+            let can = |a: u32, b: u32| filters[a as usize].collides(&filters[b as usize]);
+            kept.find_pairs_kept_checked(&boxes, &moves, left, |i| moves[i], Some(&of), can);
+            fresh.find_pairs(&boxes, &moves, can);
+            assert_eq!(kept.pairs, fresh.pairs, "step {step}");
+            let fat = kept.kept_boxes.clone();
+            let mut rebuilt = BroadPhase::default();
+            rebuilt.find_pairs(&fat, &kept.kept_moves.clone(), |a, b| {
+                kept.kept_filters[a as usize].collides(&kept.kept_filters[b as usize])
+            });
+            assert_eq!(kept.kept_pairs(), &rebuilt.pairs[..], "step {step}");
+        }
+        assert!(
+            some_steps > 100,
+            "{some_steps} steps with some bodies leaving"
+        );
+        assert_eq!(kept.rebuilds, 1, "only the first step rebuilds");
     }
 
     #[test]
