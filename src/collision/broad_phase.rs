@@ -872,11 +872,13 @@ fn pairs_of_few(
 }
 
 /// The grid of [`pairs_of_some`]: where each cell's bodies start in `bodies` (a
-/// counting sort), the bodies too large for it, and the extents of the boxes.
+/// counting sort), the cells each body in it covers, the bodies too large for it, and
+/// the extents of the boxes.
 #[derive(Clone, Default, Debug)]
 struct SomeGrid {
     start: Vec<u32>,
     bodies: Vec<u32>,
+    ranges: Vec<(u32, [i64; 4])>,
     large: Vec<u32>,
     sizes: Vec<f32>,
 }
@@ -904,6 +906,7 @@ fn pairs_of_some(
     let SomeGrid {
         start,
         bodies,
+        ranges,
         large,
         sizes,
     } = grid;
@@ -922,7 +925,8 @@ fn pairs_of_some(
             && b.max.is_finite();
         small.then_some([x0, y0, x1, y1])
     };
-    // the grid's bounds, and a box holding every box of `some`
+    // each one's cells, the grid's bounds, and a box holding every box of `some`
+    ranges.clear();
     large.clear();
     let mut reach = aabbs[first as usize];
     let (mut gx0, mut gy0, mut gx1, mut gy1) = (i64::MAX, i64::MAX, i64::MIN, i64::MIN);
@@ -930,19 +934,19 @@ fn pairs_of_some(
         let b = &aabbs[i as usize];
         reach = reach.union(b);
         match cells(b) {
-            Some([x0, y0, x1, y1]) => {
+            Some(r @ [x0, y0, x1, y1]) => {
+                ranges.push((i, r));
                 (gx0, gy0, gx1, gy1) = (gx0.min(x0), gy0.min(y0), gx1.max(x1), gy1.max(y1));
             }
             None => large.push(i),
         }
     }
-    let small = some.len() - large.len();
-    let (w, h) = if small > 0 {
-        ((gx1 - gx0 + 1) as usize, (gy1 - gy0 + 1) as usize)
-    } else {
+    let (w, h) = if ranges.is_empty() {
         (0, 0)
+    } else {
+        ((gx1 - gx0 + 1) as usize, (gy1 - gy0 + 1) as usize)
     };
-    if w.saturating_mul(h) > (8 * small).max(1 << 16) {
+    if w.saturating_mul(h) > (8 * ranges.len()).max(1 << 16) {
         return false;
     }
     // the counting sort: a cell's bodies in increasing order
@@ -956,24 +960,20 @@ fn pairs_of_some(
             }
         }
     };
-    for &i in some {
-        if let Some(r) = cells(&aabbs[i as usize]) {
-            each_cell(r, &mut |c| start[c + 1] += 1);
-        }
+    for &(_, r) in ranges.iter() {
+        each_cell(r, &mut |c| start[c + 1] += 1);
     }
     for c in 1..start.len() {
         start[c] += start[c - 1];
     }
     bodies.clear();
     bodies.resize(start[w * h] as usize, 0);
-    for &i in some {
-        if let Some(r) = cells(&aabbs[i as usize]) {
-            // (start[c] runs over c's slots, ending at c + 1's first)
-            each_cell(r, &mut |c| {
-                bodies[start[c] as usize] = i;
-                start[c] += 1;
-            });
-        }
+    for &(i, r) in ranges.iter() {
+        // (start[c] runs over c's slots, ending at c + 1's first)
+        each_cell(r, &mut |c| {
+            bodies[start[c] as usize] = i;
+            start[c] += 1;
+        });
     }
     // back to where each cell starts
     for c in (1..start.len()).rev() {
@@ -1003,27 +1003,26 @@ fn pairs_of_some(
             if !bj.overlaps(&reach) {
                 continue;
             }
-            let j = j as u32;
-            let j_large = marked[j as usize] && large.contains(&j);
+            let (j, j_marked, j_cells) = (j as u32, marked[j], cells(bj));
+            // (one of them too large for the grid is one of `large`)
+            let j_large = j_marked && j_cells.is_none();
             for &i in large.iter() {
                 if i != j && !(j_large && i < j) && bj.overlaps(&aabbs[i as usize]) {
                     report(j, i);
                 }
             }
-            if small == 0 || j_large {
+            if ranges.is_empty() || j_large {
                 continue;
             }
-            let Some([x0, y0, x1, y1]) = cells(bj) else {
+            let Some([x0, y0, x1, y1]) = j_cells else {
                 // a large box not among them (a ground): against each in the grid
-                for &i in some {
-                    let bi = &aabbs[i as usize];
-                    if cells(bi).is_some() && bj.overlaps(bi) {
+                for &(i, _) in ranges.iter() {
+                    if bj.overlaps(&aabbs[i as usize]) {
                         report(j, i);
                     }
                 }
                 continue;
             };
-            let j_marked = marked[j as usize];
             // the cells of the grid the box covers
             let (x0, y0) = (x0.max(gx0), y0.max(gy0));
             let (x1, y1) = (x1.min(gx1), y1.min(gy1));
@@ -1346,12 +1345,38 @@ mod tests {
         if bp.kept_count() != n {
             return 0..n;
         }
-        let fails = |i: &usize| {
-            !(bp.kept_holds(*i, &boxes[*i], moves[*i]) && bp.kept_filter_holds(*i, &filters[*i]))
-        };
+        let fails = |i: &usize| leaves(bp, boxes, moves, filters, *i);
         match ((0..n).find(fails), (0..n).rev().find(fails)) {
             (Some(first), Some(last)) => first..last + 1,
             _ => 0..0,
+        }
+    }
+
+    /// Whether body `i` left its kept box (or changed whether it moves, or its filter).
+    fn leaves(
+        bp: &BroadPhase,
+        boxes: &[Aabb],
+        moves: &[bool],
+        filters: &[Filter],
+        i: usize,
+    ) -> bool {
+        !(bp.kept_holds(i, &boxes[i], moves[i]) && bp.kept_filter_holds(i, &filters[i]))
+    }
+
+    /// One of three filters by `k`: the third touches only the first.
+    fn three_filters(k: usize) -> Filter {
+        Filter {
+            category: 1 << (k % 3),
+            mask: if k % 3 == 2 { 1 } else { 0xffff },
+            group: 0,
+        }
+    }
+
+    /// A fixed scramble of numbers from `seed` (a linear congruential generator).
+    fn lcg(mut seed: u32) -> impl FnMut() -> usize {
+        move || {
+            seed = seed.wrapping_mul(1664525).wrapping_add(1013904223);
+            (seed >> 8) as usize
         }
     }
 
@@ -1535,17 +1560,8 @@ mod tests {
         let mut boxes = scatter(7, 599);
         let n = boxes.len();
         let moves: Vec<bool> = (0..n).map(|i| i != 0).collect();
-        let category = |k: usize| Filter {
-            category: 1 << (k % 3),
-            mask: if k % 3 == 2 { 1 } else { 0xffff },
-            group: 0,
-        };
-        let mut filters: Vec<Filter> = (0..n).map(category).collect();
-        let mut seed = 11u32;
-        let mut rnd = move || {
-            seed = seed.wrapping_mul(1664525).wrapping_add(1013904223);
-            (seed >> 8) as usize
-        };
+        let mut filters: Vec<Filter> = (0..n).map(three_filters).collect();
+        let mut rnd = lcg(11);
         let (mut kept, mut fresh) = (BroadPhase::default(), BroadPhase::default());
         let mut some_steps = 0;
         for step in 0..150 {
@@ -1557,21 +1573,17 @@ mod tests {
                     (rnd() % 100) as f32 * 0.04 - 2.0,
                 );
                 (boxes[i].min, boxes[i].max) = (boxes[i].min + d, boxes[i].max + d);
-                if rnd() % 50 == 0 {
+                if rnd().is_multiple_of(50) {
                     boxes[i].max = boxes[i].min + Vec2::new(15.0, 12.0);
                 }
             }
             if step % 4 == 0 {
-                filters[1 + rnd() % (n - 1)] = category(rnd());
+                filters[1 + rnd() % (n - 1)] = three_filters(rnd());
             }
             let left = left_of(&kept, &boxes, &moves, &filters);
             let leaving = left
                 .clone()
-                .filter(|&i| {
-                    kept.kept_count() == n
-                        && !(kept.kept_holds(i, &boxes[i], moves[i])
-                            && kept.kept_filter_holds(i, &filters[i]))
-                })
+                .filter(|&i| kept.kept_count() == n && leaves(&kept, &boxes, &moves, &filters, i))
                 .count();
             some_steps += usize::from(leaving > ONE_BY_ONE && leaving <= n / SOME_SHARE);
             let of = |i: usize| filters[i];
@@ -1598,17 +1610,8 @@ mod tests {
         let mut boxes = scatter(99, 300);
         let n = boxes.len();
         let moves: Vec<bool> = (0..n).map(|i| i != 0).collect();
-        let category = |k: usize| Filter {
-            category: 1 << (k % 3),
-            mask: if k % 3 == 2 { 1 } else { 0xffff },
-            group: 0,
-        };
-        let mut filters: Vec<Filter> = (0..n).map(category).collect();
-        let mut seed = 5u32;
-        let mut rnd = move || {
-            seed = seed.wrapping_mul(1664525).wrapping_add(1013904223);
-            (seed >> 8) as usize
-        };
+        let mut filters: Vec<Filter> = (0..n).map(three_filters).collect();
+        let mut rnd = lcg(5);
         let (mut kept, mut fresh) = (BroadPhase::default(), BroadPhase::default());
         for step in 0..200 {
             // one body jumps, and now and then another takes a new filter
@@ -1619,7 +1622,7 @@ mod tests {
             );
             (boxes[i].min, boxes[i].max) = (boxes[i].min + d, boxes[i].max + d);
             if step % 3 == 0 {
-                filters[1 + rnd() % (n - 1)] = category(rnd());
+                filters[1 + rnd() % (n - 1)] = three_filters(rnd());
             }
             let left = left_of(&kept, &boxes, &moves, &filters);
             let of = |i: usize| filters[i];
