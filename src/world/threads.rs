@@ -11,8 +11,8 @@
 //! one thread is cheap (one thread is never much slower than its own time), so it comes
 //! early whenever the steps on many threads are no longer clearly faster than one thread
 //! was; a probe of many threads stops at the first step that shows it cannot win, and
-//! comes less and less often while it keeps losing. The results are the same to the bit whichever
-//! choice a step takes.
+//! comes less and less often while it keeps losing. The results are the same to the bit
+//! whichever choice a step takes.
 
 use std::time::Duration;
 
