@@ -400,3 +400,55 @@ fn dropped_ragdolls_come_to_rest_and_fall_asleep() {
     );
     assert!(!body.asleep, "a spinning body stays awake");
 }
+
+/// Islands: two stacks on one ground are two islands (a static body joins none). With
+/// the top box of one held by the mouse (a held body never rests), that stack stays
+/// awake, every box of it, while the other sleeps; let go, it falls asleep too, all its
+/// boxes in the same step. Under every solver.
+#[test]
+fn a_held_box_keeps_its_stack_awake_and_the_other_stack_sleeps() {
+    let text = "name = \"s\"\n[world]\ngravity = [0.0, -10.0]\n\
+        [[body]]\nname = \"ground\"\ntype = \"static\"\nshape = { box = [40.0, 1.0] }\nposition = [0.0, -0.5]\n\
+        [[stack]]\ncount = 3\nbox = [1.0, 1.0]\norigin = [-3.0, 0.0]\n\
+        [[stack]]\ncount = 3\nbox = [1.0, 1.0]\norigin = [3.0, 0.0]\n";
+    let sc = sandbox2d::scene::load_str(text, "stacks.toml").unwrap();
+    for kind in SolverKind::ALL {
+        let mut w = World::from_def(&sc.world, SolverSettings::defaults(kind)).unwrap();
+        let side = |w: &World, right: bool| -> Vec<bool> {
+            w.bodies()
+                .map(|(_, b)| b)
+                .filter(|b| b.is_dynamic() && (b.position.x > 0.0) == right)
+                .map(|b| b.asleep)
+                .collect()
+        };
+        let (top, top_body) = w
+            .bodies()
+            .filter(|(_, b)| b.is_dynamic() && b.position.x > 0.0)
+            .max_by(|x, y| x.1.position.y.total_cmp(&y.1.position.y))
+            .unwrap();
+        let at = top_body.position;
+        w.set_mouse(Some(w.grab(top, at).unwrap()));
+        steps(&mut w, 240);
+        assert_eq!(
+            side(&w, false),
+            [true; 3],
+            "{kind:?}: the free stack sleeps"
+        );
+        assert_eq!(
+            side(&w, true),
+            [false; 3],
+            "{kind:?}: the held stack is awake, every box of it"
+        );
+        w.set_mouse(None);
+        let mut n = 0;
+        while side(&w, true) == [false; 3] && n < 240 {
+            w.step().unwrap();
+            n += 1;
+        }
+        assert_eq!(
+            side(&w, true),
+            [true; 3],
+            "{kind:?}: let go, the stack sleeps as one island ({n} steps)"
+        );
+    }
+}

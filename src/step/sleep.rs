@@ -29,8 +29,9 @@ pub(crate) struct Sleep {
     pub(crate) contacts: Vec<Contact>,
     /// Union-find parents of the sleep pass (scratch).
     islands: Vec<u32>,
-    /// Each island's least rested time (scratch of the sleep pass).
-    least_rest: Vec<f32>,
+    /// What each body is to the islands (scratch of the sleep pass; the sleeping
+    /// blocks' entries are stale).
+    kinds: Vec<Kind>,
     /// Islands to wake (scratch).
     to_wake: Vec<u32>,
     /// Which bodies size the waking pass's grid: the dynamic ones, asleep or not (scratch).
@@ -354,18 +355,24 @@ impl Sleep {
         self.rest.keep(awake);
         let dt = settings.dt;
         let n = bodies.len();
-        // the blocks where every body sleeps hold no timer to run and none to read
+        // the blocks where every body sleeps hold no timer to run and none to read;
+        // the same pass notes what each body is to the islands (the sleeping blocks'
+        // entries are not written: no contact reaches a sleeper)
         let blocks = awake.blocks();
-        let mut ready = false;
+        let kinds = &mut self.kinds;
+        kinds.resize(n, Kind::Asleep);
+        let mut pushers = false;
         each_awake(blocks, 0..n, |r| {
-            for b in &mut bodies[r] {
-                if !b.is_dynamic() || b.asleep {
-                    continue;
+            for (b, k) in bodies[r.clone()].iter_mut().zip(&mut kinds[r]) {
+                if b.is_dynamic() && !b.asleep {
+                    let r = b.shape.radius();
+                    let linear = b.sleep_threshold;
+                    let slow = b.velocity.length() + (b.angular_velocity * r).abs() < linear;
+                    b.sleep_time = if slow { b.sleep_time + dt } else { 0.0 };
                 }
-                let r = b.shape.radius();
-                let linear = b.sleep_threshold;
-                let slow = b.velocity.length() + (b.angular_velocity * r).abs() < linear;
-                b.sleep_time = if slow { b.sleep_time + dt } else { 0.0 };
+                *k = Kind::of(b);
+                // (a kinematic body never sleeps: its block is awake)
+                pushers |= *k == Kind::Pushing;
             }
         });
         #[cfg(debug_assertions)]
@@ -376,83 +383,85 @@ impl Sleep {
             );
         }
         // what keeps a body awake whatever its speed
+        let hold = |bodies: &mut [Body], kinds: &mut [Kind], i: usize| {
+            bodies[i].sleep_time = 0.0;
+            kinds[i] = Kind::of(&bodies[i]);
+        };
         for f in forces {
-            bodies[f.body].sleep_time = 0.0;
+            hold(bodies, kinds, f.body);
         }
         if let Some(m) = mouse {
-            bodies[m.body].sleep_time = 0.0;
+            hold(bodies, kinds, m.body);
         }
         // a joint that drives its bodies keeps them awake: a turning motor, a drive
         // force or torque (a servo at its target rests, and may sleep)
         for j in joints {
             if j.drive != 0.0 || j.motor.is_some_and(|m| m.speed != 0.0) {
-                bodies[j.a].sleep_time = 0.0;
-                bodies[j.b].sleep_time = 0.0;
+                hold(bodies, kinds, j.a);
+                hold(bodies, kinds, j.b);
             }
         }
-        for c in contacts.iter() {
-            let (ba, bb) = (&bodies[c.a as usize], &bodies[c.b as usize]);
-            let kinematic_moving = |b: &Body| {
-                b.body_type == BodyType::Kinematic
-                    && (b.velocity != Vec2::ZERO || b.angular_velocity != 0.0)
-            };
-            if kinematic_moving(ba) {
-                bodies[c.b as usize].sleep_time = 0.0;
-            } else if kinematic_moving(bb) {
-                bodies[c.a as usize].sleep_time = 0.0;
+        // a moving kinematic body keeps what it touches awake (looked for only where
+        // one moves; no contact reaches a sleeping block)
+        if pushers {
+            for c in contacts.iter() {
+                let (a, b) = (c.a as usize, c.b as usize);
+                debug_assert!(awake.is_awake(a) && awake.is_awake(b));
+                if kinds[a] == Kind::Pushing {
+                    hold(bodies, kinds, b);
+                } else if kinds[b] == Kind::Pushing {
+                    hold(bodies, kinds, a);
+                }
             }
         }
+        let kinds = &self.kinds;
+        let mut ready = false;
         each_awake(blocks, 0..n, |r| {
-            ready |= bodies[r]
-                .iter()
-                .any(|b| b.is_dynamic() && !b.asleep && b.sleep_time >= TIME_TO_SLEEP);
+            ready |= kinds[r].contains(&Kind::Rested);
         });
         if !ready {
             return;
         }
-        // islands: union-find over awake dynamic bodies joined by contacts and joints
+        // islands: union-find over the dynamic bodies joined by contacts and joints.
+        // An island falls asleep when none of its awake bodies is restless, so every
+        // restless body stands for one node (`restless`, after the bodies), and a
+        // contact or joint between two restless bodies is passed over: in a heap where
+        // most bodies still move, most joins are. An island with no restless body is
+        // found whole, with the same root (its least body) as a union-find over every
+        // contact; one with a restless body is joined to that node and stays awake.
+        let restless = n as u32;
         let parent = &mut self.islands;
         parent.clear();
-        parent.extend(0..n as u32);
-        let joins = |a: usize, b: usize| bodies[a].is_dynamic() && bodies[b].is_dynamic();
-        let union =
-            |parent: &mut Vec<u32>, a: usize, b: usize| uf_union(parent, a as u32, b as u32);
+        parent.extend(0..=restless);
+        let node = |i: u32, k: Kind| if k == Kind::Restless { restless } else { i };
+        let join = |parent: &mut Vec<u32>, a: u32, ka: Kind, b: u32, kb: Kind| {
+            if ka.joins() && kb.joins() && (ka, kb) != (Kind::Restless, Kind::Restless) {
+                uf_union(parent, node(a, ka), node(b, kb));
+            }
+        };
         // every pair of the contact cache (boxes within the margin): a pair close
         // enough that an awake body would wake the other is one island, or two such
-        // bodies could take turns waking each other forever
+        // bodies could take turns waking each other forever (a contact joins awake
+        // bodies only: a sleeper's are kept aside)
         for c in contacts.iter() {
-            let (a, b) = (c.a as usize, c.b as usize);
-            if joins(a, b) {
-                union(parent, a, b);
-            }
+            debug_assert!(awake.is_awake(c.a as usize) && awake.is_awake(c.b as usize));
+            join(parent, c.a, kinds[c.a as usize], c.b, kinds[c.b as usize]);
         }
+        // (a joint's bodies may both sleep, in a sleeping block: their kinds are read
+        // from the bodies)
         for j in joints {
-            if joins(j.a, j.b) {
-                union(parent, j.a, j.b);
-            }
+            let (ka, kb) = (Kind::of(&bodies[j.a]), Kind::of(&bodies[j.b]));
+            join(parent, j.a as u32, ka, j.b as u32, kb);
         }
-        // an island sleeps when its least rested body has rested long enough (the
-        // sleeping blocks hold no awake body to look at)
-        let least = &mut self.least_rest;
-        least.clear();
-        least.resize(n, f32::INFINITY);
-        each_awake(blocks, 0..n, |r| {
-            for i in r {
-                let b = &bodies[i];
-                if b.is_dynamic() && !b.asleep {
-                    let r = uf_root(parent, i as u32) as usize;
-                    least[r] = least[r].min(b.sleep_time);
-                }
-            }
-        });
+        let held = uf_root(parent, restless);
         each_awake(blocks, 0..n, |r| {
             for i in r {
                 let b = &mut bodies[i];
-                if !b.is_dynamic() || b.asleep {
+                if kinds[i] != Kind::Rested {
                     continue;
                 }
                 let r = uf_root(parent, i as u32);
-                if least[r as usize] >= TIME_TO_SLEEP {
+                if r != held {
                     b.asleep = true;
                     b.rest_box = None;
                     b.island = r;
@@ -462,6 +471,49 @@ impl Sleep {
             }
         });
     }
+}
+
+/// What a body is to the sleep pass's islands.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Kind {
+    /// Static, or kinematic and still: joins no island.
+    Apart,
+    /// Kinematic and moving: joins no island, keeps what it touches awake.
+    Pushing,
+    /// Asleep (dynamic): joins its island, holds nothing back.
+    Asleep,
+    /// Awake and rested long enough to sleep.
+    Rested,
+    /// Awake and not yet rested long enough: its island stays awake.
+    Restless,
+}
+
+impl Kind {
+    fn of(b: &Body) -> Kind {
+        if !b.is_dynamic() {
+            if kinematic_moving(b) {
+                Kind::Pushing
+            } else {
+                Kind::Apart
+            }
+        } else if b.asleep {
+            Kind::Asleep
+        } else if b.sleep_time >= TIME_TO_SLEEP {
+            Kind::Rested
+        } else {
+            Kind::Restless
+        }
+    }
+
+    /// Whether the body is a node of the islands (a dynamic body).
+    fn joins(self) -> bool {
+        !matches!(self, Kind::Apart | Kind::Pushing)
+    }
+}
+
+/// Whether `b` is a kinematic body that moves (it keeps what it touches awake).
+fn kinematic_moving(b: &Body) -> bool {
+    b.body_type == BodyType::Kinematic && (b.velocity != Vec2::ZERO || b.angular_velocity != 0.0)
 }
 
 /// Whether a step would change nothing: every dynamic body asleep and still (nothing to
