@@ -382,6 +382,13 @@ impl Sleep {
                 "an awake body {i} in a sleeping block"
             );
         }
+        // (the contacts' kinds are read from `kinds`: a sleeper's contacts are kept
+        // aside, so none reaches a sleeping block, whose entries are not written)
+        debug_assert!(
+            contacts
+                .iter()
+                .all(|c| awake.is_awake(c.a as usize) && awake.is_awake(c.b as usize))
+        );
         // what keeps a body awake whatever its speed
         let hold = |bodies: &mut [Body], kinds: &mut [Kind], i: usize| {
             bodies[i].sleep_time = 0.0;
@@ -402,11 +409,10 @@ impl Sleep {
             }
         }
         // a moving kinematic body keeps what it touches awake (looked for only where
-        // one moves; no contact reaches a sleeping block)
+        // one moves)
         if pushers {
             for c in contacts.iter() {
                 let (a, b) = (c.a as usize, c.b as usize);
-                debug_assert!(awake.is_awake(a) && awake.is_awake(b));
                 if kinds[a] == Kind::Pushing {
                     hold(bodies, kinds, b);
                 } else if kinds[b] == Kind::Pushing {
@@ -441,10 +447,8 @@ impl Sleep {
         };
         // every pair of the contact cache (boxes within the margin): a pair close
         // enough that an awake body would wake the other is one island, or two such
-        // bodies could take turns waking each other forever (a contact joins awake
-        // bodies only: a sleeper's are kept aside)
+        // bodies could take turns waking each other forever
         for c in contacts.iter() {
-            debug_assert!(awake.is_awake(c.a as usize) && awake.is_awake(c.b as usize));
             join(parent, c.a, kinds[c.a as usize], c.b, kinds[c.b as usize]);
         }
         // (a joint's bodies may both sleep, in a sleeping block: their kinds are read
