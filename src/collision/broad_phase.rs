@@ -1131,11 +1131,7 @@ mod tests {
     fn matches_all_pairs() {
         // A deterministic scatter of boxes of mixed sizes, plus one huge one.
         let mut boxes = vec![aabb(-100.0, -2.0, 100.0, 0.0)];
-        let mut seed = 12345u32;
-        let mut rnd = || {
-            seed = seed.wrapping_mul(1664525).wrapping_add(1013904223);
-            (seed >> 8) as f32 / (1u32 << 24) as f32
-        };
+        let mut rnd = unit(lcg(12345));
         for _ in 0..300 {
             let x = rnd() * 40.0 - 20.0;
             let y = rnd() * 20.0 - 3.0;
@@ -1187,11 +1183,7 @@ mod tests {
 
     #[test]
     fn kept_pairs_are_the_pairs_found_afresh_every_step() {
-        let mut seed = 777u32;
-        let mut rnd = move || {
-            seed = seed.wrapping_mul(1664525).wrapping_add(1013904223);
-            (seed >> 8) as f32 / (1u32 << 24) as f32
-        };
+        let mut rnd = unit(lcg(777));
         // a ground, then bodies of mixed sizes packed closely enough to touch
         let mut boxes = vec![aabb(-60.0, -2.0, 60.0, 0.0)];
         for k in 0..400 {
@@ -1380,13 +1372,14 @@ mod tests {
         }
     }
 
+    /// The numbers of `next` (below 2^24, as [`lcg`]'s) scaled into [0, 1).
+    fn unit(mut next: impl FnMut() -> usize) -> impl FnMut() -> f32 {
+        move || next() as f32 / (1u32 << 24) as f32
+    }
+
     /// Boxes scattered over a 40 x 20 m field, mixed sizes, one of them huge.
     fn scatter(seed: u32, count: usize) -> Vec<Aabb> {
-        let mut seed = seed;
-        let mut rnd = move || {
-            seed = seed.wrapping_mul(1664525).wrapping_add(1013904223);
-            (seed >> 8) as f32 / (1u32 << 24) as f32
-        };
+        let mut rnd = unit(lcg(seed));
         let mut boxes = vec![aabb(-100.0, -2.0, 100.0, 0.0)];
         for _ in 0..count {
             let (x, y, s) = (rnd() * 40.0 - 20.0, rnd() * 20.0 - 3.0, 0.2 + rnd() * 2.0);
@@ -1480,11 +1473,8 @@ mod tests {
         // lists of pairs from a fixed scramble; each edit takes a random part out and
         // puts random pairs in (some of them pairs it took out): the result is the set
         // difference and union, sorted
-        let mut seed = 3u32;
-        let mut rnd = move |m: u32| {
-            seed = seed.wrapping_mul(1664525).wrapping_add(1013904223);
-            (seed >> 8) % m
-        };
+        let mut next = lcg(3);
+        let mut rnd = move |m: u32| next() as u32 % m;
         let mut scratch = Vec::new();
         for round in 0..200 {
             let mut list: Vec<Pair> = (0..rnd(60)).map(|_| (rnd(20), rnd(20))).collect();
@@ -1525,11 +1515,7 @@ mod tests {
         let n = boxes.len();
         let moves = vec![true; n];
         let filters = vec![Filter::default(); n];
-        let mut seed = 17u32;
-        let mut rnd = move || {
-            seed = seed.wrapping_mul(1664525).wrapping_add(1013904223);
-            (seed >> 8) as f32 / (1u32 << 24) as f32
-        };
+        let mut rnd = unit(lcg(17));
         let (mut kept, mut fresh) = (BroadPhase::default(), BroadPhase::default());
         for step in 0..300 {
             for i in [5, 300, 630] {
