@@ -41,11 +41,12 @@ impl Forces<'_> {
         self.drag.is_none() && !self.damped
     }
 
-    /// Whether the only forces are gravity and the bodies' own force and torque (no
-    /// drag, joint drives, point forces or damping), so that a solver may integrate
-    /// them in a pass of its own (see `SoftSolver::prepare_integrating`).
+    /// Whether the only forces are gravity, the bodies' own force and torque and the
+    /// joints' drives (no drag, point forces or damping). Where no joint has a drive
+    /// either (the caller checks, in a pass it makes over the joints anyway), a solver
+    /// may integrate them in a pass of its own (see `SoftSolver::prepare_integrating`).
     pub fn plain(&self) -> bool {
-        self.drag.is_none() && self.joints.is_empty() && self.forces.is_empty() && !self.damped
+        self.drag.is_none() && self.forces.is_empty() && !self.damped
     }
 }
 

@@ -246,8 +246,8 @@ impl StepState<'_> {
         }
     }
 
-    /// Whether the only forces are gravity and the bodies' own force and torque (see
-    /// [`Forces::plain`]).
+    /// Whether the only forces are gravity, the bodies' own force and torque and the
+    /// joints' drives (see [`Forces::plain`]).
     pub fn plain_forces(&self) -> bool {
         self.forces().plain()
     }

@@ -45,12 +45,20 @@ impl Stepper for SoftStepper {
         // velocities by the same amount: integrate once, and the solver adds that
         // increment in the later substeps
         let uniform = state.forces().uniform();
+        // the joints first: their pass also finds whether some joint has a drive
+        let driven = self.soft.prepare_joints(
+            state.joints,
+            state.mouse.as_ref(),
+            state.bodies,
+            &s,
+            h,
+            pool,
+        );
         // with only gravity and the bodies' own forces, the first substep's forces are
         // integrated in prepare's pass over the bodies
-        let fused = state.plain_forces();
+        let fused = state.plain_forces() && !driven;
         if fused {
             let g = state.gravity;
-            let mouse = state.mouse;
             // (this step's flags of the bodies the solver moves, where the collide found
             // them: the colouring need not wait for the solver's own pass over the bodies)
             let movers = state.collider.movers(state.bodies.len());
@@ -58,7 +66,6 @@ impl Stepper for SoftStepper {
                 state.bodies,
                 state.contacts,
                 state.joints,
-                mouse.as_ref(),
                 movers,
                 &s,
                 h,
@@ -66,15 +73,8 @@ impl Stepper for SoftStepper {
                 pool,
             );
         } else {
-            self.soft.prepare(
-                state.bodies,
-                state.contacts,
-                state.joints,
-                state.mouse.as_ref(),
-                &s,
-                h,
-                pool,
-            );
+            self.soft
+                .prepare_constraints(state.bodies, state.contacts, state.joints, &s, h, pool);
         }
         clock.lap(Stage::Solve);
         let residual;

@@ -303,7 +303,7 @@ impl SoftSolver {
             }
         }
         self.cut_colors(threads, &used, n_wide as u32);
-        self.lay_out_joints(joints, bodies, &used, h, s.warm_start, pool);
+        let hinge_bodies = self.lay_out_joints(joints, bodies, &used, h, s.warm_start, pool);
         self.cut_joints(threads);
         self.points = points;
         // rigid contacts soften to a quarter of the substep rate at most; against a body
@@ -403,6 +403,17 @@ impl SoftSolver {
                 &|_, offset, wide, cold| fill_range(offset, wide, cold),
             ),
         };
+        // the hinges' bodies too, where the contacts' are known (found by the fill, or
+        // no colour has a contact)
+        let colored = self.color_ranges.last().map_or(0, |r| r.1);
+        if let Some(hinge_bodies) = hinge_bodies
+            && (colored == 0 || !self.share_bodies.is_empty())
+        {
+            self.share_bodies.resize(hinge_bodies.len(), (u32::MAX, 0));
+            for (s, h) in self.share_bodies.iter_mut().zip(hinge_bodies) {
+                *s = (s.0.min(h.0), s.1.max(h.1));
+            }
+        }
         self.restitution = restitution > 0.0;
         self.build_direct(contacts);
     }
@@ -414,7 +425,9 @@ impl SoftSolver {
     /// `hinge_joints`, each colour's range in `hinge_ranges`). While the joints and which
     /// bodies move are as at the last step (`joints_kept`), the order is kept and the
     /// wide hinges only take the bodies' new geometry. `used`: constraints per colour;
-    /// `h`: the substep.
+    /// `h`: the substep. With two threads and some wide hinge, returns the least and the
+    /// largest body each thread's share of the hinges writes (see `cut_joints`), for
+    /// the substeps' job to run ahead.
     #[allow(clippy::too_many_arguments)]
     fn lay_out_joints(
         &mut self,
@@ -424,7 +437,7 @@ impl SoftSolver {
         h: f32,
         warm: bool,
         pool: Option<&Pool>,
-    ) {
+    ) -> Option<[(u32, u32); 2]> {
         let kept = self.joints_kept;
         if !kept {
             self.order_joints();
@@ -449,36 +462,85 @@ impl SoftSolver {
             self.hinge_rows.resize(n_hinges, HingeRows::default());
             self.hinge_frames.resize(n_hinges, HingeFrames::default());
         }
+        // with threads, each takes its own share of every colour's hinges (as
+        // `cut_joints` cuts them), so the hinges it solves are in its core's cache
+        let threads = pool.map_or(1, Pool::threads);
+        let ranges = &self.hinge_ranges;
+        let shares = |t: usize| {
+            ranges.iter().map(move |&(a, b)| {
+                let r = parallel::split((b - a) as usize, threads, t);
+                (a + r.start as u32, a + r.end as u32)
+            })
+        };
+        share_blocks(&mut self.hinge_blocks, threads, shares, WIDE_BLOCK as u32);
         let (moves, inv_mass) = (&self.moves, &self.inv_mass);
         let joints_of = &self.hinge_joints;
-        let frames = Disjoint::new(&mut self.hinge_frames);
-        parallel::chunks_mut2(
-            pool,
-            &mut self.hinges,
-            &mut self.hinge_rows,
-            WIDE_BLOCK,
-            &|_, offset, hinges, rows| {
-                // SAFETY: each block takes its own range of the frames
-                let frames = unsafe { frames.range(offset..offset + hinges.len()) };
-                for (k, ((c, r), f)) in hinges.iter_mut().zip(rows).zip(frames).enumerate() {
-                    if kept {
-                        c.refresh(r, f, joints, bodies, inv_mass, h, warm);
-                    } else {
-                        (*c, *r, *f) = WideHinge::fill(
-                            &joints_of[offset + k],
-                            joints,
-                            bodies,
-                            moves,
-                            inv_mass,
-                            (rest, sink),
-                            h,
-                            warm,
-                        );
+        let (hinges, rows, frames) = (
+            Disjoint::new(&mut self.hinges),
+            Disjoint::new(&mut self.hinge_rows),
+            Disjoint::new(&mut self.hinge_frames),
+        );
+        let blocks = &self.hinge_blocks;
+        let per = blocks.len() / threads;
+        let two = n_hinges > 0 && threads == 2;
+        let written = SharedMassRange::new();
+        let run = |b: usize| {
+            let r = blocks[b].0 as usize..blocks[b].1 as usize;
+            // SAFETY: the blocks' ranges do not overlap (they tile each colour's shares)
+            let (hinges, rows, frames) = unsafe {
+                (
+                    hinges.range(r.clone()),
+                    rows.range(r.clone()),
+                    frames.range(r.clone()),
+                )
+            };
+            for (k, ((c, r), f)) in hinges.iter_mut().zip(rows).zip(frames).enumerate() {
+                if kept {
+                    c.refresh(r, f, joints, bodies, inv_mass, h, warm);
+                } else {
+                    (*c, *r, *f) = WideHinge::fill(
+                        &joints_of[blocks[b].0 as usize + k],
+                        joints,
+                        bodies,
+                        moves,
+                        inv_mass,
+                        (rest, sink),
+                        h,
+                        warm,
+                    );
+                }
+            }
+            if two {
+                // the bodies thread b / per's share writes (a thread's blocks may run on
+                // another thread: shared counters)
+                let (mut least, mut most) = (u32::MAX, 0);
+                for c in hinges.iter() {
+                    let (wa, wb) = super::schedule::Lanes::written(c);
+                    for &i in wa.iter().chain(wb).filter(|&&i| i < rest) {
+                        (least, most) = (least.min(i), most.max(i));
                     }
                 }
-                0.0
-            },
-        );
+                let slot = &written.0[b / per];
+                slot.0.fetch_min(least, Ordering::Relaxed);
+                slot.1.fetch_max(most, Ordering::Relaxed);
+            }
+            0.0
+        };
+        match pool {
+            Some(pool) if threads > 1 && n_hinges > WIDE_BLOCK => {
+                parallel::blocks_max(pool, blocks.len(), &|_, b| run(b));
+            }
+            _ => {
+                for b in 0..blocks.len() {
+                    run(b);
+                }
+            }
+        }
+        two.then(|| {
+            let slot =
+                |t: &ThreadMassRange| (t.0.load(Ordering::Relaxed), t.1.load(Ordering::Relaxed));
+            [slot(&written.0[0]), slot(&written.0[1])]
+        })
     }
 
     /// Orders the joints colour by colour (a new layout): each colour's joints solved
@@ -594,30 +656,39 @@ impl SoftSolver {
                 .map(move |c| (c[t], c[t + 1]))
                 .chain(overflow)
         };
-        let blocks_of = |(a, b): (u32, u32)| (b - a).div_ceil(WIDE_BLOCK as u32) as usize;
-        let per = (0..threads)
-            .map(|t| shares(t).map(blocks_of).sum::<usize>())
-            .max()
-            .unwrap_or(0)
-            .max(1);
-        // room for the most blocks these constraints could make, so that a share grown
-        // by a block in a steady step allocates nothing
-        self.fill_blocks.clear();
-        let colors = self.color_ranges.len() + 1;
-        self.fill_blocks
-            .reserve(threads * ((n_wide as usize).div_ceil(WIDE_BLOCK) + colors));
-        for t in 0..threads {
-            let first = self.fill_blocks.len();
-            for (a, b) in shares(t) {
-                let mut at = a;
-                while at < b {
-                    let to = (at + WIDE_BLOCK as u32).min(b);
-                    self.fill_blocks.push((at, to));
-                    at = to;
-                }
+        share_blocks(&mut self.fill_blocks, threads, shares, WIDE_BLOCK as u32);
+    }
+}
+
+/// Lists in `out` the blocks (of at most `block` items) of each of `threads` threads'
+/// shares (`shares(t)`: ranges of items), thread after thread, each thread's padded with
+/// empty blocks to as many as the most any thread has: run by `parallel::blocks_max`,
+/// each thread first takes its own. Room is kept for a share grown by a block in each
+/// range, so that a steady step allocates nothing.
+fn share_blocks<I: Iterator<Item = (u32, u32)>>(
+    out: &mut Vec<(u32, u32)>,
+    threads: usize,
+    shares: impl Fn(usize) -> I,
+    block: u32,
+) {
+    let blocks_of = |(a, b): (u32, u32)| (b - a).div_ceil(block) as usize;
+    let per = (0..threads)
+        .map(|t| shares(t).map(blocks_of).sum::<usize>())
+        .max()
+        .unwrap_or(0)
+        .max(1);
+    out.clear();
+    out.reserve(threads * (per + shares(0).count()));
+    for t in 0..threads {
+        let first = out.len();
+        for (a, b) in shares(t) {
+            let mut at = a;
+            while at < b {
+                let to = (at + block).min(b);
+                out.push((at, to));
+                at = to;
             }
-            let pad = per - (self.fill_blocks.len() - first);
-            self.fill_blocks.extend(std::iter::repeat_n((0, 0), pad));
         }
+        out.extend(std::iter::repeat_n((0, 0), per - (out.len() - first)));
     }
 }

@@ -122,6 +122,12 @@ impl Default for HingeRows {
     }
 }
 
+impl super::schedule::Lanes for WideHinge {
+    fn written(&self) -> (&[u32; 4], &[u32; 4]) {
+        (&self.wa, &self.wb)
+    }
+}
+
 impl WideHinge {
     /// Four empty lanes: they read the rest slot, write the sink, and weigh nothing.
     pub(super) fn empty(rest: u32, sink: u32) -> WideHinge {

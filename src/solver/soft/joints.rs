@@ -35,7 +35,8 @@ pub(crate) struct SoftJoints {
 
 impl SoftJoints {
     /// Takes the joints' geometry at the step's start for substeps of `h`; lambdas start
-    /// from the joints' stored ones if warm starting.
+    /// from the joints' stored ones if warm starting. Returns whether some joint has a
+    /// drive (found in the same pass).
     pub fn prepare(
         &mut self,
         joints: &[Joint],
@@ -44,7 +45,7 @@ impl SoftJoints {
         s: &SolverSettings,
         h: f32,
         pool: Option<&Pool>,
-    ) {
+    ) -> bool {
         self.h = h;
         self.dt = s.dt;
         // a rigid row's spring: at most a quarter of the substep rate
@@ -58,17 +59,19 @@ impl SoftJoints {
         let warm = s.warm_start;
         // (a test may turn the lanes off, on the thread that prepares)
         let lanes_on = !super::testing::NO_HINGE_LANES.with(std::cell::Cell::get);
-        parallel::chunks_mut3(
+        let driven = parallel::chunks_mut3(
             pool,
             &mut self.prepared,
             &mut self.ends,
             &mut self.lanes,
             JOINT_BLOCK,
             &|_, offset, prepared, ends, lanes| {
+                let mut driven = false;
                 for (k, ((out, end), lane)) in prepared.iter_mut().zip(ends).zip(lanes).enumerate()
                 {
                     let j = &joints[offset + k];
                     *end = (j.a as u32, j.b as u32);
+                    driven |= j.drive != 0.0;
                     *lane = lanes_on && super::hinge::takes_lanes(j);
                     if *lane {
                         // (a hinge in lanes takes its rows from the joint itself)
@@ -76,10 +79,11 @@ impl SoftJoints {
                     }
                     *out = Prepared::of(j, bodies, h, warm);
                 }
-                0.0
+                if driven { 1.0 } else { 0.0 }
             },
         );
         self.mouse = mouse.and_then(|m| m.soft_prepare(bodies, h));
+        driven > 0.0
     }
 
     /// Each joint's two bodies, in joint order.

@@ -312,7 +312,8 @@ pub struct SoftSolver {
     /// of the colour.
     shares: Vec<ColorShare>,
     /// Per thread's share of the colours: the least and the largest body it writes
-    /// (least > largest for none), from the fill.
+    /// (least > largest for none), from the fill and the wide hinges' pass (two threads
+    /// only).
     share_bodies: Vec<(u32, u32)>,
     /// Per thread and colour (`thread * colours + colour`): the blocks of its share, in
     /// the order it runs them, that may touch a body another thread's share writes
@@ -325,6 +326,8 @@ pub struct SoftSolver {
     /// thread, empty ones last): each thread's share of every colour, so that it fills
     /// the constraints it will solve.
     fill_blocks: Vec<(u32, u32)>,
+    /// The wide hinges' blocks, the same way: each thread's share of every colour.
+    hinge_blocks: Vec<(u32, u32)>,
     /// Whether the solver moves body i (dynamic).
     moves: Vec<bool>,
     /// (1/m, 1/I) of body i.
@@ -423,7 +426,10 @@ impl SoftSolver {
 
     /// Builds this step's constraints from the contacts (collided at the step's start)
     /// and the joints (and the mouse joint) for substeps of `h`, and loads the bodies.
-    /// Lambdas start from the cache and the joints' own if warm starting.
+    /// Lambdas start from the cache and the joints' own if warm starting. (The step
+    /// calls its two halves itself, deciding between the second and
+    /// [`SoftSolver::prepare_integrating`] on what the first finds.)
+    #[cfg(test)]
     #[allow(clippy::too_many_arguments)]
     pub fn prepare(
         &mut self,
@@ -435,17 +441,46 @@ impl SoftSolver {
         h: f32,
         pool: Option<&Pool>,
     ) {
-        self.joints.prepare(joints, mouse, bodies, s, h, pool);
+        self.prepare_joints(joints, mouse, bodies, s, h, pool);
+        self.prepare_constraints(bodies, contacts, joints, s, h, pool);
+    }
+
+    /// The joints' part of [`SoftSolver::prepare`], first: their geometry at the step's
+    /// start (the joints and the mouse joint). Returns whether some joint has a drive.
+    pub fn prepare_joints(
+        &mut self,
+        joints: &[Joint],
+        mouse: Option<&MouseJoint>,
+        bodies: &[Body],
+        s: &SolverSettings,
+        h: f32,
+        pool: Option<&Pool>,
+    ) -> bool {
+        self.joints.prepare(joints, mouse, bodies, s, h, pool)
+    }
+
+    /// The rest of [`SoftSolver::prepare`], after [`SoftSolver::prepare_joints`]: the
+    /// bodies loaded, the contacts' and joints' constraints built.
+    pub fn prepare_constraints(
+        &mut self,
+        bodies: &[Body],
+        contacts: &[Contact],
+        joints: &[Joint],
+        s: &SolverSettings,
+        h: f32,
+        pool: Option<&Pool>,
+    ) {
         self.size_bodies(bodies.len());
         self.load_bodies(bodies, pool);
         self.build(bodies, contacts, joints, s, h, pool);
     }
 
-    /// [`SoftSolver::prepare`], with the first substep's forces integrated in the same
-    /// pass over the bodies: what `World::integrate_velocities(h)` and then
-    /// [`SoftSolver::take_increments`] do, to the same bits, for a world whose only
-    /// forces are gravity and each body's own force and torque (no drag, drives or point
-    /// forces: the caller checks). One pass over the bodies instead of three.
+    /// [`SoftSolver::prepare_constraints`] (after [`SoftSolver::prepare_joints`]), with
+    /// the first substep's forces integrated in the same pass over the bodies: what
+    /// `World::integrate_velocities(h)` and then [`SoftSolver::take_increments`] do, to
+    /// the same bits, for a world whose only forces are gravity and each body's own force
+    /// and torque (no drag, drives or point forces: the caller checks). One pass over the
+    /// bodies instead of three.
     ///
     /// `movers`, where the caller has it: whether each body is dynamic, as the solver's
     /// own load pass finds it. With threads, one of them then colours the contacts while
@@ -456,15 +491,13 @@ impl SoftSolver {
         bodies: &mut [Body],
         contacts: &[Contact],
         joints: &[Joint],
-        mouse: Option<&MouseJoint>,
         movers: Option<&[bool]>,
         s: &SolverSettings,
         h: f32,
         gravity: Option<Vec2>,
         pool: Option<&Pool>,
     ) {
-        // (the joints' frames are taken from the positions, which the load leaves)
-        self.joints.prepare(joints, mouse, bodies, s, h, pool);
+        // (the joints' frames were taken from the positions, which the load leaves)
         let nb = bodies.len();
         self.size_bodies(nb);
         self.increments.resize(nb, (Vec2::ZERO, 0.0));
@@ -1050,11 +1083,11 @@ mod tests {
         let run = |movers: Option<&[bool]>, pool: Option<&Pool>, beside: bool| {
             let mut bodies = w.bodies.clone();
             let mut s = SoftSolver::default();
+            s.prepare_joints(&[], None, &bodies, &settings, h, pool);
             s.prepare_integrating(
                 &mut bodies,
                 w.contacts(),
                 &[],
-                None,
                 movers,
                 &settings,
                 h,
@@ -1307,6 +1340,50 @@ mod tests {
             let first = one_by_one.iter().zip(&laned).position(|(a, b)| a != b);
             assert_eq!(first, None, "{name}: the first step that differs");
         }
+    }
+
+    #[test]
+    fn a_hinged_grid_on_two_threads_runs_ahead_with_the_bits_of_one() {
+        // 30 x 30 circles on hinges, hanging from two corners, beside a pyramid of 120
+        // boxes: wide hinges and contacts in the same colours. On two threads each runs
+        // ahead into the next colour, each thread's share writing its own half of the
+        // grid; the state is the one thread's after every step
+        let text = "name = \"grid\"\n[world]\ngravity = [0.0, -10.0]\n\
+                    [[body]]\nname = \"ground\"\ntype = \"static\"\nshape = { box = [200.0, 2.0] }\nposition = [0.0, -1.0]\n\
+                    [[pyramid]]\nbase = 15\n\
+                    [[grid]]\nrows = 30\ncolumns = 30\nspacing = [1.0, 1.0]\norigin = [20.0, 5.0]\n\
+                    shape = { circle = 0.4 }\njoints = \"hinge\"\nstatic_cells = [[29, 0], [29, 29]]\n\
+                    filter = { group = -1 }\n";
+        let sc = crate::scene::load_str(text, "grid.toml").unwrap();
+        let run = |threads: usize| {
+            let mut w = crate::World::from_def(&sc.world, sc.world.solver.resolve()).unwrap();
+            w.set_threads(threads);
+            let hashes: Vec<u64> = (0..30)
+                .map(|_| {
+                    w.step().unwrap();
+                    w.state_hash()
+                })
+                .collect();
+            let st = w.stepper_as::<crate::step::soft::SoftStepper>().unwrap();
+            let s = &st.soft;
+            (
+                hashes,
+                s.runs_ahead(threads),
+                s.share_bodies.clone(),
+                s.hinges.len(),
+            )
+        };
+        let (one, ahead_one, _, _) = run(1);
+        let (two, ahead_two, shares, wide) = run(2);
+        assert!(!ahead_one);
+        assert!(wide > 0, "hinges in lanes");
+        assert!(ahead_two, "two threads run ahead");
+        // (the hinges' bodies come after the pyramid's: the second share's reach the last)
+        let (first, second) = (shares[0], shares[1]);
+        assert!(first.0 <= first.1 && second.0 <= second.1, "{shares:?}");
+        assert!(first.1 < second.1 && first.0 < second.0, "{shares:?}");
+        let first_step = one.iter().zip(&two).position(|(a, b)| a != b);
+        assert_eq!(first_step, None, "the first step that differs");
     }
 
     #[test]

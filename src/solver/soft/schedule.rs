@@ -22,11 +22,26 @@ pub(super) fn color_share(
     c[0] as usize..c[1] as usize
 }
 
-/// How many of the wide constraints `w`, counted in the order they run (from the last
-/// if `reversed`), reach the last one in that order that touches a body in
-/// `least..=most`: 0 if none does.
-pub(super) fn reach_touching(w: &[WideConstraint], reversed: bool, least: u32, most: u32) -> usize {
-    let touches = |c: &WideConstraint| c.wa.iter().chain(&c.wb).any(|&i| least <= i && i <= most);
+/// Four lanes of rows side by side (a wide constraint, a wide hinge): the bodies they
+/// write, per lane (a sink for a body the solver does not move).
+pub(super) trait Lanes {
+    fn written(&self) -> (&[u32; 4], &[u32; 4]);
+}
+
+impl Lanes for WideConstraint {
+    fn written(&self) -> (&[u32; 4], &[u32; 4]) {
+        (&self.wa, &self.wb)
+    }
+}
+
+/// How many of the wide rows `w`, counted in the order they run (from the last if
+/// `reversed`), reach the last one in that order that touches a body in `least..=most`:
+/// 0 if none does.
+pub(super) fn reach_touching<W: Lanes>(w: &[W], reversed: bool, least: u32, most: u32) -> usize {
+    let touches = |c: &W| {
+        let (wa, wb) = c.written();
+        wa.iter().chain(wb).any(|&i| least <= i && i <= most)
+    };
     if reversed {
         w.iter().position(touches).map_or(0, |i| w.len() - i)
     } else {
@@ -129,6 +144,15 @@ impl SoftSolver {
         }
     }
 
+    /// Whether the substeps' job on `n` threads lets each thread run ahead into the next
+    /// colour once the other has done the blocks of its share that touch bodies of the
+    /// first's share (see `phases_ahead`; each works out which those are first): with
+    /// two threads, the bodies each share writes known, and no joint solved one by one
+    /// in a colour (contacts and wide hinges).
+    pub(super) fn runs_ahead(&self, n: usize) -> bool {
+        n == 2 && self.share_bodies.len() == n && self.joint_ranges.iter().all(|r| r.0 == r.1)
+    }
+
     /// Whether anything is left for the rest phases: constraints no colour was free for,
     /// or the mouse joint.
     fn has_rest(&self) -> bool {
@@ -186,13 +210,7 @@ impl SoftSolver {
             last_relax = plan.len();
             pass(plan, Pass::Relax, Pass::RestRelax, Some(Pass::DirectRelax));
         }
-        // with two threads and contacts alone, each may run ahead into the next colour
-        // once the other has done the blocks of its share that touch bodies of the
-        // first's share (see `phases_ahead`): each works out which those are first
-        let ahead = n == 2
-            && self.share_bodies.len() == n
-            && self.joint_order.is_empty()
-            && self.hinges.is_empty();
+        let ahead = self.runs_ahead(n);
         if ahead {
             self.plan.insert(0, (Pass::Bounds, 0));
             last_relax += 1;
@@ -264,14 +282,29 @@ impl SoftSolver {
             match pass {
                 Pass::Bounds => {
                     // share j's row (phase 0's block of share j is j..j + 1), from its
-                    // own shares of the colours, only read while others write theirs
+                    // own shares of the colours, only read while others write theirs.
+                    // A share runs its wide hinges, then its contacts (no joint one by
+                    // one: see `ahead`); share 0 runs from its end
                     let j = r.start;
                     let (least, most) = share_bodies[1 - j];
                     for c in 0..colors {
-                        let items = color_share(cuts, n, c, j);
-                        let w = unsafe { wide.range(items) };
-                        let k = reach_touching(w, j == 0, least, most) as u32;
-                        ahead_blocks[j * colors + c].store(k, Ordering::Relaxed);
+                        let sh = &color_shares[c * n + j];
+                        debug_assert_eq!(sh.joints.0, sh.joints.1);
+                        let (hs, w) = unsafe {
+                            (
+                                hinges.range(sh.hinges.0 as usize..sh.hinges.1 as usize),
+                                wide.range(color_share(cuts, n, c, j)),
+                            )
+                        };
+                        let reach_h = reach_touching(hs, j == 0, least, most);
+                        let reach_c = reach_touching(w, j == 0, least, most);
+                        let k = match (j == 0, reach_h, reach_c) {
+                            (true, 0, k) => k,
+                            (true, k, _) => k + w.len(),
+                            (false, k, 0) => k,
+                            (false, _, k) => hs.len() + k,
+                        };
+                        ahead_blocks[j * colors + c].store(k as u32, Ordering::Relaxed);
                     }
                     f32::NEG_INFINITY
                 }
