@@ -55,8 +55,12 @@ pub(super) fn color_contacts(
     debug_assert!(body_colors.iter().all(|&c| c == 0));
     colors.resize(contacts.len(), 0);
     cut_counts.clear();
+    // (kept joints' colours are marked on their bodies only for contacts to avoid)
+    let marked = recolor_joints || !contacts.is_empty();
     let joint_counts = if recolor_joints {
         color_joints(joints, moves, body_colors, joint_colors)
+    } else if contacts.is_empty() {
+        count_colors(joint_colors)
     } else {
         keep_joint_colors(joints, moves, body_colors, joint_colors)
     };
@@ -99,7 +103,7 @@ pub(super) fn color_contacts(
             *out = color as u8;
         }
     }
-    if 4 * (contacts.len() + joints.len()) < body_colors.len() {
+    if marked && 4 * (contacts.len() + joints.len()) < body_colors.len() {
         for &(a, b) in joints {
             body_colors[a as usize] = 0;
             body_colors[b as usize] = 0;
@@ -108,7 +112,7 @@ pub(super) fn color_contacts(
             body_colors[c.a as usize] = 0;
             body_colors[c.b as usize] = 0;
         }
-    } else {
+    } else if marked {
         body_colors.fill(0);
     }
     Colored {
@@ -118,6 +122,15 @@ pub(super) fn color_contacts(
         lopsided,
         deep: deep.filter(|_| deep_found),
     }
+}
+
+/// How many of the kept colours `colors` there are of each colour.
+fn count_colors(colors: &[u8]) -> [u32; OVERFLOW + 1] {
+    let mut counts = [0u32; OVERFLOW + 1];
+    for &c in colors {
+        counts[c as usize] += 1;
+    }
+    counts
 }
 
 /// The joints' part of [`color_contacts`] while the joints and which bodies move are as
