@@ -473,8 +473,10 @@ impl World {
         let tune = self.tunes_threads();
         self.step_many = !tune || self.tuner.choose();
         let started = tune.then(std::time::Instant::now);
-        // until collide finds otherwise
-        self.sleep.none_asleep = false;
+        // known from the last step's end while the bodies were not edited since, else
+        // until the collide finds it
+        self.sleep.none_asleep =
+            self.sleep.awake_at == Some(self.edits) && self.sleep.contacts.is_empty();
         self.collider.movers_found = false;
         self.collider.boxes_found = false;
         self.collider.awake.forget();
@@ -530,7 +532,7 @@ impl World {
         }
         clock.fill(&mut stats);
         self.stats = stats;
-        self.sleep.update(
+        let awake = self.sleep.update(
             &mut self.bodies,
             &mut self.contacts,
             &self.joints,
@@ -539,6 +541,7 @@ impl World {
             &self.settings,
             &self.collider.awake,
         );
+        self.sleep.awake_at = awake.then_some(self.edits);
         if self.record_events {
             self.update_events();
         }

@@ -197,7 +197,11 @@ impl StepState<'_> {
         speculative: Speculative,
         clock: &mut StageClock,
     ) -> f32 {
-        if self.sleep.contacts.is_empty() && !sleep::any_asleep(self.bodies, self.pool) {
+        // (none asleep may be known from the last step's end)
+        debug_assert!(!self.sleep.none_asleep || !self.bodies.iter().any(|b| b.asleep));
+        if self.sleep.none_asleep
+            || self.sleep.contacts.is_empty() && !sleep::any_asleep(self.bodies, self.pool)
+        {
             self.sleep.none_asleep = true;
         } else {
             // wake every island an awake body (or a moving kinematic one) reaches, then

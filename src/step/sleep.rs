@@ -45,6 +45,11 @@ pub(crate) struct Sleep {
     /// none is asleep at the step's end either: only [`Sleep::update`] puts bodies to
     /// sleep), so the end of the step need not look again.
     pub(crate) none_asleep: bool,
+    /// The bodies' edit count (`World::edits`) as the last step ended with no body
+    /// asleep and no contact kept aside: while the bodies are not edited (an added or
+    /// restored body may sleep), none is asleep until a sleep pass puts one to sleep,
+    /// and the next collide need not look.
+    pub(crate) awake_at: Option<u64>,
     /// The blocks of bodies that slept through the last step, which the wake pass and
     /// the broad phase skip (see [`RestBlocks`]).
     pub(crate) rest: RestBlocks,
@@ -327,6 +332,8 @@ impl Sleep {
     /// within the margin) and joints falls asleep when all of its bodies are. Bodies held by the mouse, with
     /// a constant force, on a joint with a turning motor or a drive, or touching a
     /// moving kinematic body stay awake. With sleeping off, every sleeping island wakes.
+    /// Returns whether it is known, without a pass over the bodies, that none is asleep
+    /// and no contact is kept aside now.
     #[allow(clippy::too_many_arguments)]
     pub(crate) fn update(
         &mut self,
@@ -337,7 +344,7 @@ impl Sleep {
         mouse: Option<&MouseJoint>,
         settings: &SolverSettings,
         awake: &AwakeMarks,
-    ) {
+    ) -> bool {
         if !settings.sleep {
             self.rest.forget();
             if !self.none_asleep && (bodies.iter().any(|b| b.asleep) || !self.contacts.is_empty()) {
@@ -348,7 +355,7 @@ impl Sleep {
                     .collect();
                 self.wake_islands(bodies, contacts, &mut islands);
             }
-            return;
+            return self.contacts.is_empty();
         }
         // (before anything falls asleep: a block that falls asleep now rests from the
         // step after next)
@@ -426,7 +433,7 @@ impl Sleep {
             ready |= kinds[r].contains(&Kind::Rested);
         });
         if !ready {
-            return;
+            return self.none_asleep;
         }
         // islands: union-find over the dynamic bodies joined by contacts and joints.
         // An island falls asleep when none of its awake bodies is restless, so every
@@ -458,6 +465,7 @@ impl Sleep {
             join(parent, j.a as u32, ka, j.b as u32, kb);
         }
         let held = uf_root(parent, restless);
+        let mut fell = false;
         each_awake(blocks, 0..n, |r| {
             for i in r {
                 let b = &mut bodies[i];
@@ -471,9 +479,11 @@ impl Sleep {
                     b.island = r;
                     b.velocity = Vec2::ZERO;
                     b.angular_velocity = 0.0;
+                    fell = true;
                 }
             }
         });
+        self.none_asleep && !fell
     }
 }
 
