@@ -6,6 +6,7 @@
 
 use super::{BodyPtr, Softness};
 use crate::parallel::{self, Pool};
+use std::sync::atomic::{AtomicBool, Ordering};
 
 /// Joints per block of a parallel pass over the joints.
 const JOINT_BLOCK: usize = 512;
@@ -28,6 +29,8 @@ pub(crate) struct SoftJoints {
     ends: Vec<(u32, u32)>,
     lanes: Vec<bool>,
     mouse: Option<PreparedMouse>,
+    /// Whether some joint is damped (found by `prepare`).
+    damped: bool,
     soft: Softness,
     h: f32,
     dt: f32,
@@ -36,7 +39,7 @@ pub(crate) struct SoftJoints {
 impl SoftJoints {
     /// Takes the joints' geometry at the step's start for substeps of `h`; lambdas start
     /// from the joints' stored ones if warm starting. Returns whether some joint has a
-    /// drive (found in the same pass).
+    /// drive (found in the same pass, as whether some joint is damped).
     pub fn prepare(
         &mut self,
         joints: &[Joint],
@@ -59,19 +62,21 @@ impl SoftJoints {
         let warm = s.warm_start;
         // (a test may turn the lanes off, on the thread that prepares)
         let lanes_on = !super::testing::NO_HINGE_LANES.with(std::cell::Cell::get);
-        let driven = parallel::chunks_mut3(
+        let (driven, damped) = (AtomicBool::new(false), AtomicBool::new(false));
+        parallel::chunks_mut3(
             pool,
             &mut self.prepared,
             &mut self.ends,
             &mut self.lanes,
             JOINT_BLOCK,
             &|_, offset, prepared, ends, lanes| {
-                let mut driven = false;
+                let (mut drive, mut damp) = (false, false);
                 for (k, ((out, end), lane)) in prepared.iter_mut().zip(ends).zip(lanes).enumerate()
                 {
                     let j = &joints[offset + k];
                     *end = (j.a as u32, j.b as u32);
-                    driven |= j.drive != 0.0;
+                    drive |= j.drive != 0.0;
+                    damp |= j.damping.linear > 0.0 || j.damping.angular > 0.0;
                     *lane = lanes_on && super::hinge::takes_lanes(j);
                     if *lane {
                         // (a hinge in lanes takes its rows from the joint itself)
@@ -79,11 +84,19 @@ impl SoftJoints {
                     }
                     *out = Prepared::of(j, bodies, h, warm);
                 }
-                if driven { 1.0 } else { 0.0 }
+                // (rare: a store only where found)
+                if drive {
+                    driven.store(true, Ordering::Relaxed);
+                }
+                if damp {
+                    damped.store(true, Ordering::Relaxed);
+                }
+                0.0
             },
         );
         self.mouse = mouse.and_then(|m| m.soft_prepare(bodies, h));
-        driven > 0.0
+        self.damped = damped.into_inner();
+        driven.into_inner()
     }
 
     /// Each joint's two bodies, in joint order.
@@ -154,10 +167,8 @@ impl SoftJoints {
     }
 
     /// Whether some joint is damped (the step then runs a damping pass).
-    pub(super) fn any_damped(joints: &[Joint]) -> bool {
-        joints
-            .iter()
-            .any(|j| j.damping.linear > 0.0 || j.damping.angular > 0.0)
+    pub(super) fn any_damped(&self) -> bool {
+        self.damped
     }
 
     /// The joints' prepared rows (by joint), and the mouse joint's.

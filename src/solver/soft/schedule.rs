@@ -179,7 +179,7 @@ impl SoftSolver {
         let n = pool.map_or(1, Pool::threads);
         let colors = self.color_ranges.len();
         let (rest, direct) = (self.has_rest(), !self.direct.is_empty());
-        let damped = joints::SoftJoints::any_damped(joints);
+        let damped = self.joints.any_damped();
         // the plan
         let plan = &mut self.plan;
         plan.clear();
