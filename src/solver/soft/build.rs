@@ -177,7 +177,7 @@ impl SoftSolver {
     ) {
         let threads = pool.map_or(1, Pool::threads);
         let may_lopsided = may_be_lopsided(self.inv_mass_range);
-        self.joints_kept = self.kept_joints.hold(&self.joints, &self.moves);
+        self.joints_kept = self.kept_joints.hold(&self.joints, &self.moves, pool);
         let found = color_contacts(
             contacts,
             self.joints.ends(),

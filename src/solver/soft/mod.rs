@@ -562,7 +562,7 @@ impl SoftSolver {
             // the load pass's, which the other threads take meanwhile
             // (the colouring's thread reads the flags the collide found, which are what
             // the load pass finds)
-            self.joints_kept = self.kept_joints.hold(&self.joints, movers);
+            self.joints_kept = self.kept_joints.hold(&self.joints, movers, Some(pool));
             let recolor = !self.joints_kept;
             let coloring = Mutex::new((
                 &mut self.body_colors,
@@ -970,21 +970,31 @@ struct KeptJoints {
     laid_out: bool,
 }
 
+/// Joints a block of [`KeptJoints::hold`]'s comparison takes.
+const KEPT_BLOCK: usize = 2048;
+
 impl KeptJoints {
     /// Whether this step's joints (and which of their bodies move, `moves`) are those
     /// last laid out (and not while a test asks for a new layout every step); if not,
     /// they become the ones kept, for the layout this step makes.
-    fn hold(&mut self, joints: &joints::SoftJoints, moves: &[bool]) -> bool {
+    /// (The comparison is split between the threads of `pool`.)
+    fn hold(&mut self, joints: &joints::SoftJoints, moves: &[bool], pool: Option<&Pool>) -> bool {
         let (ends, lanes) = (joints.ends(), joints.lanes());
-        let same = self.laid_out
+        let kept = &*self;
+        let same = kept.laid_out
             && !testing::FRESH_JOINT_LAYOUT.with(std::cell::Cell::get)
-            && self.bodies == moves.len()
-            && self.ends == ends
-            && self.lanes == lanes
-            && ends
-                .iter()
-                .zip(&self.moves)
-                .all(|(&(a, b), &m)| (moves[a as usize], moves[b as usize]) == m);
+            && kept.bodies == moves.len()
+            && kept.ends.len() == ends.len()
+            && kept.lanes.len() == lanes.len()
+            && parallel::ranges_max(pool, ends.len(), KEPT_BLOCK, &|_, r| {
+                let same = kept.ends[r.clone()] == ends[r.clone()]
+                    && kept.lanes[r.clone()] == lanes[r.clone()]
+                    && ends[r.clone()]
+                        .iter()
+                        .zip(&kept.moves[r])
+                        .all(|(&(a, b), &m)| (moves[a as usize], moves[b as usize]) == m);
+                if same { 0.0 } else { 1.0 }
+            }) <= 0.0;
         if !same {
             self.ends.clear();
             self.ends.extend_from_slice(ends);
