@@ -41,9 +41,10 @@ pub(crate) struct Sleep {
     parked: Vec<(usize, Joint)>,
     /// The joints that stay in the solve (scratch of the parking).
     joints_scratch: Vec<Joint>,
-    /// Whether this step's collide found no body asleep and no sleeping contact (then
-    /// none is asleep at the step's end either: only [`Sleep::update`] puts bodies to
-    /// sleep), so the end of the step need not look again.
+    /// Whether no body is asleep and no contact is kept aside in this step: known at its
+    /// start (see `awake_at`), else found by its collide. Then none is asleep at the
+    /// step's end either (only [`Sleep::update`] puts bodies to sleep), so the end of the
+    /// step need not look again.
     pub(crate) none_asleep: bool,
     /// The bodies' edit count (`World::edits`) as the last step ended with no body
     /// asleep and no contact kept aside: while the bodies are not edited (an added or

@@ -370,28 +370,12 @@ impl SoftSolver {
                     if !ranges {
                         return any;
                     }
-                    let (mut least, mut most) = (u32::MAX, 0);
-                    for c in w.iter() {
-                        for &i in c.wa.iter().chain(&c.wb) {
-                            // (a body that does not move is written to a sink)
-                            if i < rest {
-                                least = least.min(i);
-                                most = most.max(i);
-                            }
-                        }
-                    }
-                    // (a thread's blocks may run on another thread: shared counters)
-                    let slot = &written.0[b / per];
-                    slot.0.fetch_min(least, Ordering::Relaxed);
-                    slot.1.fetch_max(most, Ordering::Relaxed);
+                    note_written(w, rest, &written.0[b / per]);
                     any
                 });
                 if ranges {
-                    self.share_bodies.extend(
-                        written.0[..threads]
-                            .iter()
-                            .map(|s| (s.0.load(Ordering::Relaxed), s.1.load(Ordering::Relaxed))),
-                    );
+                    self.share_bodies
+                        .extend(written.0[..threads].iter().map(ThreadMassRange::get));
                 }
                 r
             }
@@ -511,18 +495,8 @@ impl SoftSolver {
                 }
             }
             if two {
-                // the bodies thread b / per's share writes (a thread's blocks may run on
-                // another thread: shared counters)
-                let (mut least, mut most) = (u32::MAX, 0);
-                for c in hinges.iter() {
-                    let (wa, wb) = super::schedule::Lanes::written(c);
-                    for &i in wa.iter().chain(wb).filter(|&&i| i < rest) {
-                        (least, most) = (least.min(i), most.max(i));
-                    }
-                }
-                let slot = &written.0[b / per];
-                slot.0.fetch_min(least, Ordering::Relaxed);
-                slot.1.fetch_max(most, Ordering::Relaxed);
+                // the bodies thread b / per's share writes
+                note_written(hinges, rest, &written.0[b / per]);
             }
             0.0
         };
@@ -536,11 +510,7 @@ impl SoftSolver {
                 }
             }
         }
-        two.then(|| {
-            let slot =
-                |t: &ThreadMassRange| (t.0.load(Ordering::Relaxed), t.1.load(Ordering::Relaxed));
-            [slot(&written.0[0]), slot(&written.0[1])]
-        })
+        two.then(|| [written.0[0].get(), written.0[1].get()])
     }
 
     /// Orders the joints colour by colour (a new layout): each colour's joints solved
@@ -658,6 +628,21 @@ impl SoftSolver {
         };
         share_blocks(&mut self.fill_blocks, threads, shares, WIDE_BLOCK as u32);
     }
+}
+
+/// Folds into `slot` the least and the largest body the wide rows `rows` write, leaving
+/// out the sinks (at `rest` or past it) that take what a body the solver does not move
+/// would be given. (A thread's blocks may run on another thread: shared counters.)
+fn note_written<W: super::schedule::Lanes>(rows: &[W], rest: u32, slot: &ThreadMassRange) {
+    let (mut least, mut most) = (u32::MAX, 0);
+    for c in rows {
+        let (wa, wb) = c.written();
+        for &i in wa.iter().chain(wb).filter(|&&i| i < rest) {
+            (least, most) = (least.min(i), most.max(i));
+        }
+    }
+    slot.0.fetch_min(least, Ordering::Relaxed);
+    slot.1.fetch_max(most, Ordering::Relaxed);
 }
 
 /// Lists in `out` the blocks (of at most `block` items) of each of `threads` threads'

@@ -74,7 +74,8 @@ pub(super) fn may_be_lopsided((least, most): (u32, u32)) -> bool {
 /// some twenty times a pass).
 pub(super) struct SharedMassRange(pub(super) [ThreadMassRange; MAX_THREADS]);
 
-/// One thread's least and largest 1/m bits.
+/// One thread's least and largest 1/m bits (or, for the build's passes, the least and
+/// the largest body its share writes: see `build::note_written`).
 #[repr(align(64))]
 pub(super) struct ThreadMassRange(pub(super) AtomicU32, pub(super) AtomicU32);
 
@@ -87,12 +88,22 @@ impl SharedMassRange {
 
     /// (least, most); least > most where no moving body has a positive 1/m.
     pub(super) fn get(&self) -> (u32, u32) {
-        self.0.iter().fold((u32::MAX, 0), |(least, most), t| {
-            (
-                least.min(t.0.load(Ordering::Relaxed)),
-                most.max(t.1.load(Ordering::Relaxed)),
-            )
-        })
+        self.0
+            .iter()
+            .map(ThreadMassRange::get)
+            .fold((u32::MAX, 0), |(least, most), (l, m)| {
+                (least.min(l), most.max(m))
+            })
+    }
+}
+
+impl ThreadMassRange {
+    /// (least, most) of one thread.
+    pub(super) fn get(&self) -> (u32, u32) {
+        (
+            self.0.load(Ordering::Relaxed),
+            self.1.load(Ordering::Relaxed),
+        )
     }
 }
 
