@@ -860,6 +860,15 @@ pub(crate) fn phases_ahead(
                 eager |= j != t;
                 continue;
             }
+            if cursor[t] == phases {
+                // its own share all claimed: so may the others' be (then it is done, and
+                // waits for no block it could take)
+                for (j, c) in cursor.iter_mut().enumerate() {
+                    if j != t {
+                        let _ = cut.next(j, c, false);
+                    }
+                }
+            }
             if cursor.iter().all(|&c| c == phases) {
                 break;
             }
