@@ -4,6 +4,9 @@
 #[allow(unused_imports)]
 use super::*;
 
+/// How many contacts ahead the colouring asks for the one it will read.
+const CONTACT_AHEAD: usize = 8;
+
 /// Colour of a constraint no colour was free for: it gets a wide constraint to itself.
 pub(super) const OVERFLOW: usize = 64;
 
@@ -74,7 +77,16 @@ pub(super) fn color_contacts(
             cut_counts.push(counts);
         }
         let run = parallel::split(contacts.len(), threads, k);
-        for (c, out) in contacts[run.clone()].iter().zip(&mut colors[run]) {
+        for (i, (c, out)) in contacts[run.clone()]
+            .iter()
+            .zip(&mut colors[run.clone()])
+            .enumerate()
+        {
+            prefetch(
+                contacts,
+                run.start + i + CONTACT_AHEAD,
+                std::mem::size_of::<Contact>(),
+            );
             let (a, b) = (c.a as usize, c.b as usize);
             let (ma, mb) = (moves[a], moves[b]);
             points += c.manifold.count;
