@@ -772,9 +772,10 @@ pub(crate) fn phases_max(
 /// of its own that may run, it waits a few rounds, then takes the blocks of the others'
 /// shares that may run and that nobody has claimed yet: a thread that the system has
 /// descheduled, or that comes late to the job, holds the others up by at most the block
-/// it is running. A thread with nothing to do spins a little, yields, then sleeps until
-/// a block is done. Which thread runs a block changes nothing but the thread number `f`
-/// is given.
+/// it is running; one whose own share is all claimed leaves as soon as every share's
+/// is (it waits for no block it could take). A thread with nothing to do spins a
+/// little, yields, then sleeps until a block is done. Which thread runs a block changes
+/// nothing but the thread number `f` is given.
 ///
 /// When a share's phase may begin: once its own phase before is done, and
 /// - `full(p)`: phase p touches what any share of the phase before or after it may
