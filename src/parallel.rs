@@ -424,6 +424,42 @@ pub fn ranges_max(
     })
 }
 
+/// Blocks that grow finer toward each thread's end: 0..len cut into `threads` equal
+/// shares, each share into blocks of about `block` items but its last `2 * block` (or
+/// all of it, if less) into [`TAPER`] blocks of a quarter of that, every share padded
+/// with empty blocks to as many blocks as the most any has. Into `starts`: each block's
+/// first item, then `len` (so block b is `starts[b]..starts[b + 1]`). Run by
+/// [`blocks_max`], each thread takes its own share first (the shares line up with the
+/// pool's), and the last blocks any thread takes are small: the threads end a job
+/// within a small block of each other, not a whole one.
+pub(crate) fn tapered_blocks(len: usize, threads: usize, block: usize, starts: &mut Vec<usize>) {
+    let block = block.max(1);
+    let threads = threads.max(1);
+    let head_blocks = |share: &Range<usize>| {
+        let head = share.len().saturating_sub(2 * block);
+        head.div_ceil(block)
+    };
+    let per = (0..threads)
+        .map(|t| head_blocks(&split(len, threads, t)) + TAPER)
+        .max()
+        .unwrap_or(0);
+    starts.clear();
+    for t in 0..threads {
+        let share = split(len, threads, t);
+        let heads = head_blocks(&share);
+        let head = share.start..share.end - share.len().min(2 * block);
+        starts.extend((0..heads).map(|k| head.start + split(head.len(), heads, k).start));
+        let tail = head.end..share.end;
+        starts.extend((0..TAPER).map(|k| tail.start + split(tail.len(), TAPER, k).start));
+        // (padding: empty blocks at the share's end)
+        starts.extend(std::iter::repeat_n(share.end, per - heads - TAPER));
+    }
+    starts.push(len);
+}
+
+/// The small blocks that end each share of [`tapered_blocks`].
+const TAPER: usize = 8;
+
 /// Runs `f(thread, block)` for every block in 0..blocks on the pool's threads (each
 /// thread first takes its own equal run of the blocks, as [`Pool::blocks`] does);
 /// returns the largest value any call returned.
@@ -1172,6 +1208,44 @@ pub(crate) mod tests {
             if round % 100 == 0 {
                 // let the workers fall asleep: the next job must still run every block
                 std::thread::sleep(std::time::Duration::from_millis(20));
+            }
+        }
+    }
+
+    #[test]
+    fn tapered_blocks_tile_each_share_and_end_it_finely() {
+        let mut starts = Vec::new();
+        for &(len, threads, block) in &[
+            (0, 2, 256),
+            (1, 2, 256),
+            (300, 2, 256),
+            (14_950, 2, 256),
+            (14_951, 3, 256),
+            (100_000, 4, 64),
+            (7, 5, 1),
+        ] {
+            tapered_blocks(len, threads, block, &mut starts);
+            // the blocks tile 0..len in order
+            assert_eq!((starts[0], *starts.last().unwrap()), (0, len));
+            assert!(starts.windows(2).all(|w| w[0] <= w[1]));
+            let blocks = starts.len() - 1;
+            assert_eq!(blocks % threads, 0, "every share has as many blocks");
+            let per = blocks / threads;
+            for t in 0..threads {
+                // thread t's blocks (as the pool hands them out) are its share
+                let (first, last) = (
+                    split(blocks, threads, t).start,
+                    split(blocks, threads, t).end,
+                );
+                assert_eq!(starts[first]..starts[last], split(len, threads, t));
+                for b in first..last {
+                    let size = starts[b + 1] - starts[b];
+                    assert!(size <= block.max(1), "a block holds at most `block` items");
+                    // the share's last blocks (before its padding) hold a quarter block
+                    if b >= first + per - TAPER {
+                        assert!(size <= (2 * block).div_ceil(TAPER), "{size} at the end");
+                    }
+                }
             }
         }
     }

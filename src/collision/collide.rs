@@ -96,6 +96,8 @@ pub(crate) struct Collider {
     narrow_out: NarrowScratch,
     /// Each block's first contact (scratch).
     narrow_starts: Vec<usize>,
+    /// Each block's first pair, then the pair count (scratch).
+    narrow_blocks: Vec<usize>,
 }
 
 /// Per-thread narrow-phase output buffers; a clone starts with none.
@@ -379,7 +381,11 @@ impl Collider {
                 // into the contact list (it takes its own share first, in order); every
                 // other block goes into its own buffer, and the buffers are appended in
                 // pair order, so the contacts are those of one thread
-                let blocks = pairs.div_ceil(PAIR_BLOCK);
+                // (finer at each share's end, so that the threads end close together)
+                let starts = &mut self.narrow_blocks;
+                parallel::tapered_blocks(pairs, pool.threads(), PAIR_BLOCK, starts);
+                let starts = &starts[..];
+                let blocks = starts.len() - 1;
                 let outs = &mut self.narrow_out.0;
                 if outs.len() < blocks {
                     // room for a contact a pair from the start: a block the caller
@@ -390,8 +396,8 @@ impl Collider {
                 let outs = &outs[..blocks];
                 // (the list, and the blocks written into it)
                 let direct = Mutex::new((contacts, 0usize));
-                let deepest = parallel::ranges_max(Some(pool), pairs, PAIR_BLOCK, &|t, range| {
-                    let b = range.start / PAIR_BLOCK;
+                let deepest = parallel::blocks_max(pool, blocks, &|t, b| {
+                    let range = starts[b]..starts[b + 1];
                     if t == 0 {
                         let mut d = direct.lock().unwrap_or_else(|e| e.into_inner());
                         if d.1 == b {
