@@ -68,6 +68,27 @@ pub struct BroadPhase {
     pub pairs: Vec<Pair>,
 }
 
+/// The bodies whose kept box no longer holds their box (or whose filter or whether they
+/// may move changed), as the caller found them in a pass over the bodies it makes
+/// anyway ([`BroadPhase::kept_holds`], [`BroadPhase::kept_filter_holds`]).
+#[derive(Clone, Debug)]
+pub enum Left<'a> {
+    /// Some of the bodies in this range, each looked at again; empty when the kept
+    /// boxes are for these bodies and hold for each, every body when they are not.
+    Within(Range<usize>),
+    /// Exactly these, in increasing order (the kept boxes are for these bodies).
+    These(&'a [u32]),
+}
+
+impl Left<'_> {
+    fn is_empty(&self) -> bool {
+        match self {
+            Left::Within(r) => r.is_empty(),
+            Left::These(l) => l.is_empty(),
+        }
+    }
+}
+
 /// How far a kept box reaches past a body's box (m), at most: a body is looked up again
 /// only once its box leaves this. A quarter of the body's own extent where that is less,
 /// so that small bodies keep few extra pairs.
@@ -357,7 +378,14 @@ impl BroadPhase {
                 .enumerate()
                 .all(|(i, b)| self.kept_holds(i, b, may_move(i)));
         let left = if holds { 0..0 } else { 0..aabbs.len() };
-        self.find_pairs_kept_checked(aabbs, moves, left, may_move, None, can_collide);
+        self.find_pairs_kept_checked(
+            aabbs,
+            moves,
+            Left::Within(left),
+            may_move,
+            None,
+            can_collide,
+        );
     }
 
     /// Bodies the kept boxes are for (0 before the first [`BroadPhase::find_pairs_kept`]).
@@ -383,16 +411,14 @@ impl BroadPhase {
     }
 
     /// [`BroadPhase::find_pairs_kept`] where the caller has checked whether the kept
-    /// boxes hold, in a pass over the bodies it makes anyway: `left` runs from the first
-    /// to the last body for which [`BroadPhase::kept_holds`] or
-    /// [`BroadPhase::kept_filter_holds`] fails (empty when the kept boxes are for
-    /// `aabbs.len()` bodies and hold for each; `0..aabbs.len()` when they are not).
+    /// boxes hold, in a pass over the bodies it makes anyway: `left` says for which
+    /// bodies [`BroadPhase::kept_holds`] or [`BroadPhase::kept_filter_holds`] fails.
     /// `filter_of`, as for [`BroadPhase::refresh_kept`].
     pub fn find_pairs_kept_checked(
         &mut self,
         aabbs: &[Aabb],
         moves: &[bool],
-        left: Range<usize>,
+        left: Left<'_>,
         may_move: impl Fn(usize) -> bool,
         filter_of: Option<&dyn Fn(usize) -> Filter>,
         can_collide: impl Fn(u32, u32) -> bool,
@@ -420,7 +446,7 @@ impl BroadPhase {
     pub fn refresh_kept(
         &mut self,
         aabbs: &[Aabb],
-        left: Range<usize>,
+        left: Left<'_>,
         may_move: impl Fn(usize) -> bool,
         filter_of: Option<&dyn Fn(usize) -> Filter>,
     ) {
@@ -483,7 +509,7 @@ impl BroadPhase {
     fn refresh_some(
         &mut self,
         aabbs: &[Aabb],
-        left: Range<usize>,
+        left: Left<'_>,
         may_move: &impl Fn(usize) -> bool,
         filter_of: Option<&dyn Fn(usize) -> Filter>,
     ) -> bool {
@@ -493,17 +519,39 @@ impl BroadPhase {
         }
         let filter = |i: usize| filter_of.map_or(Filter::default(), |f| f(i));
         let filtered = !self.kept_filters.is_empty();
-        self.few.clear();
+        let mut few = std::mem::take(&mut self.few);
+        few.clear();
         let most = ONE_BY_ONE.max(n / SOME_SHARE);
-        for (i, b) in aabbs.iter().enumerate().take(left.end).skip(left.start) {
-            // the caller's test, body by body
-            if !(self.kept_holds(i, b, may_move(i)) && self.kept_filter_holds(i, &filter(i))) {
-                if self.few.len() == most {
+        // the caller's test, body by body
+        let leaves = |i: usize| {
+            !(self.kept_holds(i, &aabbs[i], may_move(i)) && self.kept_filter_holds(i, &filter(i)))
+        };
+        match left {
+            Left::Within(range) => {
+                for i in range.filter(|&i| leaves(i)) {
+                    if few.len() == most {
+                        self.few = few;
+                        return false;
+                    }
+                    few.push(i as u32);
+                }
+            }
+            Left::These(listed) => {
+                if listed.len() > most {
+                    self.few = few;
                     return false;
                 }
-                self.few.push(i as u32);
+                debug_assert!(
+                    listed.windows(2).all(|w| w[0] < w[1])
+                        && (0..n)
+                            .filter(|&i| leaves(i))
+                            .eq(listed.iter().map(|&i| i as usize)),
+                    "the bodies listed as left are those that left, in order"
+                );
+                few.extend_from_slice(listed);
             }
         }
+        self.few = few;
         // more than a few: their pairs through a grid of their boxes
         let some = self.few.len() > ONE_BY_ONE;
         self.redo.resize(n, false);
@@ -1321,7 +1369,7 @@ mod tests {
         assert_eq!(bp.rebuilds, 2);
         // unfiltered, every pair of boxes is kept
         let mut all = BroadPhase::default();
-        all.refresh_kept(&boxes, 0..n, |_| true, None);
+        all.refresh_kept(&boxes, Left::Within(0..n), |_| true, None);
         assert_eq!(all.kept_pairs().len(), n * (n - 1) / 2);
     }
 
@@ -1332,16 +1380,16 @@ mod tests {
         boxes: &[Aabb],
         moves: &[bool],
         filters: &[Filter],
-    ) -> Range<usize> {
+    ) -> Left<'static> {
         let n = boxes.len();
         if bp.kept_count() != n {
-            return 0..n;
+            return Left::Within(0..n);
         }
         let fails = |i: &usize| leaves(bp, boxes, moves, filters, *i);
-        match ((0..n).find(fails), (0..n).rev().find(fails)) {
+        Left::Within(match ((0..n).find(fails), (0..n).rev().find(fails)) {
             (Some(first), Some(last)) => first..last + 1,
             _ => 0..0,
-        }
+        })
     }
 
     /// Whether body `i` left its kept box (or changed whether it moves, or its filter).
@@ -1542,13 +1590,15 @@ mod tests {
         // them (more than are looked up one by one, at most a quarter) jump, now and then
         // one of them swelling past the grid's cells or a filter changing: the kept
         // pairs stay every pair of kept boxes the filters let touch, and the step's
-        // pairs those found afresh
+        // pairs those found afresh; told which bodies left, or where to look for them,
+        // the kept pairs are the same
         let mut boxes = scatter(7, 599);
         let n = boxes.len();
         let moves: Vec<bool> = (0..n).map(|i| i != 0).collect();
         let mut filters: Vec<Filter> = (0..n).map(three_filters).collect();
         let mut rnd = lcg(11);
         let (mut kept, mut fresh) = (BroadPhase::default(), BroadPhase::default());
+        let mut listed = BroadPhase::default();
         let mut some_steps = 0;
         for step in 0..150 {
             let count = 40 + rnd() % 100;
@@ -1567,16 +1617,27 @@ mod tests {
                 filters[1 + rnd() % (n - 1)] = three_filters(rnd());
             }
             let left = left_of(&kept, &boxes, &moves, &filters);
-            let leaving = left
-                .clone()
-                .filter(|&i| kept.kept_count() == n && leaves(&kept, &boxes, &moves, &filters, i))
-                .count();
-            some_steps += usize::from(leaving > ONE_BY_ONE && leaving <= n / SOME_SHARE);
+            let leaving: Vec<u32> = (0..n)
+                .filter(|&i| {
+                    listed.kept_count() == n && leaves(&listed, &boxes, &moves, &filters, i)
+                })
+                .map(|i| i as u32)
+                .collect();
+            let these = if listed.kept_count() == n {
+                Left::These(&leaving)
+            } else {
+                Left::Within(0..n)
+            };
+            let count = leaving.len();
+            some_steps += usize::from(count > ONE_BY_ONE && count <= n / SOME_SHARE);
             let of = |i: usize| filters[i];
             let can = |a: u32, b: u32| filters[a as usize].collides(&filters[b as usize]);
             kept.find_pairs_kept_checked(&boxes, &moves, left, |i| moves[i], Some(&of), can);
+            listed.find_pairs_kept_checked(&boxes, &moves, these, |i| moves[i], Some(&of), can);
             fresh.find_pairs(&boxes, &moves, can);
             assert_eq!(kept.pairs, fresh.pairs, "step {step}");
+            assert_eq!(listed.pairs, fresh.pairs, "step {step}");
+            assert_eq!(listed.kept_pairs(), kept.kept_pairs(), "step {step}");
             let fat = kept.kept_boxes.clone();
             let mut rebuilt = BroadPhase::default();
             rebuilt.find_pairs(&fat, &kept.kept_moves.clone(), |a, b| {
@@ -1589,6 +1650,10 @@ mod tests {
             "{some_steps} steps with some bodies leaving"
         );
         assert_eq!(kept.rebuilds, 1, "only the first step rebuilds");
+        assert_eq!(
+            (listed.rebuilds, listed.updates),
+            (kept.rebuilds, kept.updates)
+        );
     }
 
     #[test]

@@ -9,9 +9,9 @@
 //! collide, and the collide keeps the contacts of sleeping pairs aside.
 
 use std::sync::Mutex;
-use std::sync::atomic::{AtomicU32, AtomicUsize, Ordering};
+use std::sync::atomic::{AtomicU32, Ordering};
 
-use super::broad_phase::BroadPhase;
+use super::broad_phase::{BroadPhase, Left};
 use super::contact_cache::{CacheCursor, match_points};
 use super::{Manifold, sat};
 use crate::awake::{AwakeMarks, RestBlocks};
@@ -93,26 +93,37 @@ pub(crate) struct Collider {
     /// forgotten at each collide's start.
     pub(crate) awake: AwakeMarks,
     /// Per block of pairs: the contacts the narrow phase found (scratch).
-    narrow_out: NarrowScratch,
+    narrow_out: BlockScratch<Contact>,
+    /// Per block of bodies of the broad phase's pass: those whose kept box (or filter)
+    /// no longer holds (scratch, each list empty between steps).
+    left_out: BlockScratch<u32>,
+    /// The bodies whose kept box (or filter) no longer holds, in increasing order, when
+    /// the kept boxes are for these bodies (scratch).
+    left: Vec<u32>,
     /// Each block's first contact (scratch).
     narrow_starts: Vec<usize>,
     /// Each block's first pair, then the pair count (scratch).
     narrow_blocks: Vec<usize>,
 }
 
-/// Per-thread narrow-phase output buffers; a clone starts with none.
-#[derive(Default)]
-struct NarrowScratch(Vec<Mutex<Vec<Contact>>>);
+/// Per-block output buffers of a parallel pass; a clone starts with none.
+struct BlockScratch<T>(Vec<Mutex<Vec<T>>>);
 
-impl Clone for NarrowScratch {
-    fn clone(&self) -> Self {
-        NarrowScratch::default()
+impl<T> Default for BlockScratch<T> {
+    fn default() -> Self {
+        BlockScratch(Vec::new())
     }
 }
 
-impl std::fmt::Debug for NarrowScratch {
+impl<T> Clone for BlockScratch<T> {
+    fn clone(&self) -> Self {
+        BlockScratch::default()
+    }
+}
+
+impl<T> std::fmt::Debug for BlockScratch<T> {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.write_str("NarrowScratch")
+        f.write_str("BlockScratch")
     }
 }
 
@@ -160,9 +171,13 @@ impl Collider {
         const FILTERED: u32 = 2;
         const SENSORS: u32 = 4;
         let flags = AtomicU32::new(0);
-        // the first and the last body whose kept box no longer holds (checked in the
-        // same pass; none: first > last)
-        let (first_left, last_left) = (AtomicUsize::new(usize::MAX), AtomicUsize::new(0));
+        // the bodies whose kept box no longer holds (checked in the same pass), listed
+        // by the block they are in
+        let lists = &mut self.left_out.0;
+        if lists.len() < n.div_ceil(BODY_PASS_BLOCK) {
+            lists.resize_with(n.div_ceil(BODY_PASS_BLOCK), Default::default);
+        }
+        let lists = &lists[..];
         let broad = &self.broad;
         let kept = broad.kept_count() == n;
         // (the wake pass sized `aabbs` for these bodies when it found their boxes)
@@ -180,7 +195,8 @@ impl Collider {
             &|_, offset, aabbs, reach, dynamic| {
                 let bodies = &bodies[offset..];
                 let mut f = 0u32;
-                let (mut first, mut last) = (usize::MAX, 0);
+                // (taken at the first body that left)
+                let mut list = None;
                 // block by block (the chunks are whole blocks): a rest block holds only
                 // sleepers whose entries the wake pass kept, their flags as last found
                 for start in (0..aabbs.len()).step_by(AWAKE_BLOCK) {
@@ -247,8 +263,12 @@ impl Collider {
                             && !(broad.kept_holds(at, bx, b.is_dynamic())
                                 && broad.kept_filter_holds(at, &b.filter))
                         {
-                            first = first.min(at);
-                            last = at;
+                            list.get_or_insert_with(|| {
+                                lists[offset / BODY_PASS_BLOCK]
+                                    .lock()
+                                    .unwrap_or_else(|e| e.into_inner())
+                            })
+                            .push(at as u32);
                             left = true;
                         }
                     }
@@ -265,10 +285,6 @@ impl Collider {
                     f |= fb;
                 }
                 flags.fetch_or(f, Ordering::Relaxed);
-                if first <= last {
-                    first_left.fetch_min(first, Ordering::Relaxed);
-                    last_left.fetch_max(last, Ordering::Relaxed);
-                }
                 0.0
             },
         );
@@ -282,10 +298,18 @@ impl Collider {
         }
         // (with none asleep, `dynamic` is whether each body is dynamic)
         self.movers_found = !any_asleep;
+        // the lists in block order: every body that left, in increasing order (each
+        // list emptied for the next step)
+        self.left.clear();
+        for list in &mut self.left_out.0 {
+            let list = list.get_mut().unwrap_or_else(|e| e.into_inner());
+            self.left.extend_from_slice(list);
+            list.clear();
+        }
         let left = if kept {
-            first_left.into_inner()..last_left.into_inner() + 1
+            Left::These(&self.left)
         } else {
-            0..n
+            Left::Within(0..n)
         };
         self.filtered = filtered;
         self.has_sensors = sensors;
