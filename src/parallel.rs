@@ -1009,6 +1009,38 @@ pub fn chunks_mut3<A: Send, B: Send, C: Send>(
     })
 }
 
+/// Per-block output buffers of a parallel pass (each block fills its own; see
+/// [`concat`]), kept from step to step; a clone starts with none.
+pub(crate) struct BlockScratch<T>(pub(crate) Vec<Mutex<Vec<T>>>);
+
+impl<T> BlockScratch<T> {
+    /// The first `blocks` buffers, made where missing.
+    pub(crate) fn first(&mut self, blocks: usize) -> &mut [Mutex<Vec<T>>] {
+        if self.0.len() < blocks {
+            self.0.resize_with(blocks, Default::default);
+        }
+        &mut self.0[..blocks]
+    }
+}
+
+impl<T> Default for BlockScratch<T> {
+    fn default() -> Self {
+        BlockScratch(Vec::new())
+    }
+}
+
+impl<T> Clone for BlockScratch<T> {
+    fn clone(&self) -> Self {
+        BlockScratch::default()
+    }
+}
+
+impl<T> std::fmt::Debug for BlockScratch<T> {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str("BlockScratch")
+    }
+}
+
 /// Appends the items of `blocks[skip..]` to `dst` one after another, in block order,
 /// each block copied by whichever thread claims it. `starts` is scratch (each block's
 /// first index).

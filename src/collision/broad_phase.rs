@@ -8,6 +8,7 @@
 
 use crate::defs::Filter;
 use crate::math::{AWAKE_BLOCK, Aabb, Vec2, gallop};
+use crate::parallel::{self, BlockScratch, Pool};
 use std::ops::Range;
 
 /// A candidate pair of body indices, a < b.
@@ -385,6 +386,7 @@ impl BroadPhase {
             may_move,
             None,
             can_collide,
+            None,
         );
     }
 
@@ -414,6 +416,7 @@ impl BroadPhase {
     /// boxes hold, in a pass over the bodies it makes anyway: `left` says for which
     /// bodies [`BroadPhase::kept_holds`] or [`BroadPhase::kept_filter_holds`] fails.
     /// `filter_of`, as for [`BroadPhase::refresh_kept`].
+    #[allow(clippy::too_many_arguments)]
     pub fn find_pairs_kept_checked(
         &mut self,
         aabbs: &[Aabb],
@@ -422,8 +425,9 @@ impl BroadPhase {
         may_move: impl Fn(usize) -> bool,
         filter_of: Option<&dyn Fn(usize) -> Filter>,
         can_collide: impl Fn(u32, u32) -> bool,
+        pool: Option<&Pool>,
     ) {
-        self.refresh_kept(aabbs, left, may_move, filter_of);
+        self.refresh_kept(aabbs, left, may_move, filter_of, pool);
         self.pairs.clear();
         for &(a, b) in &self.kept_pairs {
             if Self::kept_pair_holds(aabbs, moves, a, b) && can_collide(a, b) {
@@ -449,8 +453,9 @@ impl BroadPhase {
         left: Left<'_>,
         may_move: impl Fn(usize) -> bool,
         filter_of: Option<&dyn Fn(usize) -> Filter>,
+        pool: Option<&Pool>,
     ) {
-        if !left.is_empty() && !self.refresh_some(aabbs, left, &may_move, filter_of) {
+        if !left.is_empty() && !self.refresh_some(aabbs, left, &may_move, filter_of, pool) {
             let mut fat = std::mem::take(&mut self.kept_boxes);
             let mut fat_moves = std::mem::take(&mut self.kept_moves);
             fat.clear();
@@ -512,6 +517,7 @@ impl BroadPhase {
         left: Left<'_>,
         may_move: &impl Fn(usize) -> bool,
         filter_of: Option<&dyn Fn(usize) -> Filter>,
+        pool: Option<&Pool>,
     ) -> bool {
         let n = aabbs.len();
         if self.kept_boxes.len() != n || self.no_pair_by_filters {
@@ -624,6 +630,7 @@ impl BroadPhase {
                 &accept,
                 some_grid,
                 pairs,
+                pool,
             );
             pairs.sort_unstable();
             found
@@ -929,7 +936,13 @@ struct SomeGrid {
     ranges: Vec<(u32, [i64; 4])>,
     large: Vec<u32>,
     sizes: Vec<f32>,
+    /// The pairs each block of the threads' pass over the boxes found.
+    outs: BlockScratch<Pair>,
 }
+
+/// Awake blocks of bodies a thread takes at a time in [`pairs_of_some`]'s pass over
+/// the boxes (512 bodies).
+const SCAN_BLOCKS: usize = 8;
 
 /// [`pairs_of_few`] for more bodies (`some`, in increasing order, each with its `marked`
 /// entry set): the same pairs, but found through a grid of their boxes, into which every
@@ -937,15 +950,18 @@ struct SomeGrid {
 /// a pass over the boxes rather than a pass for each of them. The boxes of `some` too
 /// large for the grid are tested against every box. Returns false, with `out` left
 /// as it may be, when their boxes are spread too thin for a dense grid (then a grid of
-/// every box costs less).
+/// every box costs less). With a pool, the threads share the pass over the boxes, and
+/// `out` holds the same pairs in another order.
+#[allow(clippy::too_many_arguments)]
 fn pairs_of_some(
     aabbs: &[Aabb],
     some: &[u32],
     marked: &[bool],
     blocks: &[Option<Aabb>],
-    accept: &impl Fn(u32, u32) -> bool,
+    accept: &(impl Fn(u32, u32) -> bool + Sync),
     grid: &mut SomeGrid,
     out: &mut Vec<Pair>,
+    pool: Option<&Pool>,
 ) -> bool {
     out.clear();
     let Some(&first) = some.first() else {
@@ -957,6 +973,7 @@ fn pairs_of_some(
         ranges,
         large,
         sizes,
+        outs,
     } = grid;
     sizes.clear();
     sizes.extend(some.iter().map(|&i| {
@@ -1028,69 +1045,94 @@ fn pairs_of_some(
         start[c] = start[c - 1];
     }
     start[0] = 0;
-    // a pair with one of `some` is reported while looking from its other body, a pair
-    // of two of them (both in the grid, or both too large for it) from the lower one
-    let mut report = |j: u32, i: u32| {
-        let p = if i < j { (i, j) } else { (j, i) };
-        if accept(p.0, p.1) {
-            out.push(p);
-        }
-    };
-    let n = aabbs.len();
-    for (k, from) in (0..n).step_by(AWAKE_BLOCK).enumerate() {
-        if blocks
-            .get(k)
-            .copied()
-            .flatten()
-            .is_some_and(|b| !b.overlaps(&reach))
-        {
-            continue;
-        }
-        for j in from..(from + AWAKE_BLOCK).min(n) {
-            let bj = &aabbs[j];
-            if !bj.overlaps(&reach) {
+    let (start, bodies, ranges, large) = (&*start, &*bodies, &*ranges, &*large);
+    // the pairs found looking from the boxes of some awake blocks
+    let scan = |awake_blocks: Range<usize>, out: &mut Vec<Pair>| {
+        // a pair with one of `some` is reported while looking from its other body, a
+        // pair of two of them (both in the grid, or both too large for it) from the
+        // lower one
+        let mut report = |j: u32, i: u32| {
+            let p = if i < j { (i, j) } else { (j, i) };
+            if accept(p.0, p.1) {
+                out.push(p);
+            }
+        };
+        let n = aabbs.len();
+        for k in awake_blocks {
+            let from = k * AWAKE_BLOCK;
+            if blocks
+                .get(k)
+                .copied()
+                .flatten()
+                .is_some_and(|b| !b.overlaps(&reach))
+            {
                 continue;
             }
-            let (j, j_marked, j_cells) = (j as u32, marked[j], cells(bj));
-            // (one of them too large for the grid is one of `large`)
-            let j_large = j_marked && j_cells.is_none();
-            for &i in large.iter() {
-                if i != j && !(j_large && i < j) && bj.overlaps(&aabbs[i as usize]) {
-                    report(j, i);
+            for j in from..(from + AWAKE_BLOCK).min(n) {
+                let bj = &aabbs[j];
+                if !bj.overlaps(&reach) {
+                    continue;
                 }
-            }
-            if ranges.is_empty() || j_large {
-                continue;
-            }
-            let Some([x0, y0, x1, y1]) = j_cells else {
-                // a large box not among them (a ground): against each in the grid
-                for &(i, _) in ranges.iter() {
-                    if bj.overlaps(&aabbs[i as usize]) {
+                let (j, j_marked, j_cells) = (j as u32, marked[j], cells(bj));
+                // (one of them too large for the grid is one of `large`)
+                let j_large = j_marked && j_cells.is_none();
+                for &i in large.iter() {
+                    if i != j && !(j_large && i < j) && bj.overlaps(&aabbs[i as usize]) {
                         report(j, i);
                     }
                 }
-                continue;
-            };
-            // the cells of the grid the box covers
-            let (x0, y0) = (x0.max(gx0), y0.max(gy0));
-            let (x1, y1) = (x1.min(gx1), y1.min(gy1));
-            for iy in y0..=y1 {
-                for ix in x0..=x1 {
-                    let c = cell_of(ix, iy);
-                    for &i in &bodies[start[c] as usize..start[c + 1] as usize] {
-                        let bi = &aabbs[i as usize];
-                        if (j_marked && i <= j) || !bj.overlaps(bi) {
-                            continue;
-                        }
-                        // once: from the cell holding the overlap's lower-left corner
-                        let corner = bj.min.max(bi.min);
-                        if (floor_i64(corner.x * inv), floor_i64(corner.y * inv)) == (ix, iy) {
+                if ranges.is_empty() || j_large {
+                    continue;
+                }
+                let Some([x0, y0, x1, y1]) = j_cells else {
+                    // a large box not among them (a ground): against each in the grid
+                    for &(i, _) in ranges.iter() {
+                        if bj.overlaps(&aabbs[i as usize]) {
                             report(j, i);
+                        }
+                    }
+                    continue;
+                };
+                // the cells of the grid the box covers
+                let (x0, y0) = (x0.max(gx0), y0.max(gy0));
+                let (x1, y1) = (x1.min(gx1), y1.min(gy1));
+                for iy in y0..=y1 {
+                    for ix in x0..=x1 {
+                        let c = cell_of(ix, iy);
+                        for &i in &bodies[start[c] as usize..start[c + 1] as usize] {
+                            let bi = &aabbs[i as usize];
+                            if (j_marked && i <= j) || !bj.overlaps(bi) {
+                                continue;
+                            }
+                            // once: from the cell holding the overlap's lower-left corner
+                            let corner = bj.min.max(bi.min);
+                            if (floor_i64(corner.x * inv), floor_i64(corner.y * inv)) == (ix, iy) {
+                                report(j, i);
+                            }
                         }
                     }
                 }
             }
         }
+    };
+    let awake_blocks = aabbs.len().div_ceil(AWAKE_BLOCK);
+    match pool {
+        Some(pool) if pool.threads() > 1 && awake_blocks > SCAN_BLOCKS => {
+            let jobs = awake_blocks.div_ceil(SCAN_BLOCKS);
+            let outs = outs.first(jobs);
+            parallel::ranges_max(Some(pool), awake_blocks, SCAN_BLOCKS, &|_, r| {
+                let mut found = outs[r.start / SCAN_BLOCKS]
+                    .lock()
+                    .unwrap_or_else(|e| e.into_inner());
+                found.clear();
+                scan(r, &mut found);
+                0.0
+            });
+            for found in outs.iter_mut() {
+                out.extend_from_slice(found.get_mut().unwrap_or_else(|e| e.into_inner()));
+            }
+        }
+        _ => scan(0..awake_blocks, out),
     }
     true
 }
@@ -1346,6 +1388,7 @@ mod tests {
                 |_| true,
                 Some(&of),
                 |a, b| filters[a as usize].collides(&filters[b as usize]),
+                None,
             );
         };
         step(&mut bp, &filters);
@@ -1369,7 +1412,7 @@ mod tests {
         assert_eq!(bp.rebuilds, 2);
         // unfiltered, every pair of boxes is kept
         let mut all = BroadPhase::default();
-        all.refresh_kept(&boxes, Left::Within(0..n), |_| true, None);
+        all.refresh_kept(&boxes, Left::Within(0..n), |_| true, None, None);
         assert_eq!(all.kept_pairs().len(), n * (n - 1) / 2);
     }
 
@@ -1572,7 +1615,15 @@ mod tests {
                 (boxes[i].min, boxes[i].max) = (c, c + Vec2::splat(0.9));
             }
             let left = left_of(&kept, &boxes, &moves, &filters);
-            kept.find_pairs_kept_checked(&boxes, &moves, left, |i| moves[i], None, |_, _| true);
+            kept.find_pairs_kept_checked(
+                &boxes,
+                &moves,
+                left,
+                |i| moves[i],
+                None,
+                |_, _| true,
+                None,
+            );
             fresh.find_pairs(&boxes, &moves, |_, _| true);
             assert_eq!(kept.pairs, fresh.pairs, "step {step}");
             let fat: Vec<Aabb> = kept.kept_boxes.clone();
@@ -1591,14 +1642,16 @@ mod tests {
         // one of them swelling past the grid's cells or a filter changing: the kept
         // pairs stay every pair of kept boxes the filters let touch, and the step's
         // pairs those found afresh; told which bodies left, or where to look for them,
-        // the kept pairs are the same
+        // on one thread or two, the kept pairs are the same
         let mut boxes = scatter(7, 599);
         let n = boxes.len();
         let moves: Vec<bool> = (0..n).map(|i| i != 0).collect();
         let mut filters: Vec<Filter> = (0..n).map(three_filters).collect();
         let mut rnd = lcg(11);
         let (mut kept, mut fresh) = (BroadPhase::default(), BroadPhase::default());
-        let mut listed = BroadPhase::default();
+        // (and the one told which bodies left shares its pass over the boxes between
+        // two threads)
+        let (mut listed, pool) = (BroadPhase::default(), Pool::new(2));
         let mut some_steps = 0;
         for step in 0..150 {
             let count = 40 + rnd() % 100;
@@ -1632,8 +1685,16 @@ mod tests {
             some_steps += usize::from(count > ONE_BY_ONE && count <= n / SOME_SHARE);
             let of = |i: usize| filters[i];
             let can = |a: u32, b: u32| filters[a as usize].collides(&filters[b as usize]);
-            kept.find_pairs_kept_checked(&boxes, &moves, left, |i| moves[i], Some(&of), can);
-            listed.find_pairs_kept_checked(&boxes, &moves, these, |i| moves[i], Some(&of), can);
+            kept.find_pairs_kept_checked(&boxes, &moves, left, |i| moves[i], Some(&of), can, None);
+            listed.find_pairs_kept_checked(
+                &boxes,
+                &moves,
+                these,
+                |i| moves[i],
+                Some(&of),
+                can,
+                Some(&pool),
+            );
             fresh.find_pairs(&boxes, &moves, can);
             assert_eq!(kept.pairs, fresh.pairs, "step {step}");
             assert_eq!(listed.pairs, fresh.pairs, "step {step}");
@@ -1678,7 +1739,7 @@ mod tests {
             let left = left_of(&kept, &boxes, &moves, &filters);
             let of = |i: usize| filters[i];
             let can = |a: u32, b: u32| filters[a as usize].collides(&filters[b as usize]);
-            kept.find_pairs_kept_checked(&boxes, &moves, left, |i| moves[i], Some(&of), can);
+            kept.find_pairs_kept_checked(&boxes, &moves, left, |i| moves[i], Some(&of), can, None);
             fresh.find_pairs(&boxes, &moves, can);
             assert!(!fresh.pairs.is_empty());
             assert_eq!(kept.pairs, fresh.pairs, "step {step}");

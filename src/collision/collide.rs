@@ -18,7 +18,7 @@ use crate::awake::{AwakeMarks, RestBlocks};
 use crate::body::{Body, SHAPE_BYTES};
 use crate::defs::{BodyType, Filter};
 use crate::math::{AWAKE_BLOCK, Aabb, BODY_AHEAD, BODY_PASS_BLOCK, Vec2, gallop, prefetch};
-use crate::parallel::{self, Pool};
+use crate::parallel::{self, BlockScratch, Pool};
 
 /// A touching pair of bodies and its manifold: a made before b; the normal points from
 /// a to b. [`crate::World::contact_bodies`] gives the two bodies' keys.
@@ -106,27 +106,6 @@ pub(crate) struct Collider {
     narrow_blocks: Vec<usize>,
 }
 
-/// Per-block output buffers of a parallel pass; a clone starts with none.
-struct BlockScratch<T>(Vec<Mutex<Vec<T>>>);
-
-impl<T> Default for BlockScratch<T> {
-    fn default() -> Self {
-        BlockScratch(Vec::new())
-    }
-}
-
-impl<T> Clone for BlockScratch<T> {
-    fn clone(&self) -> Self {
-        BlockScratch::default()
-    }
-}
-
-impl<T> std::fmt::Debug for BlockScratch<T> {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.write_str("BlockScratch")
-    }
-}
-
 /// Body pairs a thread claims at a time in the narrow phase.
 const PAIR_BLOCK: usize = 256;
 
@@ -173,11 +152,7 @@ impl Collider {
         let flags = AtomicU32::new(0);
         // the bodies whose kept box no longer holds (checked in the same pass), listed
         // by the block they are in
-        let lists = &mut self.left_out.0;
-        if lists.len() < n.div_ceil(BODY_PASS_BLOCK) {
-            lists.resize_with(n.div_ceil(BODY_PASS_BLOCK), Default::default);
-        }
-        let lists = &lists[..];
+        let lists = &*self.left_out.first(n.div_ceil(BODY_PASS_BLOCK));
         let broad = &self.broad;
         let kept = broad.kept_count() == n;
         // (the wake pass sized `aabbs` for these bodies when it found their boxes)
@@ -321,8 +296,9 @@ impl Collider {
         let filter_of = |i: usize| bodies[i].filter;
         let filter_of = filtered.then_some(&filter_of as &dyn Fn(usize) -> Filter);
         if !sensors {
+            let may_move = |i: usize| bodies[i].is_dynamic();
             self.broad
-                .refresh_kept(&self.aabbs, left, |i| bodies[i].is_dynamic(), filter_of);
+                .refresh_kept(&self.aabbs, left, may_move, filter_of, pool);
         } else {
             let test = PairTest {
                 bodies,
@@ -338,6 +314,7 @@ impl Collider {
                 |i| bodies[i].is_dynamic(),
                 filter_of,
                 |a, b| test.may_collide(a, b),
+                pool,
             );
         }
     }
