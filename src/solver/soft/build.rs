@@ -265,10 +265,24 @@ impl SoftSolver {
                 *lane = start + *lane * step(color);
             }
         }
-        // where each contact goes, and which contact each lane holds
+        // where each contact goes, and which contact each lane holds: the layout below
+        // writes every lane a contact takes, so only the lanes none takes are cleared
+        // here (a colour's last wide constraint's spare lanes, an overflow constraint's
+        // three), not the whole list
         self.slot.resize(contacts.len(), 0);
-        self.lane_contact.clear();
-        self.lane_contact.resize(n_wide * 4, u32::MAX);
+        let lanes = &mut self.lane_contact;
+        lanes.truncate(n_wide * 4);
+        lanes.resize(n_wide * 4, u32::MAX);
+        for (color, (&start, &n)) in next.iter().zip(&counts).enumerate() {
+            let (start, n) = (start as usize, n as usize);
+            if step(color) == 4 {
+                for k in 0..n {
+                    lanes[start + 4 * k + 1..start + 4 * k + 4].fill(u32::MAX);
+                }
+            } else {
+                lanes[start + n..start + n.div_ceil(4) * 4].fill(u32::MAX);
+            }
+        }
         {
             let (colors, cut_lanes) = (&self.colors[..], &self.cut_lanes[..]);
             let (slots, lanes) = (
@@ -302,6 +316,11 @@ impl SoftSolver {
                 }
             }
         }
+        debug_assert!(
+            (self.slot.iter().enumerate()).all(|(i, &l)| self.lane_contact[l as usize] == i as u32)
+                && self.lane_contact.iter().filter(|&&c| c != u32::MAX).count() == contacts.len(),
+            "each lane holds the contact laid out there, or none"
+        );
         self.cut_colors(threads, &used, n_wide as u32);
         let hinge_bodies = self.lay_out_joints(joints, bodies, &used, h, s.warm_start, pool);
         self.cut_joints(threads);
