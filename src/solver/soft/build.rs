@@ -271,7 +271,6 @@ impl SoftSolver {
         // three), not the whole list
         self.slot.resize(contacts.len(), 0);
         let lanes = &mut self.lane_contact;
-        lanes.truncate(n_wide * 4);
         lanes.resize(n_wide * 4, u32::MAX);
         for (color, (&start, &n)) in next.iter().zip(&counts).enumerate() {
             let (start, n) = (start as usize, n as usize);
