@@ -1009,9 +1009,25 @@ pub fn chunks_mut3<A: Send, B: Send, C: Send>(
     })
 }
 
+/// A step's scratch, kept from step to step, that a clone starts without.
+#[derive(Debug)]
+pub(crate) struct Scratch<T>(pub(crate) Vec<T>);
+
+impl<T> Default for Scratch<T> {
+    fn default() -> Self {
+        Scratch(Vec::new())
+    }
+}
+
+impl<T> Clone for Scratch<T> {
+    fn clone(&self) -> Self {
+        Scratch::default()
+    }
+}
+
 /// Per-block output buffers of a parallel pass (each block fills its own; see
-/// [`concat`]), kept from step to step; a clone starts with none.
-pub(crate) struct BlockScratch<T>(pub(crate) Vec<Mutex<Vec<T>>>);
+/// [`concat`]).
+pub(crate) type BlockScratch<T> = Scratch<Mutex<Vec<T>>>;
 
 impl<T> BlockScratch<T> {
     /// The first `blocks` buffers, made where missing.
@@ -1020,24 +1036,6 @@ impl<T> BlockScratch<T> {
             self.0.resize_with(blocks, Default::default);
         }
         &mut self.0[..blocks]
-    }
-}
-
-impl<T> Default for BlockScratch<T> {
-    fn default() -> Self {
-        BlockScratch(Vec::new())
-    }
-}
-
-impl<T> Clone for BlockScratch<T> {
-    fn clone(&self) -> Self {
-        BlockScratch::default()
-    }
-}
-
-impl<T> std::fmt::Debug for BlockScratch<T> {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.write_str("BlockScratch")
     }
 }
 

@@ -40,7 +40,7 @@ use crate::joint::{Joint, MouseJoint};
 use crate::math::{
     BODY_AHEAD, BODY_PASS_BLOCK, Rot, Vec2, cross, cross_sv, prefetch, uf_root, uf_union,
 };
-use crate::parallel::{self, Disjoint, MAX_THREADS, Pool};
+use crate::parallel::{self, Disjoint, MAX_THREADS, Pool, Scratch};
 use glam::Vec4;
 use std::sync::Mutex;
 use std::sync::atomic::{AtomicU32, Ordering};
@@ -1029,22 +1029,6 @@ impl ColorShare {
         (self.joints.1 - self.joints.0)
             + (self.hinges.1 - self.hinges.0)
             + (self.contacts.1 - self.contacts.0)
-    }
-}
-
-/// A step's scratch that a clone of the solver starts without.
-#[derive(Debug)]
-struct Scratch<T>(Vec<T>);
-
-impl<T> Default for Scratch<T> {
-    fn default() -> Self {
-        Scratch(Vec::new())
-    }
-}
-
-impl<T> Clone for Scratch<T> {
-    fn clone(&self) -> Self {
-        Scratch::default()
     }
 }
 
