@@ -1030,10 +1030,11 @@ impl<T> Clone for Scratch<T> {
 pub(crate) type BlockScratch<T> = Scratch<Mutex<Vec<T>>>;
 
 impl<T> BlockScratch<T> {
-    /// The first `blocks` buffers, made where missing.
-    pub(crate) fn first(&mut self, blocks: usize) -> &mut [Mutex<Vec<T>>] {
+    /// The first `blocks` buffers, made where missing with room for `room` items.
+    pub(crate) fn first(&mut self, blocks: usize, room: usize) -> &mut [Mutex<Vec<T>>] {
         if self.0.len() < blocks {
-            self.0.resize_with(blocks, Default::default);
+            self.0
+                .resize_with(blocks, || Mutex::new(Vec::with_capacity(room)));
         }
         &mut self.0[..blocks]
     }

@@ -56,8 +56,7 @@ pub struct BroadPhase {
     /// Per body: whether it is one of those whose kept box is being redone (scratch
     /// of [`BroadPhase::refresh_some`], all false between calls).
     redo: Vec<bool>,
-    /// The bodies [`BroadPhase::refresh_some`] redoes, or a few bodies that look for
-    /// pairs (scratch).
+    /// A few bodies that look for pairs (scratch).
     few: Vec<u32>,
     /// The grid of [`pairs_of_some`] (scratch).
     some_grid: SomeGrid,
@@ -72,22 +71,13 @@ pub struct BroadPhase {
 /// The bodies whose kept box no longer holds their box (or whose filter or whether they
 /// may move changed), as the caller found them in a pass over the bodies it makes
 /// anyway ([`BroadPhase::kept_holds`], [`BroadPhase::kept_filter_holds`]).
-#[derive(Clone, Debug)]
+#[derive(Clone, Copy, Debug)]
 pub enum Left<'a> {
-    /// Some of the bodies in this range, each looked at again; empty when the kept
-    /// boxes are for these bodies and hold for each, every body when they are not.
-    Within(Range<usize>),
-    /// Exactly these, in increasing order (the kept boxes are for these bodies).
+    /// The kept boxes are not for these bodies (or nobody looked): they are rebuilt.
+    All,
+    /// Exactly these, in increasing order (the kept boxes are for these bodies; none
+    /// when every kept box holds).
     These(&'a [u32]),
-}
-
-impl Left<'_> {
-    fn is_empty(&self) -> bool {
-        match self {
-            Left::Within(r) => r.is_empty(),
-            Left::These(l) => l.is_empty(),
-        }
-    }
 }
 
 /// How far a kept box reaches past a body's box (m), at most: a body is looked up again
@@ -373,21 +363,14 @@ impl BroadPhase {
         may_move: impl Fn(usize) -> bool,
         can_collide: impl Fn(u32, u32) -> bool,
     ) {
-        let holds = self.kept_count() == aabbs.len()
-            && aabbs
-                .iter()
-                .enumerate()
-                .all(|(i, b)| self.kept_holds(i, b, may_move(i)));
-        let left = if holds { 0..0 } else { 0..aabbs.len() };
-        self.find_pairs_kept_checked(
-            aabbs,
-            moves,
-            Left::Within(left),
-            may_move,
-            None,
-            can_collide,
-            None,
-        );
+        let listed: Option<Vec<u32>> = (self.kept_count() == aabbs.len()).then(|| {
+            (0..aabbs.len())
+                .filter(|&i| !self.kept_holds(i, &aabbs[i], may_move(i)))
+                .map(|i| i as u32)
+                .collect()
+        });
+        let left = listed.as_deref().map_or(Left::All, Left::These);
+        self.find_pairs_kept_checked(aabbs, moves, left, may_move, None, can_collide, None);
     }
 
     /// Bodies the kept boxes are for (0 before the first [`BroadPhase::find_pairs_kept`]).
@@ -455,7 +438,13 @@ impl BroadPhase {
         filter_of: Option<&dyn Fn(usize) -> Filter>,
         pool: Option<&Pool>,
     ) {
-        if !left.is_empty() && !self.refresh_some(aabbs, left, &may_move, filter_of, pool) {
+        let rebuild = match left {
+            Left::All => true,
+            Left::These(listed) => {
+                !listed.is_empty() && !self.refresh_some(aabbs, listed, &may_move, filter_of, pool)
+            }
+        };
+        if rebuild {
             let mut fat = std::mem::take(&mut self.kept_boxes);
             let mut fat_moves = std::mem::take(&mut self.kept_moves);
             fat.clear();
@@ -506,62 +495,40 @@ impl BroadPhase {
     /// ones; more, their old pairs are those of the kept list with one of them, and their
     /// new ones are found through a grid of their boxes ([`pairs_of_some`]).
     /// The kept pairs are then every pair of kept boxes (that the filters let touch),
-    /// sorted, as after a rebuild, and this step's pairs the same. Only the bodies in
-    /// `left` are looked at (as for [`BroadPhase::find_pairs_kept_checked`]). Returns
+    /// sorted, as after a rebuild, and this step's pairs the same. `listed`: the bodies
+    /// that left, in increasing order (as [`Left::These`]). Returns
     /// false where a rebuild is due (more bodies left, the body count changed, the
     /// filters refused every pair, or the bodies that left are spread too thin for
     /// their grid); it then changes nothing the rebuild does not set afresh.
     fn refresh_some(
         &mut self,
         aabbs: &[Aabb],
-        left: Left<'_>,
+        listed: &[u32],
         may_move: &impl Fn(usize) -> bool,
         filter_of: Option<&dyn Fn(usize) -> Filter>,
         pool: Option<&Pool>,
     ) -> bool {
         let n = aabbs.len();
-        if self.kept_boxes.len() != n || self.no_pair_by_filters {
+        let most = ONE_BY_ONE.max(n / SOME_SHARE);
+        if self.kept_boxes.len() != n || self.no_pair_by_filters || listed.len() > most {
             return false;
         }
         let filter = |i: usize| filter_of.map_or(Filter::default(), |f| f(i));
         let filtered = !self.kept_filters.is_empty();
-        let mut few = std::mem::take(&mut self.few);
-        few.clear();
-        let most = ONE_BY_ONE.max(n / SOME_SHARE);
-        // the caller's test, body by body
-        let leaves = |i: usize| {
-            !(self.kept_holds(i, &aabbs[i], may_move(i)) && self.kept_filter_holds(i, &filter(i)))
-        };
-        match left {
-            Left::Within(range) => {
-                for i in range.filter(|&i| leaves(i)) {
-                    if few.len() == most {
-                        self.few = few;
-                        return false;
-                    }
-                    few.push(i as u32);
-                }
-            }
-            Left::These(listed) => {
-                if listed.len() > most {
-                    self.few = few;
-                    return false;
-                }
-                debug_assert!(
-                    listed.windows(2).all(|w| w[0] < w[1])
-                        && (0..n)
-                            .filter(|&i| leaves(i))
-                            .eq(listed.iter().map(|&i| i as usize)),
-                    "the bodies listed as left are those that left, in order"
-                );
-                few.extend_from_slice(listed);
-            }
-        }
-        self.few = few;
+        debug_assert!(
+            listed.windows(2).all(|w| w[0] < w[1])
+                && (0..n)
+                    .filter(|&i| {
+                        !(self.kept_holds(i, &aabbs[i], may_move(i))
+                            && self.kept_filter_holds(i, &filter(i)))
+                    })
+                    .eq(listed.iter().map(|&i| i as usize)),
+            "the bodies listed as left are those that left, in order"
+        );
         // more than a few: their pairs through a grid of their boxes
-        let some = self.few.len() > ONE_BY_ONE;
+        let some = listed.len() > ONE_BY_ONE;
         self.redo.resize(n, false);
-        for &i in &self.few {
+        for &i in listed {
             self.redo[i as usize] = true;
         }
         let Self {
@@ -571,7 +538,6 @@ impl BroadPhase {
             kept_bounds,
             kept_pairs,
             redo,
-            few,
             gone,
             pairs,
             pairs_tmp,
@@ -585,7 +551,7 @@ impl BroadPhase {
         };
         // the few's pairs among the kept boxes as they stand, sorted: each of their kept
         // boxes against every kept box, passing over the blocks whose bounds it misses
-        let (listed, marked) = (&*few, &*redo);
+        let marked = &*redo;
         let pairs_of = |boxes: &[Aabb],
                         moves: &[bool],
                         filters: &[Filter],
@@ -638,7 +604,7 @@ impl BroadPhase {
             pairs_of(kept_boxes, kept_moves, kept_filters, kept_bounds, pairs);
             true
         };
-        for &i in few.iter() {
+        for &i in listed {
             redo[i as usize] = false;
         }
         if !found {
@@ -1119,7 +1085,7 @@ fn pairs_of_some(
     match pool {
         Some(pool) if pool.threads() > 1 && awake_blocks > SCAN_BLOCKS => {
             let jobs = awake_blocks.div_ceil(SCAN_BLOCKS);
-            let outs = outs.first(jobs);
+            let outs = outs.first(jobs, 0);
             parallel::ranges_max(Some(pool), awake_blocks, SCAN_BLOCKS, &|_, r| {
                 let mut found = outs[r.start / SCAN_BLOCKS]
                     .lock()
@@ -1384,7 +1350,7 @@ mod tests {
             bp.find_pairs_kept_checked(
                 &boxes,
                 &moves,
-                left,
+                as_left(&left),
                 |_| true,
                 Some(&of),
                 |a, b| filters[a as usize].collides(&filters[b as usize]),
@@ -1412,27 +1378,29 @@ mod tests {
         assert_eq!(bp.rebuilds, 2);
         // unfiltered, every pair of boxes is kept
         let mut all = BroadPhase::default();
-        all.refresh_kept(&boxes, Left::Within(0..n), |_| true, None, None);
+        all.refresh_kept(&boxes, Left::All, |_| true, None, None);
         assert_eq!(all.kept_pairs().len(), n * (n - 1) / 2);
     }
 
-    /// The bodies from the first to the last whose kept box or filter no longer holds,
-    /// as the collide's pass finds them (all of them before the first rebuild).
+    /// The bodies whose kept box or filter no longer holds, as the collide's pass lists
+    /// them (`None` before the first rebuild: every body). [`Left`] of it by [`as_left`].
     fn left_of(
         bp: &BroadPhase,
         boxes: &[Aabb],
         moves: &[bool],
         filters: &[Filter],
-    ) -> Left<'static> {
+    ) -> Option<Vec<u32>> {
         let n = boxes.len();
-        if bp.kept_count() != n {
-            return Left::Within(0..n);
-        }
-        let fails = |i: &usize| leaves(bp, boxes, moves, filters, *i);
-        Left::Within(match ((0..n).find(fails), (0..n).rev().find(fails)) {
-            (Some(first), Some(last)) => first..last + 1,
-            _ => 0..0,
+        (bp.kept_count() == n).then(|| {
+            (0..n)
+                .filter(|&i| leaves(bp, boxes, moves, filters, i))
+                .map(|i| i as u32)
+                .collect()
         })
+    }
+
+    fn as_left(listed: &Option<Vec<u32>>) -> Left<'_> {
+        listed.as_deref().map_or(Left::All, Left::These)
     }
 
     /// Whether body `i` left its kept box (or changed whether it moves, or its filter).
@@ -1618,7 +1586,7 @@ mod tests {
             kept.find_pairs_kept_checked(
                 &boxes,
                 &moves,
-                left,
+                as_left(&left),
                 |i| moves[i],
                 None,
                 |_, _| true,
@@ -1641,16 +1609,14 @@ mod tests {
         // them (more than are looked up one by one, at most a quarter) jump, now and then
         // one of them swelling past the grid's cells or a filter changing: the kept
         // pairs stay every pair of kept boxes the filters let touch, and the step's
-        // pairs those found afresh; told which bodies left, or where to look for them,
-        // on one thread or two, the kept pairs are the same
+        // pairs those found afresh; on one thread or two, the kept pairs are the same
         let mut boxes = scatter(7, 599);
         let n = boxes.len();
         let moves: Vec<bool> = (0..n).map(|i| i != 0).collect();
         let mut filters: Vec<Filter> = (0..n).map(three_filters).collect();
         let mut rnd = lcg(11);
         let (mut kept, mut fresh) = (BroadPhase::default(), BroadPhase::default());
-        // (and the one told which bodies left shares its pass over the boxes between
-        // two threads)
+        // (the second shares its pass over the boxes between two threads)
         let (mut listed, pool) = (BroadPhase::default(), Pool::new(2));
         let mut some_steps = 0;
         for step in 0..150 {
@@ -1670,26 +1636,24 @@ mod tests {
                 filters[1 + rnd() % (n - 1)] = three_filters(rnd());
             }
             let left = left_of(&kept, &boxes, &moves, &filters);
-            let leaving: Vec<u32> = (0..n)
-                .filter(|&i| {
-                    listed.kept_count() == n && leaves(&listed, &boxes, &moves, &filters, i)
-                })
-                .map(|i| i as u32)
-                .collect();
-            let these = if listed.kept_count() == n {
-                Left::These(&leaving)
-            } else {
-                Left::Within(0..n)
-            };
-            let count = leaving.len();
+            let these = left_of(&listed, &boxes, &moves, &filters);
+            let count = these.as_ref().map_or(0, Vec::len);
             some_steps += usize::from(count > ONE_BY_ONE && count <= n / SOME_SHARE);
             let of = |i: usize| filters[i];
             let can = |a: u32, b: u32| filters[a as usize].collides(&filters[b as usize]);
-            kept.find_pairs_kept_checked(&boxes, &moves, left, |i| moves[i], Some(&of), can, None);
+            kept.find_pairs_kept_checked(
+                &boxes,
+                &moves,
+                as_left(&left),
+                |i| moves[i],
+                Some(&of),
+                can,
+                None,
+            );
             listed.find_pairs_kept_checked(
                 &boxes,
                 &moves,
-                these,
+                as_left(&these),
                 |i| moves[i],
                 Some(&of),
                 can,
@@ -1739,7 +1703,15 @@ mod tests {
             let left = left_of(&kept, &boxes, &moves, &filters);
             let of = |i: usize| filters[i];
             let can = |a: u32, b: u32| filters[a as usize].collides(&filters[b as usize]);
-            kept.find_pairs_kept_checked(&boxes, &moves, left, |i| moves[i], Some(&of), can, None);
+            kept.find_pairs_kept_checked(
+                &boxes,
+                &moves,
+                as_left(&left),
+                |i| moves[i],
+                Some(&of),
+                can,
+                None,
+            );
             fresh.find_pairs(&boxes, &moves, can);
             assert!(!fresh.pairs.is_empty());
             assert_eq!(kept.pairs, fresh.pairs, "step {step}");

@@ -152,7 +152,7 @@ impl Collider {
         let flags = AtomicU32::new(0);
         // the bodies whose kept box no longer holds (checked in the same pass), listed
         // by the block they are in
-        let lists = &*self.left_out.first(n.div_ceil(BODY_PASS_BLOCK));
+        let lists = &*self.left_out.first(n.div_ceil(BODY_PASS_BLOCK), 0);
         let broad = &self.broad;
         let kept = broad.kept_count() == n;
         // (the wake pass sized `aabbs` for these bodies when it found their boxes)
@@ -284,7 +284,7 @@ impl Collider {
         let left = if kept {
             Left::These(&self.left)
         } else {
-            Left::Within(0..n)
+            Left::All
         };
         self.filtered = filtered;
         self.has_sensors = sensors;
@@ -387,14 +387,10 @@ impl Collider {
                 parallel::tapered_blocks(pairs, pool.threads(), PAIR_BLOCK, starts);
                 let starts = &starts[..];
                 let blocks = starts.len() - 1;
-                let outs = &mut self.narrow_out.0;
-                if outs.len() < blocks {
-                    // room for a contact a pair from the start: a block the caller
-                    // usually writes in place may go through its buffer in any step,
-                    // and a steady step allocates nothing
-                    outs.resize_with(blocks, || Mutex::new(Vec::with_capacity(PAIR_BLOCK)));
-                }
-                let outs = &outs[..blocks];
+                // room for a contact a pair from the start: a block the caller usually
+                // writes in place may go through its buffer in any step, and a steady
+                // step allocates nothing
+                let outs = &*self.narrow_out.first(blocks, PAIR_BLOCK);
                 // (the list, and the blocks written into it)
                 let direct = Mutex::new((contacts, 0usize));
                 let deepest = parallel::blocks_max(pool, blocks, &|t, b| {
