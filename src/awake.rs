@@ -15,6 +15,7 @@
 use std::ops::Range;
 use std::sync::atomic::{AtomicBool, AtomicU32, Ordering};
 
+use crate::body::Body;
 use crate::math::{AWAKE_BLOCK, Aabb};
 
 /// The blocks the collide's pass found awake this step, marked from the pass's threads.
@@ -119,6 +120,9 @@ pub(crate) struct RestBlocks {
     /// Per block: while it rests, the bounds of its bodies' swept boxes, once the wake
     /// pass has found them (`None` before, and for a block that does not rest).
     bounds: Vec<Option<Aabb>>,
+    /// The bounds of the sleepers of each block that does not rest, where it holds
+    /// some (scratch of the wake pass).
+    pub(crate) loose: Vec<Aabb>,
     /// The body count and the step and margin (bits) of the boxes.
     seen: (usize, u32, u32),
     /// The world's count of edits to its bodies (added, removed, reshaped, restored)
@@ -134,6 +138,37 @@ impl Clone for RestBlocks {
 }
 
 impl RestBlocks {
+    /// Each body's `f` into `out`, but for the rest blocks' bodies where `out` already
+    /// holds an entry a body (a step's start, for what the step's end compares with):
+    /// a rest block's bodies have not moved or changed since the step before it came to
+    /// rest, whose start wrote their entries, so those still hold. Debug builds check
+    /// them.
+    pub(crate) fn copy_but_rest<T: Copy + Default + PartialEq + std::fmt::Debug>(
+        &self,
+        bodies: &[Body],
+        out: &mut Vec<T>,
+        f: impl Fn(&Body) -> T,
+    ) {
+        let known = out.len() == bodies.len();
+        out.resize(bodies.len(), T::default());
+        for (k, (bodies, out)) in bodies
+            .chunks(AWAKE_BLOCK)
+            .zip(out.chunks_mut(AWAKE_BLOCK))
+            .enumerate()
+        {
+            if known && self.is_rest(k) {
+                debug_assert!(
+                    bodies.iter().zip(out.iter()).all(|(b, o)| f(b) == *o),
+                    "a rest block's entries hold"
+                );
+                continue;
+            }
+            for (b, o) in bodies.iter().zip(out) {
+                *o = f(b);
+            }
+        }
+    }
+
     /// Knows no rest block (until a step's end finds them again).
     pub(crate) fn forget(&mut self) {
         self.blocks.clear();

@@ -483,15 +483,15 @@ impl World {
         self.sleep.rest.since_edits(self.edits);
         let mut clock = StageClock::start();
         let one_sided = self.has_one_sided();
+        // (a rest block's bodies are as they were: their entries hold)
+        let rest = &self.sleep.rest;
         if one_sided {
-            self.step_start.clear();
-            self.step_start
-                .extend(self.bodies.iter().map(|b| b.position));
+            rest.copy_but_rest(&self.bodies, &mut self.step_start, |b| b.position);
         }
         if self.record_events {
-            self.step_start_velocity.clear();
-            self.step_start_velocity
-                .extend(self.bodies.iter().map(|b| (b.velocity, b.angular_velocity)));
+            rest.copy_but_rest(&self.bodies, &mut self.step_start_velocity, |b| {
+                (b.velocity, b.angular_velocity)
+            });
         }
         let pool = self.pool();
         let mut state = StepState {

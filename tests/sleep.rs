@@ -452,3 +452,57 @@ fn a_held_box_keeps_its_stack_awake_and_the_other_stack_sleeps() {
         );
     }
 }
+
+#[test]
+fn a_swarm_far_from_a_sleeping_wall_leaves_it_asleep_until_it_arrives() {
+    // 40 discs (more than the wake pass tests one by one) fly at 20 m/s towards a wall of
+    // 200 boxes made asleep 60 m away, with no gravity: no step may wake the wall before
+    // the swarm gets there, and the swarm's arrival must wake it and push it
+    let mut text = String::from(
+        "name = \"swarm\"\n[world]\ngravity = [0.0, 0.0]\n\
+         [[grid]]\nrows = 10\ncolumns = 20\nspacing = [1.0, 1.0]\norigin = [60.5, 0.5]\n\
+         shape = { box = [1.0, 1.0] }\nawake = false\n",
+    );
+    for k in 0..40 {
+        let (x, y) = ((k % 8) as f32 * 1.0, (k / 8) as f32 * 1.0 + 2.5);
+        text += &format!(
+            "[[body]]\nname = \"disc{k}\"\nshape = {{ circle = 0.4 }}\n\
+             position = [{x}, {y}]\nvelocity = [20.0, 0.0]\n"
+        );
+    }
+    let sc = sandbox2d::scene::load_str(&text, "swarm.toml").unwrap();
+    for kind in [SolverKind::Soft, SolverKind::Pgs] {
+        let mut w = World::from_def(&sc.world, SolverSettings::defaults(kind)).unwrap();
+        let wall_x = |w: &World| -> Vec<f32> {
+            let wall = w
+                .bodies()
+                .map(|(_, b)| b)
+                .filter(|b| !b.name.starts_with("disc"));
+            wall.map(|b| b.position.x).collect()
+        };
+        let before = wall_x(&w);
+        assert_eq!(before.len(), 200);
+        // the front discs reach x = 60 - 0.4 after (59.6 - 7) / 20 s: 157 steps
+        for step in 0..140 {
+            w.step().unwrap();
+            assert_eq!(
+                asleep(&w),
+                200,
+                "{kind:?} step {step}: nothing reached the wall"
+            );
+        }
+        assert_eq!(
+            wall_x(&w),
+            before,
+            "{kind:?}: the sleeping wall did not move"
+        );
+        steps(&mut w, 100);
+        let after = wall_x(&w);
+        assert!(asleep(&w) < 200, "{kind:?}: the swarm woke the wall");
+        let pushed = after.iter().zip(&before).filter(|(a, b)| a > b).count();
+        assert!(
+            pushed > 5,
+            "{kind:?}: the swarm pushed the wall ({pushed} boxes)"
+        );
+    }
+}

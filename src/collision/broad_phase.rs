@@ -34,7 +34,10 @@ pub struct BroadPhase {
     large_rank: Vec<u32>,
     sizes: Vec<f32>,
     /// [`BroadPhase::find_pairs_kept`]: each body's fattened box, whether it may move
-    /// (dynamic, asleep or not), and every pair of those boxes, from the last rebuild.
+    /// (awake and dynamic, at the last rebuild or since), and every pair of those boxes
+    /// with one that may move. A sleeper kept as one that may not costs no pair with the
+    /// sleepers and static bodies around it, and a rebuild's grid leaves out the blocks
+    /// of such bodies that no mover reaches (`still_bounds`).
     kept_boxes: Vec<Aabb>,
     kept_moves: Vec<bool>,
     /// Each body's collision filter at the last rebuild, when the kept pairs were
@@ -47,6 +50,16 @@ pub struct BroadPhase {
     /// (found at the rebuild, grown as some bodies' are redone), so that their search
     /// for pairs passes over the blocks their boxes miss.
     kept_bounds: Vec<Option<Aabb>>,
+    /// How many kept boxes may move (`kept_moves` set).
+    kept_movers: usize,
+    /// Per awake block: its kept bounds where none of its bodies may move, else `None`
+    /// (scratch of a rebuild).
+    still_bounds: Vec<Option<Aabb>>,
+    /// Per awake block: whether the grid leaves it out (scratch of
+    /// [`BroadPhase::each_pair`]).
+    left_out: Vec<bool>,
+    /// The bounds of each block's movers (scratch of [`BroadPhase::each_pair`]).
+    mover_bounds: Vec<Aabb>,
     /// The kept pairs an update for some bodies takes out (scratch of
     /// [`BroadPhase::refresh_some`]).
     gone: Vec<Pair>,
@@ -92,10 +105,12 @@ const KEEP_MARGIN: f32 = 0.1;
 /// a pass over the others, not a grid of them all.
 const ONE_BY_ONE: usize = 32;
 
-/// At most one body in this many may leave its kept box for the kept pairs to be
-/// updated for those bodies alone (a grid of their boxes that every other box looks
-/// into) rather than rebuilt over every body: a heap of small bodies jostling in one
+/// At most one body in this many of those that may move may leave its kept box for the
+/// kept pairs to be updated for those bodies alone (a grid of their boxes that every
+/// other box looks into) rather than rebuilt: a heap of small bodies jostling in one
 /// place (Box2D's junkyard) then costs a pass over the boxes, not a grid of them all.
+/// (A rebuild's grid holds the bodies that may move and the still ones they reach, so
+/// the share is of the movers, not of every body.)
 const SOME_SHARE: usize = 4;
 
 /// A body's kept box: its box fattened by [`KEEP_MARGIN`], or a quarter of its extent
@@ -153,6 +168,7 @@ impl BroadPhase {
     /// Finds every pair of overlapping boxes where `can_collide(a, b)` holds (a < b).
     /// `aabbs[i]` is body i's (fattened) box; `moves[i]` is false for static bodies, and
     /// two bodies that both do not move are never paired.
+    #[cfg(test)]
     pub fn find_pairs(
         &mut self,
         aabbs: &[Aabb],
@@ -201,7 +217,7 @@ impl BroadPhase {
             // a few movers: each against every box, no grid
             pairs_of_few(aabbs, &few, moves, blocks, &can_collide, &mut pairs);
         } else {
-            self.each_pair(aabbs, moves, sized, &can_collide, &mut |p| {
+            self.each_pair(aabbs, moves, sized, blocks, &can_collide, &mut |p| {
                 pairs.push(p);
                 true
             });
@@ -224,7 +240,7 @@ impl BroadPhase {
     ) -> Result<u64, Pair> {
         let mut count = 0u64;
         let mut over = None;
-        BroadPhase::default().each_pair(aabbs, moves, moves, &can_collide, &mut |p| {
+        BroadPhase::default().each_pair(aabbs, moves, moves, &[], &can_collide, &mut |p| {
             count += 1;
             if count > limit {
                 over = Some(p);
@@ -239,12 +255,16 @@ impl BroadPhase {
 
     /// Calls `emit` for each pair of overlapping boxes where `can_collide` holds, in no
     /// particular order (a pair may come twice); stops once `emit` returns false. The
-    /// grid's cells are sized by the boxes `sized` marks.
+    /// grid's cells are sized by the boxes `sized` marks. `blocks`, as for
+    /// [`BroadPhase::find_pairs_sized`]: a block with bounds that miss the box holding
+    /// every mover's box stays out of the grid (none of its boxes meets a mover's), so a
+    /// world of sleeping blocks far from its few thousand movers pays for theirs.
     fn each_pair<E: FnMut(Pair) -> bool>(
         &mut self,
         aabbs: &[Aabb],
         moves: &[bool],
         sized: &[bool],
+        blocks: &[Option<Aabb>],
         can_collide: &impl Fn(u32, u32) -> bool,
         emit: &mut E,
     ) {
@@ -253,17 +273,77 @@ impl BroadPhase {
         if aabbs.len() < 2 {
             return;
         }
+        // the blocks left out: each with bounds (none of its bodies moves) that miss
+        // the bounds of every block's movers
+        let mut left_out = std::mem::take(&mut self.left_out);
+        left_out.clear();
+        if blocks.iter().any(Option::is_some) {
+            let mut movers = std::mem::take(&mut self.mover_bounds);
+            movers.clear();
+            for (k, (boxes, moving)) in aabbs
+                .chunks(AWAKE_BLOCK)
+                .zip(moves.chunks(AWAKE_BLOCK))
+                .enumerate()
+            {
+                if matches!(blocks.get(k), Some(Some(_))) {
+                    continue;
+                }
+                let moving = boxes
+                    .iter()
+                    .zip(moving)
+                    .filter(|(_, m)| **m)
+                    .map(|(b, _)| *b);
+                movers.extend(moving.reduce(|a, b| a.union(&b)));
+            }
+            // (the box holding them all first: most blocks far from every mover miss it)
+            let reach = movers.iter().copied().reduce(|a, b| a.union(&b));
+            left_out.extend(blocks.iter().map(|b| {
+                b.is_some_and(|b| {
+                    reach.is_none_or(|r| !r.overlaps(&b) || !movers.iter().any(|m| m.overlaps(&b)))
+                })
+            }));
+            self.mover_bounds = movers;
+        }
+        self.grid_pairs(aabbs, moves, sized, blocks, &left_out, can_collide, emit);
+        self.left_out = left_out;
+    }
+
+    /// [`BroadPhase::each_pair`] with the blocks `left_out` marks (per block; none past
+    /// its end) left out of the grid.
+    #[allow(clippy::too_many_arguments)]
+    fn grid_pairs<E: FnMut(Pair) -> bool>(
+        &mut self,
+        aabbs: &[Aabb],
+        moves: &[bool],
+        sized: &[bool],
+        blocks: &[Option<Aabb>],
+        left_out: &[bool],
+        can_collide: &impl Fn(u32, u32) -> bool,
+        emit: &mut E,
+    ) {
+        let out = |k: usize| left_out.get(k).copied().unwrap_or(false);
+        // the blocks of bodies in the grid
+        let n = aabbs.len();
+        let runs = || {
+            (0..n)
+                .step_by(AWAKE_BLOCK)
+                .enumerate()
+                .filter(move |&(k, _)| !out(k))
+                .map(move |(k, from)| (k, from..(from + AWAKE_BLOCK).min(n)))
+        };
         // Cell size: twice the median extent of the moving bodies' boxes.
         let cell = {
             let sizes = &mut self.sizes;
             sizes.clear();
-            sizes.extend(
-                aabbs
-                    .iter()
-                    .zip(sized)
-                    .filter(|(_, m)| **m)
-                    .map(|(b, _)| (b.max - b.min).max_element()),
-            );
+            for (_, run) in runs() {
+                sizes.extend(
+                    aabbs[run.clone()]
+                        .iter()
+                        .zip(&sized[run])
+                        .filter(|(_, m)| **m)
+                        .map(|(b, _)| (b.max - b.min).max_element()),
+                );
+            }
             if sizes.is_empty() || (!std::ptr::eq(sized, moves) && !moves.contains(&true)) {
                 return;
             }
@@ -276,7 +356,7 @@ impl BroadPhase {
         // every body in `ranges` writes its entry below; the others' are never read
         self.lowest.resize(aabbs.len(), [0; 2]);
         let (mut gx0, mut gy0, mut gx1, mut gy1) = (i64::MAX, i64::MAX, i64::MIN, i64::MIN);
-        for (i, b) in aabbs.iter().enumerate() {
+        for (i, b) in runs().flat_map(|(_, run)| run.clone().zip(&aabbs[run])) {
             let (x0, y0) = to_cell(b.min);
             let (x1, y1) = to_cell(b.max);
             if x1 - x0 >= MAX_CELLS_PER_AXIS
@@ -327,19 +407,28 @@ impl BroadPhase {
         }
         for (k, &l) in self.large.iter().enumerate() {
             let bl = &aabbs[l as usize];
-            for (i, b) in aabbs.iter().enumerate() {
-                // a large-large pair is tested once, from the earlier large body (and a
-                // body not with itself): skip the large bodies up to this one
-                if self.large_rank[i] <= k as u32 {
+            let l_moves = moves[l as usize];
+            for (block, run) in runs() {
+                // (a block none of whose bodies moves: only a mover's pairs with it)
+                if let Some(Some(bounds)) = blocks.get(block)
+                    && !(l_moves && bounds.overlaps(bl))
+                {
                     continue;
                 }
-                let i = i as u32;
-                if !(moves[l as usize] || moves[i as usize]) || !bl.overlaps(b) {
-                    continue;
-                }
-                let p = if l < i { (l, i) } else { (i, l) };
-                if can_collide(p.0, p.1) && !emit(p) {
-                    return;
+                for (i, b) in run.clone().zip(&aabbs[run]) {
+                    // a large-large pair is tested once, from the earlier large body (and
+                    // a body not with itself): skip the large bodies up to this one
+                    if self.large_rank[i] <= k as u32 {
+                        continue;
+                    }
+                    let i = i as u32;
+                    if !(l_moves || moves[i as usize]) || !bl.overlaps(b) {
+                        continue;
+                    }
+                    let p = if l < i { (l, i) } else { (i, l) };
+                    if can_collide(p.0, p.1) && !emit(p) {
+                        return;
+                    }
                 }
             }
         }
@@ -349,8 +438,8 @@ impl BroadPhase {
     /// that is enough: the pairs of the bodies' fattened boxes are kept, and while every
     /// box stays inside its fattened one (and no body starts or stops being able to
     /// move), this step's pairs are those kept pairs whose boxes overlap, a pass over the
-    /// pairs instead of the grid. `may_move(i)` must hold wherever `moves[i]` does (a
-    /// sleeping dynamic body may move; a static one may not).
+    /// pairs instead of the grid. `may_move(i)` must hold wherever `moves[i]` does (an
+    /// awake dynamic body may move; a static or sleeping one may not).
     ///
     /// The result is the same list, to the order, as `find_pairs` gives: two boxes that
     /// overlap lie inside fattened boxes that overlap, so the kept pairs hold every pair
@@ -379,13 +468,16 @@ impl BroadPhase {
     }
 
     /// Whether body `i`'s kept box (`i` < [`BroadPhase::kept_count`]) still holds its box
-    /// `b`, with `may_move` as it was.
+    /// `b`, and its pairs were kept as a body that may move where it now may
+    /// (`may_move`). A body that stopped moving (fell asleep) keeps its pairs as they
+    /// are: they are more than it needs, and the next rebuild drops them. So falling
+    /// asleep costs the kept pairs nothing, and waking only where a rebuild came between.
     #[inline]
     pub fn kept_holds(&self, i: usize, b: &Aabb, may_move: bool) -> bool {
         // filters that let no two bodies touch: no pair wherever the boxes go (while the
         // filters stay, which the caller checks with `kept_filter_holds`)
         self.no_pair_by_filters
-            || (self.kept_boxes[i].contains(b) && self.kept_moves[i] == may_move)
+            || (self.kept_boxes[i].contains(b) && (self.kept_moves[i] || !may_move))
     }
 
     /// Whether body `i`'s filter is the one the kept pairs were filtered with (always,
@@ -451,6 +543,22 @@ impl BroadPhase {
             fat.extend(aabbs.iter().map(kept_box));
             fat_moves.clear();
             fat_moves.extend((0..aabbs.len()).map(&may_move));
+            self.kept_movers = fat_moves.iter().filter(|&&m| m).count();
+            self.kept_bounds.clear();
+            self.kept_bounds.extend(
+                fat.chunks(AWAKE_BLOCK)
+                    .map(|c| c.iter().copied().reduce(|a, b| a.union(&b))),
+            );
+            // the blocks none of whose bodies may move (static, or asleep): the grid
+            // leaves out those that no mover's box reaches
+            let mut still = std::mem::take(&mut self.still_bounds);
+            still.clear();
+            still.extend(
+                fat_moves
+                    .chunks(AWAKE_BLOCK)
+                    .zip(&self.kept_bounds)
+                    .map(|(m, b)| if m.contains(&true) { None } else { *b }),
+            );
             let mut filters = std::mem::take(&mut self.kept_filters);
             filters.clear();
             self.no_pair_by_filters = false;
@@ -458,7 +566,7 @@ impl BroadPhase {
                 Some(f) => {
                     filters.extend((0..aabbs.len()).map(f));
                     if any_pair_may_touch(&filters) {
-                        self.find_pairs(&fat, &fat_moves, |a, b| {
+                        self.find_pairs_sized(&fat, &fat_moves, &fat_moves, &still, |a, b| {
                             filters[a as usize].collides(&filters[b as usize])
                         });
                     } else {
@@ -468,18 +576,14 @@ impl BroadPhase {
                         self.no_pair_by_filters = true;
                     }
                 }
-                None => self.find_pairs(&fat, &fat_moves, |_, _| true),
+                None => self.find_pairs_sized(&fat, &fat_moves, &fat_moves, &still, |_, _| true),
             }
+            self.still_bounds = still;
             self.kept_filters = filters;
             // copied, not swapped: `pairs`, which the grid just filled, holds at least as
             // many as the filter below keeps, so neither buffer grows in a steady run
             self.kept_pairs.clear();
             self.kept_pairs.extend_from_slice(&self.pairs);
-            self.kept_bounds.clear();
-            self.kept_bounds.extend(
-                fat.chunks(AWAKE_BLOCK)
-                    .map(|c| c.iter().copied().reduce(|a, b| a.union(&b))),
-            );
             (self.kept_boxes, self.kept_moves) = (fat, fat_moves);
             self.rebuilds += 1;
         }
@@ -509,7 +613,7 @@ impl BroadPhase {
         pool: Option<&Pool>,
     ) -> bool {
         let n = aabbs.len();
-        let most = ONE_BY_ONE.max(n / SOME_SHARE);
+        let most = ONE_BY_ONE.max(self.kept_movers / SOME_SHARE);
         if self.kept_boxes.len() != n || self.no_pair_by_filters || listed.len() > most {
             return false;
         }
@@ -534,6 +638,7 @@ impl BroadPhase {
         let Self {
             kept_boxes,
             kept_moves,
+            kept_movers,
             kept_filters,
             kept_bounds,
             kept_pairs,
@@ -578,7 +683,15 @@ impl BroadPhase {
             let i = i as usize;
             let fat = kept_box(&aabbs[i]);
             kept_boxes[i] = fat;
-            kept_moves[i] = may_move(i);
+            let moves = may_move(i);
+            if moves != kept_moves[i] {
+                *kept_movers = if moves {
+                    *kept_movers + 1
+                } else {
+                    *kept_movers - 1
+                };
+            }
+            kept_moves[i] = moves;
             if filtered {
                 kept_filters[i] = filter(i);
             }
@@ -1289,6 +1402,88 @@ mod tests {
             kept.rebuilds,
             kept.updates
         );
+    }
+
+    #[test]
+    fn sleepers_keep_no_pairs_among_themselves_and_far_ones_stay_out_of_the_grid() {
+        let mut rnd = unit(lcg(4242));
+        // a ground, a heap of 300 bodies that move, and far off 640 sleepers in ten whole
+        // blocks, packed so that each touches its neighbours
+        let mut boxes = vec![aabb(-60.0, -2.0, 60.0, 0.0)];
+        for k in 0..300 {
+            let (x, y) = ((k % 30) as f32 * 1.1 - 16.0, (k / 30) as f32 * 1.1);
+            let s = 0.3 + rnd() * 0.9;
+            boxes.push(aabb(x, y, x + s, y + s));
+        }
+        let far = boxes.len().next_multiple_of(AWAKE_BLOCK);
+        while boxes.len() < far {
+            let x = boxes.len() as f32 * 2.0;
+            boxes.push(aabb(x, 50.0, x + 0.5, 50.5));
+        }
+        for k in 0..10 * AWAKE_BLOCK {
+            let (x, y) = (1000.0 + (k % 32) as f32 * 0.9, (k / 32) as f32 * 0.9);
+            boxes.push(aabb(x, y, x + 1.0, y + 1.0));
+        }
+        let n = boxes.len();
+        // as the world has it: a body may move exactly while it is awake and dynamic
+        let mut moves: Vec<bool> = (0..n).map(|i| i != 0 && i < far).collect();
+        let (mut kept, mut fresh) = (BroadPhase::default(), BroadPhase::default());
+        let steps = 400u32;
+        let pick = |r: f32, lo: usize, hi: usize| lo + (r * (hi - lo) as f32) as usize % (hi - lo);
+        // the far sleepers woken at some step
+        let mut woken = Vec::new();
+        for step in 0..steps {
+            // the heap jostles; every 9th step most of it leaves its kept boxes (a rebuild)
+            let jump = if step % 9 == 4 { 0.5 } else { 0.004 };
+            for (b, _) in boxes.iter_mut().zip(&moves).filter(|(_, m)| **m) {
+                let d = Vec2::new(rnd() - 0.5, rnd() - 0.5) * jump;
+                (b.min, b.max) = (b.min + d, b.max + d);
+            }
+            // a body of the heap falls asleep or wakes; a far sleeper of the first far
+            // block wakes, jostles, and may fall asleep again some steps later
+            if step % 7 == 2 {
+                let i = pick(rnd(), 1, 301);
+                moves[i] = !moves[i];
+            }
+            if step % 13 == 6 {
+                let i = pick(rnd(), far, far + AWAKE_BLOCK);
+                moves[i] = !moves[i];
+                woken.push(i);
+            }
+            let phase = step / 50;
+            let can = |a: u32, b: u32| !(a + b + phase).is_multiple_of(7);
+            kept.find_pairs_kept(&boxes, &moves, |i| moves[i], can);
+            fresh.find_pairs(&boxes, &moves, can);
+            assert!(!fresh.pairs.is_empty());
+            assert_eq!(kept.pairs, fresh.pairs, "step {step}");
+            // a pair of two bodies kept as still ones is never kept
+            assert!(
+                kept.kept_pairs()
+                    .iter()
+                    .all(|&(a, b)| kept.kept_moves[a as usize] || kept.kept_moves[b as usize]),
+                "step {step}"
+            );
+        }
+        assert!(kept.rebuilds > 20, "{} rebuilds", kept.rebuilds);
+        // the far sleepers kept no pair among themselves but those of the few ever woken
+        // (each touches at most eight): not the 2,400 of all their touching neighbours
+        woken.sort_unstable();
+        woken.dedup();
+        let far_pairs = kept
+            .kept_pairs()
+            .iter()
+            .filter(|&&(a, _)| a as usize >= far)
+            .count();
+        assert!(
+            far_pairs <= 8 * woken.len() && woken.len() < 40,
+            "{far_pairs} pairs among the far sleepers, {} woken",
+            woken.len()
+        );
+        // a rebuild's grid left the far blocks out: its last one held the heap's boxes
+        // and the ground's, and at most the first two far blocks (the woken ones' and
+        // the next, which their boxes may reach)
+        assert!(kept.ranges.len() + kept.large.len() <= far + 2 * AWAKE_BLOCK);
+        assert!(kept.left_out[far / AWAKE_BLOCK + 2..].iter().all(|&o| o));
     }
 
     #[test]

@@ -235,7 +235,7 @@ impl Collider {
                         // static one
                         *dy = b.is_dynamic() && !b.asleep;
                         if kept
-                            && !(broad.kept_holds(at, bx, b.is_dynamic())
+                            && !(broad.kept_holds(at, bx, *dy)
                                 && broad.kept_filter_holds(at, &b.filter))
                         {
                             list.get_or_insert_with(|| {
@@ -296,7 +296,7 @@ impl Collider {
         let filter_of = |i: usize| bodies[i].filter;
         let filter_of = filtered.then_some(&filter_of as &dyn Fn(usize) -> Filter);
         if !sensors {
-            let may_move = |i: usize| bodies[i].is_dynamic();
+            let may_move = |i: usize| bodies[i].is_dynamic() && !bodies[i].asleep;
             self.broad
                 .refresh_kept(&self.aabbs, left, may_move, filter_of, pool);
         } else {
@@ -311,7 +311,7 @@ impl Collider {
                 &self.aabbs,
                 &self.dynamic,
                 left,
-                |i| bodies[i].is_dynamic(),
+                |i| bodies[i].is_dynamic() && !bodies[i].asleep,
                 filter_of,
                 |a, b| test.may_collide(a, b),
                 pool,

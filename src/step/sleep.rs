@@ -14,7 +14,7 @@ use crate::collision::Contact;
 use crate::collision::collide::{Collider, swept_box};
 use crate::defs::{BodyType, SolverSettings};
 use crate::joint::{Joint, MouseJoint};
-use crate::math::{AWAKE_BLOCK, BODY_PASS_BLOCK, Vec2, uf_root, uf_union};
+use crate::math::{AWAKE_BLOCK, Aabb, BODY_PASS_BLOCK, Vec2, uf_root, uf_union};
 use crate::parallel::{self, Pool};
 use crate::step::integrate::PointForce;
 
@@ -146,7 +146,7 @@ impl Sleep {
         wake.clear();
         // (one pass: the boxes, and the sleepers pushed since they fell asleep)
         self.rest.begin(bodies.len(), h, margin);
-        let mut movers = Self::find_boxes(
+        let (mut movers, reachable) = Self::find_boxes(
             bodies,
             collider,
             &mut self.rest,
@@ -157,8 +157,9 @@ impl Sleep {
         );
         let mut first = true;
         loop {
-            // (nothing awake moves in the first round: nothing can reach a sleeping island)
-            if movers {
+            // (nothing awake moves in the first round: nothing can reach a sleeping island;
+            // its grid only where a mover's box may reach a sleeper)
+            if movers && (reachable || !first) {
                 let bs = &*bodies;
                 let (aabbs, look, sized) = (&collider.aabbs, &collider.dynamic, &self.wake_sized);
                 // (a rest block's bounds: its sleepers no mover's box reaches go by whole)
@@ -177,6 +178,8 @@ impl Sleep {
                         }
                     }
                 }
+            }
+            if movers {
                 // a joint to a body that moves (one to a static anchor keeps it asleep)
                 for j in joints {
                     let (ba, bb) = (&bodies[j.a], &bodies[j.b]);
@@ -213,7 +216,10 @@ impl Sleep {
     /// each sleeper pushed, set moving or given a force since it fell asleep into
     /// `pushed`. A sleeper's box is found once and kept with it until it wakes; the
     /// `rest` blocks' entries are kept as they are (their bounds found once). Returns
-    /// whether some body moves (a mover).
+    /// whether some body moves (a mover), and whether a mover's box may reach a
+    /// sleeper: some sleeper lies outside the rest blocks, or a rest block's bounds meet
+    /// the box holding every mover's box (else no grid need look, and sleepers far from
+    /// every mover cost nothing).
     fn find_boxes(
         bodies: &mut [Body],
         collider: &mut Collider,
@@ -222,15 +228,20 @@ impl Sleep {
         pushed: &mut Vec<u32>,
         h: f32,
         margin: f32,
-    ) -> bool {
+    ) -> (bool, bool) {
         let n = bodies.len();
         // sized, not cleared: a rest block's entries hold from the step it was visited
         collider.aabbs.resize(n, crate::math::Aabb::default());
         collider.dynamic.resize(n, false);
         sized.resize(n, false);
-        let mut movers = false;
+        // the box holding every mover's box; the bounds of each block's sleepers outside
+        // the rest blocks
+        let mut reach: Option<Aabb> = None;
+        let mut loose = std::mem::take(&mut rest.loose);
+        loose.clear();
         for (k, start) in (0..n).step_by(AWAKE_BLOCK).enumerate() {
             let end = (start + AWAKE_BLOCK).min(n);
+            let mut sleepers: Option<Aabb> = None;
             if rest.is_rest(k) {
                 #[cfg(debug_assertions)]
                 for (i, b) in bodies[start..end].iter().enumerate() {
@@ -275,12 +286,23 @@ impl Sleep {
                 };
                 *bx = swept_box(b, bb, h, margin);
                 *mover = b.is_mover();
-                movers |= *mover;
+                if *mover {
+                    reach = Some(reach.map_or(*bx, |r| r.union(bx)));
+                }
+                if b.asleep {
+                    sleepers = Some(sleepers.map_or(*bx, |s| s.union(bx)));
+                }
                 *size = b.is_dynamic();
             }
+            loose.extend(sleepers);
         }
         collider.boxes_found = true;
-        movers
+        let reachable = reach.is_some_and(|r| {
+            let mut sleepers = loose.iter().chain(rest.bounds().iter().flatten());
+            sleepers.any(|b| b.overlaps(&r))
+        });
+        rest.loose = loose;
+        (reach.is_some(), reachable)
     }
 
     /// Takes the joints whose bodies all sleep or do not move out of `joints` for this

@@ -4,7 +4,7 @@
 
 use super::World;
 use crate::body::Body;
-use crate::math::{Aabb, Vec2};
+use crate::math::{AWAKE_BLOCK, Aabb, Vec2};
 use crate::shape::Shape;
 
 impl World {
@@ -16,21 +16,33 @@ impl World {
     /// bodies at 100 m/s) sinks in a little each step until its centre slips behind the
     /// wall and it is gone; Box2D's continuous step stops such a centre too.
     pub(super) fn keep_in_front(&mut self) {
-        for body in 0..self.bodies.len() {
-            let b = &self.bodies[body];
-            let start = self.step_start[body];
-            if !b.is_dynamic() || b.asleep || b.position == start {
+        let n = self.bodies.len();
+        for (k, from) in (0..n).step_by(AWAKE_BLOCK).enumerate() {
+            // (a rest block's bodies all sleep: none of them moved)
+            if self.sleep.rest.is_rest(k) {
                 continue;
             }
-            // A centre put back onto one wall's line past that wall's end lies behind
-            // the next wall (at a vertex of a loop seen from inside); the path from the
-            // start to the corrected place then crosses the next wall, which the next
-            // pass finds. Two passes settle a centre near a vertex; a path metres past
-            // the wall (10,000 g in a test) takes a few more.
-            for _ in 0..8 {
-                if !push_in_front(&mut self.bodies, &self.walls, body, start) {
-                    break;
-                }
+            for body in from..(from + AWAKE_BLOCK).min(n) {
+                self.keep_body_in_front(body);
+            }
+        }
+    }
+
+    /// [`World::keep_in_front`] for one body.
+    fn keep_body_in_front(&mut self, body: usize) {
+        let b = &self.bodies[body];
+        let start = self.step_start[body];
+        if !b.is_dynamic() || b.asleep || b.position == start {
+            return;
+        }
+        // A centre put back onto one wall's line past that wall's end lies behind
+        // the next wall (at a vertex of a loop seen from inside); the path from the
+        // start to the corrected place then crosses the next wall, which the next
+        // pass finds. Two passes settle a centre near a vertex; a path metres past
+        // the wall (10,000 g in a test) takes a few more.
+        for _ in 0..8 {
+            if !push_in_front(&mut self.bodies, &self.walls, body, start) {
+                break;
             }
         }
     }
