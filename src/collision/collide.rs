@@ -296,7 +296,9 @@ impl Collider {
         let filter_of = |i: usize| bodies[i].filter;
         let filter_of = filtered.then_some(&filter_of as &dyn Fn(usize) -> Filter);
         if !sensors {
-            let may_move = |i: usize| bodies[i].is_dynamic() && !bodies[i].asleep;
+            // (the pass above set it for every body: no body is read again)
+            let dynamic = &self.dynamic;
+            let may_move = |i: usize| dynamic[i];
             self.broad
                 .refresh_kept(&self.aabbs, left, may_move, filter_of, pool);
         } else {
@@ -311,7 +313,7 @@ impl Collider {
                 &self.aabbs,
                 &self.dynamic,
                 left,
-                |i| bodies[i].is_dynamic() && !bodies[i].asleep,
+                |i| self.dynamic[i],
                 filter_of,
                 |a, b| test.may_collide(a, b),
                 pool,
@@ -340,7 +342,12 @@ impl Collider {
         if any_asleep {
             // contacts within sleeping islands (and of them with static bodies) are kept
             // aside with their impulses until the island wakes
+            let dynamic = &self.dynamic;
             let asleep_pair = |c: &Contact| {
+                // (most pairs have a body awake and dynamic: no body is read for them)
+                if dynamic[c.a as usize] || dynamic[c.b as usize] {
+                    return false;
+                }
                 let (a, b) = (&bodies[c.a as usize], &bodies[c.b as usize]);
                 // neither awake and dynamic, one of them asleep
                 !a.is_mover() && !b.is_mover() && (a.asleep || b.asleep)
