@@ -560,11 +560,23 @@ impl BroadPhase {
                     .map(|(m, b)| if m.contains(&true) { None } else { *b }),
             );
             let mut filters = std::mem::take(&mut self.kept_filters);
-            filters.clear();
             self.no_pair_by_filters = false;
             match filter_of {
                 Some(f) => {
-                    filters.extend((0..aabbs.len()).map(f));
+                    match left {
+                        // (every other body's filter is the one kept: only the bodies
+                        // listed are read)
+                        Left::These(listed) if filters.len() == aabbs.len() => {
+                            for &i in listed {
+                                filters[i as usize] = f(i as usize);
+                            }
+                        }
+                        _ => {
+                            filters.clear();
+                            filters.extend((0..aabbs.len()).map(f));
+                        }
+                    }
+                    debug_assert!((0..aabbs.len()).all(|i| filters[i] == f(i)));
                     if any_pair_may_touch(&filters) {
                         self.find_pairs_sized(&fat, &fat_moves, &fat_moves, &still, |a, b| {
                             filters[a as usize].collides(&filters[b as usize])
@@ -576,7 +588,10 @@ impl BroadPhase {
                         self.no_pair_by_filters = true;
                     }
                 }
-                None => self.find_pairs_sized(&fat, &fat_moves, &fat_moves, &still, |_, _| true),
+                None => {
+                    filters.clear();
+                    self.find_pairs_sized(&fat, &fat_moves, &fat_moves, &still, |_, _| true);
+                }
             }
             self.still_bounds = still;
             self.kept_filters = filters;
