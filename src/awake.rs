@@ -138,11 +138,10 @@ impl Clone for RestBlocks {
 }
 
 impl RestBlocks {
-    /// Each body's `f` into `out`, but for the rest blocks' bodies where `out` already
-    /// holds an entry a body (a step's start, for what the step's end compares with):
-    /// a rest block's bodies have not moved or changed since the step before it came to
-    /// rest, whose start wrote their entries, so those still hold. Debug builds check
-    /// them.
+    /// Each body's `f` into `out` (a step's start, for what its end compares with).
+    /// Where `out` already holds an entry for every body, the rest blocks' entries are
+    /// left as they are: a rest block's bodies have not moved or changed since the step
+    /// before it came to rest, whose start wrote them. Debug builds check them.
     pub(crate) fn copy_but_rest<T: Copy + Default + PartialEq + std::fmt::Debug>(
         &self,
         bodies: &[Body],

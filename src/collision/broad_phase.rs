@@ -256,9 +256,9 @@ impl BroadPhase {
     /// Calls `emit` for each pair of overlapping boxes where `can_collide` holds, in no
     /// particular order (a pair may come twice); stops once `emit` returns false. The
     /// grid's cells are sized by the boxes `sized` marks. `blocks`, as for
-    /// [`BroadPhase::find_pairs_sized`]: a block with bounds that miss the box holding
-    /// every mover's box stays out of the grid (none of its boxes meets a mover's), so a
-    /// world of sleeping blocks far from its few thousand movers pays for theirs.
+    /// [`BroadPhase::find_pairs_sized`]: a block with bounds that miss the bounds of
+    /// every block's movers stays out of the grid (none of its boxes meets a mover's), so
+    /// a world of sleeping blocks far from its few thousand movers pays for theirs.
     fn each_pair<E: FnMut(Pair) -> bool>(
         &mut self,
         aabbs: &[Aabb],
@@ -436,8 +436,8 @@ impl BroadPhase {
 
     /// The pairs [`BroadPhase::find_pairs`] would find, found from last step's where
     /// that is enough: the pairs of the bodies' fattened boxes are kept, and while every
-    /// box stays inside its fattened one (and no body starts or stops being able to
-    /// move), this step's pairs are those kept pairs whose boxes overlap, a pass over the
+    /// box stays inside its fattened one (and no body starts being able to move while
+    /// its pairs were kept as one that may not), this step's pairs are those kept pairs whose boxes overlap, a pass over the
     /// pairs instead of the grid. `may_move(i)` must hold wherever `moves[i]` does (an
     /// awake dynamic body may move; a static or sleeping one may not).
     ///
@@ -1365,16 +1365,30 @@ mod tests {
         assert_eq!(bp.pairs, brute);
     }
 
+    /// A ground, then `count` boxes in rows of `columns` at 1.1 m, each `smallest` to
+    /// 1.25 m wide: a heap packed closely enough to touch.
+    fn ground_and_heap(
+        rnd: &mut impl FnMut() -> f32,
+        count: usize,
+        columns: usize,
+        smallest: f32,
+    ) -> Vec<Aabb> {
+        let mut boxes = vec![aabb(-60.0, -2.0, 60.0, 0.0)];
+        for k in 0..count {
+            let (x, y) = (
+                (k % columns) as f32 * 1.1 - 22.0,
+                (k / columns) as f32 * 1.1,
+            );
+            let s = smallest + rnd() * (1.25 - smallest);
+            boxes.push(aabb(x, y, x + s, y + s));
+        }
+        boxes
+    }
+
     #[test]
     fn kept_pairs_are_the_pairs_found_afresh_every_step() {
         let mut rnd = unit(lcg(777));
-        // a ground, then bodies of mixed sizes packed closely enough to touch
-        let mut boxes = vec![aabb(-60.0, -2.0, 60.0, 0.0)];
-        for k in 0..400 {
-            let (x, y) = ((k % 40) as f32 * 1.1 - 22.0, (k / 40) as f32 * 1.1);
-            let s = 0.05 + rnd() * 1.2;
-            boxes.push(aabb(x, y, x + s, y + s));
-        }
+        let mut boxes = ground_and_heap(&mut rnd, 400, 40, 0.05);
         let n = boxes.len();
         let mut may_move: Vec<bool> = (0..n).map(|i| i != 0).collect();
         let mut moves = may_move.clone();
@@ -1424,12 +1438,7 @@ mod tests {
         let mut rnd = unit(lcg(4242));
         // a ground, a heap of 300 bodies that move, and far off 640 sleepers in ten whole
         // blocks, packed so that each touches its neighbours
-        let mut boxes = vec![aabb(-60.0, -2.0, 60.0, 0.0)];
-        for k in 0..300 {
-            let (x, y) = ((k % 30) as f32 * 1.1 - 16.0, (k / 30) as f32 * 1.1);
-            let s = 0.3 + rnd() * 0.9;
-            boxes.push(aabb(x, y, x + s, y + s));
-        }
+        let mut boxes = ground_and_heap(&mut rnd, 300, 30, 0.3);
         let far = boxes.len().next_multiple_of(AWAKE_BLOCK);
         while boxes.len() < far {
             let x = boxes.len() as f32 * 2.0;

@@ -217,9 +217,9 @@ impl Sleep {
     /// `pushed`. A sleeper's box is found once and kept with it until it wakes; the
     /// `rest` blocks' entries are kept as they are (their bounds found once). Returns
     /// whether some body moves (a mover), and whether a mover's box may reach a
-    /// sleeper: some sleeper lies outside the rest blocks, or a rest block's bounds meet
-    /// the box holding every mover's box (else no grid need look, and sleepers far from
-    /// every mover cost nothing).
+    /// sleeper: the bounds of some block's sleepers (a rest block's, or those of the
+    /// sleepers in a block that does not rest) meet the box holding every mover's box
+    /// (else no grid need look, and sleepers far from every mover cost nothing).
     fn find_boxes(
         bodies: &mut [Body],
         collider: &mut Collider,
