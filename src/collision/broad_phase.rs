@@ -1385,6 +1385,24 @@ mod tests {
         boxes
     }
 
+    /// One step of the kept pairs against pairs found afresh: the same list, not
+    /// empty, under a filter that changes every 50 steps.
+    fn kept_against_fresh(
+        kept: &mut BroadPhase,
+        fresh: &mut BroadPhase,
+        boxes: &[Aabb],
+        moves: &[bool],
+        may_move: &[bool],
+        step: u32,
+    ) {
+        let phase = step / 50;
+        let can = |a: u32, b: u32| !(a + b + phase).is_multiple_of(7);
+        kept.find_pairs_kept(boxes, moves, |i| may_move[i], can);
+        fresh.find_pairs(boxes, moves, can);
+        assert!(!fresh.pairs.is_empty());
+        assert_eq!(kept.pairs, fresh.pairs, "step {step}");
+    }
+
     #[test]
     fn kept_pairs_are_the_pairs_found_afresh_every_step() {
         let mut rnd = unit(lcg(777));
@@ -1415,12 +1433,7 @@ mod tests {
                 may_move[i] = !may_move[i];
                 moves[i] = may_move[i];
             }
-            let phase = step / 50;
-            let can = |a: u32, b: u32| !(a + b + phase).is_multiple_of(7);
-            kept.find_pairs_kept(&boxes, &moves, |i| may_move[i], can);
-            fresh.find_pairs(&boxes, &moves, can);
-            assert!(!fresh.pairs.is_empty());
-            assert_eq!(kept.pairs, fresh.pairs, "step {step}");
+            kept_against_fresh(&mut kept, &mut fresh, &boxes, &moves, &may_move, step);
         }
         // the kept pairs were used (most steps move nothing out of its fattened box) and
         // renewed, body by body (the drift, the jumps and the changes of who may move
@@ -1474,12 +1487,7 @@ mod tests {
                 moves[i] = !moves[i];
                 woken.push(i);
             }
-            let phase = step / 50;
-            let can = |a: u32, b: u32| !(a + b + phase).is_multiple_of(7);
-            kept.find_pairs_kept(&boxes, &moves, |i| moves[i], can);
-            fresh.find_pairs(&boxes, &moves, can);
-            assert!(!fresh.pairs.is_empty());
-            assert_eq!(kept.pairs, fresh.pairs, "step {step}");
+            kept_against_fresh(&mut kept, &mut fresh, &boxes, &moves, &moves, step);
             // a pair of two bodies kept as still ones is never kept
             assert!(
                 kept.kept_pairs()
