@@ -1573,16 +1573,7 @@ mod tests {
         let mut bp = BroadPhase::default();
         let step = |bp: &mut BroadPhase, filters: &[Filter]| {
             let left = left_of(bp, &boxes, &moves, filters);
-            let of = |i: usize| filters[i];
-            bp.find_pairs_kept_checked(
-                &boxes,
-                &moves,
-                as_left(&left),
-                |_| true,
-                Some(&of),
-                |a, b| filters[a as usize].collides(&filters[b as usize]),
-                None,
-            );
+            step_filtered(bp, &boxes, &moves, &left, filters, None);
         };
         step(&mut bp, &filters);
         assert!(bp.pairs.is_empty());
@@ -1624,6 +1615,28 @@ mod tests {
                 .map(|i| i as u32)
                 .collect()
         })
+    }
+
+    /// One step of `bp`'s kept pairs under `filters`, the bodies that left as `left`
+    /// lists them, with `moves` as whether each may move.
+    fn step_filtered(
+        bp: &mut BroadPhase,
+        boxes: &[Aabb],
+        moves: &[bool],
+        left: &Option<Vec<u32>>,
+        filters: &[Filter],
+        pool: Option<&Pool>,
+    ) {
+        let of = |i: usize| filters[i];
+        bp.find_pairs_kept_checked(
+            boxes,
+            moves,
+            as_left(left),
+            |i| moves[i],
+            Some(&of),
+            |a, b| filters[a as usize].collides(&filters[b as usize]),
+            pool,
+        );
     }
 
     fn as_left(listed: &Option<Vec<u32>>) -> Left<'_> {
@@ -1866,26 +1879,9 @@ mod tests {
             let these = left_of(&listed, &boxes, &moves, &filters);
             let count = these.as_ref().map_or(0, Vec::len);
             some_steps += usize::from(count > ONE_BY_ONE && count <= n / SOME_SHARE);
-            let of = |i: usize| filters[i];
             let can = |a: u32, b: u32| filters[a as usize].collides(&filters[b as usize]);
-            kept.find_pairs_kept_checked(
-                &boxes,
-                &moves,
-                as_left(&left),
-                |i| moves[i],
-                Some(&of),
-                can,
-                None,
-            );
-            listed.find_pairs_kept_checked(
-                &boxes,
-                &moves,
-                as_left(&these),
-                |i| moves[i],
-                Some(&of),
-                can,
-                Some(&pool),
-            );
+            step_filtered(&mut kept, &boxes, &moves, &left, &filters, None);
+            step_filtered(&mut listed, &boxes, &moves, &these, &filters, Some(&pool));
             fresh.find_pairs(&boxes, &moves, can);
             assert_eq!(kept.pairs, fresh.pairs, "step {step}");
             assert_eq!(listed.pairs, fresh.pairs, "step {step}");
@@ -1928,17 +1924,8 @@ mod tests {
                 filters[1 + rnd() % (n - 1)] = three_filters(rnd());
             }
             let left = left_of(&kept, &boxes, &moves, &filters);
-            let of = |i: usize| filters[i];
             let can = |a: u32, b: u32| filters[a as usize].collides(&filters[b as usize]);
-            kept.find_pairs_kept_checked(
-                &boxes,
-                &moves,
-                as_left(&left),
-                |i| moves[i],
-                Some(&of),
-                can,
-                None,
-            );
+            step_filtered(&mut kept, &boxes, &moves, &left, &filters, None);
             fresh.find_pairs(&boxes, &moves, can);
             assert!(!fresh.pairs.is_empty());
             assert_eq!(kept.pairs, fresh.pairs, "step {step}");
