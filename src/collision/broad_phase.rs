@@ -8,7 +8,7 @@
 
 use crate::defs::Filter;
 use crate::math::{AWAKE_BLOCK, Aabb, Vec2, gallop};
-use crate::parallel::{self, BlockScratch, Pool};
+use crate::parallel::{self, BlockScratch, Disjoint, Pool};
 use std::ops::Range;
 
 /// A candidate pair of body indices, a < b.
@@ -28,6 +28,9 @@ pub struct BroadPhase {
     cell_bodies: Vec<u32>,
     /// Counting sort of the pairs by their first body.
     pair_start: Vec<u32>,
+    /// Where the threads share that sort: per thread, its run's count of each first
+    /// body, then where the run's pairs of each go.
+    pair_counts: Vec<u32>,
     pairs_tmp: Vec<Pair>,
     large: Vec<u32>,
     /// Per body: its index in `large`, or u32::MAX (scratch).
@@ -71,6 +74,9 @@ pub struct BroadPhase {
     redo: Vec<bool>,
     /// A few bodies that look for pairs (scratch).
     few: Vec<u32>,
+    /// The pairs each block of cells found, where the threads share the grid's cells
+    /// (scratch of [`BroadPhase::pairs_dense`]).
+    cell_outs: BlockScratch<Pair>,
     /// The grid of [`pairs_of_some`] (scratch).
     some_grid: SomeGrid,
     /// Rebuilds of the kept pairs so far.
@@ -173,9 +179,9 @@ impl BroadPhase {
         &mut self,
         aabbs: &[Aabb],
         moves: &[bool],
-        can_collide: impl Fn(u32, u32) -> bool,
+        can_collide: impl Fn(u32, u32) -> bool + Sync,
     ) {
-        self.find_pairs_sized(aabbs, moves, moves, &[], can_collide);
+        self.find_pairs_sized(aabbs, moves, moves, &[], can_collide, None);
     }
 
     /// [`BroadPhase::find_pairs`] with the grid's cells sized by the boxes `sized` marks
@@ -188,13 +194,17 @@ impl BroadPhase {
     /// `bounds`. While a few bodies move (each then tested against every box), a block
     /// whose bounds a mover's box misses is passed over whole: a world of sleeping
     /// blocks pays for one box a block, not one a body.
+    ///
+    /// With a pool, the threads share the grid's cells; the pairs are the same, in the
+    /// same order.
     pub fn find_pairs_sized(
         &mut self,
         aabbs: &[Aabb],
         moves: &[bool],
         sized: &[bool],
         blocks: &[Option<Aabb>],
-        can_collide: impl Fn(u32, u32) -> bool,
+        can_collide: impl Fn(u32, u32) -> bool + Sync,
+        pool: Option<&Pool>,
     ) {
         let mut pairs = std::mem::take(&mut self.pairs);
         pairs.clear();
@@ -217,14 +227,14 @@ impl BroadPhase {
             // a few movers: each against every box, no grid
             pairs_of_few(aabbs, &few, moves, blocks, &can_collide, &mut pairs);
         } else {
-            self.each_pair(aabbs, moves, sized, blocks, &can_collide, &mut |p| {
+            self.each_pair(aabbs, moves, sized, blocks, &can_collide, pool, &mut |p| {
                 pairs.push(p);
                 true
             });
         }
         self.few = few;
         self.pairs = pairs;
-        self.sort_pairs(aabbs.len());
+        self.sort_pairs(aabbs.len(), pool);
         self.pairs.dedup();
     }
 
@@ -235,12 +245,12 @@ impl BroadPhase {
     pub fn count_pairs(
         aabbs: &[Aabb],
         moves: &[bool],
-        can_collide: impl Fn(u32, u32) -> bool,
+        can_collide: impl Fn(u32, u32) -> bool + Sync,
         limit: u64,
     ) -> Result<u64, Pair> {
         let mut count = 0u64;
         let mut over = None;
-        BroadPhase::default().each_pair(aabbs, moves, moves, &[], &can_collide, &mut |p| {
+        BroadPhase::default().each_pair(aabbs, moves, moves, &[], &can_collide, None, &mut |p| {
             count += 1;
             if count > limit {
                 over = Some(p);
@@ -259,13 +269,15 @@ impl BroadPhase {
     /// [`BroadPhase::find_pairs_sized`]: a block with bounds that miss the bounds of
     /// every block's movers stays out of the grid (none of its boxes meets a mover's), so
     /// a world of sleeping blocks far from its few thousand movers pays for theirs.
+    #[allow(clippy::too_many_arguments)]
     fn each_pair<E: FnMut(Pair) -> bool>(
         &mut self,
         aabbs: &[Aabb],
         moves: &[bool],
         sized: &[bool],
         blocks: &[Option<Aabb>],
-        can_collide: &impl Fn(u32, u32) -> bool,
+        can_collide: &(impl Fn(u32, u32) -> bool + Sync),
+        pool: Option<&Pool>,
         emit: &mut E,
     ) {
         self.entries.clear();
@@ -304,7 +316,16 @@ impl BroadPhase {
             }));
             self.mover_bounds = movers;
         }
-        self.grid_pairs(aabbs, moves, sized, blocks, &left_out, can_collide, emit);
+        self.grid_pairs(
+            aabbs,
+            moves,
+            sized,
+            blocks,
+            &left_out,
+            can_collide,
+            pool,
+            emit,
+        );
         self.left_out = left_out;
     }
 
@@ -318,7 +339,8 @@ impl BroadPhase {
         sized: &[bool],
         blocks: &[Option<Aabb>],
         left_out: &[bool],
-        can_collide: &impl Fn(u32, u32) -> bool,
+        can_collide: &(impl Fn(u32, u32) -> bool + Sync),
+        pool: Option<&Pool>,
         emit: &mut E,
     ) {
         let out = |k: usize| left_out.get(k).copied().unwrap_or(false);
@@ -388,6 +410,7 @@ impl BroadPhase {
                 [gx0, gy0],
                 w as usize,
                 h as usize,
+                pool,
                 emit,
             )
         } else {
@@ -578,9 +601,9 @@ impl BroadPhase {
                     }
                     debug_assert!((0..aabbs.len()).all(|i| filters[i] == f(i)));
                     if any_pair_may_touch(&filters) {
-                        self.find_pairs_sized(&fat, &fat_moves, &fat_moves, &still, |a, b| {
-                            filters[a as usize].collides(&filters[b as usize])
-                        });
+                        let can =
+                            |a: u32, b: u32| filters[a as usize].collides(&filters[b as usize]);
+                        self.find_pairs_sized(&fat, &fat_moves, &fat_moves, &still, can, pool);
                     } else {
                         // no two of the filters let their bodies touch (a grid whose
                         // bodies share a negative group): there is no pair to find
@@ -590,7 +613,7 @@ impl BroadPhase {
                 }
                 None => {
                     filters.clear();
-                    self.find_pairs_sized(&fat, &fat_moves, &fat_moves, &still, |_, _| true);
+                    self.find_pairs_sized(&fat, &fat_moves, &fat_moves, &still, |_, _| true, pool);
                 }
             }
             self.still_bounds = still;
@@ -761,9 +784,15 @@ impl BroadPhase {
     /// Sorts the pairs by (a, b): a counting sort by a, then each (short) run of equal a
     /// by insertion. The same order as `sort_unstable`, in linear time; a few pairs
     /// among many bodies (waking) by `sort_unstable` itself, which visits no body.
-    fn sort_pairs(&mut self, bodies: usize) {
+    fn sort_pairs(&mut self, bodies: usize, pool: Option<&Pool>) {
         if self.pairs.len() * 16 < bodies {
             self.pairs.sort_unstable();
+            return;
+        }
+        let threads = pool.map_or(1, Pool::threads);
+        if let Some(pool) = pool.filter(|_| threads > 1 && self.pairs.len() >= PARALLEL_SORT_PAIRS)
+        {
+            self.sort_pairs_shared(bodies, pool);
             return;
         }
         let start = &mut self.pair_start;
@@ -786,34 +815,107 @@ impl BroadPhase {
         std::mem::swap(&mut self.pairs, &mut self.pairs_tmp);
         let mut lo = 0;
         for &hi in &start[..bodies] {
-            let run = &mut self.pairs[lo..hi as usize];
-            for i in 1..run.len() {
-                let x = run[i];
-                let mut j = i;
-                while j > 0 && run[j - 1] > x {
-                    run[j] = run[j - 1];
-                    j -= 1;
-                }
-                run[j] = x;
-            }
+            insertion_sort(&mut self.pairs[lo..hi as usize]);
             lo = hi as usize;
         }
+    }
+
+    /// [`BroadPhase::sort_pairs`] with the threads sharing it: each counts its run of
+    /// the pairs by first body, the counts are summed to where each run's pairs of each
+    /// first body go (run after run, so the sort stays stable), each places its run, and
+    /// each sorts the runs of equal first body in its share of the bodies. The same
+    /// order as the one thread's sort.
+    fn sort_pairs_shared(&mut self, bodies: usize, pool: &Pool) {
+        let (threads, n) = (pool.threads(), self.pairs.len());
+        let stride = bodies + 1;
+        let counts = &mut self.pair_counts;
+        counts.clear();
+        counts.resize(threads * stride, 0);
+        let pairs = &self.pairs[..];
+        parallel::chunks_mut(Some(pool), counts, stride, &|_, at, counts| {
+            for &(a, _) in &pairs[parallel::split(n, threads, at / stride)] {
+                counts[a as usize] += 1;
+            }
+            0.0
+        });
+        // each run's first slot for each first body; `pair_start`, where each first
+        // body's pairs start
+        let start = &mut self.pair_start;
+        start.clear();
+        start.resize(stride, 0);
+        let mut at = 0u32;
+        for (a, first) in start[..bodies].iter_mut().enumerate() {
+            *first = at;
+            for k in 0..threads {
+                let c = &mut counts[k * stride + a];
+                (*c, at) = (at, at + *c);
+            }
+        }
+        start[bodies] = at;
+        self.pairs_tmp.clear();
+        self.pairs_tmp.resize(n, (0, 0));
+        let placed = Disjoint::new(&mut self.pairs_tmp);
+        parallel::chunks_mut(Some(pool), counts, stride, &|_, at, next| {
+            for &p in &pairs[parallel::split(n, threads, at / stride)] {
+                let slot = &mut next[p.0 as usize];
+                // SAFETY: each run's slots for each first body are its own (the sums
+                // above), and each slot is taken once
+                unsafe { placed.set(*slot as usize, p) };
+                *slot += 1;
+            }
+            0.0
+        });
+        // the runs of equal first body, each thread's share of the bodies holding about
+        // as many pairs
+        let start = &self.pair_start[..];
+        let share = |k: usize| start.partition_point(|&s| (s as usize) < n * k / threads);
+        parallel::blocks_max(pool, threads, &|_, k| {
+            let (lo, hi) = (share(k), share(k + 1).min(bodies));
+            if lo >= hi {
+                return 0.0;
+            }
+            let base = start[lo] as usize;
+            // SAFETY: the shares' first bodies, and so their pairs, do not overlap
+            let mine = unsafe { placed.range(base..start[hi] as usize) };
+            for a in lo..hi {
+                let run = &mut mine[start[a] as usize - base..start[a + 1] as usize - base];
+                insertion_sort(run);
+            }
+            0.0
+        });
+        std::mem::swap(&mut self.pairs, &mut self.pairs_tmp);
+    }
+}
+
+/// Sorts a short run of pairs in place by insertion.
+fn insertion_sort(run: &mut [Pair]) {
+    for i in 1..run.len() {
+        let x = run[i];
+        let mut j = i;
+        while j > 0 && run[j - 1] > x {
+            run[j] = run[j - 1];
+            j -= 1;
+        }
+        run[j] = x;
     }
 }
 
 impl BroadPhase {
     /// The cells of a bounded grid (w x h cells from `origin`) hold the bodies, placed by
-    /// a counting sort: within a cell in body order, cells in row order.
+    /// a counting sort: within a cell in body order, cells in row order. The pairs are
+    /// emitted cell by cell; with a pool, the threads test runs of the cells, each into
+    /// its own list, and the lists are emitted in the cells' order (the same pairs in
+    /// the same order). Returns false when `emit` asked to stop.
     #[allow(clippy::too_many_arguments)]
-    /// Returns false when `emit` asked to stop.
     fn pairs_dense<E: FnMut(Pair) -> bool>(
         &mut self,
         aabbs: &[Aabb],
         moves: &[bool],
-        can_collide: &impl Fn(u32, u32) -> bool,
+        can_collide: &(impl Fn(u32, u32) -> bool + Sync),
         origin: [i64; 2],
         w: usize,
         h: usize,
+        pool: Option<&Pool>,
         emit: &mut E,
     ) -> bool {
         let cell_of = |ix: i64, iy: i64| (iy - origin[1]) as usize * w + (ix - origin[0]) as usize;
@@ -844,32 +946,65 @@ impl BroadPhase {
                 }
             }
         }
-        for c in 0..w * h {
-            let (start, end) = (self.cell_start[c] as usize, self.cell_start[c + 1] as usize);
-            if end - start < 2 {
-                continue;
-            }
-            let (cx, cy) = ((c % w) as i64 + origin[0], (c / w) as i64 + origin[1]);
-            let here = &self.cell_bodies[start..end];
-            for (k, &a) in here.iter().enumerate() {
-                let ba = &aabbs[a as usize];
-                for &b in &here[k + 1..] {
-                    let bb = &aabbs[b as usize];
-                    if !(moves[a as usize] || moves[b as usize]) || !ba.overlaps(bb) {
-                        continue;
-                    }
-                    // report only from the cell holding the overlap's lower-left corner,
-                    // max(a.min, b.min): the cell is monotone in the point, so the
-                    // corner's cell is the larger of the two bodies' lowest cells
-                    let (la, lb) = (self.lowest[a as usize], self.lowest[b as usize]);
-                    if (la[0].max(lb[0]), la[1].max(lb[1])) != (cx, cy) {
-                        continue;
-                    }
-                    // a < b: bodies lie in a cell in increasing order
-                    if can_collide(a, b) && !emit((a, b)) {
-                        return false;
+        let (cell_start, cell_bodies, lowest) = (&self.cell_start, &self.cell_bodies, &self.lowest);
+        // the pairs of the cells `cells`, each emitted
+        let scan = |cells: Range<usize>, emit: &mut dyn FnMut(Pair) -> bool| {
+            for c in cells {
+                let (start, end) = (cell_start[c] as usize, cell_start[c + 1] as usize);
+                if end - start < 2 {
+                    continue;
+                }
+                let (cx, cy) = ((c % w) as i64 + origin[0], (c / w) as i64 + origin[1]);
+                let here = &cell_bodies[start..end];
+                for (k, &a) in here.iter().enumerate() {
+                    let ba = &aabbs[a as usize];
+                    for &b in &here[k + 1..] {
+                        let bb = &aabbs[b as usize];
+                        if !(moves[a as usize] || moves[b as usize]) || !ba.overlaps(bb) {
+                            continue;
+                        }
+                        // report only from the cell holding the overlap's lower-left
+                        // corner, max(a.min, b.min): the cell is monotone in the point,
+                        // so the corner's cell is the larger of the two bodies' lowest
+                        let (la, lb) = (lowest[a as usize], lowest[b as usize]);
+                        if (la[0].max(lb[0]), la[1].max(lb[1])) != (cx, cy) {
+                            continue;
+                        }
+                        // a < b: bodies lie in a cell in increasing order
+                        if can_collide(a, b) && !emit((a, b)) {
+                            return false;
+                        }
                     }
                 }
+            }
+            true
+        };
+        let threads = pool.map_or(1, Pool::threads);
+        let (cells, total) = (w * h, cell_bodies.len());
+        let Some(pool) = pool.filter(|_| threads > 1 && total >= PARALLEL_CELL_ENTRIES) else {
+            return scan(0..cells, emit);
+        };
+        // runs of cells of about equal entries, a few per thread (a crowded run costs
+        // more than its entries say, and the other threads take what is left)
+        let runs = RUNS_PER_THREAD * threads;
+        let run = |k: usize| {
+            let at = |k: usize| cell_start.partition_point(|&s| (s as usize) < total * k / runs);
+            at(k).min(cells)..at(k + 1).min(cells)
+        };
+        let outs = self.cell_outs.first(runs, 0);
+        parallel::blocks_max(pool, runs, &|_, k| {
+            let mut found = outs[k].lock().unwrap_or_else(|e| e.into_inner());
+            found.clear();
+            scan(run(k), &mut |p| {
+                found.push(p);
+                true
+            });
+            0.0
+        });
+        for found in outs.iter_mut() {
+            let found = found.get_mut().unwrap_or_else(|e| e.into_inner());
+            if !found.iter().all(|&p| emit(p)) {
+                return false;
             }
         }
         true
@@ -1033,6 +1168,17 @@ struct SomeGrid {
     /// The pairs each block of the threads' pass over the boxes found.
     outs: BlockScratch<Pair>,
 }
+
+/// Entries of the grid's cells (a body in each cell it covers) from which the threads
+/// share the cells' pair tests (about 1,000 bodies: below it, the pass costs less than
+/// sharing it).
+const PARALLEL_CELL_ENTRIES: usize = 4096;
+
+/// Pairs from which the threads share their sort.
+const PARALLEL_SORT_PAIRS: usize = 8192;
+
+/// Runs of the grid's cells a thread tests, on average, where the threads share them.
+const RUNS_PER_THREAD: usize = 4;
 
 /// Awake blocks of bodies a thread takes at a time in [`pairs_of_some`]'s pass over
 /// the boxes (512 bodies).
@@ -1688,6 +1834,43 @@ mod tests {
     }
 
     #[test]
+    fn threads_sharing_the_grid_and_the_sort_find_the_pairs_of_a_brute_force_scan() {
+        // enough boxes, crowded enough, for the threads to share the cells' tests and
+        // the pairs' sort; every third box still, some pairs refused
+        let boxes = scatter(777, 3000);
+        let n = boxes.len();
+        let moves: Vec<bool> = (0..n).map(|i| !i.is_multiple_of(3)).collect();
+        let can = |a: u32, b: u32| !(a + 3 * b).is_multiple_of(7);
+        let mut brute = Vec::new();
+        for a in 0..n {
+            for b in a + 1..n {
+                if (moves[a] || moves[b]) && boxes[a].overlaps(&boxes[b]) && can(a as u32, b as u32)
+                {
+                    brute.push((a as u32, b as u32));
+                }
+            }
+        }
+        let mut one = BroadPhase::default();
+        one.find_pairs_sized(&boxes, &moves, &moves, &[], can, None);
+        assert_eq!(one.pairs, brute, "one thread");
+        assert!(
+            one.pairs.len() >= PARALLEL_SORT_PAIRS,
+            "{} pairs",
+            one.pairs.len()
+        );
+        assert!(one.cell_bodies.len() >= PARALLEL_CELL_ENTRIES);
+        for threads in [2, 3] {
+            let pool = Pool::new(threads);
+            let mut shared = BroadPhase::default();
+            // twice: the second time on the buffers the first left
+            for _ in 0..2 {
+                shared.find_pairs_sized(&boxes, &moves, &moves, &[], can, Some(&pool));
+                assert_eq!(shared.pairs, brute, "{threads} threads");
+            }
+        }
+    }
+
+    #[test]
     fn a_few_movers_find_the_pairs_of_a_brute_force_scan() {
         let boxes = scatter(4242, 400);
         let n = boxes.len();
@@ -1746,7 +1929,7 @@ mod tests {
         let mut plain = BroadPhase::default();
         plain.find_pairs(&boxes, &moves, can);
         let mut bounded = BroadPhase::default();
-        bounded.find_pairs_sized(&boxes, &moves, &moves, &bounds, can);
+        bounded.find_pairs_sized(&boxes, &moves, &moves, &bounds, can, None);
         let mut brute = Vec::new();
         for a in 0..n {
             for c in a + 1..n {

@@ -164,12 +164,17 @@ impl Sleep {
                 let (aabbs, look, sized) = (&collider.aabbs, &collider.dynamic, &self.wake_sized);
                 // (a rest block's bounds: its sleepers no mover's box reaches go by whole)
                 let bounds = self.rest.bounds();
-                collider
-                    .broad
-                    .find_pairs_sized(aabbs, look, sized, bounds, |a, b| {
+                collider.broad.find_pairs_sized(
+                    aabbs,
+                    look,
+                    sized,
+                    bounds,
+                    |a, b| {
                         let (ba, bb) = (&bs[a as usize], &bs[b as usize]);
                         (ba.asleep && bb.is_mover()) || (bb.asleep && ba.is_mover())
-                    });
+                    },
+                    None,
+                );
                 for &(a, b) in &collider.broad.pairs {
                     for i in [a, b] {
                         let body = &bodies[i as usize];
