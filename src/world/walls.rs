@@ -4,8 +4,9 @@
 
 use super::World;
 use crate::body::Body;
-use crate::math::{AWAKE_BLOCK, Aabb, Vec2};
-use crate::shape::Shape;
+use crate::math::{AWAKE_BLOCK, Aabb, BODY_PASS_BLOCK, Transform, Vec2};
+use crate::parallel;
+use crate::shape::{ChainSegment, Shape};
 
 impl World {
     /// A one-sided segment holds what meets it from the front however fast it comes: a
@@ -16,35 +17,29 @@ impl World {
     /// bodies at 100 m/s) sinks in a little each step until its centre slips behind the
     /// wall and it is gone; Box2D's continuous step stops such a centre too.
     pub(super) fn keep_in_front(&mut self) {
-        let n = self.bodies.len();
-        for (k, from) in (0..n).step_by(AWAKE_BLOCK).enumerate() {
-            // (a rest block's bodies all sleep: none of them moved)
-            if self.sleep.rest.is_rest(k) {
-                continue;
-            }
-            for body in from..(from + AWAKE_BLOCK).min(n) {
-                self.keep_body_in_front(body);
-            }
-        }
-    }
-
-    /// [`World::keep_in_front`] for one body.
-    fn keep_body_in_front(&mut self, body: usize) {
-        let b = &self.bodies[body];
-        let start = self.step_start[body];
-        if !b.is_dynamic() || b.asleep || b.position == start {
-            return;
-        }
-        // A centre put back onto one wall's line past that wall's end lies behind
-        // the next wall (at a vertex of a loop seen from inside); the path from the
-        // start to the corrected place then crosses the next wall, which the next
-        // pass finds. Two passes settle a centre near a vertex; a path metres past
-        // the wall (10,000 g in a test) takes a few more.
-        for _ in 0..8 {
-            if !push_in_front(&mut self.bodies, &self.walls, body, start) {
-                break;
-            }
-        }
+        // (the walls are static: their places are read once, before the threads share
+        // the bodies, each body on its own)
+        self.walls.place(&self.bodies);
+        let pool = self.pool();
+        let (walls, rest, start) = (&self.walls, &self.sleep.rest, &self.step_start);
+        parallel::chunks_mut(
+            pool.as_deref(),
+            &mut self.bodies,
+            BODY_PASS_BLOCK,
+            &|_, offset, bodies| {
+                for (k, from) in (0..bodies.len()).step_by(AWAKE_BLOCK).enumerate() {
+                    // (a rest block's bodies all sleep: none of them moved)
+                    if rest.is_rest(offset / AWAKE_BLOCK + k) {
+                        continue;
+                    }
+                    let to = (from + AWAKE_BLOCK).min(bodies.len());
+                    for (b, &start) in bodies[from..to].iter_mut().zip(&start[offset + from..]) {
+                        keep_body_in_front(walls, b, start);
+                    }
+                }
+                0.0
+            },
+        );
     }
 
     /// Whether a static body is a one-sided segment (worked out again, with the grid of
@@ -59,13 +54,31 @@ impl World {
     }
 }
 
-/// One pass of [`World::keep_in_front`] for `body`, whose centre was at `start` when
+/// [`World::keep_in_front`] for one body, `b`, whose centre was at `start` when the
+/// step began.
+fn keep_body_in_front(walls: &WallGrid, b: &mut Body, start: Vec2) {
+    if !b.is_dynamic() || b.asleep || b.position == start {
+        return;
+    }
+    // A centre put back onto one wall's line past that wall's end lies behind the next
+    // wall (at a vertex of a loop seen from inside); the path from the start to the
+    // corrected place then crosses the next wall, which the next pass finds. Two passes
+    // settle a centre near a vertex; a path metres past the wall (10,000 g in a test)
+    // takes a few more.
+    for _ in 0..8 {
+        if !push_in_front(walls, b, start) {
+            break;
+        }
+    }
+}
+
+/// One pass of [`World::keep_in_front`] for body `b`, whose centre was at `start` when
 /// the step began: each static one-sided segment whose line the path from `start` to
 /// the body's centre crosses from the front, within the segment, puts the centre back a
 /// tenth of a millimetre in front of its line and takes away its speed into it.
 /// Whether it moved the body.
-fn push_in_front(bodies: &mut [Body], walls: &WallGrid, body: usize, start: Vec2) -> bool {
-    let position = bodies[body].position;
+fn push_in_front(walls: &WallGrid, b: &mut Body, start: Vec2) -> bool {
+    let position = b.position;
     let (c0, c1) = (
         walls.cell(start.min(position)),
         walls.cell(start.max(position)),
@@ -81,7 +94,7 @@ fn push_in_front(bodies: &mut [Body], walls: &WallGrid, body: usize, start: Vec2
     for cx in c0.0..=c1.0 {
         for cy in c0.1..=c1.1 {
             let list = if cells > 64 {
-                &walls.all
+                &walls.every
             } else {
                 match walls.cells.get(&(cx, cy)) {
                     Some(list) => list,
@@ -89,12 +102,11 @@ fn push_in_front(bodies: &mut [Body], walls: &WallGrid, body: usize, start: Vec2
                 }
             };
             for &wall in list {
-                let wall = wall as usize;
-                let Shape::Chain(seg) = bodies[wall].shape else {
+                // (a wall's body that is no longer a segment: nothing to cross)
+                let Some((seg, xf)) = &walls.placed[wall as usize] else {
                     continue;
                 };
-                let xf = bodies[wall].transform();
-                let end = xf.inv_apply(bodies[body].position);
+                let end = xf.inv_apply(b.position);
                 let from = xf.inv_apply(start);
                 let left = seg.left_normal();
                 let (before, after) = (left.dot(from - seg.a), left.dot(end - seg.a));
@@ -109,13 +121,12 @@ fn push_in_front(bodies: &mut [Body], walls: &WallGrid, body: usize, start: Vec2
                     continue;
                 }
                 let normal = xf.q.rotate(left);
-                let moved = &mut bodies[body];
                 // a tenth of a millimetre in front: on the line, rounding could leave
                 // it behind
-                moved.position += normal * (1.0e-4 - after);
-                let into = moved.velocity.dot(normal);
+                b.position += normal * (1.0e-4 - after);
+                let into = b.velocity.dot(normal);
                 if into < 0.0 {
-                    moved.velocity -= normal * into;
+                    b.velocity -= normal * into;
                 }
                 pushed = true;
             }
@@ -130,9 +141,15 @@ fn push_in_front(bodies: &mut [Body], walls: &WallGrid, body: usize, start: Vec2
 pub(super) struct WallGrid {
     /// The cells' side (m): twice the longest segment's box, at least 1 m.
     side: f32,
+    /// Per cell, the walls in it (indices into `bodies` and `placed`).
     cells: std::collections::HashMap<(i32, i32), Vec<u32>>,
-    /// Every one of them.
-    all: Vec<u32>,
+    /// Every wall's body.
+    bodies: Vec<u32>,
+    /// 0, 1, 2...: every wall, for a path over many cells.
+    every: Vec<u32>,
+    /// Each wall's segment and its body's transform, if the body is still a segment
+    /// ([`WallGrid::place`]).
+    placed: Vec<Option<(ChainSegment, Transform)>>,
 }
 
 impl WallGrid {
@@ -150,17 +167,31 @@ impl WallGrid {
         let mut grid = WallGrid {
             side: (2.0 * longest).max(1.0),
             cells: Default::default(),
-            all: walls.iter().map(|&(i, _)| i as u32).collect(),
+            bodies: walls.iter().map(|&(i, _)| i as u32).collect(),
+            every: (0..walls.len() as u32).collect(),
+            placed: Vec::with_capacity(walls.len()),
         };
-        for (i, bb) in walls {
+        for (k, (_, bb)) in walls.into_iter().enumerate() {
             let (c0, c1) = (grid.cell(bb.min), grid.cell(bb.max));
             for cx in c0.0..=c1.0 {
                 for cy in c0.1..=c1.1 {
-                    grid.cells.entry((cx, cy)).or_default().push(i as u32);
+                    grid.cells.entry((cx, cy)).or_default().push(k as u32);
                 }
             }
         }
         grid
+    }
+
+    /// Reads each wall's segment and place from its body.
+    fn place(&mut self, bodies: &[Body]) {
+        self.placed.clear();
+        self.placed.extend(self.bodies.iter().map(|&i| {
+            let b = &bodies[i as usize];
+            match b.shape {
+                Shape::Chain(seg) => Some((seg, b.transform())),
+                _ => None,
+            }
+        }));
     }
 
     fn cell(&self, p: Vec2) -> (i32, i32) {
