@@ -135,32 +135,47 @@ impl SoftSolver {
                     && c.manifold.points().iter().any(|p| p.separation < below))
         };
         let nb = self.moves.len();
-        self.parent.clear();
-        self.parent.extend(0..nb as u32);
-        for c in contacts {
-            if self.moves[c.a as usize] && self.moves[c.b as usize] {
-                uf_union(&mut self.parent, c.a, c.b);
-            }
-        }
-        // per island root: points, and whether some contact is lopsided
+        let parent = &mut self.parent;
+        parent.clear();
+        parent.extend(0..nb as u32);
+        // per island root: points, and whether some contact is a candidate, kept at the
+        // root as the islands join (one pass over the contacts)
         let (points, flagged) = (&mut self.root_points, &mut self.root_flagged);
         points.clear();
         points.resize(nb, 0);
         flagged.clear();
         flagged.resize(nb, false);
-        self.roots.clear();
         for c in contacts {
-            let body = if self.moves[c.a as usize] { c.a } else { c.b };
-            let r = uf_root(&mut self.parent, body);
+            let (a, b) = (c.a, c.b);
+            let (ma, mb) = (moves[a as usize], moves[b as usize]);
+            let mut r = uf_root(parent, if ma { a } else { b });
+            if ma && mb {
+                // (joined as `uf_union` joins them: the smaller root stays)
+                let rb = uf_root(parent, b);
+                if r != rb {
+                    let (kept, gone) = (r.min(rb) as usize, r.max(rb) as usize);
+                    parent[gone] = kept as u32;
+                    points[kept] += points[gone];
+                    flagged[kept] |= flagged[gone];
+                    r = kept as u32;
+                }
+            }
             points[r as usize] += c.manifold.count as u32;
             flagged[r as usize] |= candidate(c);
-            self.roots.push(r);
         }
-        self.direct_contact.extend(
-            self.roots
-                .iter()
-                .map(|&r| flagged[r as usize] && points[r as usize] as usize <= direct::MAX_POINTS),
-        );
+        let solved = |r: usize| flagged[r] && points[r] as usize <= direct::MAX_POINTS;
+        // (an island that big has no room: most steps no island is solved exactly, and
+        // the contacts need no second pass)
+        if !(0..nb).any(|i| parent[i] == i as u32 && solved(i)) {
+            return;
+        }
+        self.roots.clear();
+        for c in contacts {
+            let body = if moves[c.a as usize] { c.a } else { c.b };
+            self.roots.push(uf_root(parent, body));
+        }
+        self.direct_contact
+            .extend(self.roots.iter().map(|&r| solved(r as usize)));
     }
 
     /// Builds the exactly solved islands from the filled wide constraints.

@@ -37,9 +37,7 @@ use crate::body::Body;
 use crate::body::HOT_BYTES;
 use crate::defs::{BodyModel, BodyType, SolverSettings};
 use crate::joint::{Joint, MouseJoint};
-use crate::math::{
-    BODY_AHEAD, BODY_PASS_BLOCK, Rot, Vec2, cross, cross_sv, prefetch, uf_root, uf_union,
-};
+use crate::math::{BODY_AHEAD, BODY_PASS_BLOCK, Rot, Vec2, cross, cross_sv, prefetch, uf_root};
 use crate::parallel::{self, Disjoint, MAX_THREADS, Pool, Scratch};
 use glam::Vec4;
 use std::sync::Mutex;
