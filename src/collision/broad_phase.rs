@@ -832,8 +832,13 @@ impl BroadPhase {
         counts.clear();
         counts.resize(threads * stride, 0);
         let pairs = &self.pairs[..];
-        parallel::chunks_mut(Some(pool), counts, stride, &|_, at, counts| {
-            for &(a, _) in &pairs[parallel::split(n, threads, at / stride)] {
+        // run k of the pairs, and its counts (then its next slots), a job's block each
+        let run = |k: usize| &pairs[parallel::split(n, threads, k)];
+        let per_run = Disjoint::new(counts);
+        parallel::blocks_max(pool, threads, &|_, k| {
+            // SAFETY: block k takes only run k's counts
+            let counts = unsafe { per_run.range(k * stride..(k + 1) * stride) };
+            for &(a, _) in run(k) {
                 counts[a as usize] += 1;
             }
             0.0
@@ -855,8 +860,11 @@ impl BroadPhase {
         self.pairs_tmp.clear();
         self.pairs_tmp.resize(n, (0, 0));
         let placed = Disjoint::new(&mut self.pairs_tmp);
-        parallel::chunks_mut(Some(pool), counts, stride, &|_, at, next| {
-            for &p in &pairs[parallel::split(n, threads, at / stride)] {
+        let per_run = Disjoint::new(counts);
+        parallel::blocks_max(pool, threads, &|_, k| {
+            // SAFETY: block k takes only run k's slots
+            let next = unsafe { per_run.range(k * stride..(k + 1) * stride) };
+            for &p in run(k) {
                 let slot = &mut next[p.0 as usize];
                 // SAFETY: each run's slots for each first body are its own (the sums
                 // above), and each slot is taken once
