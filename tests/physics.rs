@@ -2,8 +2,11 @@
 
 #[path = "common/bodies.rs"]
 mod bodies;
+#[path = "common/loops.rs"]
+mod loops;
 use bodies::ByOrder;
 use glam::Vec2;
+use loops::one_sided_loop;
 use sandbox2d::collision::sat;
 use sandbox2d::math::{Rot, Transform};
 use sandbox2d::shape::Shape;
@@ -1205,18 +1208,8 @@ fn a_one_sided_wall_holds_a_disc_pressed_into_it() {
 /// vertex lies behind the next side; it must be put back in front of that one too.
 #[test]
 fn a_closed_one_sided_loop_keeps_discs_racing_round_inside() {
-    let (radius, sides) = (10.0f32, 72);
-    let points: Vec<String> = (0..sides)
-        .map(|k| {
-            let a = std::f32::consts::TAU * k as f32 / sides as f32;
-            format!("[{}, {}]", radius * a.cos(), radius * a.sin())
-        })
-        .collect();
-    let mut text = format!(
-        "name = \"loop\"\n[world]\ngravity = [0.0, 0.0]\n\
-         [[polyline]]\nloop = true\none_sided = true\nfriction = 0.1\npoints = [{}]\n",
-        points.join(", ")
-    );
+    let radius = 10.0f32;
+    let mut text = one_sided_loop("loop", 0.0, radius, 72);
     let speeds = [40.0f32, 55.0, 70.0, 85.0, 100.0];
     for (i, speed) in speeds.iter().enumerate() {
         // each disc starts 0.1 m from the wall at its own angle, moving along it

@@ -1,6 +1,9 @@
 //! Both cores: a step split between threads gives the same bits as one thread, under
 //! every solver, with contacts, joints, restitution and sleeping.
 
+#[path = "common/loops.rs"]
+mod loops;
+use loops::one_sided_loop;
 use sandbox2d::scene::load_str;
 use sandbox2d::{SolverKind, SolverSettings, Threads, World};
 
@@ -144,10 +147,17 @@ fn a_step_of_contacts_alone_is_bit_identical_whatever_the_thread_count() {
         assert!(w.contacts().len() > 2048, "{} contacts", w.contacts().len());
         (hashes, w.parallel_jobs())
     };
+    same_bits_at_two_and_three_threads(60, run);
+}
+
+/// `run(threads)` gives the state hash after each of `steps` steps and the pool's jobs:
+/// at two and three threads, the hashes of one thread, with the pool at work (a job a
+/// step at least).
+fn same_bits_at_two_and_three_threads(steps: u64, run: impl Fn(usize) -> (Vec<u64>, u64)) {
     let (one, _) = run(1);
     for threads in [2, 3] {
         let (many, jobs) = run(threads);
-        assert!(jobs >= 60, "{threads} threads: {jobs} jobs");
+        assert!(jobs >= steps, "{threads} threads: {jobs} jobs");
         assert_eq!(one, many, "{threads} threads");
     }
 }
@@ -200,18 +210,8 @@ fn a_swirl_in_a_one_sided_loop_is_bit_identical_whatever_the_thread_count() {
     // 400 discs spun at up to 60 m/s inside a one-sided loop of 72 sides and pressed
     // outward at 10,000 g: a step carries the outer ones' centres behind the wall, and
     // the pass that puts them back runs over the bodies on every thread
-    let (radius, sides) = (10.0f32, 72);
-    let points: Vec<String> = (0..sides)
-        .map(|k| {
-            let a = std::f32::consts::TAU * k as f32 / sides as f32;
-            format!("[{}, {}]", radius * a.cos(), radius * a.sin())
-        })
-        .collect();
-    let mut text = format!(
-        "name = \"swirl\"\n[world]\ngravity = [0.0, -10.0]\n\
-         [[polyline]]\nloop = true\none_sided = true\nfriction = 0.1\npoints = [{}]\n",
-        points.join(", ")
-    );
+    let radius = 10.0f32;
+    let mut text = one_sided_loop("swirl", -10.0, radius, 72);
     let spin = 60.0 / (radius - 0.5);
     for i in 0..20 {
         for j in 0..20 {
@@ -255,10 +255,5 @@ fn a_swirl_in_a_one_sided_loop_is_bit_identical_whatever_the_thread_count() {
         assert_eq!(outside, 0, "{threads} threads: discs left the loop");
         (hashes, w.parallel_jobs())
     };
-    let (one, _) = run(1);
-    for threads in [2, 3] {
-        let (many, jobs) = run(threads);
-        assert!(jobs >= 60, "{threads} threads: {jobs} jobs");
-        assert_eq!(one, many, "{threads} threads");
-    }
+    same_bits_at_two_and_three_threads(60, run);
 }

@@ -164,8 +164,8 @@ impl SoftSolver {
             flagged[r as usize] |= candidate(c);
         }
         let solved = |r: usize| flagged[r] && points[r] as usize <= direct::MAX_POINTS;
-        // (an island that big has no room: most steps no island is solved exactly, and
-        // the contacts need no second pass)
+        // (most steps no island qualifies: a pile is one island far over the points
+        // allowed; then the contacts need no second pass)
         if !(0..nb).any(|i| parent[i] == i as u32 && solved(i)) {
             return;
         }
