@@ -460,9 +460,10 @@ impl BroadPhase {
     /// The pairs [`BroadPhase::find_pairs`] would find, found from last step's where
     /// that is enough: the pairs of the bodies' fattened boxes are kept, and while every
     /// box stays inside its fattened one (and no body starts being able to move while
-    /// its pairs were kept as one that may not), this step's pairs are those kept pairs whose boxes overlap, a pass over the
-    /// pairs instead of the grid. `may_move(i)` must hold wherever `moves[i]` does (an
-    /// awake dynamic body may move; a static or sleeping one may not).
+    /// its pairs were kept as one that may not), this step's pairs are those kept pairs
+    /// whose boxes overlap, a pass over the pairs instead of the grid. `may_move(i)` must
+    /// hold wherever `moves[i]` does (an awake dynamic body may move; a static or
+    /// sleeping one may not).
     ///
     /// The result is the same list, to the order, as `find_pairs` gives: two boxes that
     /// overlap lie inside fattened boxes that overlap, so the kept pairs hold every pair
