@@ -28,8 +28,8 @@ pub struct BroadPhase {
     cell_bodies: Vec<u32>,
     /// Counting sort of the pairs by their first body.
     pair_start: Vec<u32>,
-    /// Where the threads share that sort: per thread, its run's count of each first
-    /// body, then where the run's pairs of each go.
+    /// Per run of the pairs (one a thread): its count of each first body, then where
+    /// the run's pairs of each go.
     pair_counts: Vec<u32>,
     pairs_tmp: Vec<Pair>,
     large: Vec<u32>,
@@ -785,64 +785,44 @@ impl BroadPhase {
     /// Sorts the pairs by (a, b): a counting sort by a, then each (short) run of equal a
     /// by insertion. The same order as `sort_unstable`, in linear time; a few pairs
     /// among many bodies (waking) by `sort_unstable` itself, which visits no body.
+    ///
+    /// From [`PARALLEL_SORT_PAIRS`] pairs the threads share it: each counts its run of
+    /// the pairs by first body, the counts are summed to where each run's pairs of each
+    /// first body go (run after run, so the sort stays stable and the order is the one
+    /// thread's), each places its run, and each sorts the runs of equal first body in its
+    /// share of the bodies. One thread does the same over one run.
     fn sort_pairs(&mut self, bodies: usize, pool: Option<&Pool>) {
-        if self.pairs.len() * 16 < bodies {
+        let n = self.pairs.len();
+        if n * 16 < bodies {
             self.pairs.sort_unstable();
             return;
         }
-        let threads = pool.map_or(1, Pool::threads);
-        if let Some(pool) = pool.filter(|_| threads > 1 && self.pairs.len() >= PARALLEL_SORT_PAIRS)
-        {
-            self.sort_pairs_shared(bodies, pool);
-            return;
-        }
-        let start = &mut self.pair_start;
-        start.clear();
-        start.resize(bodies + 1, 0);
-        for &(a, _) in &self.pairs {
-            start[a as usize + 1] += 1;
-        }
-        for i in 1..start.len() {
-            start[i] += start[i - 1];
-        }
-        self.pairs_tmp.clear();
-        self.pairs_tmp.resize(self.pairs.len(), (0, 0));
-        // start[a] runs over a's slots as they fill, and ends at a + 1's first slot
-        for &p in &self.pairs {
-            let at = &mut start[p.0 as usize];
-            self.pairs_tmp[*at as usize] = p;
-            *at += 1;
-        }
-        std::mem::swap(&mut self.pairs, &mut self.pairs_tmp);
-        let mut lo = 0;
-        for &hi in &start[..bodies] {
-            insertion_sort(&mut self.pairs[lo..hi as usize]);
-            lo = hi as usize;
-        }
-    }
-
-    /// [`BroadPhase::sort_pairs`] with the threads sharing it: each counts its run of
-    /// the pairs by first body, the counts are summed to where each run's pairs of each
-    /// first body go (run after run, so the sort stays stable), each places its run, and
-    /// each sorts the runs of equal first body in its share of the bodies. The same
-    /// order as the one thread's sort.
-    fn sort_pairs_shared(&mut self, bodies: usize, pool: &Pool) {
-        let (threads, n) = (pool.threads(), self.pairs.len());
+        let pool = pool.filter(|p| p.threads() > 1 && n >= PARALLEL_SORT_PAIRS);
+        let runs = pool.map_or(1, Pool::threads);
+        // f(k) for each run k: a block each on the pool, or in turn here
+        let each_run = |f: &(dyn Fn(usize) + Sync)| match pool {
+            Some(pool) => {
+                parallel::blocks_max(pool, runs, &|_, k| {
+                    f(k);
+                    0.0
+                });
+            }
+            None => (0..runs).for_each(f),
+        };
         let stride = bodies + 1;
         let counts = &mut self.pair_counts;
         counts.clear();
-        counts.resize(threads * stride, 0);
+        counts.resize(runs * stride, 0);
         let pairs = &self.pairs[..];
-        // run k of the pairs, and its counts (then its next slots), a job's block each
-        let run = |k: usize| &pairs[parallel::split(n, threads, k)];
+        // run k of the pairs, and its counts (then its next slots)
+        let run = |k: usize| &pairs[parallel::split(n, runs, k)];
         let per_run = Disjoint::new(counts);
-        parallel::blocks_max(pool, threads, &|_, k| {
-            // SAFETY: block k takes only run k's counts
+        each_run(&|k| {
+            // SAFETY: run k takes only its own counts
             let counts = unsafe { per_run.range(k * stride..(k + 1) * stride) };
             for &(a, _) in run(k) {
                 counts[a as usize] += 1;
             }
-            0.0
         });
         // each run's first slot for each first body; `pair_start`, where each first
         // body's pairs start
@@ -852,7 +832,7 @@ impl BroadPhase {
         let mut at = 0u32;
         for (a, first) in start[..bodies].iter_mut().enumerate() {
             *first = at;
-            for k in 0..threads {
+            for k in 0..runs {
                 let c = &mut counts[k * stride + a];
                 (*c, at) = (at, at + *c);
             }
@@ -862,8 +842,8 @@ impl BroadPhase {
         self.pairs_tmp.resize(n, (0, 0));
         let placed = Disjoint::new(&mut self.pairs_tmp);
         let per_run = Disjoint::new(counts);
-        parallel::blocks_max(pool, threads, &|_, k| {
-            // SAFETY: block k takes only run k's slots
+        each_run(&|k| {
+            // SAFETY: run k takes only its own slots
             let next = unsafe { per_run.range(k * stride..(k + 1) * stride) };
             for &p in run(k) {
                 let slot = &mut next[p.0 as usize];
@@ -872,25 +852,22 @@ impl BroadPhase {
                 unsafe { placed.set(*slot as usize, p) };
                 *slot += 1;
             }
-            0.0
         });
-        // the runs of equal first body, each thread's share of the bodies holding about
-        // as many pairs
+        // the runs of equal first body, each share of the bodies holding about as many
+        // pairs
         let start = &self.pair_start[..];
-        let share = |k: usize| start.partition_point(|&s| (s as usize) < n * k / threads);
-        parallel::blocks_max(pool, threads, &|_, k| {
+        let share = |k: usize| start.partition_point(|&s| (s as usize) < n * k / runs);
+        each_run(&|k| {
             let (lo, hi) = (share(k), share(k + 1).min(bodies));
             if lo >= hi {
-                return 0.0;
+                return;
             }
             let base = start[lo] as usize;
             // SAFETY: the shares' first bodies, and so their pairs, do not overlap
             let mine = unsafe { placed.range(base..start[hi] as usize) };
             for a in lo..hi {
-                let run = &mut mine[start[a] as usize - base..start[a + 1] as usize - base];
-                insertion_sort(run);
+                insertion_sort(&mut mine[start[a] as usize - base..start[a + 1] as usize - base]);
             }
-            0.0
         });
         std::mem::swap(&mut self.pairs, &mut self.pairs_tmp);
     }
