@@ -1029,14 +1029,24 @@ impl<T> Clone for Scratch<T> {
 /// [`concat`]).
 pub(crate) type BlockScratch<T> = Scratch<Mutex<Vec<T>>>;
 
+impl<T> Scratch<Mutex<T>> {
+    /// The first `blocks` entries, made by `make` where missing.
+    pub(crate) fn first_with(
+        &mut self,
+        blocks: usize,
+        mut make: impl FnMut() -> T,
+    ) -> &mut [Mutex<T>] {
+        if self.0.len() < blocks {
+            self.0.resize_with(blocks, || Mutex::new(make()));
+        }
+        &mut self.0[..blocks]
+    }
+}
+
 impl<T> BlockScratch<T> {
     /// The first `blocks` buffers, made where missing with room for `room` items.
     pub(crate) fn first(&mut self, blocks: usize, room: usize) -> &mut [Mutex<Vec<T>>] {
-        if self.0.len() < blocks {
-            self.0
-                .resize_with(blocks, || Mutex::new(Vec::with_capacity(room)));
-        }
-        &mut self.0[..blocks]
+        self.first_with(blocks, || Vec::with_capacity(room))
     }
 }
 

@@ -8,8 +8,9 @@
 
 use crate::defs::Filter;
 use crate::math::{AWAKE_BLOCK, Aabb, Vec2, gallop};
-use crate::parallel::{self, BlockScratch, Disjoint, Pool};
+use crate::parallel::{self, BlockScratch, Disjoint, Pool, Scratch};
 use std::ops::Range;
+use std::sync::Mutex;
 
 /// A candidate pair of body indices, a < b.
 pub type Pair = (u32, u32);
@@ -77,6 +78,8 @@ pub struct BroadPhase {
     /// The pairs each block of cells found, where the threads share the grid's cells
     /// (scratch of [`BroadPhase::pairs_dense`]).
     cell_outs: BlockScratch<Pair>,
+    /// Each block of cells' boxes of one cell (scratch of [`BroadPhase::pairs_dense`]).
+    cell_boxes: Scratch<Mutex<CellBoxes>>,
     /// The grid of [`pairs_of_some`] (scratch).
     some_grid: SomeGrid,
     /// Rebuilds of the kept pairs so far.
@@ -227,15 +230,15 @@ impl BroadPhase {
             // a few movers: each against every box, no grid
             pairs_of_few(aabbs, &few, moves, blocks, &can_collide, &mut pairs);
         } else {
-            self.each_pair(aabbs, moves, sized, blocks, &can_collide, pool, &mut |p| {
-                pairs.push(p);
-                true
-            });
+            self.each_pair(aabbs, moves, sized, blocks, &can_collide, pool, &mut pairs);
         }
         self.few = few;
         self.pairs = pairs;
         self.sort_pairs(aabbs.len(), pool);
-        self.pairs.dedup();
+        debug_assert!(
+            self.pairs.windows(2).all(|w| w[0] < w[1]),
+            "the grid finds each pair once"
+        );
     }
 
     /// Counts the pairs [`BroadPhase::find_pairs`] would find, without keeping them, up
@@ -248,29 +251,26 @@ impl BroadPhase {
         can_collide: impl Fn(u32, u32) -> bool + Sync,
         limit: u64,
     ) -> Result<u64, Pair> {
-        let mut count = 0u64;
-        let mut over = None;
-        BroadPhase::default().each_pair(aabbs, moves, moves, &[], &can_collide, None, &mut |p| {
-            count += 1;
-            if count > limit {
-                over = Some(p);
-            }
-            over.is_none()
-        });
-        match over {
+        let mut counted = Counted {
+            count: 0,
+            limit,
+            over: None,
+        };
+        BroadPhase::default().each_pair(aabbs, moves, moves, &[], &can_collide, None, &mut counted);
+        match counted.over {
             Some(p) => Err(p),
-            None => Ok(count),
+            None => Ok(counted.count),
         }
     }
 
-    /// Calls `emit` for each pair of overlapping boxes where `can_collide` holds, in no
-    /// particular order (a pair may come twice); stops once `emit` returns false. The
-    /// grid's cells are sized by the boxes `sized` marks. `blocks`, as for
+    /// Gives `emit` each pair of overlapping boxes where `can_collide` holds, once and in
+    /// no particular order; stops once `emit` refuses one. The grid's cells are sized by
+    /// the boxes `sized` marks. `blocks`, as for
     /// [`BroadPhase::find_pairs_sized`]: a block with bounds that miss the bounds of
     /// every block's movers stays out of the grid (none of its boxes meets a mover's), so
     /// a world of sleeping blocks far from its few thousand movers pays for theirs.
     #[allow(clippy::too_many_arguments)]
-    fn each_pair<E: FnMut(Pair) -> bool>(
+    fn each_pair(
         &mut self,
         aabbs: &[Aabb],
         moves: &[bool],
@@ -278,7 +278,7 @@ impl BroadPhase {
         blocks: &[Option<Aabb>],
         can_collide: &(impl Fn(u32, u32) -> bool + Sync),
         pool: Option<&Pool>,
-        emit: &mut E,
+        emit: &mut dyn PairSink,
     ) {
         self.entries.clear();
         self.large.clear();
@@ -332,7 +332,7 @@ impl BroadPhase {
     /// [`BroadPhase::each_pair`] with the blocks `left_out` marks (per block; none past
     /// its end) left out of the grid.
     #[allow(clippy::too_many_arguments)]
-    fn grid_pairs<E: FnMut(Pair) -> bool>(
+    fn grid_pairs(
         &mut self,
         aabbs: &[Aabb],
         moves: &[bool],
@@ -341,7 +341,7 @@ impl BroadPhase {
         left_out: &[bool],
         can_collide: &(impl Fn(u32, u32) -> bool + Sync),
         pool: Option<&Pool>,
-        emit: &mut E,
+        emit: &mut dyn PairSink,
     ) {
         let out = |k: usize| left_out.get(k).copied().unwrap_or(false);
         // the blocks of bodies in the grid
@@ -449,7 +449,7 @@ impl BroadPhase {
                         continue;
                     }
                     let p = if l < i { (l, i) } else { (i, l) };
-                    if can_collide(p.0, p.1) && !emit(p) {
+                    if can_collide(p.0, p.1) && !emit.pair(p) {
                         return;
                     }
                 }
@@ -873,6 +873,104 @@ impl BroadPhase {
     }
 }
 
+/// The boxes of one grid cell side by side, a coordinate to a row (the lower x of every
+/// box, then the lower y, the upper x, the upper y), so that one box is tested against
+/// the rest in wide compares; and the compares' outcomes (scratch of the grid's scan).
+#[derive(Debug, Default)]
+struct CellBoxes {
+    rows: Vec<f32>,
+    hits: Vec<u8>,
+    found: Vec<usize>,
+}
+
+impl CellBoxes {
+    /// Takes the boxes of the bodies `here`.
+    fn gather(&mut self, here: &[u32], aabbs: &[Aabb]) {
+        let n = here.len();
+        self.rows.resize(4 * n, 0.0);
+        let (x0, rest) = self.rows.split_at_mut(n);
+        let (y0, rest) = rest.split_at_mut(n);
+        let (x1, y1) = rest.split_at_mut(n);
+        for (i, &b) in here.iter().enumerate() {
+            let bb = &aabbs[b as usize];
+            (x0[i], y0[i], x1[i], y1[i]) = (bb.min.x, bb.min.y, bb.max.x, bb.max.y);
+        }
+    }
+
+    /// The boxes after box `k` (in the order gathered) that overlap it, in order:
+    /// [`Aabb::overlaps`], each box against `k`'s.
+    fn overlapping(&mut self, k: usize) -> &[usize] {
+        let n = self.rows.len() / 4;
+        let (x0, rest) = self.rows.split_at(n);
+        let (y0, rest) = rest.split_at(n);
+        let (x1, y1) = rest.split_at(n);
+        let (ax0, ay0, ax1, ay1) = (x0[k], y0[k], x1[k], y1[k]);
+        let after = k + 1..n;
+        // the outcomes a byte each (0 or 1), then whole words of them, the last padded
+        let words = after.len().div_ceil(8);
+        self.hits.resize(8 * words, 0);
+        self.hits[after.len()..].fill(0);
+        let rows = x0[after.clone()]
+            .iter()
+            .zip(&y0[after.clone()])
+            .zip(x1[after.clone()].iter().zip(&y1[after]));
+        for (hit, ((&bx0, &by0), (&bx1, &by1))) in self.hits.iter_mut().zip(rows) {
+            *hit = ((ax0 <= bx1) & (bx0 <= ax1) & (ay0 <= by1) & (by0 <= ay1)) as u8;
+        }
+        self.found.clear();
+        for (w, bytes) in self.hits.chunks_exact(8).enumerate() {
+            let mut word = u64::from_le_bytes(bytes.try_into().expect("eight bytes"));
+            while word != 0 {
+                self.found
+                    .push(k + 1 + 8 * w + word.trailing_zeros() as usize / 8);
+                word &= word - 1;
+            }
+        }
+        &self.found
+    }
+}
+
+/// Where the grid's pairs go: one by one, or a list found by one thread at once.
+trait PairSink {
+    /// Takes a pair; false to stop.
+    fn pair(&mut self, p: Pair) -> bool;
+
+    /// Takes the pairs in order; false to stop.
+    fn pairs(&mut self, pairs: &[Pair]) -> bool {
+        pairs.iter().all(|&p| self.pair(p))
+    }
+}
+
+/// The pairs kept in a list (a found list copied whole).
+impl PairSink for Vec<Pair> {
+    fn pair(&mut self, p: Pair) -> bool {
+        self.push(p);
+        true
+    }
+
+    fn pairs(&mut self, pairs: &[Pair]) -> bool {
+        self.extend_from_slice(pairs);
+        true
+    }
+}
+
+/// The pairs counted up to a limit: the pair past it stops the count.
+struct Counted {
+    count: u64,
+    limit: u64,
+    over: Option<Pair>,
+}
+
+impl PairSink for Counted {
+    fn pair(&mut self, p: Pair) -> bool {
+        self.count += 1;
+        if self.count > self.limit {
+            self.over = Some(p);
+        }
+        self.over.is_none()
+    }
+}
+
 /// Sorts a short run of pairs in place by insertion.
 fn insertion_sort(run: &mut [Pair]) {
     for i in 1..run.len() {
@@ -893,7 +991,7 @@ impl BroadPhase {
     /// its own list, and the lists are emitted in the cells' order (the same pairs in
     /// the same order). Returns false when `emit` asked to stop.
     #[allow(clippy::too_many_arguments)]
-    fn pairs_dense<E: FnMut(Pair) -> bool>(
+    fn pairs_dense(
         &mut self,
         aabbs: &[Aabb],
         moves: &[bool],
@@ -902,7 +1000,7 @@ impl BroadPhase {
         w: usize,
         h: usize,
         pool: Option<&Pool>,
-        emit: &mut E,
+        emit: &mut dyn PairSink,
     ) -> bool {
         let cell_of = |ix: i64, iy: i64| (iy - origin[1]) as usize * w + (ix - origin[0]) as usize;
         self.cell_start.clear();
@@ -933,8 +1031,11 @@ impl BroadPhase {
             }
         }
         let (cell_start, cell_bodies, lowest) = (&self.cell_start, &self.cell_bodies, &self.lowest);
-        // the pairs of the cells `cells`, each emitted
-        let scan = |cells: Range<usize>, emit: &mut dyn FnMut(Pair) -> bool| {
+        // the pairs of the cells `cells`, each emitted; `scratch` holds a cell's boxes
+        // side by side (see [`CellBoxes`]), so that each body is tested against the rest
+        // of its cell in wide compares, and only the boxes that overlap go on to the
+        // other tests
+        let scan = |cells: Range<usize>, scratch: &mut CellBoxes, emit: &mut dyn PairSink| {
             for c in cells {
                 let (start, end) = (cell_start[c] as usize, cell_start[c + 1] as usize);
                 if end - start < 2 {
@@ -942,11 +1043,11 @@ impl BroadPhase {
                 }
                 let (cx, cy) = ((c % w) as i64 + origin[0], (c / w) as i64 + origin[1]);
                 let here = &cell_bodies[start..end];
+                scratch.gather(here, aabbs);
                 for (k, &a) in here.iter().enumerate() {
-                    let ba = &aabbs[a as usize];
-                    for &b in &here[k + 1..] {
-                        let bb = &aabbs[b as usize];
-                        if !(moves[a as usize] || moves[b as usize]) || !ba.overlaps(bb) {
+                    for &j in scratch.overlapping(k) {
+                        let b = here[j];
+                        if !(moves[a as usize] || moves[b as usize]) {
                             continue;
                         }
                         // report only from the cell holding the overlap's lower-left
@@ -957,7 +1058,7 @@ impl BroadPhase {
                             continue;
                         }
                         // a < b: bodies lie in a cell in increasing order
-                        if can_collide(a, b) && !emit((a, b)) {
+                        if can_collide(a, b) && !emit.pair((a, b)) {
                             return false;
                         }
                     }
@@ -968,7 +1069,12 @@ impl BroadPhase {
         let threads = pool.map_or(1, Pool::threads);
         let (cells, total) = (w * h, cell_bodies.len());
         let Some(pool) = pool.filter(|_| threads > 1 && total >= PARALLEL_CELL_ENTRIES) else {
-            return scan(0..cells, emit);
+            let scratch = self.cell_boxes.first_with(1, CellBoxes::default);
+            return scan(
+                0..cells,
+                scratch[0].get_mut().unwrap_or_else(|e| e.into_inner()),
+                emit,
+            );
         };
         // runs of cells of about equal entries, a few per thread (a crowded run costs
         // more than its entries say, and the other threads take what is left)
@@ -978,18 +1084,17 @@ impl BroadPhase {
             at(k).min(cells)..at(k + 1).min(cells)
         };
         let outs = self.cell_outs.first(runs, 0);
+        let scratch = &*self.cell_boxes.first_with(runs, CellBoxes::default);
         parallel::blocks_max(pool, runs, &|_, k| {
             let mut found = outs[k].lock().unwrap_or_else(|e| e.into_inner());
             found.clear();
-            scan(run(k), &mut |p| {
-                found.push(p);
-                true
-            });
+            let mut scratch = scratch[k].lock().unwrap_or_else(|e| e.into_inner());
+            scan(run(k), &mut scratch, &mut *found);
             0.0
         });
         for found in outs.iter_mut() {
             let found = found.get_mut().unwrap_or_else(|e| e.into_inner());
-            if !found.iter().all(|&p| emit(p)) {
+            if !emit.pairs(found) {
                 return false;
             }
         }
@@ -998,13 +1103,13 @@ impl BroadPhase {
 
     /// The sparse case: (cell key, body) entries sorted. Returns false when `emit`
     /// asked to stop.
-    fn pairs_sorted<E: FnMut(Pair) -> bool>(
+    fn pairs_sorted(
         &mut self,
         aabbs: &[Aabb],
         moves: &[bool],
         can_collide: &impl Fn(u32, u32) -> bool,
         inv: f32,
-        emit: &mut E,
+        emit: &mut dyn PairSink,
     ) -> bool {
         let to_cell = |v: Vec2| (floor_i64(v.x * inv), floor_i64(v.y * inv));
         for &(i, [x0, y0, x1, y1]) in &self.ranges {
@@ -1039,7 +1144,7 @@ impl BroadPhase {
                         continue;
                     }
                     let p = if a < b { (a, b) } else { (b, a) };
-                    if can_collide(p.0, p.1) && !emit(p) {
+                    if can_collide(p.0, p.1) && !emit.pair(p) {
                         return false;
                     }
                 }
