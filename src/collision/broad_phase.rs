@@ -875,12 +875,10 @@ impl BroadPhase {
 
 /// The boxes of one grid cell side by side, a coordinate to a row (the lower x of every
 /// box, then the lower y, the upper x, the upper y), so that one box is tested against
-/// the rest in wide compares; and the compares' outcomes (scratch of the grid's scan).
+/// the rest with no branch on the compares (scratch of the grid's scan).
 #[derive(Debug, Default)]
 struct CellBoxes {
     rows: Vec<f32>,
-    hits: Vec<u8>,
-    found: Vec<usize>,
 }
 
 impl CellBoxes {
@@ -897,36 +895,25 @@ impl CellBoxes {
         }
     }
 
-    /// The boxes after box `k` (in the order gathered) that overlap it, in order:
-    /// [`Aabb::overlaps`], each box against `k`'s.
-    fn overlapping(&mut self, k: usize) -> &[usize] {
+    /// Which of the boxes `after` (in the order gathered; at most 64, all after box `k`)
+    /// overlap box `k` ([`Aabb::overlaps`]): a bit each, the first box's the lowest.
+    fn overlapping(&self, k: usize, after: Range<usize>) -> u64 {
+        debug_assert!(k < after.start && after.len() <= 64);
         let n = self.rows.len() / 4;
         let (x0, rest) = self.rows.split_at(n);
         let (y0, rest) = rest.split_at(n);
         let (x1, y1) = rest.split_at(n);
         let (ax0, ay0, ax1, ay1) = (x0[k], y0[k], x1[k], y1[k]);
-        let after = k + 1..n;
-        // the outcomes a byte each (0 or 1), then whole words of them, the last padded
-        let words = after.len().div_ceil(8);
-        self.hits.resize(8 * words, 0);
-        self.hits[after.len()..].fill(0);
         let rows = x0[after.clone()]
             .iter()
             .zip(&y0[after.clone()])
             .zip(x1[after.clone()].iter().zip(&y1[after]));
-        for (hit, ((&bx0, &by0), (&bx1, &by1))) in self.hits.iter_mut().zip(rows) {
-            *hit = ((ax0 <= bx1) & (bx0 <= ax1) & (ay0 <= by1) & (by0 <= ay1)) as u8;
+        let mut hits = 0u64;
+        for (bit, ((&bx0, &by0), (&bx1, &by1))) in rows.enumerate() {
+            let hit = (ax0 <= bx1) & (bx0 <= ax1) & (ay0 <= by1) & (by0 <= ay1);
+            hits |= (hit as u64) << bit;
         }
-        self.found.clear();
-        for (w, bytes) in self.hits.chunks_exact(8).enumerate() {
-            let mut word = u64::from_le_bytes(bytes.try_into().expect("eight bytes"));
-            while word != 0 {
-                self.found
-                    .push(k + 1 + 8 * w + word.trailing_zeros() as usize / 8);
-                word &= word - 1;
-            }
-        }
-        &self.found
+        hits
     }
 }
 
@@ -1032,8 +1019,8 @@ impl BroadPhase {
         }
         let (cell_start, cell_bodies, lowest) = (&self.cell_start, &self.cell_bodies, &self.lowest);
         // the pairs of the cells `cells`, each emitted; `scratch` holds a cell's boxes
-        // side by side (see [`CellBoxes`]), so that each body is tested against the rest
-        // of its cell in wide compares, and only the boxes that overlap go on to the
+        // side by side (see [`CellBoxes`]): each body is tested against the rest of its
+        // cell a bit a box, with no branch, and only the boxes that overlap go on to the
         // other tests
         let scan = |cells: Range<usize>, scratch: &mut CellBoxes, emit: &mut dyn PairSink| {
             for c in cells {
@@ -1045,21 +1032,26 @@ impl BroadPhase {
                 let here = &cell_bodies[start..end];
                 scratch.gather(here, aabbs);
                 for (k, &a) in here.iter().enumerate() {
-                    for &j in scratch.overlapping(k) {
-                        let b = here[j];
-                        if !(moves[a as usize] || moves[b as usize]) {
-                            continue;
-                        }
-                        // report only from the cell holding the overlap's lower-left
-                        // corner, max(a.min, b.min): the cell is monotone in the point,
-                        // so the corner's cell is the larger of the two bodies' lowest
-                        let (la, lb) = (lowest[a as usize], lowest[b as usize]);
-                        if (la[0].max(lb[0]), la[1].max(lb[1])) != (cx, cy) {
-                            continue;
-                        }
-                        // a < b: bodies lie in a cell in increasing order
-                        if can_collide(a, b) && !emit.pair((a, b)) {
-                            return false;
+                    // the rest of the cell, 64 boxes at a time
+                    for from in (k + 1..here.len()).step_by(64) {
+                        let mut hits = scratch.overlapping(k, from..(from + 64).min(here.len()));
+                        while hits != 0 {
+                            let b = here[from + hits.trailing_zeros() as usize];
+                            hits &= hits - 1;
+                            if !(moves[a as usize] || moves[b as usize]) {
+                                continue;
+                            }
+                            // report only from the cell holding the overlap's lower-left
+                            // corner, max(a.min, b.min): the cell is monotone in the point,
+                            // so the corner's cell is the larger of the two bodies' lowest
+                            let (la, lb) = (lowest[a as usize], lowest[b as usize]);
+                            if (la[0].max(lb[0]), la[1].max(lb[1])) != (cx, cy) {
+                                continue;
+                            }
+                            // a < b: bodies lie in a cell in increasing order
+                            if can_collide(a, b) && !emit.pair((a, b)) {
+                                return false;
+                            }
                         }
                     }
                 }
@@ -1959,6 +1951,53 @@ mod tests {
                 assert_eq!(shared.pairs, brute, "{threads} threads");
             }
         }
+    }
+
+    #[test]
+    fn a_crowded_cell_and_boxes_that_only_touch_give_the_pairs_of_a_brute_force_scan() {
+        // 300 unit boxes on a 0.25 m lattice: each cell holds far more than the 64 boxes
+        // one body is tested against at a time, and many boxes meet only along an edge
+        // or at a corner (which counts as overlapping); 60 small boxes spread around
+        // them, every fourth box still
+        let mut rnd = unit(lcg(99));
+        let mut boxes = Vec::new();
+        for k in 0..300 {
+            let (x, y) = ((k % 20) as f32 * 0.25, (k / 20) as f32 * 0.25);
+            boxes.push(aabb(x, y, x + 1.0, y + 1.0));
+        }
+        for _ in 0..60 {
+            let (x, y) = (rnd() * 8.0 - 2.0, rnd() * 8.0 - 2.0);
+            boxes.push(aabb(x, y, x + 0.1, y + 0.1));
+        }
+        let n = boxes.len();
+        let moves: Vec<bool> = (0..n).map(|i| !i.is_multiple_of(4)).collect();
+        let mut brute = Vec::new();
+        for a in 0..n {
+            for b in a + 1..n {
+                if (moves[a] || moves[b]) && boxes[a].overlaps(&boxes[b]) {
+                    brute.push((a as u32, b as u32));
+                }
+            }
+        }
+        let mut one = BroadPhase::default();
+        one.find_pairs(&boxes, &moves, |_, _| true);
+        assert_eq!(one.pairs, brute, "one thread");
+        let cells = one.cell_start.windows(2).map(|w| w[1] - w[0]);
+        assert!(
+            cells.max().unwrap_or(0) > 2 * 64,
+            "a cell holds over 128 boxes"
+        );
+        let touching = |a: &Aabb, b: &Aabb| a.max.x == b.min.x || a.max.y == b.min.y;
+        assert!(
+            brute
+                .iter()
+                .any(|&(a, b)| touching(&boxes[a as usize], &boxes[b as usize])),
+            "some pairs only touch"
+        );
+        let pool = Pool::new(2);
+        let mut shared = BroadPhase::default();
+        shared.find_pairs_sized(&boxes, &moves, &moves, &[], |_, _| true, Some(&pool));
+        assert_eq!(shared.pairs, brute, "two threads");
     }
 
     #[test]
