@@ -78,7 +78,8 @@ pub struct BroadPhase {
     /// The pairs each block of cells found, where the threads share the grid's cells
     /// (scratch of [`BroadPhase::pairs_dense`]).
     cell_outs: BlockScratch<Pair>,
-    /// Each block of cells' boxes of one cell (scratch of [`BroadPhase::pairs_dense`]).
+    /// Per run of cells, the boxes of the cell it scans (scratch of
+    /// [`BroadPhase::pairs_dense`]).
     cell_boxes: Scratch<Mutex<CellBoxes>>,
     /// The grid of [`pairs_of_some`] (scratch).
     some_grid: SomeGrid,
@@ -265,10 +266,10 @@ impl BroadPhase {
 
     /// Gives `emit` each pair of overlapping boxes where `can_collide` holds, once and in
     /// no particular order; stops once `emit` refuses one. The grid's cells are sized by
-    /// the boxes `sized` marks. `blocks`, as for
-    /// [`BroadPhase::find_pairs_sized`]: a block with bounds that miss the bounds of
-    /// every block's movers stays out of the grid (none of its boxes meets a mover's), so
-    /// a world of sleeping blocks far from its few thousand movers pays for theirs.
+    /// the boxes `sized` marks. `blocks`, as for [`BroadPhase::find_pairs_sized`]: a
+    /// block with bounds that miss the bounds of every block's movers stays out of the
+    /// grid (none of its boxes meets a mover's), so a world of sleeping blocks far from
+    /// its few thousand movers pays for theirs.
     #[allow(clippy::too_many_arguments)]
     fn each_pair(
         &mut self,
