@@ -884,16 +884,34 @@ struct CellBoxes {
 
 impl CellBoxes {
     /// Takes the boxes of the bodies `here`.
-    fn gather(&mut self, here: &[u32], aabbs: &[Aabb]) {
+    fn gather(&mut self, here: impl ExactSizeIterator<Item = u32>, aabbs: &[Aabb]) {
         let n = here.len();
         self.rows.resize(4 * n, 0.0);
         let (x0, rest) = self.rows.split_at_mut(n);
         let (y0, rest) = rest.split_at_mut(n);
         let (x1, y1) = rest.split_at_mut(n);
-        for (i, &b) in here.iter().enumerate() {
+        for (i, b) in here.enumerate() {
             let bb = &aabbs[b as usize];
             (x0[i], y0[i], x1[i], y1[i]) = (bb.min.x, bb.min.y, bb.max.x, bb.max.y);
         }
+    }
+
+    /// Calls `f(j)` for each box j after box `k` (in the order gathered) that overlaps
+    /// it, in order, testing 64 at a time ([`CellBoxes::overlapping`]); stops and
+    /// returns false once `f` does.
+    fn each_overlap(&self, k: usize, mut f: impl FnMut(usize) -> bool) -> bool {
+        let n = self.rows.len() / 4;
+        for from in (k + 1..n).step_by(64) {
+            let mut hits = self.overlapping(k, from..(from + 64).min(n));
+            while hits != 0 {
+                let j = from + hits.trailing_zeros() as usize;
+                hits &= hits - 1;
+                if !f(j) {
+                    return false;
+                }
+            }
+        }
+        true
     }
 
     /// Which of the boxes `after` (in the order gathered; at most 64, all after box `k`)
@@ -1031,29 +1049,25 @@ impl BroadPhase {
                 }
                 let (cx, cy) = ((c % w) as i64 + origin[0], (c / w) as i64 + origin[1]);
                 let here = &cell_bodies[start..end];
-                scratch.gather(here, aabbs);
+                scratch.gather(here.iter().copied(), aabbs);
                 for (k, &a) in here.iter().enumerate() {
-                    // the rest of the cell, 64 boxes at a time
-                    for from in (k + 1..here.len()).step_by(64) {
-                        let mut hits = scratch.overlapping(k, from..(from + 64).min(here.len()));
-                        while hits != 0 {
-                            let b = here[from + hits.trailing_zeros() as usize];
-                            hits &= hits - 1;
-                            if !(moves[a as usize] || moves[b as usize]) {
-                                continue;
-                            }
-                            // report only from the cell holding the overlap's lower-left
-                            // corner, max(a.min, b.min): the cell is monotone in the point,
-                            // so the corner's cell is the larger of the two bodies' lowest
-                            let (la, lb) = (lowest[a as usize], lowest[b as usize]);
-                            if (la[0].max(lb[0]), la[1].max(lb[1])) != (cx, cy) {
-                                continue;
-                            }
-                            // a < b: bodies lie in a cell in increasing order
-                            if can_collide(a, b) && !emit.pair((a, b)) {
-                                return false;
-                            }
+                    let each = scratch.each_overlap(k, |j| {
+                        let b = here[j];
+                        if !(moves[a as usize] || moves[b as usize]) {
+                            return true;
                         }
+                        // report only from the cell holding the overlap's lower-left
+                        // corner, max(a.min, b.min): the cell is monotone in the point,
+                        // so the corner's cell is the larger of the two bodies' lowest
+                        let (la, lb) = (lowest[a as usize], lowest[b as usize]);
+                        if (la[0].max(lb[0]), la[1].max(lb[1])) != (cx, cy) {
+                            return true;
+                        }
+                        // a < b: bodies lie in a cell in increasing order
+                        !can_collide(a, b) || emit.pair((a, b))
+                    });
+                    if !each {
+                        return false;
                     }
                 }
             }
@@ -1115,6 +1129,9 @@ impl BroadPhase {
         self.entries.sort_unstable();
 
         let entries = &self.entries;
+        // a cell's boxes side by side, as the dense grid tests them
+        let scratch = self.cell_boxes.first_with(1, CellBoxes::default);
+        let scratch = scratch[0].get_mut().unwrap_or_else(|e| e.into_inner());
         let mut start = 0;
         while start < entries.len() {
             let key = entries[start].0;
@@ -1122,24 +1139,25 @@ impl BroadPhase {
             while end < entries.len() && entries[end].0 == key {
                 end += 1;
             }
-            for i in start..end {
-                let a = entries[i].1;
-                let ba = &aabbs[a as usize];
-                for &(_, b) in &entries[i + 1..end] {
-                    let bb = &aabbs[b as usize];
-                    if !(moves[a as usize] || moves[b as usize]) || !ba.overlaps(bb) {
-                        continue;
+            let here = &entries[start..end];
+            scratch.gather(here.iter().map(|e| e.1), aabbs);
+            for (k, &(_, a)) in here.iter().enumerate() {
+                let each = scratch.each_overlap(k, |j| {
+                    let (ba, b) = (&aabbs[a as usize], here[j].1);
+                    if !(moves[a as usize] || moves[b as usize]) {
+                        return true;
                     }
                     // report only from the cell holding the overlap's lower-left corner
-                    let corner = ba.min.max(bb.min);
+                    let corner = ba.min.max(aabbs[b as usize].min);
                     let (cx, cy) = to_cell(corner);
                     if cell_key(cx, cy) != key {
-                        continue;
+                        return true;
                     }
                     let p = if a < b { (a, b) } else { (b, a) };
-                    if can_collide(p.0, p.1) && !emit.pair(p) {
-                        return false;
-                    }
+                    !can_collide(p.0, p.1) || emit.pair(p)
+                });
+                if !each {
+                    return false;
                 }
             }
             start = end;
