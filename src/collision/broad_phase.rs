@@ -242,6 +242,39 @@ impl BroadPhase {
         );
     }
 
+    /// The pairs of overlapping boxes with one of `some` (in increasing order; `marked`
+    /// holds for them and no other) where `can_collide(a, b)` holds (a < b), sorted:
+    /// found through a grid of their boxes alone, into which every other box looks
+    /// (passing over the blocks whose `blocks` bounds miss all of theirs), where they
+    /// are few. Returns false, with the pairs unset, where their boxes are spread too
+    /// thin for that grid. With a pool, the threads share the pass over the boxes.
+    pub fn find_pairs_of_some(
+        &mut self,
+        aabbs: &[Aabb],
+        some: &[u32],
+        marked: &[bool],
+        blocks: &[Option<Aabb>],
+        can_collide: impl Fn(u32, u32) -> bool + Sync,
+        pool: Option<&Pool>,
+    ) -> bool {
+        let mut pairs = std::mem::take(&mut self.pairs);
+        let found = pairs_of_some(
+            aabbs,
+            some,
+            marked,
+            blocks,
+            &can_collide,
+            &mut self.some_grid,
+            &mut pairs,
+            pool,
+        );
+        self.pairs = pairs;
+        if found {
+            self.sort_pairs(aabbs.len(), pool);
+        }
+        found
+    }
+
     /// Counts the pairs [`BroadPhase::find_pairs`] would find, without keeping them, up
     /// to `limit`: `Ok(count)`, or `Err(pair)` with the pair that went past `limit`.
     /// Memory grows with the bodies, not with the pairs, so a scene whose bodies overlap

@@ -214,6 +214,7 @@ impl StepState<'_> {
                 self.collider,
                 h,
                 margin,
+                self.pool,
             );
             self.sleep.park_joints(self.bodies, self.joints);
             if !self.bodies.iter().any(Body::is_mover) {

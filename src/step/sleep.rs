@@ -22,6 +22,23 @@ use crate::step::integrate::PointForce;
 /// An island that rested this long (s) falls asleep.
 const TIME_TO_SLEEP: f32 = 0.5;
 
+/// The waking pass looks through a grid of the sleepers' boxes alone where every body
+/// is at least this many sleepers (else through a grid of every box).
+const SLEEPERS_GRID: usize = 4;
+
+/// A test's view of the waking pass's grids.
+#[cfg(test)]
+pub(crate) mod testing {
+    use std::cell::Cell;
+
+    thread_local! {
+        /// Every waking pass looks through a grid of every box (never the sleepers').
+        pub(crate) static EVERY_BOX: Cell<bool> = const { Cell::new(false) };
+        /// Waking passes that found their pairs through a grid of the sleepers' boxes.
+        pub(crate) static SLEEPERS_GRIDS: Cell<usize> = const { Cell::new(0) };
+    }
+}
+
 /// The sleeping islands' contacts and parked joints, and the sleep pass's scratch.
 #[derive(Clone, Debug, Default)]
 pub(crate) struct Sleep {
@@ -34,8 +51,8 @@ pub(crate) struct Sleep {
     kinds: Vec<Kind>,
     /// Islands to wake (scratch).
     to_wake: Vec<u32>,
-    /// Which bodies size the waking pass's grid: the dynamic ones, asleep or not (scratch).
-    wake_sized: Vec<bool>,
+    /// What the waking pass reads of each body, side by side (scratch).
+    wake_bodies: WakeBodies,
     /// Joints whose bodies all sleep (or do not move), with their index, taken out of
     /// the world's joints for the solve of one step (see [`Sleep::park_joints`]).
     parked: Vec<(usize, Joint)>,
@@ -54,6 +71,19 @@ pub(crate) struct Sleep {
     /// The blocks of bodies that slept through the last step, which the wake pass and
     /// the broad phase skip (see [`RestBlocks`]).
     pub(crate) rest: RestBlocks,
+}
+
+/// What the waking pass reads of the bodies, in arrays of their own (the bodies are
+/// large, and its grid asks of every pair it finds). A rest block's entries hold from
+/// the step it was visited, as the collider's boxes do.
+#[derive(Clone, Debug, Default)]
+struct WakeBodies {
+    /// Which bodies size the grid: the dynamic ones, asleep or not.
+    sized: Vec<bool>,
+    /// Which bodies are asleep.
+    asleep: Vec<bool>,
+    /// The sleepers, in increasing order.
+    sleepers: Vec<u32>,
 }
 
 /// Whether some body is asleep: a pass over the bodies (large), split between the
@@ -132,7 +162,11 @@ impl Sleep {
     /// was looked at already), through one grid of every body's box (boxes do not
     /// change while waking), and wakes that round's islands in one pass
     /// ([`Sleep::wake_islands`]): the same bodies wake, with the same contacts in the
-    /// same order, as round after round of looking from every awake body.
+    /// same order, as round after round of looking from every awake body. Where the
+    /// sleepers are few beside the bodies (a world mostly awake), the first round's
+    /// grid holds the sleepers' boxes alone, and every other box looks into it: the
+    /// same pairs, without a grid of every box a step.
+    #[allow(clippy::too_many_arguments)]
     pub(crate) fn wake_reached(
         &mut self,
         bodies: &mut [Body],
@@ -141,6 +175,7 @@ impl Sleep {
         collider: &mut Collider,
         h: f32,
         margin: f32,
+        pool: Option<&Pool>,
     ) {
         let mut wake = std::mem::take(&mut self.to_wake);
         wake.clear();
@@ -150,7 +185,7 @@ impl Sleep {
             bodies,
             collider,
             &mut self.rest,
-            &mut self.wake_sized,
+            &mut self.wake_bodies,
             &mut wake,
             h,
             margin,
@@ -160,39 +195,59 @@ impl Sleep {
             // (nothing awake moves in the first round: nothing can reach a sleeping island;
             // its grid only where a mover's box may reach a sleeper)
             if movers && (reachable || !first) {
-                let bs = &*bodies;
-                let (aabbs, look, sized) = (&collider.aabbs, &collider.dynamic, &self.wake_sized);
+                let WakeBodies {
+                    sized,
+                    asleep,
+                    sleepers,
+                } = &self.wake_bodies;
+                let (aabbs, look) = (&collider.aabbs, &collider.dynamic);
+                // a sleeper and a body that looks for sleepers (a mover, in the first
+                // round: every one of them looks; in a later one, one that was found
+                // then would have woken the sleeper)
+                let reaches = |a: u32, b: u32| {
+                    let (a, b) = (a as usize, b as usize);
+                    (asleep[a] && look[b]) || (asleep[b] && look[a])
+                };
                 // (a rest block's bounds: its sleepers no mover's box reaches go by whole)
                 let bounds = self.rest.bounds();
-                collider.broad.find_pairs_sized(
-                    aabbs,
-                    look,
-                    sized,
-                    bounds,
-                    |a, b| {
-                        let (ba, bb) = (&bs[a as usize], &bs[b as usize]);
-                        (ba.asleep && bb.is_mover()) || (bb.asleep && ba.is_mover())
-                    },
-                    None,
-                );
+                // where the sleepers are few beside the movers (a world mostly awake),
+                // the movers look into a grid of the sleepers' boxes alone, not into one
+                // of every box: the same pairs
+                let few = first && SLEEPERS_GRID * sleepers.len() <= aabbs.len();
+                #[cfg(test)]
+                let few = few && !testing::EVERY_BOX.with(std::cell::Cell::get);
+                let found = few
+                    && collider
+                        .broad
+                        .find_pairs_of_some(aabbs, sleepers, asleep, bounds, reaches, pool);
+                #[cfg(test)]
+                if found {
+                    testing::SLEEPERS_GRIDS.with(|c| c.set(c.get() + 1));
+                }
+                if !found {
+                    collider
+                        .broad
+                        .find_pairs_sized(aabbs, look, sized, bounds, reaches, pool);
+                }
                 for &(a, b) in &collider.broad.pairs {
-                    for i in [a, b] {
-                        let body = &bodies[i as usize];
-                        if body.asleep {
-                            wake.push(body.island);
+                    for i in [a as usize, b as usize] {
+                        if asleep[i] {
+                            wake.push(bodies[i].island);
                         }
                     }
                 }
             }
             if movers {
                 // a joint to a body that moves (one to a static anchor keeps it asleep)
+                // (as above: in a later round, a mover found in the first would have
+                // woken the sleeper)
+                let (asleep, look) = (&self.wake_bodies.asleep, &collider.dynamic);
                 for j in joints {
-                    let (ba, bb) = (&bodies[j.a], &bodies[j.b]);
-                    if ba.asleep && bb.is_mover() && (first || collider.dynamic[j.b]) {
-                        wake.push(ba.island);
+                    if asleep[j.a] && look[j.b] {
+                        wake.push(bodies[j.a].island);
                     }
-                    if bb.asleep && ba.is_mover() && (first || collider.dynamic[j.a]) {
-                        wake.push(bb.island);
+                    if asleep[j.b] && look[j.a] {
+                        wake.push(bodies[j.b].island);
                     }
                 }
             }
@@ -204,8 +259,10 @@ impl Sleep {
             }
             // the next round looks from the bodies this one wakes (with no mover in the
             // first round, a pushed sleeper's)
-            for (look, b) in collider.dynamic.iter_mut().zip(bodies.iter()) {
-                *look = b.asleep && wake.binary_search(&b.island).is_ok();
+            let asleep = &mut self.wake_bodies.asleep;
+            for ((look, b), asleep) in collider.dynamic.iter_mut().zip(bodies.iter()).zip(asleep) {
+                *look = *asleep && wake.binary_search(&b.island).is_ok();
+                *asleep &= !*look;
             }
             self.wake_islands(bodies, contacts, &mut wake);
             movers = true;
@@ -229,7 +286,7 @@ impl Sleep {
         bodies: &mut [Body],
         collider: &mut Collider,
         rest: &mut RestBlocks,
-        sized: &mut Vec<bool>,
+        wake_bodies: &mut WakeBodies,
         pushed: &mut Vec<u32>,
         h: f32,
         margin: f32,
@@ -238,7 +295,14 @@ impl Sleep {
         // sized, not cleared: a rest block's entries hold from the step it was visited
         collider.aabbs.resize(n, crate::math::Aabb::default());
         collider.dynamic.resize(n, false);
+        let WakeBodies {
+            sized,
+            asleep,
+            sleepers: listed,
+        } = wake_bodies;
         sized.resize(n, false);
+        asleep.resize(n, false);
+        listed.clear();
         // the box holding every mover's box; the bounds of each block's sleepers outside
         // the rest blocks
         let mut reach: Option<Aabb> = None;
@@ -263,11 +327,13 @@ impl Sleep {
                     assert!(bb == b.aabb(), "a sleeper's kept box is its box");
                     assert!(collider.aabbs[i] == swept_box(b, bb, h, margin));
                     assert!(!collider.dynamic[i] && sized[i] == b.is_dynamic());
+                    assert!(asleep[i]);
                 }
                 rest.bound(k, &collider.aabbs[start..end]);
+                listed.extend(start as u32..end as u32);
                 continue;
             }
-            for ((b, bx), (mover, size)) in bodies[start..end]
+            for (i, (((b, bx), (mover, size)), sleeps)) in bodies[start..end]
                 .iter_mut()
                 .zip(&mut collider.aabbs[start..end])
                 .zip(
@@ -275,6 +341,8 @@ impl Sleep {
                         .iter_mut()
                         .zip(&mut sized[start..end]),
                 )
+                .zip(&mut asleep[start..end])
+                .enumerate()
             {
                 if b.asleep && !b.is_still() {
                     pushed.push(b.island);
@@ -291,6 +359,10 @@ impl Sleep {
                 };
                 *bx = swept_box(b, bb, h, margin);
                 *mover = b.is_mover();
+                *sleeps = b.asleep;
+                if b.asleep {
+                    listed.push((start + i) as u32);
+                }
                 if *mover {
                     reach = Some(reach.map_or(*bx, |r| r.union(bx)));
                 }

@@ -213,6 +213,67 @@ mod tests {
     }
 
     #[test]
+    fn a_few_sleepers_among_many_movers_wake_as_through_a_grid_of_every_box() {
+        // 240 boxes fall onto a ground where ten boxes sleep, 4 m apart: six under the
+        // falling ones (which wake them), four far to the side (which stay asleep); a
+        // kinematic box beyond them moves for ever, so every step's movers reach round
+        // the sleepers. The waking pass looks through a grid of the sleepers' boxes; the
+        // same world with every pass looking through a grid of every box must match it
+        // to the bit, on one thread and on two
+        let scene = "name = \"few sleepers\"\n[world]\ngravity = [0.0, -10.0]\n[solver]\nkind = \"soft\"\nsleep = true\n\
+             [[body]]\nname = \"ground\"\ntype = \"static\"\nshape = { box = [200.0, 1.0] }\nposition = [0.0, -0.5]\n\
+             [[body]]\nname = \"drifter\"\ntype = \"kinematic\"\nshape = { box = [1.0, 1.0] }\nposition = [70.0, 0.5]\nvelocity = [0.0, 0.1]\n\
+             [[grid]]\nrows = 1\ncolumns = 6\nspacing = [4.0, 1.0]\norigin = [-10.0, 0.5]\n\
+             shape = { box = [1.0, 1.0] }\nawake = false\n\
+             [[grid]]\nrows = 1\ncolumns = 4\nspacing = [4.0, 1.0]\norigin = [40.0, 0.5]\n\
+             shape = { box = [1.0, 1.0] }\nawake = false\n\
+             [[grid]]\nrows = 6\ncolumns = 40\nspacing = [0.5, 0.6]\norigin = [-10.0, 6.0]\n\
+             shape = { box = [0.4, 0.4] }\n";
+        let sc = crate::scene::load_str(scene, "few.toml").unwrap();
+        let bits = |w: &World| -> Vec<u32> {
+            w.bodies
+                .iter()
+                .flat_map(|b| [b.position.x, b.position.y, b.angle, b.velocity.x])
+                .map(f32::to_bits)
+                .collect()
+        };
+        use crate::step::sleep::testing::{EVERY_BOX, SLEEPERS_GRIDS};
+        for threads in [1, 2] {
+            let run = |every_box: bool| {
+                EVERY_BOX.with(|c| c.set(every_box));
+                SLEEPERS_GRIDS.with(|c| c.set(0));
+                let mut w = World::from_def(&sc.world, SolverSettings::soft()).unwrap();
+                w.set_threads(threads);
+                // (bodies 2 to 11 the sleepers) the step each first woke at
+                let mut woke = [None; 10];
+                for k in 0..120 {
+                    w.step().unwrap();
+                    for (at, b) in woke.iter_mut().zip(&w.bodies[2..12]) {
+                        if at.is_none() && !b.asleep {
+                            *at = Some(k);
+                        }
+                    }
+                }
+                EVERY_BOX.with(|c| c.set(false));
+                (w, woke, SLEEPERS_GRIDS.with(|c| c.get()))
+            };
+            let (a, woke_a, grids_a) = run(false);
+            let (b, woke_b, grids_b) = run(true);
+            assert_eq!(bits(&a), bits(&b), "{threads} threads");
+            assert_eq!(woke_a, woke_b);
+            assert!(grids_a > 40, "the sleepers' grid looked: {grids_a}");
+            assert_eq!(grids_b, 0);
+            // the six under the falling boxes woke as the boxes came down (about 5 m
+            // of fall: 1 s), the four beside them sleep on
+            assert!(
+                woke_a[..6].iter().all(|k| k.is_some_and(|k| k > 40)),
+                "{woke_a:?}"
+            );
+            assert!(woke_a[6..].iter().all(Option::is_none), "{woke_a:?}");
+        }
+    }
+
+    #[test]
     fn rest_blocks_skip_the_sleeping_wall_and_change_no_bit() {
         // Boxes 0.5 m apart (each wakes alone). Under each solver, the same world stepped twice: once as it is, once with the
         // rest blocks forgotten before every step (every body visited). The skipped
