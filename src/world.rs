@@ -102,8 +102,8 @@ pub struct World {
     step_start: Vec<Vec2>,
     /// The static one-sided segments by grid cell ([`World::keep_in_front`]).
     walls: WallGrid,
-    /// Whether any body has linear or angular damping (then the forces are not
-    /// [`World::plain_forces`]).
+    /// Whether any body has linear or angular damping (then the forces change each
+    /// substep's velocities by different amounts).
     damped: bool,
     /// Kinematic bodies on a path, by key ([`crate::defs::MotionDef`]).
     motions: Vec<spawn::Motion>,

@@ -405,3 +405,31 @@ fn body_damping_follows_its_step_by_step_closed_form() {
         );
     }
 }
+
+#[test]
+fn body_damping_under_gravity_follows_its_step_by_step_closed_form() {
+    // each (sub)step v = (v + h g) / (1 + h c): v_n = v_end (1 - r^n) from rest, with
+    // r = 1 / (1 + h c) and the end speed v_end = g / c; a body with no damping of its
+    // own beside it falls at g t all the same (the damping is each body's own)
+    let text = "name = \"d\"\n[world]\ngravity = [0.0, -10.0]\n\
+        [[body]]\nname = \"damped\"\nshape = { circle = 0.5 }\nlinear_damping = 2.0\n\
+        [[body]]\nname = \"free\"\nshape = { circle = 0.5 }\nposition = [5.0, 0.0]\n";
+    for kind in SolverKind::ALL {
+        let mut w = world(text, kind);
+        let settings = w.settings;
+        let h = settings.dt as f64 / settings.substeps as f64;
+        let steps_taken = 30;
+        steps(&mut w, steps_taken);
+        let n = steps_taken as f64 * settings.substeps as f64;
+        let r = 1.0 / (1.0 + h * 2.0);
+        let v = -5.0 * (1.0 - r.powf(n));
+        let got = w.nth_body(0).velocity.y as f64;
+        assert!((got - v).abs() < 1e-4 * v.abs(), "{kind:?}: {got} vs {v}");
+        let free = w.nth_body(1).velocity.y as f64;
+        let fall = -10.0 * steps_taken as f64 * settings.dt as f64;
+        assert!(
+            (free - fall).abs() < 1e-4 * fall.abs(),
+            "{kind:?}: {free} vs {fall}"
+        );
+    }
+}

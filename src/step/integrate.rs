@@ -41,12 +41,13 @@ impl Forces<'_> {
         self.drag.is_none() && !self.damped
     }
 
-    /// Whether the only forces are gravity, the bodies' own force and torque and the
-    /// joints' drives (no drag, point forces or damping). Where no joint has a drive
+    /// Whether the only forces are gravity, the bodies' own force, torque and damping
+    /// and the joints' drives (no drag or point forces). Where no joint has a drive
     /// either (the caller checks, in a pass it makes over the joints anyway), a solver
-    /// may integrate them in a pass of its own (see `SoftSolver::prepare_integrating`).
+    /// may integrate them in a pass of its own (see `SoftSolver::prepare_integrating`),
+    /// and apply the damping every substep itself.
     pub fn plain(&self) -> bool {
-        self.drag.is_none() && self.forces.is_empty() && !self.damped
+        self.drag.is_none() && self.forces.is_empty()
     }
 }
 

@@ -54,8 +54,9 @@ impl Stepper for SoftStepper {
             h,
             pool,
         );
-        // with only gravity and the bodies' own forces, the first substep's forces are
-        // integrated in prepare's pass over the bodies
+        // with only gravity and the bodies' own forces and damping, the first substep's
+        // forces are integrated in prepare's pass over the bodies (and the damping
+        // applied in every substep by the solver)
         let fused = state.plain_forces() && !driven;
         if fused {
             let g = state.gravity;
@@ -70,6 +71,7 @@ impl Stepper for SoftStepper {
                 &s,
                 h,
                 g,
+                state.damped,
                 pool,
             );
         } else {
@@ -78,7 +80,7 @@ impl Stepper for SoftStepper {
         }
         clock.lap(Stage::Solve);
         let residual;
-        if uniform {
+        if uniform || fused {
             if !fused {
                 state.integrate_velocities(h);
                 self.soft.take_increments(state.bodies, pool);

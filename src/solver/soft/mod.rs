@@ -179,6 +179,16 @@ fn take_velocity(s: &mut SoftBody, inc: &mut (Vec2, f32), v: Vec2, w: f32) {
     s.w = w;
 }
 
+/// A moving body's damping over a substep of h, as factors of its velocities:
+/// (1 / (1 + h c_linear), 1 / (1 + h c_angular)), the world's damping (Box2D's).
+#[inline]
+fn damping_factors(b: &Body, h: f32) -> (f32, f32) {
+    (
+        1.0 / (1.0 + h * b.linear_damping),
+        1.0 / (1.0 + h * b.angular_damping),
+    )
+}
+
 /// What restitution and the cache need, kept out of the sweeps' way.
 #[derive(Clone, Copy, Debug, Default)]
 struct WideCold {
@@ -337,6 +347,11 @@ pub struct SoftSolver {
     inv_mass_range: (u32, u32),
     /// Velocity change per substep from forces, (dv, dw), when it is the same each substep.
     increments: Vec<(Vec2, f32)>,
+    /// Where some body has damping of its own and `prepare_integrating` took it: each
+    /// body's factors (1 / (1 + h c_linear), 1 / (1 + h c_angular)) (1 where the body
+    /// does not move), which every substep's velocities take after the increment
+    /// (Box2D's). Empty where no body is damped.
+    damping: Vec<(f32, f32)>,
     /// The constraints, four to a wide constraint, colour by colour.
     wide: Vec<WideConstraint>,
     cold: Vec<WideCold>,
@@ -469,6 +484,7 @@ impl SoftSolver {
         pool: Option<&Pool>,
     ) {
         self.size_bodies(bodies.len());
+        self.damping.clear();
         self.load_bodies(bodies, pool);
         self.build(bodies, contacts, joints, s, h, pool);
     }
@@ -479,6 +495,12 @@ impl SoftSolver {
     /// the same bits, for a world whose only forces are gravity and each body's own force
     /// and torque (no drag, drives or point forces: the caller checks). One pass over the
     /// bodies instead of three.
+    ///
+    /// `damped`: some body has damping of its own. Its first substep's velocities are
+    /// then damped as `World::integrate_velocities(h)` damps them, its increment is the
+    /// undamped one, and every later substep damps again after the increment (see
+    /// `damping`): each substep's forces and damping as the world's pass would apply
+    /// them, without a pass over the world's bodies a substep.
     ///
     /// `movers`, where the caller has it: whether each body is dynamic, as the solver's
     /// own load pass finds it. With threads, one of them then colours the contacts while
@@ -493,13 +515,19 @@ impl SoftSolver {
         s: &SolverSettings,
         h: f32,
         gravity: Option<Vec2>,
+        damped: bool,
         pool: Option<&Pool>,
     ) {
         // (the joints' frames were taken from the positions, which the load leaves)
         let nb = bodies.len();
         self.size_bodies(nb);
         self.increments.resize(nb, (Vec2::ZERO, 0.0));
+        self.damping.clear();
+        if damped {
+            self.damping.resize(nb, (1.0, 1.0));
+        }
         let deep = self.deep_gate(s);
+        let damping = Disjoint::new(&mut self.damping);
         let (soft, moves) = (
             Disjoint::new(&mut self.bodies[..nb]),
             Disjoint::new(&mut self.moves),
@@ -519,8 +547,14 @@ impl SoftSolver {
                         moves.range(r.clone()),
                         inv_mass.range(r.clone()),
                         increments.range(r.clone()),
-                        all.range(r),
+                        all.range(r.clone()),
                     )
+                };
+                // SAFETY: as above (empty where no body is damped)
+                let damping = if damped {
+                    unsafe { damping.range(r) }
+                } else {
+                    &mut []
                 };
                 for i in 0..bodies.len() {
                     prefetch(bodies, i + BODY_AHEAD, HOT_BYTES);
@@ -528,6 +562,9 @@ impl SoftSolver {
                     let (v0, w0) = (b.velocity, b.angular_velocity);
                     if b.is_dynamic() && !b.asleep {
                         (b.velocity, b.angular_velocity) = b.free_velocity(h, gravity);
+                        if let Some(d) = damping.get_mut(i) {
+                            *d = damping_factors(b, h);
+                        }
                     }
                     // the constraints are built from the velocities before the step (restitution
                     // keeps each point's approach speed): the new ones wait in `increments`
@@ -611,7 +648,7 @@ impl SoftSolver {
         // then take the new velocities and keep their increments, as take_increments
         // does (a pass over the solver's own small arrays)
         let n = self.increments.len();
-        let awake = &self.awake[..];
+        let (awake, damping) = (&self.awake[..], &self.damping[..]);
         parallel::chunks_mut2(
             pool,
             &mut self.bodies[..n],
@@ -619,9 +656,17 @@ impl SoftSolver {
             BODY_BLOCK,
             &|_, offset, soft, increments| {
                 each_awake_in(awake, offset, soft.len(), |r| {
-                    for (s, inc) in soft[r.clone()].iter_mut().zip(&mut increments[r]) {
+                    let (soft, increments) = (&mut soft[r.clone()], &mut increments[r.clone()]);
+                    for (s, inc) in soft.iter_mut().zip(increments.iter_mut()) {
                         let (v, w) = *inc;
                         take_velocity(s, inc, v, w);
+                    }
+                    if !damping.is_empty() {
+                        let damping = &damping[offset + r.start..offset + r.end];
+                        for (s, &(dl, da)) in soft.iter_mut().zip(damping) {
+                            s.v *= dl;
+                            s.w *= da;
+                        }
                     }
                 });
                 0.0
@@ -702,6 +747,7 @@ impl SoftSolver {
     /// them: the change since `prepare` is kept as each later substep's increment.
     pub fn take_increments(&mut self, bodies: &[Body], pool: Option<&Pool>) {
         let n = bodies.len().min(self.bodies.len());
+        self.damping.clear();
         self.increments.clear();
         self.increments.resize(n, (Vec2::ZERO, 0.0));
         let awake = &self.awake[..];
@@ -1084,6 +1130,7 @@ mod tests {
                 &settings,
                 h,
                 w.gravity,
+                false,
                 pool,
             );
             assert_eq!(s.colored_beside_load, beside);

@@ -57,6 +57,19 @@ pub(super) fn add_increments(bodies: &mut [SoftBody], increments: &[(Vec2, f32)]
     }
 }
 
+/// [`add_increments`], then each body's damping (`damping`: its velocities' factors):
+/// v = (v + dv) / (1 + h c_linear), w = (w + dw) / (1 + h c_angular).
+pub(super) fn add_damped_increments(
+    bodies: &mut [SoftBody],
+    increments: &[(Vec2, f32)],
+    damping: &[(f32, f32)],
+) {
+    for ((s, &(dv, dw)), &(dl, da)) in bodies.iter_mut().zip(increments).zip(damping) {
+        s.v = (s.v + dv) * dl;
+        s.w = (s.w + dw) * da;
+    }
+}
+
 /// Moves each body by its velocity for one substep of `h`.
 pub(super) fn integrate_range(bodies: &mut [SoftBody], h: f32) {
     for s in bodies {
@@ -222,6 +235,7 @@ impl SoftSolver {
         let k = self.sweep_consts();
         let nb = self.bodies.len();
         let (plan, increments, color_shares) = (&self.plan, &self.increments, &self.shares);
+        let damping = &self.damping[..];
         let joint_order = &self.joint_order;
         let joint_rest = self.joint_rest.0 as usize..self.joint_rest.1 as usize;
         let colored = self.color_ranges.last().map_or(0, |r| r.1 as usize);
@@ -310,7 +324,12 @@ impl SoftSolver {
                 }
                 Pass::Increments => {
                     each_awake(awake, r, |r| {
-                        add_increments(unsafe { bodies.range(r.clone()) }, &increments[r]);
+                        let soft = unsafe { bodies.range(r.clone()) };
+                        if damping.is_empty() {
+                            add_increments(soft, &increments[r]);
+                        } else {
+                            add_damped_increments(soft, &increments[r.clone()], &damping[r]);
+                        }
                     });
                     f32::NEG_INFINITY
                 }
