@@ -135,6 +135,16 @@ impl Body {
         self.body_type == BodyType::Dynamic
     }
 
+    /// Its own damping over a step of h, as factors of its velocities (Box2D's):
+    /// (1 / (1 + h c_linear), 1 / (1 + h c_angular)).
+    #[inline]
+    pub(crate) fn damping_factors(&self, h: f32) -> (f32, f32) {
+        (
+            1.0 / (1.0 + h * self.linear_damping),
+            1.0 / (1.0 + h * self.angular_damping),
+        )
+    }
+
     /// Its velocities after `h` of gravity `g` and its own force and torque, before
     /// drag: v + h (F / m + g), w + h tau / I (semi-implicit Euler's velocity half; see
     /// `step::integrate`).

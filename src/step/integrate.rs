@@ -114,11 +114,12 @@ fn integrate_velocities_of(
 /// A body's own damping over h (Box2D's): v /= 1 + h c_linear, w /= 1 + h c_angular.
 #[inline]
 fn damp(b: &mut Body, h: f32) {
+    let (linear, angular) = b.damping_factors(h);
     if b.linear_damping != 0.0 {
-        b.velocity *= 1.0 / (1.0 + h * b.linear_damping);
+        b.velocity *= linear;
     }
     if b.angular_damping != 0.0 {
-        b.angular_velocity *= 1.0 / (1.0 + h * b.angular_damping);
+        b.angular_velocity *= angular;
     }
 }
 

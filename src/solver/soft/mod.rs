@@ -179,16 +179,6 @@ fn take_velocity(s: &mut SoftBody, inc: &mut (Vec2, f32), v: Vec2, w: f32) {
     s.w = w;
 }
 
-/// A moving body's damping over a substep of h, as factors of its velocities:
-/// (1 / (1 + h c_linear), 1 / (1 + h c_angular)), the world's damping (Box2D's).
-#[inline]
-fn damping_factors(b: &Body, h: f32) -> (f32, f32) {
-    (
-        1.0 / (1.0 + h * b.linear_damping),
-        1.0 / (1.0 + h * b.angular_damping),
-    )
-}
-
 /// What restitution and the cache need, kept out of the sweeps' way.
 #[derive(Clone, Copy, Debug, Default)]
 struct WideCold {
@@ -563,7 +553,7 @@ impl SoftSolver {
                     if b.is_dynamic() && !b.asleep {
                         (b.velocity, b.angular_velocity) = b.free_velocity(h, gravity);
                         if let Some(d) = damping.get_mut(i) {
-                            *d = damping_factors(b, h);
+                            *d = b.damping_factors(h);
                         }
                     }
                     // the constraints are built from the velocities before the step (restitution
