@@ -15,8 +15,9 @@ use crate::collision::collide::{Collider, swept_box};
 use crate::defs::{BodyType, SolverSettings};
 use crate::joint::{Joint, MouseJoint};
 use crate::math::{AWAKE_BLOCK, Aabb, BODY_PASS_BLOCK, Vec2, uf_root, uf_union};
-use crate::parallel::{self, Pool};
+use crate::parallel::{self, Disjoint, Pool};
 use crate::step::integrate::PointForce;
+use std::sync::Mutex;
 
 /// Below this spin (rad/s) a body rests.
 /// An island that rested this long (s) falls asleep.
@@ -84,6 +85,21 @@ struct WakeBodies {
     asleep: Vec<bool>,
     /// The sleepers, in increasing order.
     sleepers: Vec<u32>,
+    /// What each block of [`BODY_PASS_BLOCK`] bodies of the pass over the boxes found.
+    found: parallel::Scratch<Mutex<BoxesFound>>,
+}
+
+/// What one block of bodies of [`Sleep::find_boxes`]'s pass found.
+#[derive(Debug, Default)]
+struct BoxesFound {
+    /// The box holding each mover's box.
+    reach: Option<Aabb>,
+    /// Its sleepers, in increasing order.
+    sleepers: Vec<u32>,
+    /// The islands of its sleepers pushed since they fell asleep.
+    pushed: Vec<u32>,
+    /// The bounds of the sleepers of each of its awake blocks that does not rest.
+    loose: Vec<Aabb>,
 }
 
 /// Whether some body is asleep: a pass over the bodies (large), split between the
@@ -189,6 +205,7 @@ impl Sleep {
             &mut wake,
             h,
             margin,
+            pool,
         );
         let mut first = true;
         loop {
@@ -199,6 +216,7 @@ impl Sleep {
                     sized,
                     asleep,
                     sleepers,
+                    ..
                 } = &self.wake_bodies;
                 let (aabbs, look) = (&collider.aabbs, &collider.dynamic);
                 // a sleeper and a body that looks for sleepers (a mover, in the first
@@ -282,6 +300,7 @@ impl Sleep {
     /// sleeper: the bounds of some block's sleepers (a rest block's, or those of the
     /// sleepers in a block that does not rest) meet the box holding every mover's box
     /// (else no grid need look, and sleepers far from every mover cost nothing).
+    #[allow(clippy::too_many_arguments)]
     fn find_boxes(
         bodies: &mut [Body],
         collider: &mut Collider,
@@ -290,6 +309,7 @@ impl Sleep {
         pushed: &mut Vec<u32>,
         h: f32,
         margin: f32,
+        pool: Option<&Pool>,
     ) -> (bool, bool) {
         let n = bodies.len();
         // sized, not cleared: a rest block's entries hold from the step it was visited
@@ -299,79 +319,126 @@ impl Sleep {
             sized,
             asleep,
             sleepers: listed,
+            found,
         } = wake_bodies;
         sized.resize(n, false);
         asleep.resize(n, false);
-        listed.clear();
-        // the box holding every mover's box; the bounds of each block's sleepers outside
-        // the rest blocks
+        let found = &*found.first_with(n.div_ceil(BODY_PASS_BLOCK), BoxesFound::default);
+        let (all, aabbs, movers, sizes, sleeps) = (
+            Disjoint::new(bodies),
+            Disjoint::new(&mut collider.aabbs[..]),
+            Disjoint::new(&mut collider.dynamic[..]),
+            Disjoint::new(&mut sized[..]),
+            Disjoint::new(&mut asleep[..]),
+        );
+        let shared_rest = &*rest;
+        // the blocks of bodies between the threads, each into its own entry of `found`
+        parallel::ranges_max(pool, n, BODY_PASS_BLOCK, &|_, r| {
+            let mut out = found[r.start / BODY_PASS_BLOCK]
+                .lock()
+                .unwrap_or_else(|e| e.into_inner());
+            let BoxesFound {
+                reach,
+                sleepers: listed,
+                pushed,
+                loose,
+            } = &mut *out;
+            *reach = None;
+            listed.clear();
+            pushed.clear();
+            loose.clear();
+            for start in r.step_by(AWAKE_BLOCK) {
+                let end = (start + AWAKE_BLOCK).min(n);
+                // SAFETY: each block of the pass takes only its own range of each slice
+                let (bodies, aabbs, movers, sizes, sleeps) = unsafe {
+                    (
+                        all.range(start..end),
+                        aabbs.range(start..end),
+                        movers.range(start..end),
+                        sizes.range(start..end),
+                        sleeps.range(start..end),
+                    )
+                };
+                if shared_rest.is_rest(start / AWAKE_BLOCK) {
+                    #[cfg(debug_assertions)]
+                    for (i, b) in bodies.iter().enumerate() {
+                        let i = start + i;
+                        assert!(
+                            b.asleep && b.is_still(),
+                            "a rest block's body {i} sleeps still (asleep {}, v {}, w {}, force {})",
+                            b.asleep,
+                            b.velocity,
+                            b.angular_velocity,
+                            b.force
+                        );
+                        let bb = b.rest_box.expect("a rest block's sleeper keeps its box");
+                        assert!(bb == b.aabb(), "a sleeper's kept box is its box");
+                        let k = i - start;
+                        assert!(aabbs[k] == swept_box(b, bb, h, margin));
+                        assert!(!movers[k] && sizes[k] == b.is_dynamic());
+                        assert!(sleeps[k]);
+                    }
+                    listed.extend(start as u32..end as u32);
+                    continue;
+                }
+                let mut sleepers: Option<Aabb> = None;
+                for (i, (((b, bx), (mover, size)), sleeps)) in bodies
+                    .iter_mut()
+                    .zip(aabbs.iter_mut())
+                    .zip(movers.iter_mut().zip(sizes.iter_mut()))
+                    .zip(sleeps.iter_mut())
+                    .enumerate()
+                {
+                    if b.asleep && !b.is_still() {
+                        pushed.push(b.island);
+                    }
+                    // (an awake body's box is found afresh: its kept one, far into the
+                    // body, is not read)
+                    let bb = if !b.asleep {
+                        b.aabb()
+                    } else if let Some(bb) = b.rest_box {
+                        debug_assert!(bb == b.aabb(), "a sleeper's kept box is its box");
+                        bb
+                    } else {
+                        *b.rest_box.insert(b.aabb())
+                    };
+                    *bx = swept_box(b, bb, h, margin);
+                    *mover = b.is_mover();
+                    *sleeps = b.asleep;
+                    if b.asleep {
+                        listed.push((start + i) as u32);
+                        sleepers = Some(sleepers.map_or(*bx, |s| s.union(bx)));
+                    }
+                    if *mover {
+                        *reach = Some(reach.map_or(*bx, |r| r.union(bx)));
+                    }
+                    *size = b.is_dynamic();
+                }
+                loose.extend(sleepers);
+            }
+            0.0
+        });
+        // the blocks' findings in block order; the box holding every mover's box; the
+        // bounds of the sleepers of each awake block outside the rest blocks
         let mut reach: Option<Aabb> = None;
         let mut loose = std::mem::take(&mut rest.loose);
         loose.clear();
+        listed.clear();
+        for out in found {
+            let out = out.lock().unwrap_or_else(|e| e.into_inner());
+            reach = match (reach, out.reach) {
+                (Some(a), Some(b)) => Some(a.union(&b)),
+                (a, b) => a.or(b),
+            };
+            listed.extend_from_slice(&out.sleepers);
+            pushed.extend_from_slice(&out.pushed);
+            loose.extend_from_slice(&out.loose);
+        }
+        // a rest block's bounds, found once
         for (k, start) in (0..n).step_by(AWAKE_BLOCK).enumerate() {
-            let end = (start + AWAKE_BLOCK).min(n);
-            let mut sleepers: Option<Aabb> = None;
             if rest.is_rest(k) {
-                #[cfg(debug_assertions)]
-                for (i, b) in bodies[start..end].iter().enumerate() {
-                    let i = start + i;
-                    assert!(
-                        b.asleep && b.is_still(),
-                        "a rest block's body {i} sleeps still (asleep {}, v {}, w {}, force {})",
-                        b.asleep,
-                        b.velocity,
-                        b.angular_velocity,
-                        b.force
-                    );
-                    let bb = b.rest_box.expect("a rest block's sleeper keeps its box");
-                    assert!(bb == b.aabb(), "a sleeper's kept box is its box");
-                    assert!(collider.aabbs[i] == swept_box(b, bb, h, margin));
-                    assert!(!collider.dynamic[i] && sized[i] == b.is_dynamic());
-                    assert!(asleep[i]);
-                }
-                rest.bound(k, &collider.aabbs[start..end]);
-                listed.extend(start as u32..end as u32);
-                continue;
+                rest.bound(k, &collider.aabbs[start..(start + AWAKE_BLOCK).min(n)]);
             }
-            for (i, (((b, bx), (mover, size)), sleeps)) in bodies[start..end]
-                .iter_mut()
-                .zip(&mut collider.aabbs[start..end])
-                .zip(
-                    collider.dynamic[start..end]
-                        .iter_mut()
-                        .zip(&mut sized[start..end]),
-                )
-                .zip(&mut asleep[start..end])
-                .enumerate()
-            {
-                if b.asleep && !b.is_still() {
-                    pushed.push(b.island);
-                }
-                // (an awake body's box is found afresh: its kept one, far into the body,
-                // is not read)
-                let bb = if !b.asleep {
-                    b.aabb()
-                } else if let Some(bb) = b.rest_box {
-                    debug_assert!(bb == b.aabb(), "a sleeper's kept box is its box");
-                    bb
-                } else {
-                    *b.rest_box.insert(b.aabb())
-                };
-                *bx = swept_box(b, bb, h, margin);
-                *mover = b.is_mover();
-                *sleeps = b.asleep;
-                if b.asleep {
-                    listed.push((start + i) as u32);
-                }
-                if *mover {
-                    reach = Some(reach.map_or(*bx, |r| r.union(bx)));
-                }
-                if b.asleep {
-                    sleepers = Some(sleepers.map_or(*bx, |s| s.union(bx)));
-                }
-                *size = b.is_dynamic();
-            }
-            loose.extend(sleepers);
         }
         collider.boxes_found = true;
         let reachable = reach.is_some_and(|r| {
