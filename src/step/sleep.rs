@@ -294,7 +294,10 @@ impl Sleep {
     /// whether it sizes the grid's cells (a dynamic body, asleep or not: a few large
     /// movers must not put many small sleepers in one cell) into `sized`; the island of
     /// each sleeper pushed, set moving or given a force since it fell asleep into
-    /// `pushed`. A sleeper's box is found once and kept with it until it wakes; the
+    /// `pushed`; whether it sleeps, and the sleepers in order, into `wake_bodies`. With a
+    /// pool the threads share the bodies, block by block, and the findings are read back
+    /// in block order (the same as on one thread). A sleeper's box is found once and kept
+    /// with it until it wakes; the
     /// `rest` blocks' entries are kept as they are (their bounds found once). Returns
     /// whether some body moves (a mover), and whether a mover's box may reach a
     /// sleeper: the bounds of some block's sleepers (a rest block's, or those of the
