@@ -514,6 +514,7 @@ impl Sleep {
         mouse: Option<&MouseJoint>,
         settings: &SolverSettings,
         awake: &AwakeMarks,
+        pool: Option<&Pool>,
     ) -> bool {
         if !settings.sleep {
             self.rest.forget();
@@ -538,20 +539,30 @@ impl Sleep {
         let blocks = awake.blocks();
         let kinds = &mut self.kinds;
         kinds.resize(n, Kind::Asleep);
-        let mut pushers = false;
-        each_awake(blocks, 0..n, |r| {
-            for (b, k) in bodies[r.clone()].iter_mut().zip(&mut kinds[r]) {
-                if b.is_dynamic() && !b.asleep {
-                    let r = b.shape.radius();
-                    let linear = b.sleep_threshold;
-                    let slow = b.velocity.length() + (b.angular_velocity * r).abs() < linear;
-                    b.sleep_time = if slow { b.sleep_time + dt } else { 0.0 };
+        // (the blocks of bodies between the threads: each body's timer and kind are its own)
+        let (all, shared_kinds) = (
+            Disjoint::new(&mut bodies[..]),
+            Disjoint::new(&mut kinds[..]),
+        );
+        let pushers = parallel::ranges_max(pool, n, BODY_PASS_BLOCK, &|_, r| {
+            let mut pushers = false;
+            each_awake(blocks, r, |r| {
+                // SAFETY: each block takes only its own range of each slice
+                let (bodies, kinds) = unsafe { (all.range(r.clone()), shared_kinds.range(r)) };
+                for (b, k) in bodies.iter_mut().zip(kinds) {
+                    if b.is_dynamic() && !b.asleep {
+                        let r = b.shape.radius();
+                        let linear = b.sleep_threshold;
+                        let slow = b.velocity.length() + (b.angular_velocity * r).abs() < linear;
+                        b.sleep_time = if slow { b.sleep_time + dt } else { 0.0 };
+                    }
+                    *k = Kind::of(b);
+                    // (a kinematic body never sleeps: its block is awake)
+                    pushers |= *k == Kind::Pushing;
                 }
-                *k = Kind::of(b);
-                // (a kinematic body never sleeps: its block is awake)
-                pushers |= *k == Kind::Pushing;
-            }
-        });
+            });
+            if pushers { 1.0 } else { 0.0 }
+        }) > 0.0;
         #[cfg(debug_assertions)]
         for (i, b) in bodies.iter().enumerate() {
             assert!(
@@ -628,11 +639,18 @@ impl Sleep {
         for c in contacts.iter() {
             join(parent, c.a, kinds[c.a as usize], c.b, kinds[c.b as usize]);
         }
-        // (a joint's bodies may both sleep, in a sleeping block: their kinds are read
-        // from the bodies)
+        // (a joint's bodies may both sleep, in a sleeping block, whose kinds were not
+        // written: those are read from the bodies)
+        let kind = |i: usize| {
+            if awake.is_awake(i) {
+                debug_assert_eq!(kinds[i], Kind::of(&bodies[i]));
+                kinds[i]
+            } else {
+                Kind::of(&bodies[i])
+            }
+        };
         for j in joints {
-            let (ka, kb) = (Kind::of(&bodies[j.a]), Kind::of(&bodies[j.b]));
-            join(parent, j.a as u32, ka, j.b as u32, kb);
+            join(parent, j.a as u32, kind(j.a), j.b as u32, kind(j.b));
         }
         let held = uf_root(parent, restless);
         let mut fell = false;
