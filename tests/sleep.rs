@@ -506,3 +506,74 @@ fn a_swarm_far_from_a_sleeping_wall_leaves_it_asleep_until_it_arrives() {
         );
     }
 }
+
+/// Joints of sleeping islands sit out the solve while the joints of an awake island
+/// among them are solved: two hanging chains fall asleep on either side of a wheel a
+/// turning motor keeps awake, their joints before and after the wheel's in the world's
+/// order. Every step, each joint is still where it was in that order, with the same
+/// bodies; a sleeping chain's joints are the same to the bit (their warm-start impulses
+/// untouched); and the motor keeps its wheel turning at its speed. Under every solver.
+#[test]
+fn sleeping_joints_around_an_awake_one_keep_their_places_and_impulses() {
+    let text = "name = \"j\"\n[world]\ngravity = [0.0, -10.0]\n\
+        [[chain]]\nlinks = 3\nlink = [0.5, 0.1]\nanchor = [0.0, 5.0]\ndirection = [0.0, -1.0]\n\
+        [[body]]\nname = \"axle\"\ntype = \"static\"\nshape = { circle = 0.05 }\nposition = [10.0, 5.0]\n\
+        [[body]]\nname = \"wheel\"\nshape = { circle = 0.5 }\nposition = [10.0, 5.0]\n\
+        [[joint]]\ntype = \"hinge\"\nbodies = [\"axle\", \"wheel\"]\nanchor = [10.0, 5.0]\n\
+        motor = { speed = 2.0, max_torque = 100.0 }\n\
+        [[chain]]\nlinks = 3\nlink = [0.5, 0.1]\nanchor = [20.0, 5.0]\ndirection = [0.0, -1.0]\n";
+    let sc = sandbox2d::scene::load_str(text, "chains.toml").unwrap();
+    for kind in SolverKind::ALL {
+        let mut w = World::from_def(&sc.world, SolverSettings::defaults(kind)).unwrap();
+        let wheel = w.order_of("wheel").unwrap();
+        let wheel_key = w.nth_key(wheel);
+        let order = |w: &World| -> Vec<_> {
+            w.joints()
+                .map(|(k, j)| (k, w.joint_bodies(k).unwrap(), format!("{j:?}")))
+                .collect()
+        };
+        let start = order(&w);
+        let n = start.len();
+        let at = start
+            .iter()
+            .position(|(_, b, _)| b.contains(&wheel_key))
+            .expect("the wheel's joint");
+        assert!(
+            0 < at && at + 1 < n,
+            "the wheel's joint sits among the chains'"
+        );
+        // the chains fall asleep (at most 10 s)
+        let chains = |w: &World| {
+            (0..w.body_count())
+                .filter(|&i| i != wheel && w.nth_body(i).is_dynamic())
+                .all(|i| w.nth_body(i).asleep)
+        };
+        let mut k = 0;
+        while !chains(&w) && k < 600 {
+            w.step().unwrap();
+            k += 1;
+        }
+        assert!(chains(&w), "{kind:?}: the chains fell asleep");
+        assert!(
+            !w.nth_body(wheel).asleep,
+            "{kind:?}: the motor keeps its wheel awake"
+        );
+        let asleep = order(&w);
+        for _ in 0..60 {
+            w.step().unwrap();
+            let now = order(&w);
+            assert_eq!(now.len(), n);
+            for (i, ((k0, b0, j0), (k1, b1, j1))) in asleep.iter().zip(&now).enumerate() {
+                assert_eq!((k0, b0), (k1, b1), "{kind:?}: joint {i} is where it was");
+                if i != at {
+                    assert_eq!(j0, j1, "{kind:?}: sleeping joint {i} changed");
+                }
+            }
+            let spin = w.nth_body(wheel).angular_velocity;
+            assert!(
+                (spin - 2.0).abs() < 0.05,
+                "{kind:?}: the wheel turns at {spin} rad/s, not the motor's 2"
+            );
+        }
+    }
+}

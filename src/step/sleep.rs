@@ -54,11 +54,10 @@ pub(crate) struct Sleep {
     to_wake: Vec<u32>,
     /// What the waking pass reads of each body, side by side (scratch).
     wake_bodies: WakeBodies,
-    /// Joints whose bodies all sleep (or do not move), with their index, taken out of
-    /// the world's joints for the solve of one step (see [`Sleep::park_joints`]).
+    /// Joints whose bodies all sleep (or do not move), each with the index it was
+    /// taken from, taken out of the world's joints for the solve of one step, in the
+    /// order they were taken (see [`Sleep::park_joints`]).
     parked: Vec<(usize, Joint)>,
-    /// The joints that stay in the solve (scratch of the parking).
-    joints_scratch: Vec<Joint>,
     /// Whether no body is asleep and no contact is kept aside in this step: known at its
     /// start (see `awake_at`), else found by its collide. Then none is asleep at the
     /// step's end either (only [`Sleep::update`] puts bodies to sleep), so the end of the
@@ -456,45 +455,34 @@ impl Sleep {
     /// step's solve: a sleeping island's joints cost nothing, and their warm-started
     /// impulses (which balanced a gravity the sleeping bodies no longer get) do not push
     /// the island awake. Called after the wake passes; [`Sleep::unpark_joints`] puts
-    /// them back in order after the solve.
+    /// them back where they were after the solve. Each parked joint's place is taken by
+    /// the list's last joint (from the highest index down), so a step moves two joints
+    /// for each parked one, not the whole list: the solve's order is the world's but for
+    /// the joints moved into the gaps.
     pub(crate) fn park_joints(&mut self, bodies: &[Body], joints: &mut Vec<Joint>) {
+        debug_assert!(self.parked.is_empty());
         let resting = |i: usize| {
             let b = &bodies[i];
             b.asleep || b.body_type == BodyType::Static || (!b.is_dynamic() && !b.is_mover())
         };
-        if !joints.iter().any(|j| resting(j.a) && resting(j.b)) {
-            return;
-        }
-        let mut keep = std::mem::take(&mut self.joints_scratch);
-        keep.clear();
-        for (i, j) in joints.drain(..).enumerate() {
-            if resting(j.a) && resting(j.b) {
-                self.parked.push((i, j));
-            } else {
-                keep.push(j);
+        for i in (0..joints.len()).rev() {
+            if resting(joints[i].a) && resting(joints[i].b) {
+                self.parked.push((i, joints.swap_remove(i)));
             }
         }
-        self.joints_scratch = std::mem::replace(joints, keep);
     }
 
-    /// Puts the parked joints back where they were.
+    /// Puts the parked joints back where they were: each parking undone, the last
+    /// first.
     pub(crate) fn unpark_joints(&mut self, joints: &mut Vec<Joint>) {
-        if self.parked.is_empty() {
-            return;
-        }
-        let mut all = std::mem::take(&mut self.joints_scratch);
-        all.clear();
-        let mut awake = joints.drain(..);
-        let mut parked = self.parked.drain(..).peekable();
-        let total = awake.len() + parked.len();
-        for i in 0..total {
-            match parked.peek() {
-                Some((at, _)) if *at == i => all.push(parked.next().unwrap().1),
-                _ => all.extend(awake.next()),
+        for (i, j) in self.parked.drain(..).rev() {
+            if i == joints.len() {
+                joints.push(j);
+            } else {
+                let moved = std::mem::replace(&mut joints[i], j);
+                joints.push(moved);
             }
         }
-        drop(awake);
-        self.joints_scratch = std::mem::replace(joints, all);
     }
 
     /// After a step: a dynamic body none of whose points moves faster than its sleep
