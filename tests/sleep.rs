@@ -512,7 +512,8 @@ fn a_swarm_far_from_a_sleeping_wall_leaves_it_asleep_until_it_arrives() {
 /// turning motor keeps awake, their joints before and after the wheel's in the world's
 /// order. Every step, each joint is still where it was in that order, with the same
 /// bodies; a sleeping chain's joints are the same to the bit (their warm-start impulses
-/// untouched); and the motor keeps its wheel turning at its speed. Under every solver.
+/// untouched); and the motor keeps its wheel turning at its speed. Under every solver,
+/// and PGS with substeps.
 #[test]
 fn sleeping_joints_around_an_awake_one_keep_their_places_and_impulses() {
     let text = "name = \"j\"\n[world]\ngravity = [0.0, -10.0]\n\
@@ -523,8 +524,14 @@ fn sleeping_joints_around_an_awake_one_keep_their_places_and_impulses() {
         motor = { speed = 2.0, max_torque = 100.0 }\n\
         [[chain]]\nlinks = 3\nlink = [0.5, 0.1]\nanchor = [20.0, 5.0]\ndirection = [0.0, -1.0]\n";
     let sc = sandbox2d::scene::load_str(text, "chains.toml").unwrap();
-    for kind in SolverKind::ALL {
-        let mut w = World::from_def(&sc.world, SolverSettings::defaults(kind)).unwrap();
+    // (PGS with substeps collides, and parks, every substep)
+    let runs = SolverKind::ALL.map(|k| (k, None)).into_iter();
+    for (kind, substeps) in runs.chain([(SolverKind::Pgs, Some(4))]) {
+        let mut settings = SolverSettings::defaults(kind);
+        if let Some(n) = substeps {
+            settings.substeps = n;
+        }
+        let mut w = World::from_def(&sc.world, settings).unwrap();
         let wheel = w.order_of("wheel").unwrap();
         let wheel_key = w.nth_key(wheel);
         let order = |w: &World| -> Vec<_> {
