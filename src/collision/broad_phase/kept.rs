@@ -18,7 +18,7 @@ pub enum Left<'a> {
 /// How far a kept box reaches past a body's box (m), at most: a body is looked up again
 /// only once its box leaves this. A quarter of the body's own extent where that is less,
 /// so that small bodies keep few extra pairs.
-pub(super) const KEEP_MARGIN: f32 = 0.1;
+const KEEP_MARGIN: f32 = 0.1;
 
 /// At most this many bodies are looked up one by one against every box (about 2 ns a
 /// box each) rather than through the grid (about 150 ns a box): the kept boxes that a
@@ -37,7 +37,7 @@ pub(super) const SOME_SHARE: usize = 4;
 
 /// A body's kept box: its box fattened by [`KEEP_MARGIN`], or a quarter of its extent
 /// where that is less.
-pub(super) fn kept_box(b: &Aabb) -> Aabb {
+fn kept_box(b: &Aabb) -> Aabb {
     let extent = (b.max - b.min).max_element();
     b.fattened(KEEP_MARGIN.min(0.25 * extent))
 }
