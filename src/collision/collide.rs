@@ -100,10 +100,29 @@ pub(crate) struct Collider {
     /// The bodies whose kept box (or filter) no longer holds, in increasing order, when
     /// the kept boxes are for these bodies (scratch).
     left: Vec<u32>,
+    /// Per body: the last narrow phase (`stamp`) that found it a contact.
+    touched: Touched,
+    /// Narrow phases so far (wrapping; the first is 1, so that no body starts touched).
+    stamp: u32,
     /// Each block's first contact (scratch).
     narrow_starts: Vec<usize>,
     /// Each block's first pair, then the pair count (scratch).
     narrow_blocks: Vec<usize>,
+}
+
+/// Per body: the last narrow phase that found it a contact, marked from the narrow
+/// phase's threads.
+#[derive(Debug, Default)]
+struct Touched(Vec<AtomicU32>);
+
+impl Clone for Touched {
+    fn clone(&self) -> Self {
+        Touched(
+            (self.0.iter())
+                .map(|t| AtomicU32::new(t.load(Ordering::Relaxed)))
+                .collect(),
+        )
+    }
 }
 
 /// Body pairs a thread claims at a time in the narrow phase.
@@ -119,6 +138,7 @@ impl Collider {
         self.dynamic.clear();
         self.reach.clear();
         self.old_contacts.clear();
+        self.touched.0.clear();
     }
 
     /// Whether each body is dynamic, where this step's broad phase found it for every
@@ -295,12 +315,27 @@ impl Collider {
         // with filters, the kept pairs are only those the filters let touch
         let filter_of = |i: usize| bodies[i].filter;
         let filter_of = filtered.then_some(&filter_of as &dyn Fn(usize) -> Filter);
+        // each body's motion over a step, for its kept box to reach ahead along (see
+        // `BroadPhase::refresh_kept`): none for a body that had a contact at the last
+        // narrow phase, whose path a touch may bend (a body in a heap), so that only
+        // bodies in flight reach ahead
+        let (touched, stamp) = (&self.touched.0, self.stamp);
+        let motion = |i: usize| {
+            if touched
+                .get(i)
+                .is_some_and(|t| t.load(Ordering::Relaxed) == stamp)
+            {
+                Vec2::ZERO
+            } else {
+                bodies[i].velocity * h
+            }
+        };
         if !sensors {
-            // (the pass above set it for every body: no body is read again)
+            // (the pass above set it for every body)
             let dynamic = &self.dynamic;
             let may_move = |i: usize| dynamic[i];
             self.broad
-                .refresh_kept(&self.aabbs, left, may_move, filter_of, pool);
+                .refresh_kept(&self.aabbs, left, may_move, &motion, filter_of, pool);
         } else {
             let test = PairTest {
                 bodies,
@@ -314,6 +349,7 @@ impl Collider {
                 &self.dynamic,
                 left,
                 |i| self.dynamic[i],
+                &motion,
                 filter_of,
                 |a, b| test.may_collide(a, b),
                 pool,
@@ -360,6 +396,8 @@ impl Collider {
                 keep
             });
         }
+        self.stamp = self.stamp.wrapping_add(1).max(1);
+        self.touched.0.resize_with(bodies.len(), AtomicU32::default);
         let narrow = Narrow {
             bodies,
             pairs: if fused {
@@ -381,6 +419,8 @@ impl Collider {
             speculative,
             margin,
             awake: &self.awake,
+            touched: &self.touched.0,
+            stamp: self.stamp,
         };
         let pairs = narrow.pairs.len();
         match pool {
@@ -520,9 +560,20 @@ struct Narrow<'a> {
     /// The blocks of bodies the broad phase found awake: a kept pair whose first body's
     /// block sleeps is skipped with its block (see [`Narrow::run`]).
     awake: &'a AwakeMarks,
+    /// Per body: the last narrow phase that found it a contact, written `stamp` here.
+    touched: &'a [AtomicU32],
+    stamp: u32,
 }
 
 impl Narrow<'_> {
+    /// Marks bodies `a` and `b` as having a contact this step.
+    #[inline]
+    fn touch(&self, a: u32, b: u32) {
+        // (relaxed: the threads write the same stamp, read after the job's end)
+        self.touched[a as usize].store(self.stamp, Ordering::Relaxed);
+        self.touched[b as usize].store(self.stamp, Ordering::Relaxed);
+    }
+
     /// Collides the pairs of `range` (in order) and pushes the touching ones to `out`;
     /// returns the deepest overlap found (m, >= 0).
     fn run(&self, range: std::ops::Range<usize>, out: &mut Vec<Contact>) -> f32 {
@@ -603,6 +654,7 @@ impl Narrow<'_> {
                         for p in m.points() {
                             deepest = deepest.max(-p.separation);
                         }
+                        self.touch(a, b);
                         out.push(Contact {
                             a,
                             b,
@@ -630,6 +682,7 @@ impl Narrow<'_> {
             for p in m.points() {
                 deepest = deepest.max(-p.separation);
             }
+            self.touch(a, b);
             out.push(Contact {
                 a,
                 b,

@@ -35,11 +35,44 @@ pub(super) const ONE_BY_ONE: usize = 32;
 /// the share is of the movers, not of every body.)
 pub(super) const SOME_SHARE: usize = 4;
 
-/// A body's kept box: its box fattened by [`KEEP_MARGIN`], or a quarter of its extent
-/// where that is less.
-fn kept_box(b: &Aabb) -> Aabb {
+/// The most steps of its motion a body's kept box reaches ahead of its box.
+const AHEAD_MOST: u8 = 8;
+
+/// How many steps of its motion a body's kept box reaches ahead, its last one having
+/// reached `ahead` steps and held for `held` refreshes before the body left it: twice
+/// as many (one from none, at most [`AHEAD_MOST`]) where the body went on as it went
+/// (it left the box near its far end), half as many where it turned, hit something or
+/// stopped. So a falling or thrown body leaves its kept box up to [`AHEAD_MOST`] times
+/// less often, and one jostled in a heap reaches no further than its margin: the kept
+/// pairs grow only along paths that bodies keep to.
+pub(super) fn next_ahead(ahead: u8, held: u32) -> u8 {
+    if held > u32::from(ahead) {
+        (2 * ahead).clamp(1, AHEAD_MOST)
+    } else {
+        ahead / 2
+    }
+}
+
+/// How far body `i`'s kept box reaches ahead of its box: `ahead` steps of its `motion`
+/// (which is not asked for where that is none).
+fn reach(motion: &dyn Fn(usize) -> Vec2, i: usize, ahead: u8) -> Vec2 {
+    if ahead == 0 {
+        Vec2::ZERO
+    } else {
+        motion(i) * f32::from(ahead)
+    }
+}
+
+/// A body's kept box: its box `b` stretched by `ahead` (where its motion takes it in the
+/// steps its kept box reaches ahead), fattened by [`KEEP_MARGIN`], or a quarter of its
+/// extent where that is less.
+fn kept_box(b: &Aabb, ahead: Vec2) -> Aabb {
     let extent = (b.max - b.min).max_element();
-    b.fattened(KEEP_MARGIN.min(0.25 * extent))
+    Aabb {
+        min: b.min + ahead.min(Vec2::ZERO),
+        max: b.max + ahead.max(Vec2::ZERO),
+    }
+    .fattened(KEEP_MARGIN.min(0.25 * extent))
 }
 
 /// Whether some two of `filters` (two entries, not one with itself) let their bodies
@@ -84,6 +117,7 @@ impl BroadPhase {
         aabbs: &[Aabb],
         moves: &[bool],
         may_move: impl Fn(usize) -> bool,
+        motion: impl Fn(usize) -> Vec2,
         can_collide: impl Fn(u32, u32) -> bool,
     ) {
         let listed: Option<Vec<u32>> = (self.kept_count() == aabbs.len()).then(|| {
@@ -93,7 +127,16 @@ impl BroadPhase {
                 .collect()
         });
         let left = listed.as_deref().map_or(Left::All, Left::These);
-        self.find_pairs_kept_checked(aabbs, moves, left, may_move, None, can_collide, None);
+        self.find_pairs_kept_checked(
+            aabbs,
+            moves,
+            left,
+            may_move,
+            &motion,
+            None,
+            can_collide,
+            None,
+        );
     }
 
     /// Bodies the kept boxes are for (0 before the first [`BroadPhase::find_pairs_kept`]).
@@ -132,11 +175,12 @@ impl BroadPhase {
         moves: &[bool],
         left: Left<'_>,
         may_move: impl Fn(usize) -> bool,
+        motion: &dyn Fn(usize) -> Vec2,
         filter_of: Option<&dyn Fn(usize) -> Filter>,
         can_collide: impl Fn(u32, u32) -> bool,
         pool: Option<&Pool>,
     ) {
-        self.refresh_kept(aabbs, left, may_move, filter_of, pool);
+        self.refresh_kept(aabbs, left, may_move, motion, filter_of, pool);
         self.pairs.clear();
         for &(a, b) in &self.kept_pairs {
             if Self::kept_pair_holds(aabbs, moves, a, b) && can_collide(a, b) {
@@ -156,25 +200,59 @@ impl BroadPhase {
     /// whose filters let them touch, and remembers the filters: while they stay the same
     /// ([`BroadPhase::kept_filter_holds`], which `left` must then include) the kept
     /// pairs still hold every pair of the step. Without it every pair of boxes is kept.
+    ///
+    /// `motion(i)`: how far body i moves in a step as it moves now (zero where its path
+    /// is not to be trusted). A kept box made anew reaches that far ahead for as many
+    /// steps as the body's last one held before it left ([`next_ahead`]), so that a body
+    /// in flight is looked up again every few steps, not every step. A kept box holds
+    /// the kept pairs' promise whatever its shape: the pairs of the step stay the same.
     pub fn refresh_kept(
         &mut self,
         aabbs: &[Aabb],
         left: Left<'_>,
         may_move: impl Fn(usize) -> bool,
+        motion: &dyn Fn(usize) -> Vec2,
         filter_of: Option<&dyn Fn(usize) -> Filter>,
         pool: Option<&Pool>,
     ) {
+        // how far the kept boxes of the bodies that left reach ahead, by how long their
+        // last ones held
+        self.refreshes = self.refreshes.wrapping_add(1);
+        let now = self.refreshes;
+        let known = self.kept_ahead.len() == aabbs.len();
+        if let (Left::These(listed), true) = (left, known) {
+            for &i in listed {
+                let i = i as usize;
+                let held = now.wrapping_sub(self.kept_made[i]);
+                self.kept_ahead[i] = next_ahead(self.kept_ahead[i], held);
+                self.kept_made[i] = now;
+            }
+        }
         let rebuild = match left {
             Left::All => true,
             Left::These(listed) => {
-                !listed.is_empty() && !self.refresh_some(aabbs, listed, &may_move, filter_of, pool)
+                !listed.is_empty()
+                    && !self.refresh_some(aabbs, listed, &may_move, motion, filter_of, pool)
             }
         };
         if rebuild {
             let mut fat = std::mem::take(&mut self.kept_boxes);
             let mut fat_moves = std::mem::take(&mut self.kept_moves);
             fat.clear();
-            fat.extend(aabbs.iter().map(kept_box));
+            if !known || matches!(left, Left::All) {
+                self.kept_ahead.clear();
+                self.kept_ahead.resize(aabbs.len(), 0);
+            }
+            self.kept_made.clear();
+            self.kept_made.resize(aabbs.len(), now);
+            let ahead = &self.kept_ahead;
+            fat.extend(
+                aabbs
+                    .iter()
+                    .zip(ahead)
+                    .enumerate()
+                    .map(|(i, (b, &k))| kept_box(b, reach(motion, i, k))),
+            );
             fat_moves.clear();
             fat_moves.extend((0..aabbs.len()).map(&may_move));
             self.kept_movers = fat_moves.iter().filter(|&&m| m).count();
@@ -258,6 +336,7 @@ impl BroadPhase {
         aabbs: &[Aabb],
         listed: &[u32],
         may_move: &impl Fn(usize) -> bool,
+        motion: &dyn Fn(usize) -> Vec2,
         filter_of: Option<&dyn Fn(usize) -> Filter>,
         pool: Option<&Pool>,
     ) -> bool {
@@ -286,6 +365,7 @@ impl BroadPhase {
         }
         let Self {
             kept_boxes,
+            kept_ahead,
             kept_moves,
             kept_movers,
             kept_filters,
@@ -330,7 +410,7 @@ impl BroadPhase {
         }
         for &i in listed {
             let i = i as usize;
-            let fat = kept_box(&aabbs[i]);
+            let fat = kept_box(&aabbs[i], reach(motion, i, kept_ahead[i]));
             kept_boxes[i] = fat;
             let moves = may_move(i);
             if moves != kept_moves[i] {

@@ -43,6 +43,12 @@ pub struct BroadPhase {
     /// sleepers and static bodies around it, and a rebuild's grid leaves out the blocks
     /// of such bodies that no mover reaches (`still_bounds`).
     kept_boxes: Vec<Aabb>,
+    /// Per body: how many steps of its motion its kept box reaches ahead, and the
+    /// refresh of the kept pairs (`refreshes`) that made it.
+    kept_ahead: Vec<u8>,
+    kept_made: Vec<u32>,
+    /// Refreshes of the kept pairs so far (wrapping).
+    refreshes: u32,
     kept_moves: Vec<bool>,
     /// Each body's collision filter at the last rebuild, when the kept pairs were
     /// filtered by them (empty when they were not: then they hold every pair of boxes).

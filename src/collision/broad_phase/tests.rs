@@ -143,7 +143,7 @@ fn kept_against_fresh(
 ) {
     let phase = step / 50;
     let can = |a: u32, b: u32| !(a + b + phase).is_multiple_of(7);
-    kept.find_pairs_kept(boxes, moves, |i| may_move[i], can);
+    kept.find_pairs_kept(boxes, moves, |i| may_move[i], |_| Vec2::ZERO, can);
     fresh.find_pairs(boxes, moves, can);
     assert!(!fresh.pairs.is_empty());
     assert_eq!(kept.pairs, fresh.pairs, "step {step}");
@@ -190,6 +190,90 @@ fn kept_pairs_are_the_pairs_found_afresh_every_step() {
         kept.rebuilds,
         kept.updates
     );
+}
+
+/// Steps `steps` of 60 bodies falling side by side, ever faster, past a column of still
+/// boxes and above a heap that jostles within its kept boxes, with the kept pairs
+/// checked against pairs found afresh every step; the kept boxes reach ahead along the
+/// fallers' motions where `reach`. Returns how many refreshes made kept boxes anew
+/// (rebuilds and updates).
+fn falling_past_a_column(steps: u32, reach: bool) -> u64 {
+    let mut rnd = unit(lcg(31337));
+    let mut boxes = ground_and_heap(&mut rnd, 200, 20, 0.3);
+    let heap = boxes.len();
+    // still boxes the first faller brushes past on its way down
+    for k in 0..30 {
+        let y = k as f32;
+        boxes.push(aabb(-30.0, y, -29.5, y + 0.5));
+    }
+    let fallers = boxes.len();
+    for k in 0..60 {
+        let x = -29.7 + k as f32 * 0.5;
+        boxes.push(aabb(x, 40.0, x + 0.2, 40.2));
+    }
+    let n = boxes.len();
+    let may_move: Vec<bool> = (0..n)
+        .map(|i| i != 0 && !(heap..fallers).contains(&i))
+        .collect();
+    let (mut kept, mut fresh) = (BroadPhase::default(), BroadPhase::default());
+    let can = |_: u32, _: u32| true;
+    let mut touched = 0;
+    for step in 0..steps {
+        for b in &mut boxes[1..heap] {
+            let d = Vec2::new(rnd() - 0.5, rnd() - 0.5) * 0.004;
+            (b.min, b.max) = (b.min + d, b.max + d);
+        }
+        let fall = Vec2::new(0.0, -0.1 - 0.01 * step as f32);
+        for b in &mut boxes[fallers..] {
+            (b.min, b.max) = (b.min + fall, b.max + fall);
+        }
+        let motion = |i: usize| {
+            if reach && i >= fallers {
+                fall
+            } else {
+                Vec2::ZERO
+            }
+        };
+        kept.find_pairs_kept(&boxes, &may_move, |i| may_move[i], motion, can);
+        fresh.find_pairs(&boxes, &may_move, can);
+        assert_eq!(kept.pairs, fresh.pairs, "step {step}");
+        touched += fresh
+            .pairs
+            .iter()
+            .filter(|&&(_, b)| b as usize == fallers)
+            .count();
+    }
+    assert!(touched > 10, "the first faller met {touched} still boxes");
+    kept.rebuilds + kept.updates
+}
+
+#[test]
+fn kept_boxes_reaching_ahead_of_bodies_in_flight_hold_longer_and_keep_every_pair() {
+    // without reach every faller leaves its kept box every step; with it their kept
+    // boxes reach 1, 2, 4 then 8 steps ahead and hold that long
+    let steps = 60;
+    let (reaching, not) = (
+        falling_past_a_column(steps, true),
+        falling_past_a_column(steps, false),
+    );
+    assert!(not >= u64::from(steps) - 1, "{not} refreshes without reach");
+    assert!(
+        3 * reaching < not,
+        "{reaching} refreshes with reach against {not}"
+    );
+}
+
+#[test]
+fn a_kept_box_reaches_further_while_its_body_goes_on_as_it_went() {
+    // held past its reach: twice as far (one step from none), at most eight
+    assert_eq!(next_ahead(0, 1), 1);
+    assert_eq!(next_ahead(1, 2), 2);
+    assert_eq!(next_ahead(4, 5), 8);
+    assert_eq!(next_ahead(8, 9), 8);
+    // left before its reach was used up (it turned, was hit, stopped): half as far
+    assert_eq!(next_ahead(8, 3), 4);
+    assert_eq!(next_ahead(2, 2), 1);
+    assert_eq!(next_ahead(1, 1), 0);
 }
 
 #[test]
@@ -342,7 +426,7 @@ fn kept_pairs_leave_out_what_the_filters_refuse() {
     assert_eq!(bp.rebuilds, 2);
     // unfiltered, every pair of boxes is kept
     let mut all = BroadPhase::default();
-    all.refresh_kept(&boxes, Left::All, |_| true, None, None);
+    all.refresh_kept(&boxes, Left::All, |_| true, &|_| Vec2::ZERO, None, None);
     assert_eq!(all.kept_pairs().len(), n * (n - 1) / 2);
 }
 
@@ -379,6 +463,7 @@ fn step_filtered(
         moves,
         as_left(left),
         |i| moves[i],
+        &|_| Vec2::ZERO,
         Some(&of),
         |a, b| filters[a as usize].collides(&filters[b as usize]),
         pool,
@@ -648,6 +733,7 @@ fn a_few_bodies_wandering_through_a_grid_keep_the_pairs_a_rebuild_finds() {
             &moves,
             as_left(&left),
             |i| moves[i],
+            &|_| Vec2::ZERO,
             None,
             |_, _| true,
             None,
