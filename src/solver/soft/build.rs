@@ -23,6 +23,8 @@ pub(super) struct Fill<'a> {
     /// Per contact: solved exactly (`direct`), so its leak is load-aware.
     direct: &'a [bool],
     warm_start: bool,
+    /// The approach speed below which restitution leaves a point be (m/s).
+    restitution_threshold: f32,
     rest: u32,
     sink: u32,
 }
@@ -136,24 +138,32 @@ impl Fill<'_> {
         }
     }
 
-    /// The cold half of wide constraint `wi`, and whether some lane has restitution.
+    /// The cold half of wide constraint `wi`, and whether some lane has restitution to
+    /// apply: a restitution above zero and a point that approaches faster than the
+    /// threshold (restitution leaves every other lane be, so those keep none).
     fn cold(&self, wi: usize) -> (WideCold, bool) {
         let mut cold = WideCold::default();
         let mut any = false;
         for (k, c) in self.lanes(wi) {
-            cold.restitution[k] = c.restitution;
             cold.count[k] = c.manifold.count as u8;
             if c.restitution == 0.0 {
                 continue;
             }
-            any = true;
             // dv = vb + wb x rb - va - wa x ra (read only by restitution)
             let (ba, bb) = (self.bodies[c.a as usize], self.bodies[c.b as usize]);
             let n = c.manifold.normal;
+            let mut approaching = false;
             for (i, cp) in c.manifold.points().iter().enumerate() {
                 let (ra, rb) = (cp.anchor_a, cp.anchor_b);
                 let dv = bb.v + cross_sv(bb.w, rb) - ba.v - cross_sv(ba.w, ra);
-                cold.relative_velocity[i][k] = n.dot(dv);
+                let rv = n.dot(dv);
+                cold.relative_velocity[i][k] = rv;
+                // (the test restitution makes of each point, negated)
+                approaching |= !(rv > -self.restitution_threshold);
+            }
+            if approaching {
+                cold.restitution[k] = c.restitution;
+                any = true;
             }
         }
         (cold, any)
@@ -348,6 +358,7 @@ impl SoftSolver {
             load_scale: 1.0 / (h * s.slop.max(MIN_LOAD_DEPTH)),
             direct: &self.direct_contact,
             warm_start: s.warm_start,
+            restitution_threshold: s.restitution_threshold,
             rest,
             sink,
         };

@@ -182,6 +182,8 @@ fn take_velocity(s: &mut SoftBody, inc: &mut (Vec2, f32), v: Vec2, w: f32) {
 /// What restitution and the cache need, kept out of the sweeps' way.
 #[derive(Clone, Copy, Debug, Default)]
 struct WideCold {
+    /// Each lane's restitution, where some point of it approaches faster than the
+    /// restitution threshold (else 0: restitution leaves the lane be)
     restitution: Vec4,
     /// relative normal velocity of each point before the step, for restitution
     relative_velocity: [Vec4; 2],
