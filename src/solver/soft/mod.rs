@@ -1488,4 +1488,50 @@ mod tests {
         );
         assert!(w.bodies[1].velocity.length() < 1e-3);
     }
+
+    #[test]
+    fn restitution_keeps_only_the_lanes_whose_points_approach_past_the_threshold() {
+        // two balls of restitution 0.8 (sleep off): one resting on the ground, whose
+        // contact approaches at g dt a step (below the 1 m/s threshold), and one dropped
+        // from 5 m, which lands at about 10 m/s
+        let sc = crate::scene::load_str(
+            "name = \"two\"\n[world]\ngravity = [0.0, -10.0]\n[solver]\nsleep = false\n\
+             [[body]]\nname = \"ground\"\ntype = \"static\"\nshape = { box = [20.0, 1.0] }\nposition = [0.0, -0.5]\nrestitution = 0.8\n\
+             [[body]]\nname = \"resting\"\nshape = { circle = 0.5 }\nposition = [-5.0, 0.5]\nrestitution = 0.8\n\
+             [[body]]\nname = \"dropped\"\nshape = { circle = 0.5 }\nposition = [5.0, 5.5]\nrestitution = 0.8\n",
+            "two.toml",
+        )
+        .unwrap();
+        let mut w = crate::World::from_def(&sc.world, SolverSettings::soft()).unwrap();
+        let kept = |w: &crate::World| {
+            let st = w.stepper_as::<crate::step::soft::SoftStepper>();
+            st.expect("a soft stepper").soft.restitution
+        };
+        // the dropped ball is still 3.75 m up after half a second: only the resting
+        // ball's contact is in the step, and restitution leaves it be
+        for _ in 0..30 {
+            w.step().unwrap();
+            assert!(!w.contacts().is_empty());
+            assert!(!kept(&w), "no point approaches past the threshold");
+        }
+        // the landing: the lanes of the step that meets the ground keep restitution,
+        // and the ball leaves at e times its landing speed
+        let (mut landing, mut kept_some) = (0.0f32, false);
+        for _ in 0..60 {
+            let before = w.bodies[2].velocity.y;
+            w.step().unwrap();
+            kept_some |= kept(&w);
+            if before < -5.0 && w.bodies[2].velocity.y > 0.0 {
+                landing = -before;
+                break;
+            }
+        }
+        assert!(kept_some, "the landing's lane keeps its restitution");
+        assert!(landing > 9.0, "landed at {landing} m/s");
+        let up = w.bodies[2].velocity.y;
+        assert!(
+            (up / landing - 0.8).abs() < 0.05,
+            "left at {up} m/s after landing at {landing}"
+        );
+    }
 }
