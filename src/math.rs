@@ -158,6 +158,15 @@ impl Aabb {
         }
     }
 
+    /// The box stretched along `d`: it holds the box and the box moved by `d`.
+    #[inline]
+    pub fn swept(&self, d: Vec2) -> Aabb {
+        Aabb {
+            min: self.min + d.min(Vec2::ZERO),
+            max: self.max + d.max(Vec2::ZERO),
+        }
+    }
+
     /// The smallest box holding both.
     #[inline]
     pub fn union(&self, o: &Aabb) -> Aabb {

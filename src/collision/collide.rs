@@ -472,11 +472,7 @@ impl Collider {
 /// `h` (a moving body's, so that fast bodies find their pairs) and by half the margin.
 pub(crate) fn swept_box(b: &Body, bb: Aabb, h: f32, margin: f32) -> Aabb {
     let bb = if b.body_type != BodyType::Static {
-        let d = b.velocity * h;
-        Aabb {
-            min: bb.min + d.min(Vec2::ZERO),
-            max: bb.max + d.max(Vec2::ZERO),
-        }
+        bb.swept(b.velocity * h)
     } else {
         bb
     };

@@ -68,11 +68,7 @@ fn reach(motion: &dyn Fn(usize) -> Vec2, i: usize, ahead: u8) -> Vec2 {
 /// extent where that is less.
 fn kept_box(b: &Aabb, ahead: Vec2) -> Aabb {
     let extent = (b.max - b.min).max_element();
-    Aabb {
-        min: b.min + ahead.min(Vec2::ZERO),
-        max: b.max + ahead.max(Vec2::ZERO),
-    }
-    .fattened(KEEP_MARGIN.min(0.25 * extent))
+    b.swept(ahead).fattened(KEEP_MARGIN.min(0.25 * extent))
 }
 
 /// Whether some two of `filters` (two entries, not one with itself) let their bodies
