@@ -540,6 +540,7 @@ impl World {
             self.mouse.as_ref(),
             &self.settings,
             &self.collider.awake,
+            self.edits,
             pool.as_deref(),
         );
         self.sleep.awake_at = awake.then_some(self.edits);

@@ -584,3 +584,45 @@ fn sleeping_joints_around_an_awake_one_keep_their_places_and_impulses() {
         }
     }
 }
+
+/// The spin's part of the sleep test measures a body as it is now: a slow spin that
+/// lets a small box rest and sleep keeps the same box awake once shapes far from its
+/// centre are added to it (their points move faster than the threshold).
+#[test]
+fn a_slow_spin_rests_a_small_box_and_not_one_given_far_shapes() {
+    use sandbox2d::math::Vec2;
+    use sandbox2d::{PartDef, ShapeDef};
+    let make = || {
+        let text = "name = \"spin\"\n[world]\ngravity = [0.0, 0.0]\n\
+                    [[body]]\nname = \"top\"\nshape = { box = [0.2, 0.2] }\nangular_velocity = 0.2\n";
+        let sc = sandbox2d::scene::load_str(text, "spin.toml").unwrap();
+        World::from_def(&sc.world, SolverSettings::defaults(SolverKind::Soft)).unwrap()
+    };
+    // the box's corners move at 0.2 rad/s x 0.141 m = 0.028 m/s, below 0.05 m/s
+    let (mut small, mut wide) = (make(), make());
+    steps(&mut small, 10);
+    steps(&mut wide, 10);
+    // two discs 2 m either side keep the centre of mass where it was: their points
+    // move at 0.2 rad/s x 2.1 m = 0.42 m/s
+    let key = wide.bodies().next().unwrap().0;
+    for x in [-2.0, 2.0] {
+        let disc = PartDef {
+            density: Some(1.0),
+            ..PartDef::new(ShapeDef::Circle { radius: 0.1 }, Vec2::new(x, 0.0))
+        };
+        wide.add_shape(key, &disc).unwrap();
+    }
+    steps(&mut small, 50);
+    steps(&mut wide, 50);
+    assert_eq!(
+        asleep(&small),
+        1,
+        "the small box rested 0.5 s and fell asleep"
+    );
+    assert_eq!(asleep(&wide), 0, "the discs' points move too fast to rest");
+    let w = wide.bodies().next().unwrap().1.angular_velocity;
+    assert!(
+        (w - 0.2).abs() < 1e-4,
+        "the wide body spins on at {w} rad/s"
+    );
+}

@@ -19,7 +19,6 @@ use crate::parallel::{self, Disjoint, Pool};
 use crate::step::integrate::PointForce;
 use std::sync::Mutex;
 
-/// Below this spin (rad/s) a body rests.
 /// An island that rested this long (s) falls asleep.
 const TIME_TO_SLEEP: f32 = 0.5;
 
@@ -37,6 +36,10 @@ pub(crate) mod testing {
         pub(crate) static EVERY_BOX: Cell<bool> = const { Cell::new(false) };
         /// Waking passes that found their pairs through a grid of the sleepers' boxes.
         pub(crate) static SLEEPERS_GRIDS: Cell<usize> = const { Cell::new(0) };
+        /// Every sleep pass finds its islands afresh (never keeps them).
+        pub(crate) static FRESH_ISLANDS: Cell<bool> = const { Cell::new(false) };
+        /// Sleep passes that used the islands kept from the last.
+        pub(crate) static KEPT_PASSES: Cell<usize> = const { Cell::new(0) };
     }
 }
 
@@ -47,6 +50,8 @@ pub(crate) struct Sleep {
     pub(crate) contacts: Vec<Contact>,
     /// Union-find parents of the sleep pass (scratch).
     islands: Vec<u32>,
+    /// The islands as the contacts and joints joined them, kept while those stay.
+    kept: KeptIslands,
     /// What each body is to the islands (scratch of the sleep pass; the sleeping
     /// blocks' entries are stale).
     kinds: Vec<Kind>,
@@ -71,6 +76,11 @@ pub(crate) struct Sleep {
     /// The blocks of bodies that slept through the last step, which the wake pass and
     /// the broad phase skip (see [`RestBlocks`]).
     pub(crate) rest: RestBlocks,
+    /// Each body's reach, the farthest its shape's points lie from its centre (the
+    /// spin's part of the sleep test, as Box2D's `maxExtent`), found once for the
+    /// bodies as they are at `reach_for`: (the bodies' edit count, their number).
+    reach: Vec<f32>,
+    reach_for: Option<(u64, usize)>,
 }
 
 /// What the waking pass reads of the bodies, in arrays of their own (the bodies are
@@ -503,6 +513,7 @@ impl Sleep {
         mouse: Option<&MouseJoint>,
         settings: &SolverSettings,
         awake: &AwakeMarks,
+        edits: u64,
         pool: Option<&Pool>,
     ) -> bool {
         if !settings.sleep {
@@ -522,6 +533,19 @@ impl Sleep {
         self.rest.keep(awake);
         let dt = settings.dt;
         let n = bodies.len();
+        // the reaches, found again only after an edit (a shape of many vertices takes a
+        // square root for each)
+        if self.reach_for != Some((edits, n)) {
+            self.reach.resize(n, 0.0);
+            let all = &*bodies;
+            parallel::chunks_mut(pool, &mut self.reach, BODY_PASS_BLOCK, &|_, at, r| {
+                for (re, b) in r.iter_mut().zip(&all[at..]) {
+                    *re = b.shape.radius();
+                }
+                0.0
+            });
+            self.reach_for = Some((edits, n));
+        }
         // the blocks where every body sleeps hold no timer to run and none to read;
         // the same pass notes what each body is to the islands (the sleeping blocks'
         // entries are not written: no contact reaches a sleeper)
@@ -529,18 +553,19 @@ impl Sleep {
         let kinds = &mut self.kinds;
         kinds.resize(n, Kind::Asleep);
         // (the blocks of bodies between the threads: each body's timer and kind are its own)
-        let (all, shared_kinds) = (
+        let (all, shared_kinds, reach) = (
             Disjoint::new(&mut bodies[..]),
             Disjoint::new(&mut kinds[..]),
+            &self.reach[..],
         );
         let pushers = parallel::ranges_max(pool, n, BODY_PASS_BLOCK, &|_, r| {
             let mut pushers = false;
             each_awake(blocks, r, |r| {
                 // SAFETY: each block takes only its own range of each slice
+                let reach = &reach[r.clone()];
                 let (bodies, kinds) = unsafe { (all.range(r.clone()), shared_kinds.range(r)) };
-                for (b, k) in bodies.iter_mut().zip(kinds) {
+                for ((b, k), &r) in bodies.iter_mut().zip(kinds).zip(reach) {
                     if b.is_dynamic() && !b.asleep {
-                        let r = b.shape.radius();
                         let linear = b.sleep_threshold;
                         let slow = b.velocity.length() + (b.angular_velocity * r).abs() < linear;
                         b.sleep_time = if slow { b.sleep_time + dt } else { 0.0 };
@@ -605,29 +630,6 @@ impl Sleep {
         if !ready {
             return self.none_asleep;
         }
-        // islands: union-find over the dynamic bodies joined by contacts and joints.
-        // An island falls asleep when none of its awake bodies is restless, so every
-        // restless body stands for one node (`restless`, after the bodies), and a
-        // contact or joint between two restless bodies is passed over: in a heap where
-        // most bodies still move, most joins are. An island with no restless body is
-        // found whole, with the same root (its least body) as a union-find over every
-        // contact; one with a restless body is joined to that node and stays awake.
-        let restless = n as u32;
-        let parent = &mut self.islands;
-        parent.clear();
-        parent.extend(0..=restless);
-        let node = |i: u32, k: Kind| if k == Kind::Restless { restless } else { i };
-        let join = |parent: &mut Vec<u32>, a: u32, ka: Kind, b: u32, kb: Kind| {
-            if ka.joins() && kb.joins() && (ka, kb) != (Kind::Restless, Kind::Restless) {
-                uf_union(parent, node(a, ka), node(b, kb));
-            }
-        };
-        // every pair of the contact cache (boxes within the margin): a pair close
-        // enough that an awake body would wake the other is one island, or two such
-        // bodies could take turns waking each other forever
-        for c in contacts.iter() {
-            join(parent, c.a, kinds[c.a as usize], c.b, kinds[c.b as usize]);
-        }
         // (a joint's bodies may both sleep, in a sleeping block, whose kinds were not
         // written: those are read from the bodies)
         let kind = |i: usize| {
@@ -638,29 +640,190 @@ impl Sleep {
                 Kind::of(&bodies[i])
             }
         };
-        for j in joints {
-            join(parent, j.a as u32, kind(j.a), j.b as u32, kind(j.b));
+        // the same contacts and joints as at the last sleep pass, and the same bodies:
+        // the islands found then hold (kept from the second pass in a row over the
+        // same, as Box2D keeps its islands from step to step), and a pass over the awake
+        // bodies tells which hold a restless body
+        let kept = &mut self.kept;
+        let same = kept.holds(contacts, joints, (edits, n), pool);
+        #[cfg(test)]
+        let same = same && !testing::FRESH_ISLANDS.with(std::cell::Cell::get);
+        #[cfg(test)]
+        testing::KEPT_PASSES.with(|c| c.set(c.get() + usize::from(same)));
+        let falls: Vec<(usize, u32)>;
+        if same {
+            if kept.roots.is_empty() {
+                kept.find(n, kinds, &kind, contacts.len(), &mut self.islands);
+            }
+            falls = kept.falling(kinds, blocks);
+            #[cfg(debug_assertions)]
+            {
+                let mut parent = Vec::new();
+                let fresh = fresh_islands(&mut parent, contacts, joints, kinds, &kind, blocks);
+                assert_eq!(
+                    falls, fresh,
+                    "the kept islands put the same bodies to sleep"
+                );
+            }
+        } else {
+            falls = fresh_islands(&mut self.islands, contacts, joints, kinds, &kind, blocks);
         }
-        let held = uf_root(parent, restless);
-        let mut fell = false;
-        each_awake(blocks, 0..n, |r| {
-            for i in r {
-                let b = &mut bodies[i];
-                if kinds[i] != Kind::Rested {
-                    continue;
-                }
-                let r = uf_root(parent, i as u32);
-                if r != held {
-                    b.asleep = true;
-                    b.rest_box = None;
-                    b.island = r;
-                    b.velocity = Vec2::ZERO;
-                    b.angular_velocity = 0.0;
-                    fell = true;
+        for &(i, island) in &falls {
+            let b = &mut bodies[i];
+            b.asleep = true;
+            b.rest_box = None;
+            b.island = island;
+            b.velocity = Vec2::ZERO;
+            b.angular_velocity = 0.0;
+        }
+        self.none_asleep && falls.is_empty()
+    }
+}
+
+/// The rested bodies that fall asleep, each with its island (its least body), in body
+/// order, from islands found afresh: union-find over the dynamic bodies joined by
+/// contacts and joints. An island falls asleep when none of its awake bodies is
+/// restless, so every restless body stands for one node (`restless`, after the bodies),
+/// and a contact or joint between two restless bodies is passed over: in a heap where
+/// most bodies still move, most joins are. An island with no restless body is found
+/// whole, with the same root (its least body) as a union-find over every contact; one
+/// with a restless body is joined to that node and stays awake. `parent`: scratch.
+fn fresh_islands(
+    parent: &mut Vec<u32>,
+    contacts: &[Contact],
+    joints: &[Joint],
+    kinds: &[Kind],
+    kind: &dyn Fn(usize) -> Kind,
+    blocks: &[bool],
+) -> Vec<(usize, u32)> {
+    let n = kinds.len();
+    let restless = n as u32;
+    parent.clear();
+    parent.extend(0..=restless);
+    let node = |i: u32, k: Kind| if k == Kind::Restless { restless } else { i };
+    let join = |parent: &mut Vec<u32>, a: u32, ka: Kind, b: u32, kb: Kind| {
+        if ka.joins() && kb.joins() && (ka, kb) != (Kind::Restless, Kind::Restless) {
+            uf_union(parent, node(a, ka), node(b, kb));
+        }
+    };
+    // every pair of the contact cache (boxes within the margin): a pair close enough
+    // that an awake body would wake the other is one island, or two such bodies could
+    // take turns waking each other forever
+    for c in contacts {
+        join(parent, c.a, kinds[c.a as usize], c.b, kinds[c.b as usize]);
+    }
+    for j in joints {
+        join(parent, j.a as u32, kind(j.a), j.b as u32, kind(j.b));
+    }
+    let held = uf_root(parent, restless);
+    let mut falls = Vec::new();
+    each_awake(blocks, 0..n, |r| {
+        for i in r.filter(|&i| kinds[i] == Kind::Rested) {
+            let root = uf_root(parent, i as u32);
+            if root != held {
+                falls.push((i, root));
+            }
+        }
+    });
+    falls
+}
+
+/// The islands of the last sleep passes, kept while the contacts, the joints and the
+/// bodies stay as they were.
+#[derive(Clone, Debug, Default)]
+struct KeptIslands {
+    /// Each contact's bodies, then each joint's, at the last sleep pass.
+    edges: Vec<(u32, u32)>,
+    /// The bodies' edit count and number at the last sleep pass.
+    bodies: Option<(u64, usize)>,
+    /// Each body's island over `edges`: the least body of its set (empty until found).
+    roots: Vec<u32>,
+    /// Per island root: whether it holds a restless body (scratch).
+    held: Vec<bool>,
+}
+
+/// Contacts to a block of the pass that compares them with the kept ones.
+const EDGE_BLOCK: usize = 2048;
+
+impl KeptIslands {
+    /// Whether the contacts, joints and bodies (`bodies`: edit count and number) are
+    /// the last pass's; else they are kept for the next, and the islands forgotten.
+    fn holds(
+        &mut self,
+        contacts: &[Contact],
+        joints: &[Joint],
+        bodies: (u64, usize),
+        pool: Option<&Pool>,
+    ) -> bool {
+        let nc = contacts.len();
+        let edges = &self.edges;
+        let same = self.bodies == Some(bodies)
+            && edges.len() == nc + joints.len()
+            && (joints.iter().zip(&edges[nc..])).all(|(j, &e)| (j.a as u32, j.b as u32) == e)
+            && parallel::ranges_max(pool, nc, EDGE_BLOCK, &|_, r| {
+                let differs =
+                    (contacts[r.clone()].iter().zip(&edges[r])).any(|(c, &e)| (c.a, c.b) != e);
+                if differs { 1.0 } else { 0.0 }
+            }) <= 0.0;
+        if !same {
+            self.edges.clear();
+            self.edges.extend(contacts.iter().map(|c| (c.a, c.b)));
+            self.edges
+                .extend(joints.iter().map(|j| (j.a as u32, j.b as u32)));
+            self.bodies = Some(bodies);
+            self.roots.clear();
+        }
+        same
+    }
+
+    /// Finds each body's island over the kept contacts (the first `contacts` edges)
+    /// and joints, every join between two dynamic bodies made. `parent`: scratch.
+    fn find(
+        &mut self,
+        n: usize,
+        kinds: &[Kind],
+        kind: &dyn Fn(usize) -> Kind,
+        contacts: usize,
+        parent: &mut Vec<u32>,
+    ) {
+        parent.clear();
+        parent.extend(0..n as u32);
+        let (by_contact, by_joint) = self.edges.split_at(contacts);
+        for &(a, b) in by_contact {
+            if kinds[a as usize].joins() && kinds[b as usize].joins() {
+                uf_union(parent, a, b);
+            }
+        }
+        for &(a, b) in by_joint {
+            if kind(a as usize).joins() && kind(b as usize).joins() {
+                uf_union(parent, a, b);
+            }
+        }
+        self.roots.clear();
+        self.roots.extend((0..n as u32).map(|i| uf_root(parent, i)));
+    }
+
+    /// The rested bodies that fall asleep, each with its island, in body order: those
+    /// whose island holds no restless body.
+    fn falling(&mut self, kinds: &[Kind], blocks: &[bool]) -> Vec<(usize, u32)> {
+        let (roots, held) = (&self.roots, &mut self.held);
+        held.clear();
+        held.resize(kinds.len(), false);
+        each_awake(blocks, 0..kinds.len(), |r| {
+            for i in r.filter(|&i| kinds[i] == Kind::Restless) {
+                held[roots[i] as usize] = true;
+            }
+        });
+        let mut falls = Vec::new();
+        each_awake(blocks, 0..kinds.len(), |r| {
+            for i in r.filter(|&i| kinds[i] == Kind::Rested) {
+                let root = roots[i];
+                if !held[root as usize] {
+                    falls.push((i, root));
                 }
             }
         });
-        self.none_asleep && !fell
+        falls
     }
 }
 
@@ -723,4 +886,69 @@ pub(crate) fn at_rest(
         && bodies
             .iter()
             .all(|b| !b.is_mover() && (!b.asleep || b.is_still()))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::testing::{FRESH_ISLANDS, KEPT_PASSES};
+    use crate::{SolverSettings, World};
+
+    /// Two stacks settle: the first falls asleep, and the second is held awake by a
+    /// kinematic disc spinning against its top box while the rest of it has rested (so
+    /// every pass looks for its islands). The islands kept from pass to pass decide as
+    /// islands found afresh at every pass do, to the bit, on one thread and on two; the
+    /// first stack sleeps as one island named by its least body.
+    #[test]
+    fn kept_islands_put_bodies_to_sleep_as_islands_found_afresh_do() {
+        let scene = "name = \"two stacks\"\n[world]\ngravity = [0.0, -10.0]\n[solver]\nkind = \"soft\"\nsleep = true\n\
+             [[body]]\nname = \"ground\"\ntype = \"static\"\nshape = { box = [40.0, 1.0] }\nposition = [0.0, -0.5]\n\
+             [[stack]]\ncount = 6\nbox = [1.0, 1.0]\norigin = [-5.0, 0.0]\n\
+             [[stack]]\ncount = 4\nbox = [1.0, 1.0]\norigin = [5.0, 0.0]\n\
+             [[body]]\nname = \"disc\"\ntype = \"kinematic\"\nshape = { circle = 0.5 }\nposition = [6.0, 3.5]\n\
+             angular_velocity = 1.0\nfriction = 0.0\n";
+        let sc = crate::scene::load_str(scene, "two.toml").unwrap();
+        let bits = |w: &World| -> Vec<u32> {
+            (w.bodies.iter())
+                .flat_map(|b| [b.position.x, b.position.y, b.angle, b.velocity.x])
+                .map(f32::to_bits)
+                .chain(
+                    w.bodies
+                        .iter()
+                        .map(|b| if b.asleep { b.island } else { u32::MAX }),
+                )
+                .collect()
+        };
+        for threads in [1, 2] {
+            let run = |fresh: bool| {
+                FRESH_ISLANDS.with(|c| c.set(fresh));
+                KEPT_PASSES.with(|c| c.set(0));
+                let mut w = World::from_def(&sc.world, SolverSettings::soft()).unwrap();
+                w.set_threads(threads);
+                let mut trace = Vec::new();
+                for _ in 0..150 {
+                    w.step().unwrap();
+                    trace.push(bits(&w));
+                }
+                FRESH_ISLANDS.with(|c| c.set(false));
+                (w, trace, KEPT_PASSES.with(|c| c.get()))
+            };
+            let (kept, kept_trace, kept_passes) = run(false);
+            let (_, fresh_trace, fresh_passes) = run(true);
+            assert_eq!(fresh_passes, 0);
+            assert!(kept_passes > 0, "the stacks at rest kept their islands");
+            assert!(
+                kept_trace == fresh_trace,
+                "threads {threads}: the runs differ"
+            );
+            let sleep = |left: bool| -> Vec<Option<u32>> {
+                (kept.bodies.iter().enumerate())
+                    .filter(|(_, b)| b.is_dynamic() && (b.position.x < 0.0) == left)
+                    .map(|(_, b)| b.asleep.then_some(b.island))
+                    .collect()
+            };
+            let least = (kept.bodies.iter().position(|b| b.is_dynamic())).unwrap() as u32;
+            assert_eq!(sleep(true), [Some(least); 6], "threads {threads}");
+            assert_eq!(sleep(false), [None; 4], "threads {threads}");
+        }
+    }
 }
