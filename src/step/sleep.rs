@@ -2,8 +2,8 @@
 //! than its sleep threshold (0.05 m/s unless it sets its own: its speed plus its spin
 //! times its reach, as Box2D v3 measures it) for 0.5 s is at rest; an island (bodies
 //! joined by joints and by contacts whose boxes are within the margin, found by
-//! union-find) falls asleep when all of its
-//! bodies are. A sleeping body is left out of the step: its contacts are kept aside with
+//! union-find, and kept from pass to pass while the contacts, the joints and the bodies
+//! stay as they were) falls asleep when all of its bodies are. A sleeping body is left out of the step: its contacts are kept aside with
 //! their impulses, and its joints are parked out of the solve. Before each collide,
 //! every sleeping island an awake body's (or a moving kinematic body's) box reaches
 //! wakes, with its kept contacts put back in the cache so they start warm.
