@@ -171,6 +171,15 @@ pub struct World {
 const MIN_BODIES_FOR_THREADS: usize = 256;
 
 impl World {
+    /// Each body's position, angle and x velocity, as bits (tests compare two runs).
+    #[cfg(test)]
+    pub(crate) fn motion_bits(&self) -> Vec<u32> {
+        (self.bodies.iter())
+            .flat_map(|b| [b.position.x, b.position.y, b.angle, b.velocity.x])
+            .map(f32::to_bits)
+            .collect()
+    }
+
     /// An empty world with the given gravity and solver settings.
     pub fn new(gravity: Option<Vec2>, settings: SolverSettings) -> World {
         World {

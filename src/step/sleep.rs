@@ -659,14 +659,18 @@ impl Sleep {
             #[cfg(debug_assertions)]
             {
                 let mut parent = Vec::new();
-                let fresh = fresh_islands(&mut parent, contacts, joints, kinds, &kind, blocks);
+                let nc = contacts.len();
+                let fresh = fresh_islands(&mut parent, &kept.edges, nc, kinds, &kind, blocks);
                 assert_eq!(
                     falls, fresh,
                     "the kept islands put the same bodies to sleep"
                 );
             }
         } else {
-            falls = fresh_islands(&mut self.islands, contacts, joints, kinds, &kind, blocks);
+            // (over the list `holds` has just kept: the contacts are read once more, not
+            // twice)
+            let nc = contacts.len();
+            falls = fresh_islands(&mut self.islands, &kept.edges, nc, kinds, &kind, blocks);
         }
         for &(i, island) in &falls {
             let b = &mut bodies[i];
@@ -682,16 +686,17 @@ impl Sleep {
 
 /// The rested bodies that fall asleep, each with its island (its least body), in body
 /// order, from islands found afresh: union-find over the dynamic bodies joined by
-/// contacts and joints. An island falls asleep when none of its awake bodies is
-/// restless, so every restless body stands for one node (`restless`, after the bodies),
-/// and a contact or joint between two restless bodies is passed over: in a heap where
-/// most bodies still move, most joins are. An island with no restless body is found
-/// whole, with the same root (its least body) as a union-find over every contact; one
-/// with a restless body is joined to that node and stays awake. `parent`: scratch.
+/// contacts and joints (`edges`: the first `contacts` a contact's bodies, then a
+/// joint's). An island falls asleep when none of its awake bodies is restless, so every
+/// restless body stands for one node (`restless`, after the bodies), and a contact or
+/// joint between two restless bodies is passed over: in a heap where most bodies still
+/// move, most joins are. An island with no restless body is found whole, with the same
+/// root (its least body) as a union-find over every contact; one with a restless body
+/// is joined to that node and stays awake. `parent`: scratch.
 fn fresh_islands(
     parent: &mut Vec<u32>,
-    contacts: &[Contact],
-    joints: &[Joint],
+    edges: &[(u32, u32)],
+    contacts: usize,
     kinds: &[Kind],
     kind: &dyn Fn(usize) -> Kind,
     blocks: &[bool],
@@ -701,19 +706,13 @@ fn fresh_islands(
     parent.clear();
     parent.extend(0..=restless);
     let node = |i: u32, k: Kind| if k == Kind::Restless { restless } else { i };
-    let join = |parent: &mut Vec<u32>, a: u32, ka: Kind, b: u32, kb: Kind| {
-        if ka.joins() && kb.joins() && (ka, kb) != (Kind::Restless, Kind::Restless) {
-            uf_union(parent, node(a, ka), node(b, kb));
-        }
-    };
     // every pair of the contact cache (boxes within the margin): a pair close enough
     // that an awake body would wake the other is one island, or two such bodies could
     // take turns waking each other forever
-    for c in contacts {
-        join(parent, c.a, kinds[c.a as usize], c.b, kinds[c.b as usize]);
-    }
-    for j in joints {
-        join(parent, j.a as u32, kind(j.a), j.b as u32, kind(j.b));
+    for ((a, ka), (b, kb)) in edge_kinds(edges, contacts, kinds, kind) {
+        if ka.joins() && kb.joins() && (ka, kb) != (Kind::Restless, Kind::Restless) {
+            uf_union(parent, node(a, ka), node(b, kb));
+        }
     }
     let held = uf_root(parent, restless);
     let mut falls = Vec::new();
@@ -726,6 +725,22 @@ fn fresh_islands(
         }
     });
     falls
+}
+
+/// Each edge's two bodies with their kinds: a contact's (the first `contacts` edges)
+/// read from `kinds`, a joint's from `kind` (its bodies may sleep, whose kinds in
+/// `kinds` are stale).
+fn edge_kinds<'a>(
+    edges: &'a [(u32, u32)],
+    contacts: usize,
+    kinds: &'a [Kind],
+    kind: &'a dyn Fn(usize) -> Kind,
+) -> impl Iterator<Item = ((u32, Kind), (u32, Kind))> + 'a {
+    let (by_contact, by_joint) = edges.split_at(contacts);
+    let by_contact =
+        (by_contact.iter()).map(|&(a, b)| ((a, kinds[a as usize]), (b, kinds[b as usize])));
+    let by_joint = (by_joint.iter()).map(|&(a, b)| ((a, kind(a as usize)), (b, kind(b as usize))));
+    by_contact.chain(by_joint)
 }
 
 /// The islands of the last sleep passes, kept while the contacts, the joints and the
@@ -788,14 +803,8 @@ impl KeptIslands {
     ) {
         parent.clear();
         parent.extend(0..n as u32);
-        let (by_contact, by_joint) = self.edges.split_at(contacts);
-        for &(a, b) in by_contact {
-            if kinds[a as usize].joins() && kinds[b as usize].joins() {
-                uf_union(parent, a, b);
-            }
-        }
-        for &(a, b) in by_joint {
-            if kind(a as usize).joins() && kind(b as usize).joins() {
+        for ((a, ka), (b, kb)) in edge_kinds(&self.edges, contacts, kinds, kind) {
+            if ka.joins() && kb.joins() {
                 uf_union(parent, a, b);
             }
         }
@@ -908,15 +917,11 @@ mod tests {
              angular_velocity = 1.0\nfriction = 0.0\n";
         let sc = crate::scene::load_str(scene, "two.toml").unwrap();
         let bits = |w: &World| -> Vec<u32> {
-            (w.bodies.iter())
-                .flat_map(|b| [b.position.x, b.position.y, b.angle, b.velocity.x])
-                .map(f32::to_bits)
-                .chain(
-                    w.bodies
-                        .iter()
-                        .map(|b| if b.asleep { b.island } else { u32::MAX }),
-                )
-                .collect()
+            let islands = w
+                .bodies
+                .iter()
+                .map(|b| if b.asleep { b.island } else { u32::MAX });
+            w.motion_bits().into_iter().chain(islands).collect()
         };
         for threads in [1, 2] {
             let run = |fresh: bool| {

@@ -232,13 +232,7 @@ mod tests {
              [[grid]]\nrows = 6\ncolumns = 40\nspacing = [0.5, 0.6]\norigin = [-10.0, 6.0]\n\
              shape = { box = [0.4, 0.4] }\n";
         let sc = crate::scene::load_str(scene, "few.toml").unwrap();
-        let bits = |w: &World| -> Vec<u32> {
-            w.bodies
-                .iter()
-                .flat_map(|b| [b.position.x, b.position.y, b.angle, b.velocity.x])
-                .map(f32::to_bits)
-                .collect()
-        };
+        let bits = World::motion_bits;
         use crate::step::sleep::testing::{EVERY_BOX, SLEEPERS_GRIDS};
         for threads in [1, 2] {
             let run = |every_box: bool| {
