@@ -82,8 +82,6 @@ dt = 0.016666667
 kind = "soft"
 substeps = 4
 iterations = 1
-contact_hertz = 60.0
-contact_damping_ratio = 0.7
 slop = 0.001
 sleep = false
 [[body]]
@@ -330,7 +328,7 @@ pub fn markdown(rows: &[Row], repeats: u32, cores: usize, command: &str) -> Stri
     s.push_str(&format!(
         "`{command}` on a machine of {cores} core(s). Each size is large_pyramid.toml's \
          pyramid at another base, under its [solver] table (the soft step, 4 substeps x 1 \
-         sweep, contacts 60 Hz at damping ratio 0.7, slop 1 mm, no sleeping). ms/step is the median over {repeats} \
+         sweep, the default contact springs (60 Hz at 4 substeps, damping ratio 10), slop 1 mm, no sleeping). ms/step is the median over {repeats} \
          repeat(s) (thread counts alternating) of each run's median step after a \
          warm-up of {WARMUP_STEPS} steps (or of the timed steps' count, if fewer); \
          contacts: the mean number of touching pairs (manifolds) per step; us/contact: \
