@@ -345,7 +345,8 @@ fn collide_polygons_n<const CAP: usize>(
     }
     let inc2 = (inc + 1) % iv.len();
     let r1 = rv[ref_edge];
-    let r2 = rv[(ref_edge + 1) % rv.len()];
+    let ref2 = (ref_edge + 1) % rv.len();
+    let r2 = rv[ref2];
     // the reference edge's direction, normalised. On A (not flipped) the edge and its
     // normal are A's own: where A's normals are its edges turned and normalised to the
     // bit (`Polygon::exact_edges`), the direction is the normal turned back, without the
@@ -360,7 +361,7 @@ fn collide_polygons_n<const CAP: usize>(
     // its id when it is clipped: in an aligned stack the incident vertices sit on the
     // side planes, and an id that changed with clipping flipped on 1e-7 m of jitter and
     // lost the cached lambdas.
-    let (id1, id2) = face_ids(flipped, ref_edge, rv.len(), inc, inc2);
+    let (id1, id2) = face_ids(flipped, (ref_edge, ref2), (inc, inc2));
     let mut seg = [(iv[inc], id1), (iv[inc2], id2)];
 
     // clip against the side plane through r1 (keep t.(p - r1) >= 0)
@@ -404,16 +405,14 @@ fn pair_id(flipped: bool, ref_vertex: usize, inc_vertex: usize) -> FeatureId {
 }
 
 /// The ids of a face contact's two ends, the one from incident vertex `inc` and the one
-/// from `inc2`: the incident edge runs against the reference edge, so its start lies
-/// across from the reference edge's end and its end across from the start.
+/// from `inc2`: the incident edge runs against the reference edge (`ref_edge` to
+/// `ref2`), so its start lies across from the reference edge's end and its end across
+/// from the start.
 fn face_ids(
     flipped: bool,
-    ref_edge: usize,
-    ref_count: usize,
-    inc: usize,
-    inc2: usize,
+    (ref_edge, ref2): (usize, usize),
+    (inc, inc2): (usize, usize),
 ) -> (FeatureId, FeatureId) {
-    let ref2 = (ref_edge + 1) % ref_count;
     (
         pair_id(flipped, ref2, inc),
         pair_id(flipped, ref_edge, inc2),
@@ -556,7 +555,7 @@ pub fn collide_rounded(
     }
 
     let t = (r2 - r1).normalize();
-    let (id1, id2) = face_ids(flipped, ref_edge, rv.len(), inc, inc2);
+    let (id1, id2) = face_ids(flipped, (ref_edge, ref2), (inc, inc2));
     let mut seg = [(iv[inc], id1), (iv[inc2], id2)];
     let clipped = clip(&mut seg, -t, -t.dot(r1)) && clip(&mut seg, t, t.dot(r2));
     if !clipped {
