@@ -652,9 +652,10 @@ impl SolverSettings {
     /// 0.001 m 0.17 m, and the base-20 pyramid's top sinks 0.022 m instead of 0.092), contacts of 120 Hz (a quarter of the substep rate) with
     /// damping ratio 10 pushing out at most 3 m/s, rigid joints of 120 Hz with damping
     /// ratio 5 in the biased sweeps, restitution threshold 1 m/s. Chosen by measurement
-    /// (docs/tradeoffs.md): at 4 substeps of 60 Hz a stack of 30 boxes sways 0.11 m over
-    /// 10 s (0.34 m at 30 Hz) and a 200:1 ball on 20 links stretches its joints 0.10 m;
-    /// at 8 substeps of 120 Hz the stack moves 0.05 m and the chain stretches 0.03 m.
+    /// (docs/tradeoffs.md): at 4 substeps of 60 Hz a stack of 30 boxes topples within
+    /// 10 s unless it falls asleep first, and a 200:1 ball on 20 links stretches its
+    /// joints 0.10 m; at 8 substeps of 120 Hz the stack stands (0.05 m) and the chain
+    /// stretches 0.03 m.
     pub fn soft() -> Self {
         Self {
             kind: SolverKind::Soft,
