@@ -730,31 +730,46 @@ fn soft_settings() -> SolverSettings {
 /// The benchmark pyramid (5050 boxes, 100 rows) under its own setting, one soft sweep a
 /// substep as Box2D v3 does: it stands, and its top box sinks less than Box2D v3's and
 /// rapier2d's do on the same scene (0.73 and 0.75 m after 500 steps, in
-/// shared/benchmarks.md). Each row may sink by the slop and its springs' give.
+/// shared/benchmarks.md). Each row may sink by the slop and its springs' give. It stands
+/// straight too: the top box sways and leans no more than Box2D's does on its own scene,
+/// under the scene's springs and under Box2D's (scenes/box2d/large_pyramid.toml).
 #[test]
-fn the_large_pyramid_stands_with_one_soft_sweep_a_substep() {
+fn the_large_pyramid_stands_straight_with_one_soft_sweep_a_substep() {
     let sc = scene::load("large_pyramid").expect("built-in scene");
     let s = sc.world.solver.resolve();
     assert_eq!((s.substeps, s.iterations), (4, 1));
-    let mut w = World::from_def(&sc.world, s).expect("builds");
-    let start: Vec<Vec2> = w.bodies().map(|(_, b)| b).map(|b| b.position).collect();
-    let mut deepest = 0.0f32;
-    for _ in 0..500 {
-        w.step().unwrap();
-        deepest = deepest.max(w.stats().penetration);
+    let port = scene::load(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/scenes/box2d/large_pyramid.toml"
+    ))
+    .expect("scene file");
+    // (Box2D v3's top box sinks 0.73 m under its springs)
+    for (name, sc, most_sink) in [("own springs", sc, 0.6), ("Box2D's springs", port, 0.8)] {
+        let mut w = World::from_def(&sc.world, sc.world.solver.resolve()).expect("builds");
+        let start: Vec<Vec2> = w.bodies().map(|(_, b)| b).map(|b| b.position).collect();
+        let top = w.body_count() - 1;
+        let (mut deepest, mut sway) = (0.0f32, 0.0f32);
+        for _ in 0..500 {
+            w.step().unwrap();
+            deepest = deepest.max(w.stats().penetration);
+            sway = sway.max((w.nth_body(top).position.x - start[top].x).abs());
+        }
+        let sink = start[top].y - w.nth_body(top).position.y;
+        let lean = (w.nth_body(top).position.x - start[top].x).abs();
+        eprintln!(
+            "large pyramid, {name}: top box sank {sink:.3} m, swayed {sway:.3} m, leans {lean:.3} m"
+        );
+        assert!(sink < most_sink, "{name}: the top box sank {sink} m");
+        // measured: sways 0.036 and 0.028 m, leans 0.016 and 0.012 m (Box2D's own: sways
+        // 0.07 m, leans 0.017 m). With the colours swept in one order every step it
+        // swayed 0.22 and 0.31 m and leaned 0.10 and 0.13 m (see
+        // `SoftSolver::set_reversed`)
+        assert!(sway < 0.07, "{name}: the top box swayed {sway} m sideways");
+        assert!(lean < 0.04, "{name}: the top box leans {lean} m");
+        assert!(deepest < 0.035, "{name}: overlap {deepest} m");
+        // no box fell through another or off the pile below the bottom row
+        assert!(w.bodies().skip(1).all(|(_, b)| b.position.y > 0.4));
     }
-    let top = w.body_count() - 1;
-    let sink = start[top].y - w.nth_body(top).position.y;
-    let sideways = (w.nth_body(top).position.x - start[top].x).abs();
-    assert!(sink < 0.6, "the top box sank {sink} m");
-    // the pile sways as it settles and keeps a small lean, which way and how far set
-    // by the order the constraints are solved in (0.10 m at 500 steps; 0.003 to 0.12 m
-    // under other springs with the colours taken forwards, backwards or alternating in
-    // scratch builds): a tenth of a box at the top of a pile 100 boxes high
-    assert!(sideways < 0.15, "the top box moved {sideways} m sideways");
-    assert!(deepest < 0.03, "overlap {deepest} m");
-    // no box fell through another or off the pile below the bottom row
-    assert!(w.bodies().skip(1).all(|(_, b)| b.position.y > 0.4));
 }
 
 #[test]

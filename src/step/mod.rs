@@ -78,6 +78,9 @@ pub struct StepContext {
     /// The speculative margin (m): a pair keeps points while its gap is below this
     /// (plus, where the solver asks, the distance its bodies can close).
     pub margin: f32,
+    /// The world's steps before this one (the soft step sweeps its colours in the
+    /// reverse order on odd steps).
+    pub index: u64,
 }
 
 impl StepContext {
@@ -91,6 +94,7 @@ impl StepContext {
             h,
             inv_h: 1.0 / h,
             margin: SPECULATIVE_SLOPS * s.slop.max(0.001),
+            index: 0,
         }
     }
 }

@@ -1,7 +1,8 @@
 //! The passes of a step and how they run. A step's substeps are one list of phases (the
 //! plan, [`SoftSolver::run`]): per substep the force increments, the warm start colour
 //! by colour, `iterations` soft sweeps colour by colour, positions, one relax sweep
-//! colour by colour; a colour's phase solves its joints, then its contacts. After each
+//! colour by colour (the colours from the last to the first on odd steps: see
+//! [`SoftSolver::set_reversed`]); a colour's phase solves its joints, then its contacts. After each
 //! pass's colours come the constraints no colour was free for and the mouse joint (one
 //! by one), and after each sweep the islands solved exactly. One thread runs the phases
 //! in order; with threads, the whole list is one job of the pool (Box2D's stage list for
@@ -201,8 +202,11 @@ impl SoftSolver {
             if i > 0 {
                 plan.push((Pass::Increments, 0));
             }
+            let reversed = self.reversed;
             let pass = |plan: &mut Vec<(Pass, u8)>, colored, rest_pass, direct_pass| {
-                plan.extend((0..colors).map(|c| (colored, c as u8)));
+                // (the colours from the last to the first on the steps that reverse them)
+                let color = |c: usize| if reversed { colors - 1 - c } else { c };
+                plan.extend((0..colors).map(|c| (colored, color(c) as u8)));
                 if rest {
                     plan.push((rest_pass, 0));
                 }
