@@ -79,7 +79,7 @@ pub struct StepContext {
     /// (plus, where the solver asks, the distance its bodies can close).
     pub margin: f32,
     /// The world's steps before this one (the soft step sweeps its colours in the
-    /// reverse order on odd steps).
+    /// reverse order on odd steps without joints).
     pub index: u64,
 }
 

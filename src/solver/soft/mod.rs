@@ -387,8 +387,6 @@ pub struct SoftSolver {
 }
 
 impl SoftSolver {
-    /// Tells the next `prepare` how deep the step's deepest overlap is (m, as the
-    /// collide returns it; 0 if not known).
     /// Whether this step's passes take the colours from the last to the first: the soft
     /// step reverses them every other step, so that no colour is always solved first.
     ///
@@ -399,16 +397,17 @@ impl SoftSolver {
     /// 0.22 to 0.31 m in the first 150 steps and ended 0.10 to 0.13 m aside after 500
     /// (to the left or the right as the colouring ran), where Box2D's sways 0.07 m and
     /// ends 0.017 m aside. Reversed every other step, it sways 0.03 m and ends within
-    /// 0.02 m, at no cost: the colours and their phases are the same
-    /// (`tests/physics.rs`,
-    /// `the_large_pyramid_stands_straight_with_one_soft_sweep_a_substep`). A step with joints
-    /// keeps the one order: the joints are coloured first, in joint order, which runs
-    /// along a chain from its anchor, and reversed every other step Box2D's joint grid
-    /// stretched 0.63 m against 0.57 (Box2D's own: 0.62).
+    /// 0.02 m, at no cost: the colours and their phases are the same (`tests/physics.rs`,
+    /// `the_large_pyramid_stands_straight_with_one_soft_sweep_a_substep`). A step with
+    /// joints keeps the one order: the joints are coloured first, in joint order, which
+    /// runs along a chain from its anchor, and reversed every other step Box2D's joint
+    /// grid stretched 0.63 m against 0.57 (Box2D's own: 0.62).
     pub fn set_reversed(&mut self, on: bool) {
         self.reversed = on;
     }
 
+    /// Tells the next `prepare` how deep the step's deepest overlap is (m, as the
+    /// collide returns it; 0 if not known).
     pub fn set_deepest(&mut self, deepest: f32) {
         self.deepest = deepest;
     }

@@ -1,10 +1,10 @@
 //! The passes of a step and how they run. A step's substeps are one list of phases (the
 //! plan, [`SoftSolver::run`]): per substep the force increments, the warm start colour
 //! by colour, `iterations` soft sweeps colour by colour, positions, one relax sweep
-//! colour by colour (the colours from the last to the first on odd steps: see
-//! [`SoftSolver::set_reversed`]); a colour's phase solves its joints, then its contacts. After each
-//! pass's colours come the constraints no colour was free for and the mouse joint (one
-//! by one), and after each sweep the islands solved exactly. One thread runs the phases
+//! colour by colour (the colours from the last to the first on odd steps without
+//! joints: see [`SoftSolver::set_reversed`]); a colour's phase solves its joints, then
+//! its contacts. After each pass's colours come the constraints no colour was free for
+//! and the mouse joint (one by one), and after each sweep the islands solved exactly. One thread runs the phases
 //! in order; with threads, the whole list is one job of the pool (Box2D's stage list for
 //! 1 to N workers): the same list, so the same bits.
 
