@@ -478,10 +478,7 @@ impl World {
         if self.stepper.as_ref().is_none_or(|st| st.kind() != kind) {
             self.stepper = Some(new_stepper(kind));
         }
-        let cx = StepContext {
-            index: self.step_count,
-            ..StepContext::new(&self.settings)
-        };
+        let cx = StepContext::new(&self.settings, self.step_count);
         let tune = self.tunes_threads();
         self.step_many = !tune || self.tuner.choose();
         let started = tune.then(std::time::Instant::now);

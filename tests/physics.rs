@@ -764,7 +764,7 @@ fn the_large_pyramid_stands_straight_with_one_soft_sweep_a_substep() {
         // measured: sways 0.036 and 0.028 m, leans 0.016 and 0.012 m (Box2D's own: sways
         // 0.07 m, leans 0.017 m). With the colours swept in one order every step it
         // swayed 0.22 and 0.31 m and leaned 0.10 and 0.13 m (see
-        // `SoftSolver::set_reversed`)
+        // `SoftSolver::set_odd_step`)
         assert!(sway < 0.07, "{name}: the top box swayed {sway} m sideways");
         assert!(lean < 0.04, "{name}: the top box leans {lean} m");
         assert!(deepest < 0.035, "{name}: overlap {deepest} m");

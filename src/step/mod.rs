@@ -84,8 +84,8 @@ pub struct StepContext {
 }
 
 impl StepContext {
-    /// The context of one step with these settings.
-    pub fn new(s: &SolverSettings) -> StepContext {
+    /// The context of the step after `index` steps with these settings.
+    pub fn new(s: &SolverSettings, index: u64) -> StepContext {
         let n = s.substeps.max(1);
         let h = s.dt / n as f32;
         StepContext {
@@ -94,7 +94,7 @@ impl StepContext {
             h,
             inv_h: 1.0 / h,
             margin: SPECULATIVE_SLOPS * s.slop.max(0.001),
-            index: 0,
+            index,
         }
     }
 }

@@ -39,9 +39,7 @@ impl Stepper for SoftStepper {
         // contacts): a fast body meets what it would pass through
         let penetration = state.collide(cx.dt, cx.margin, Speculative::MarginOrMotion, clock);
         self.soft.set_deepest(penetration);
-        // (steps with joints keep the one order: see `SoftSolver::set_reversed`)
-        let jointed = !state.joints.is_empty() || state.mouse.is_some();
-        self.soft.set_reversed(cx.index % 2 == 1 && !jointed);
+        self.soft.set_odd_step(cx.index % 2 == 1);
         // the body passes skip the blocks where every body sleeps
         self.soft.set_awake(&state.collider.awake);
         // without drag (or bodies' own damping) the forces change every substep's

@@ -378,17 +378,17 @@ pub struct SoftSolver {
     deepest: f32,
     /// Whether the last `prepare_integrating` coloured the contacts beside its load pass.
     colored_beside_load: bool,
-    /// Whether this step sweeps the colours from the last to the first (see
-    /// [`SoftSolver::set_reversed`]).
-    reversed: bool,
+    /// Whether this step is an odd one (see [`SoftSolver::set_odd_step`]).
+    odd_step: bool,
     /// Per block of bodies, whether the step's body passes visit it (the collide found a
     /// body in it awake; empty: every block). See [`crate::awake`].
     awake: Vec<bool>,
 }
 
 impl SoftSolver {
-    /// Whether this step's passes take the colours from the last to the first: the soft
-    /// step reverses them every other step, so that no colour is always solved first.
+    /// Whether this step is an odd one (the world's step count before it): an odd step
+    /// with no joint (nor the mouse joint) takes the colours from the last to the first
+    /// (`SoftSolver::run`), so that no colour is always solved first.
     ///
     /// Why: greedy colouring in contact order (the bodies' order) puts one kind of
     /// contact in each colour over a whole pile built row by row (every box's contact
@@ -402,8 +402,8 @@ impl SoftSolver {
     /// joints keeps the one order: the joints are coloured first, in joint order, which
     /// runs along a chain from its anchor, and reversed every other step Box2D's joint
     /// grid stretched 0.63 m against 0.57 (Box2D's own: 0.62).
-    pub fn set_reversed(&mut self, on: bool) {
-        self.reversed = on;
+    pub fn set_odd_step(&mut self, odd: bool) {
+        self.odd_step = odd;
     }
 
     /// Tells the next `prepare` how deep the step's deepest overlap is (m, as the

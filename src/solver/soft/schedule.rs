@@ -2,11 +2,11 @@
 //! plan, [`SoftSolver::run`]): per substep the force increments, the warm start colour
 //! by colour, `iterations` soft sweeps colour by colour, positions, one relax sweep
 //! colour by colour (the colours from the last to the first on odd steps without
-//! joints: see [`SoftSolver::set_reversed`]); a colour's phase solves its joints, then
+//! joints: see [`SoftSolver::set_odd_step`]); a colour's phase solves its joints, then
 //! its contacts. After each pass's colours come the constraints no colour was free for
-//! and the mouse joint (one by one), and after each sweep the islands solved exactly. One thread runs the phases
-//! in order; with threads, the whole list is one job of the pool (Box2D's stage list for
-//! 1 to N workers): the same list, so the same bits.
+//! and the mouse joint (one by one), and after each sweep the islands solved exactly.
+//! One thread runs the phases in order; with threads, the whole list is one job of the
+//! pool (Box2D's stage list for 1 to N workers): the same list, so the same bits.
 
 #[allow(unused_imports)]
 use super::*;
@@ -194,6 +194,9 @@ impl SoftSolver {
         let colors = self.color_ranges.len();
         let (rest, direct) = (self.has_rest(), !self.direct.is_empty());
         let damped = self.joints.any_damped();
+        // odd steps without joints take the colours from the last to the first (joints
+        // keep the one order: see `set_odd_step`)
+        let reversed = self.odd_step && self.joints.ends().is_empty() && !self.joints.has_mouse();
         // the plan
         let plan = &mut self.plan;
         plan.clear();
@@ -202,7 +205,6 @@ impl SoftSolver {
             if i > 0 {
                 plan.push((Pass::Increments, 0));
             }
-            let reversed = self.reversed;
             let pass = |plan: &mut Vec<(Pass, u8)>, colored, rest_pass, direct_pass| {
                 // (the colours from the last to the first on the steps that reverse them)
                 let color = |c: usize| if reversed { colors - 1 - c } else { c };
