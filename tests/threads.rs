@@ -257,3 +257,46 @@ fn a_swirl_in_a_one_sided_loop_is_bit_identical_whatever_the_thread_count() {
     };
     same_bits_at_two_and_three_threads(60, run);
 }
+
+/// A 50 x 50 hinged grid hanging from its top corners: 4,900 joints, enough for
+/// `World::joint_error` to split them between the threads.
+const BIG_GRID: &str = r#"
+name = "big grid"
+[world]
+gravity = [0.0, -10.0]
+
+[[grid]]
+rows = 50
+columns = 50
+spacing = [1.0, 1.0]
+origin = [0.0, 0.0]
+shape = { circle = 0.4 }
+joints = "hinge"
+static_cells = [[49, 0], [49, 49]]
+"#;
+
+#[test]
+fn the_largest_joint_error_is_the_same_measured_on_one_thread_or_several() {
+    let sc = load_str(BIG_GRID, "big_grid.toml").expect("scene parses");
+    for policy in [Threads::Fixed(1), Threads::Fixed(2), Threads::Fixed(3)] {
+        let mut w = World::from_def(&sc.world, SolverSettings::soft()).expect("builds");
+        w.set_thread_policy(policy);
+        assert!(w.joint_count() >= 4096, "{} joints", w.joint_count());
+        for _ in 0..30 {
+            w.step().expect("steps");
+            // the largest of each joint's own error, found one joint at a time
+            let one_by_one = w
+                .joints()
+                .map(|(k, _)| w.joint_position_error(k).expect("a live key"))
+                .fold(0.0, f32::max);
+            assert_eq!(
+                w.joint_error().to_bits(),
+                one_by_one.to_bits(),
+                "{policy:?}"
+            );
+        }
+        // the grid sags under its own weight: the joints hold, yet not to the bit
+        let e = w.joint_error();
+        assert!(e > 0.0 && e < 0.5, "{policy:?}: largest joint error {e} m");
+    }
+}
