@@ -402,19 +402,11 @@ impl World {
                 .map(|j| j.position_error(bodies))
                 .fold(0.0, f32::max)
         };
-        let pool = self
-            .pool
-            .as_deref()
-            .filter(|p| p.threads() > 1 && !self.adaptive);
-        match pool {
-            Some(pool) if joints.len() >= PARALLEL_JOINT_ERROR => {
-                parallel::ranges_max(Some(pool), joints.len(), JOINT_ERROR_BLOCK, &|_, r| {
-                    largest(r)
-                })
-                .max(0.0)
-            }
-            _ => largest(0..joints.len()),
-        }
+        // (`ranges_max` runs it on the caller alone without a pool or with one block;
+        // every block's fold starts at 0, and a max is the same in any order)
+        let pool = (self.pool.as_deref())
+            .filter(|_| !self.adaptive && joints.len() >= PARALLEL_JOINT_ERROR);
+        parallel::ranges_max(pool, joints.len(), JOINT_ERROR_BLOCK, &|_, r| largest(r))
     }
 
     /// How many constant point forces the world has ([`World::add_force`]).
